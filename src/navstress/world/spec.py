@@ -1,0 +1,233 @@
+"""WorldSpec: the genotype of a world, validated.
+
+A WorldSpec says *what kind* of world to make; :func:`navstress.world.generate`
+turns it plus a seed into a concrete :class:`~navstress.world.world.World`.
+
+    >>> spec = WorldSpec.model_validate({"obstacles": {"obstruction": {"tree": 6}}})
+    >>> spec.size_m, spec.cell_m, spec.obstacles.targets()
+    ((100.0, 100.0), 0.4, {'tree': 6.0})
+
+Load from a file with :func:`load_spec` (YAML or JSON). Invalid input raises
+:class:`~navstress.errors.SpecError` naming ``field=value``, the allowed range and a fix.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any, Literal
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from navstress.errors import SpecError
+
+_STRICT = ConfigDict(frozen=True, extra="forbid")
+
+
+class GroundSpec(BaseModel):
+    """The ground surface.
+
+    ``model="subdivide"`` (the paper's): a flat plane subdivided ``subdivisions`` times
+    (``2**s + 1`` control vertices per side), each control vertex displaced along z by a
+    random amount scaled by ``deformation`` (meters), the surface between vertices a smooth
+    interpolation (see ``navstress.world.terrain`` for the exact definition).
+
+    ``model="fractal"``: multi-octave fractal noise (``octaves``, ``persistence``,
+    ``wavelength_m`` of the first octave, ``amplitude_m`` of the first octave).
+    """
+
+    model_config = _STRICT
+    model: Literal["subdivide", "fractal"] = "subdivide"
+    subdivisions: int = Field(0, ge=0, le=10, description="s: number of subdivisions (>= 0)")
+    deformation: float = Field(0.0, ge=0.0, le=50.0, description="d: displacement scale in meters")
+    octaves: int = Field(5, ge=1, le=12)
+    persistence: float = Field(0.5, gt=0.0, le=1.0)
+    wavelength_m: float = Field(40.0, gt=0.0)
+    amplitude_m: float = Field(1.0, ge=0.0, le=50.0)
+
+
+class ObstacleType(BaseModel):
+    """A kind of obstacle: a box with a base (sx, sy), a height, and a size-variability envelope.
+
+    ``variability`` v draws each footprint side uniformly in ``[base*(1-v), base*(1+v)]``
+    and the height in ``[height*(1-v), height*(1+v)]``.
+    """
+
+    model_config = _STRICT
+    base_m: tuple[float, float] = Field(description="footprint sides (sx, sy) in meters")
+    height_m: float = Field(gt=0.0)
+    variability: float = Field(0.0, ge=0.0, lt=1.0)
+
+    @model_validator(mode="after")
+    def _positive_base(self) -> "ObstacleType":
+        if self.base_m[0] <= 0 or self.base_m[1] <= 0:
+            raise ValueError("base_m sides must be > 0")
+        return self
+
+
+BUILTIN_TYPES: dict[str, ObstacleType] = {
+    "tree": ObstacleType(base_m=(1.0, 1.0), height_m=5.0),
+    "building": ObstacleType(base_m=(9.0, 9.0), height_m=8.0),
+}
+
+
+class ObstaclesSpec(BaseModel):
+    """Obstacle types and how much of the map they cover.
+
+    Either give per-type targets in ``obstruction`` (percent of map area), or a ``total``
+    percentage with ``mix`` weights that split it between types. Types default to the
+    built-ins (``tree`` 1 m x 1 m, ``building`` 9 m x 9 m); ``types`` adds or overrides.
+    """
+
+    model_config = _STRICT
+    types: dict[str, ObstacleType] = Field(default_factory=dict)
+    obstruction: dict[str, float] = Field(default_factory=dict)
+    total: float | None = Field(None, ge=0.0, lt=100.0)
+    mix: dict[str, float] | None = None
+
+    def all_types(self) -> dict[str, ObstacleType]:
+        return {**BUILTIN_TYPES, **self.types}
+
+    def targets(self) -> dict[str, float]:
+        """Resolved per-type obstruction targets in percent (types with 0 omitted)."""
+        if self.total is not None:
+            mix = self.mix or {}
+            wsum = sum(mix.values())
+            out = {k: self.total * w / wsum for k, w in mix.items() if w > 0} if wsum > 0 else {}
+        else:
+            out = {k: float(v) for k, v in self.obstruction.items() if v > 0}
+        return dict(sorted(out.items()))
+
+    @model_validator(mode="after")
+    def _check(self) -> "ObstaclesSpec":
+        known = self.all_types()
+        for name, pct in self.obstruction.items():
+            if name not in known:
+                raise _unknown_type(f"obstruction.{name}", name, known)
+            if not (0.0 <= pct < 100.0) or math.isnan(pct):
+                raise SpecError(f"obstacles.obstruction.{name}", pct, "a percentage in [0, 100)")
+        if self.total is not None:
+            if self.obstruction:
+                raise SpecError("obstacles.total", self.total, "either total+mix or obstruction, not both",
+                                "remove one of them")
+            if not self.mix:
+                raise SpecError("obstacles.mix", self.mix, "weights per type when total is given",
+                                "e.g. --mix trees=1,buildings=1")
+        for name, w in (self.mix or {}).items():
+            if name not in known:
+                raise _unknown_type(f"mix.{name}", name, known)
+            if not (w >= 0.0) or math.isinf(w):
+                raise SpecError(f"obstacles.mix.{name}", w, "a weight >= 0")
+        if self.total is not None and self.total > 0 and sum((self.mix or {}).values()) <= 0:
+            raise SpecError("obstacles.mix", self.mix, "at least one weight > 0")
+        s = sum(self.targets().values())
+        if s >= 100.0:
+            raise SpecError("obstacles.obstruction", round(s, 3), "a total below 100 percent")
+        return self
+
+
+def _unknown_type(field: str, name: str, known: dict[str, ObstacleType]) -> SpecError:
+    return SpecError(f"obstacles.{field}", name, f"one of the obstacle types {sorted(known)}",
+                     "add it under obstacles.types or fix the spelling")
+
+
+class MissionSpec(BaseModel):
+    """Where the robot starts and where it must go.
+
+    ``mode="paper"``: start near the bottom-left corner facing the goal near the top-right
+    corner, each ``inset_m`` from both edges (100 m map: (5, 5) -> (95, 95), 127 m apart).
+    Explicit ``start`` (x, y, yaw) / ``goal`` (x, y) override. ``mode="random"``: a start/goal
+    pair drawn from the map seed, at least ``min_distance_m`` apart, satisfying the same
+    constraints. ``free_radius_m`` is kept free of obstacles around start and goal:
+    5 m = the robot's initial scanning manoeuvre (turn on the spot, ~3 m forward) plus its
+    half-diagonal (0.66 m) plus a margin of about 1 m.
+    """
+
+    model_config = _STRICT
+    mode: Literal["paper", "random"] = "paper"
+    start: tuple[float, float, float] | None = None
+    goal: tuple[float, float] | None = None
+    inset_m: float = Field(5.0, ge=0.0)
+    free_radius_m: float = Field(5.0, ge=0.0, le=50.0)
+    min_distance_m: float = Field(50.0, ge=0.0)
+
+
+class WorldSpec(BaseModel):
+    """Everything that defines a family of worlds; with a seed, one world."""
+
+    model_config = _STRICT
+    size_m: tuple[float, float] = (100.0, 100.0)
+    cell_m: float = Field(0.4, ge=0.05, le=2.0, description="terrain grid cell size in meters")
+    ground: GroundSpec = GroundSpec()
+    obstacles: ObstaclesSpec = ObstaclesSpec()
+    mission: MissionSpec = MissionSpec()
+
+    @model_validator(mode="after")
+    def _check(self) -> "WorldSpec":
+        for axis, size in zip("xy", self.size_m):
+            if not (size > 0) or math.isinf(size):
+                raise SpecError(f"size_m.{axis}", size, "a map size in meters > 0")
+            if size < 10 or size > 2000:
+                raise SpecError(f"size_m.{axis}", size, "a map size in [10, 2000] meters")
+            n = size / self.cell_m
+            if abs(n - round(n)) > 1e-6:
+                raise SpecError(f"size_m.{axis}", size, f"a whole multiple of cell_m={self.cell_m}",
+                                f"use size {round(n) * self.cell_m:g} or another cell_m")
+        m = self.mission
+        for name, pt in (("start", m.start), ("goal", m.goal)):
+            if pt is not None and not (0 <= pt[0] <= self.size_m[0] and 0 <= pt[1] <= self.size_m[1]):
+                raise SpecError(f"mission.{name}", list(pt), f"a point inside the map [0, {self.size_m[0]:g}] x [0, {self.size_m[1]:g}]")
+        return self
+
+    @property
+    def grid_shape(self) -> tuple[int, int]:
+        """(rows, cols) of the height grid: rows along y, cols along x, vertices at cell corners."""
+        return (round(self.size_m[1] / self.cell_m) + 1, round(self.size_m[0] / self.cell_m) + 1)
+
+
+def _pydantic_to_spec_error(err: ValidationError, prefix: str = "") -> SpecError:
+    e = err.errors(include_url=False)[0]
+    loc = ".".join(str(p) for p in e["loc"] if not isinstance(p, int) or True)
+    field = f"{prefix}{loc}" if loc else prefix.rstrip(".") or "spec"
+    ctx = e.get("ctx") or {}
+    inner = ctx.get("error")
+    if isinstance(inner, SpecError):
+        return inner
+    expected = e["msg"]
+    bounds = {k: ctx[k] for k in ("ge", "gt", "le", "lt") if k in ctx}
+    if bounds:
+        sym = {"ge": ">=", "gt": ">", "le": "<=", "lt": "<"}
+        expected = "a value " + " and ".join(f"{sym[k]} {v}" for k, v in bounds.items())
+    elif e["type"] == "extra_forbidden":
+        expected = "a known field (this one is not part of the spec; check its spelling)"
+    return SpecError(field, e.get("input"), expected)
+
+
+def parse_spec(data: dict[str, Any]) -> WorldSpec:
+    """Validate a mapping into a WorldSpec, raising :class:`SpecError` on bad input."""
+    try:
+        return WorldSpec.model_validate(data)
+    except SpecError:
+        raise
+    except ValidationError as err:
+        raise _pydantic_to_spec_error(err) from None
+
+
+def load_spec(path: str | Path) -> WorldSpec:
+    """Read a WorldSpec from a YAML or JSON file."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except OSError as err:
+        raise SpecError("spec", str(p), "a readable YAML or JSON file", str(err.strerror)) from None
+    try:
+        data = json.loads(text) if p.suffix == ".json" else yaml.safe_load(text)
+    except (json.JSONDecodeError, yaml.YAMLError) as err:
+        raise SpecError("spec", str(p), "valid YAML/JSON", str(err).splitlines()[0]) from None
+    if data is None:
+        data = {}
+    if not isinstance(data, dict):
+        raise SpecError("spec", str(p), "a mapping of fields at the top level")
+    return parse_spec(data)

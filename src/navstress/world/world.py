@@ -1,0 +1,230 @@
+"""World: the phenotype. A value object that round-trips exactly through a directory.
+
+A world directory holds ``world.json`` (spec, seed, descriptors, obstacles, mission) and
+``terrain.npz`` (``heights``: 2-D float32 meters, rows along +y, columns along +x, vertex
+(i, j) at (x, y) = (j*cell_m, i*cell_m); plus ``cell_m``).
+
+    >>> import numpy as np, tempfile
+    >>> w = World.flat(WorldSpec(size_m=(20.0, 20.0)), seed=1)
+    >>> d = tempfile.mkdtemp() + "/w"
+    >>> w.save(d)
+    >>> World.load(d) == w
+    True
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from pydantic import ValidationError
+
+from navstress.errors import WorldFileError
+from navstress.world.spec import WorldSpec
+
+FORMAT_VERSION = 1
+WORLD_JSON = "world.json"
+TERRAIN_NPZ = "terrain.npz"
+
+
+@dataclass(frozen=True)
+class Obstacle:
+    """A static box. (x, y) is the footprint centre, ``z`` the height of its base (the ground
+    under it is levelled to ``z``), ``size`` = (sx, sy, sz) with sx along the box's own x axis
+    rotated by ``yaw`` (radians, counter-clockwise)."""
+
+    kind: str
+    x: float
+    y: float
+    yaw: float
+    size: tuple[float, float, float]
+    z: float = 0.0
+
+    def corners(self) -> np.ndarray:
+        """The 4 footprint corners, shape (4, 2), counter-clockwise."""
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        hx, hy = self.size[0] / 2, self.size[1] / 2
+        local = np.array([[hx, hy], [-hx, hy], [-hx, -hy], [hx, -hy]])
+        rot = np.array([[c, -s], [s, c]])
+        return local @ rot.T + np.array([self.x, self.y])
+
+    @property
+    def area(self) -> float:
+        return self.size[0] * self.size[1]
+
+    def to_json(self) -> dict[str, Any]:
+        return {"kind": self.kind, "x": self.x, "y": self.y, "yaw": self.yaw,
+                "size": list(self.size), "z": self.z}
+
+    @classmethod
+    def from_json(cls, d: dict[str, Any]) -> "Obstacle":
+        return cls(kind=str(d["kind"]), x=float(d["x"]), y=float(d["y"]), yaw=float(d["yaw"]),
+                   size=(float(d["size"][0]), float(d["size"][1]), float(d["size"][2])),
+                   z=float(d.get("z", 0.0)))
+
+
+@dataclass(frozen=True)
+class Mission:
+    """Start pose (x, y, yaw) and goal (x, y), with the obstacle-free radius around each."""
+
+    start: tuple[float, float, float]
+    goal: tuple[float, float]
+    free_radius_m: float
+
+    @property
+    def straight_distance_m(self) -> float:
+        return math.hypot(self.goal[0] - self.start[0], self.goal[1] - self.start[1])
+
+    def to_json(self) -> dict[str, Any]:
+        return {"start": list(self.start), "goal": list(self.goal), "free_radius_m": self.free_radius_m}
+
+    @classmethod
+    def from_json(cls, d: dict[str, Any]) -> "Mission":
+        s, g = d["start"], d["goal"]
+        return cls(start=(float(s[0]), float(s[1]), float(s[2])), goal=(float(g[0]), float(g[1])),
+                   free_radius_m=float(d["free_radius_m"]))
+
+
+@dataclass(frozen=True, eq=False)
+class Terrain:
+    """Height grid in meters. ``heights[i, j]`` is the ground at (x, y) = (j*cell_m, i*cell_m)."""
+
+    heights: np.ndarray
+    cell_m: float
+
+    def __post_init__(self) -> None:
+        h = np.ascontiguousarray(self.heights, dtype=np.float32)
+        h.setflags(write=False)
+        object.__setattr__(self, "heights", h)
+
+    def __eq__(self, other: object) -> bool:
+        return (isinstance(other, Terrain) and self.cell_m == other.cell_m
+                and self.heights.shape == other.heights.shape
+                and bool(np.array_equal(self.heights, other.heights)))
+
+    __hash__ = None  # type: ignore[assignment]
+
+    @property
+    def size_m(self) -> tuple[float, float]:
+        rows, cols = self.heights.shape
+        return ((cols - 1) * self.cell_m, (rows - 1) * self.cell_m)
+
+    def height_at(self, x: float, y: float) -> float:
+        """Ground height at (x, y) on the triangulated surface (clamped to the map).
+
+        Each cell is split into two triangles by the diagonal from vertex (i, j) to
+        (i+1, j+1), the triangulation the simulator uses (see ``navstress.sim``).
+        """
+        rows, cols = self.heights.shape
+        fx = min(max(x / self.cell_m, 0.0), cols - 1.000001)
+        fy = min(max(y / self.cell_m, 0.0), rows - 1.000001)
+        j, i = int(fx), int(fy)
+        u, v = fx - j, fy - i
+        h = self.heights
+        h00, h10, h01, h11 = float(h[i, j]), float(h[i, j + 1]), float(h[i + 1, j]), float(h[i + 1, j + 1])
+        if u >= v:  # lower-right triangle (i,j) (i,j+1) (i+1,j+1)
+            return h00 + u * (h10 - h00) + v * (h11 - h10)
+        return h00 + v * (h01 - h00) + u * (h11 - h01)  # upper-left (i,j) (i+1,j) (i+1,j+1)
+
+
+@dataclass(frozen=True, eq=False)
+class World:
+    """A generated world: terrain, obstacles, mission, and where it came from."""
+
+    spec: WorldSpec
+    seed: int
+    terrain: Terrain
+    obstacles: tuple[Obstacle, ...]
+    mission: Mission
+    descriptors: dict[str, Any] = field(default_factory=dict)
+
+    def __eq__(self, other: object) -> bool:
+        return (isinstance(other, World) and self.spec == other.spec and self.seed == other.seed
+                and self.terrain == other.terrain and self.obstacles == other.obstacles
+                and self.mission == other.mission and self.descriptors == other.descriptors)
+
+    __hash__ = None  # type: ignore[assignment]
+
+    @property
+    def size_m(self) -> tuple[float, float]:
+        return self.spec.size_m
+
+    @classmethod
+    def flat(cls, spec: WorldSpec, seed: int = 0, obstacles: tuple[Obstacle, ...] = (),
+             mission: Mission | None = None) -> "World":
+        """A flat world with given obstacles (for tests and hand-made scenes)."""
+        rows, cols = spec.grid_shape
+        sx, sy = spec.size_m
+        m = mission or Mission(start=(5.0, 5.0, math.atan2(sy - 10, sx - 10)),
+                               goal=(sx - 5.0, sy - 5.0), free_radius_m=spec.mission.free_radius_m)
+        return cls(spec=spec, seed=seed, terrain=Terrain(np.zeros((rows, cols), np.float32), spec.cell_m),
+                   obstacles=tuple(obstacles), mission=m)
+
+    # ---- persistence -------------------------------------------------------------------
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "format": "navstress-world", "version": FORMAT_VERSION,
+            "seed": self.seed,
+            "spec": self.spec.model_dump(mode="json"),
+            "mission": self.mission.to_json(),
+            "obstacles": [o.to_json() for o in self.obstacles],
+            "descriptors": self.descriptors,
+        }
+
+    def save(self, path: str | os.PathLike[str]) -> None:
+        """Write the world directory atomically (a temp dir renamed into place).
+
+        ``path`` must not exist, or must be an existing world directory (replaced)."""
+        dest = Path(path)
+        if dest.exists() and not is_world_dir(dest):
+            raise WorldFileError(f"output={str(dest)!r} exists and is not a world directory; "
+                                 "choose a new path or remove it")
+        dest.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{dest.name}.", dir=dest.parent))
+        try:
+            with open(tmp / WORLD_JSON, "w", encoding="utf-8") as f:
+                json.dump(self.to_json(), f, indent=1, sort_keys=True, allow_nan=False)
+                f.write("\n")
+            with open(tmp / TERRAIN_NPZ, "wb") as f:
+                np.savez_compressed(f, heights=self.terrain.heights, cell_m=np.float64(self.terrain.cell_m))
+            if dest.exists():
+                old = dest.with_name(f".{dest.name}.old")
+                shutil.rmtree(old, ignore_errors=True)
+                dest.rename(old)
+                tmp.rename(dest)
+                shutil.rmtree(old, ignore_errors=True)
+            else:
+                tmp.rename(dest)
+        except BaseException:
+            shutil.rmtree(tmp, ignore_errors=True)
+            raise
+
+    @classmethod
+    def load(cls, path: str | os.PathLike[str]) -> "World":
+        d = Path(path)
+        if not is_world_dir(d):
+            raise WorldFileError(f"world={str(d)!r} is not a world directory "
+                                 f"(expected {WORLD_JSON} and {TERRAIN_NPZ}); create one with `navstress world generate`")
+        try:
+            meta = json.loads((d / WORLD_JSON).read_text(encoding="utf-8"))
+            with np.load(d / TERRAIN_NPZ) as z:
+                heights = np.array(z["heights"], dtype=np.float32)
+                cell = float(z["cell_m"])
+            spec = WorldSpec.model_validate(meta["spec"])
+            return cls(spec=spec, seed=int(meta["seed"]), terrain=Terrain(heights, cell),
+                       obstacles=tuple(Obstacle.from_json(o) for o in meta["obstacles"]),
+                       mission=Mission.from_json(meta["mission"]), descriptors=dict(meta.get("descriptors", {})))
+        except (KeyError, ValueError, TypeError, OSError, ValidationError) as err:
+            raise WorldFileError(f"world={str(d)!r} is corrupt: {type(err).__name__}: {err}".splitlines()[0]) from None
+
+
+def is_world_dir(path: str | os.PathLike[str]) -> bool:
+    p = Path(path)
+    return p.is_dir() and (p / WORLD_JSON).is_file() and (p / TERRAIN_NPZ).is_file()
