@@ -1,0 +1,100 @@
+"""Run outcomes and their classification.
+
+A run ends for one of a few reasons (the navigator said it arrived or gave up with an
+error, the time ran out, the robot flipped or left the map, the infrastructure failed).
+:func:`classify` turns what happened into one :class:`Outcome`.
+
+Severity order (a run with several problems takes the most severe one)::
+
+    fail-collision > fail-error > fail-timeout > fail-other > success
+
+Collision first because it is a safety failure whatever else happened; a navigator error
+is an explicit failure the stack itself reported; a timeout means no progress to the goal;
+"other" gathers everything else (ended away from the goal, robot flipped or left the map,
+navigator process died, simulation unstable). Success requires: the navigator ended
+normally (said "arrived"), no timeout, no error, no collision, and the final *real*
+position within the goal tolerance.
+
+    >>> classify(RunFacts(arrived=True, goal_distance_m=0.8, goal_tolerance_m=2.0)).outcome
+    <Outcome.SUCCESS: 'success'>
+    >>> classify(RunFacts(arrived=True, goal_distance_m=0.8, goal_tolerance_m=2.0, collisions=1)).outcome
+    <Outcome.FAIL_COLLISION: 'fail-collision'>
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass, field
+
+
+class Outcome(str, enum.Enum):
+    SUCCESS = "success"
+    FAIL_COLLISION = "fail-collision"
+    FAIL_ERROR = "fail-error"
+    FAIL_TIMEOUT = "fail-timeout"
+    FAIL_OTHER = "fail-other"
+
+    @property
+    def label(self) -> str:
+        """The paper's spelling: Success, Fail-Collision, ..."""
+        return "-".join(p.capitalize() for p in self.value.split("-")).replace("Timeout", "TimeOut")
+
+    @property
+    def severity(self) -> int:
+        return SEVERITY.index(self)
+
+
+#: Most severe first.
+SEVERITY: tuple[Outcome, ...] = (
+    Outcome.FAIL_COLLISION, Outcome.FAIL_ERROR, Outcome.FAIL_TIMEOUT, Outcome.FAIL_OTHER, Outcome.SUCCESS,
+)
+
+
+@dataclass(frozen=True)
+class RunFacts:
+    """What happened in a run, as observed by the framework (never by the navigator)."""
+
+    arrived: bool = False  # the navigator returned Status("arrived")
+    goal_distance_m: float = float("inf")  # final real position to goal
+    goal_tolerance_m: float = 2.0
+    collisions: int = 0
+    first_collision_s: float | None = None
+    error: str | None = None  # navigator Status("error", msg), or its exception / process failure
+    navigator_failure: bool = False  # the error came from the navigator crashing/hanging, not its own verdict
+    timed_out: bool = False
+    other: tuple[str, ...] = field(default_factory=tuple)  # flipped, left the map, unstable, ...
+
+
+@dataclass(frozen=True)
+class Classification:
+    outcome: Outcome
+    reason: str
+    problems: tuple[Outcome, ...]  # every problem seen, most severe first
+
+
+def classify(f: RunFacts) -> Classification:
+    """The outcome of a run with the facts ``f`` (see module doc for the order)."""
+    problems: list[tuple[Outcome, str]] = []
+    if f.collisions > 0:
+        when = f" (first at t={f.first_collision_s:.1f} s)" if f.first_collision_s is not None else ""
+        problems.append((Outcome.FAIL_COLLISION, f"{f.collisions} collision(s){when}"))
+    if f.error is not None:
+        # A crashed or hung navigator process is infrastructure: Fail-Other with its reason.
+        kind = Outcome.FAIL_OTHER if f.navigator_failure else Outcome.FAIL_ERROR
+        problems.append((kind, f.error))
+    if f.timed_out:
+        problems.append((Outcome.FAIL_TIMEOUT, f"timeout, {f.goal_distance_m:.1f} m from goal"))
+    for reason in f.other:
+        problems.append((Outcome.FAIL_OTHER, reason))
+    if not problems and not f.arrived:
+        problems.append((Outcome.FAIL_OTHER, "run ended without the navigator arriving"))
+    if not problems and f.goal_distance_m > f.goal_tolerance_m:
+        problems.append((Outcome.FAIL_OTHER,
+                         f"navigator said arrived but the robot is {f.goal_distance_m:.2f} m from the goal "
+                         f"(tolerance {f.goal_tolerance_m:.2f} m)"))
+    if not problems:
+        return Classification(Outcome.SUCCESS, f"arrived {f.goal_distance_m:.2f} m from goal", ())
+    problems.sort(key=lambda p: p[0].severity)
+    worst = problems[0][0]
+    reason = "; ".join(r for _, r in problems)
+    return Classification(worst, reason, tuple(p for p, _ in problems))

@@ -1,0 +1,233 @@
+"""Run traces: one MCAP file per run, with Foxglove schemas (protobuf encoding).
+
+Open a trace in Foxglove to see the run: ``/truth/pose`` and ``/perceived/pose``
+(``foxglove.PoseInFrame``), ``/events`` (``foxglove.Log``: collisions, errors, end of run),
+``/world/scene`` (``foxglove.SceneUpdate``: obstacles as cubes, start and goal),
+``/world/terrain`` (``foxglove.Grid``: ground heights), ``/nav/map`` (``foxglove.Grid``: the
+navigator's final perceived elevation map, NaN = unknown), optionally ``/lidar``
+(``foxglove.PointCloud``, world frame). All timestamps are *simulated* time, so the same
+seeds give a byte-identical file. The file is written under a temporary name and renamed
+into place when complete (DESIGN invariant 4).
+
+The analysis reads trajectories back with :func:`read_poses`.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import IO, Any
+
+import numpy as np
+from foxglove_schemas_protobuf.Color_pb2 import Color
+from foxglove_schemas_protobuf.CubePrimitive_pb2 import CubePrimitive
+from foxglove_schemas_protobuf.Grid_pb2 import Grid
+from foxglove_schemas_protobuf.Log_pb2 import Log
+from foxglove_schemas_protobuf.PackedElementField_pb2 import PackedElementField
+from foxglove_schemas_protobuf.PointCloud_pb2 import PointCloud
+from foxglove_schemas_protobuf.Pose_pb2 import Pose
+from foxglove_schemas_protobuf.PoseInFrame_pb2 import PoseInFrame
+from foxglove_schemas_protobuf.Quaternion_pb2 import Quaternion
+from foxglove_schemas_protobuf.SceneEntity_pb2 import SceneEntity
+from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
+from foxglove_schemas_protobuf.SpherePrimitive_pb2 import SpherePrimitive
+from foxglove_schemas_protobuf.Vector2_pb2 import Vector2
+from foxglove_schemas_protobuf.Vector3_pb2 import Vector3
+from google.protobuf.timestamp_pb2 import Timestamp
+from mcap.reader import make_reader
+from mcap.writer import CompressionType
+from mcap_protobuf.decoder import DecoderFactory
+from mcap_protobuf.writer import Writer
+
+from navstress.errors import StoreError
+
+FRAME = "map"
+TOPIC_TRUTH = "/truth/pose"
+TOPIC_PERCEIVED = "/perceived/pose"
+TOPIC_EVENTS = "/events"
+TOPIC_SCENE = "/world/scene"
+TOPIC_TERRAIN = "/world/terrain"
+TOPIC_MAP = "/nav/map"
+TOPIC_LIDAR = "/lidar"
+
+LEVELS = {"debug": 1, "info": 2, "warning": 3, "error": 4, "fatal": 5}
+
+
+def _ns(t: float) -> int:
+    return int(round(t * 1e9))
+
+
+def _stamp(t: float) -> Timestamp:
+    ns = _ns(t)
+    return Timestamp(seconds=ns // 1_000_000_000, nanos=ns % 1_000_000_000)
+
+
+def quaternion(yaw: float, pitch: float, roll: float) -> Quaternion:
+    """Z-Y-X (yaw, pitch, roll) Euler angles to a unit quaternion."""
+    cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
+    cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
+    cr, sr = math.cos(roll / 2), math.sin(roll / 2)
+    return Quaternion(w=cr * cp * cy + sr * sp * sy, x=sr * cp * cy - cr * sp * sy,
+                      y=cr * sp * cy + sr * cp * sy, z=cr * cp * sy - sr * sp * cy)
+
+
+def euler(q: Any) -> tuple[float, float, float]:
+    """Unit quaternion to (yaw, pitch, roll), inverse of :func:`quaternion`."""
+    w, x, y, z = q.w, q.x, q.y, q.z
+    roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
+    pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
+    yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    return yaw, pitch, roll
+
+
+_KIND_COLORS = {"tree": Color(r=0.13, g=0.55, b=0.13, a=1.0), "building": Color(r=0.55, g=0.45, b=0.4, a=1.0)}
+
+
+class TraceWriter:
+    """Writes one run's MCAP trace atomically (``path`` appears only when closed successfully)."""
+
+    def __init__(self, path: str | os.PathLike[str], metadata: dict[str, str] | None = None) -> None:
+        self.path = Path(path)
+        self._tmp = self.path.with_name(f".{self.path.name}.partial")
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._f: IO[bytes] = open(self._tmp, "wb")
+        self._w = Writer(self._f, compression=CompressionType.ZSTD)
+        self._w._writer.add_metadata("navstress.run", {k: str(v) for k, v in (metadata or {}).items()})
+
+    # -- messages ----------------------------------------------------------------------
+    def pose(self, topic: str, t: float, x: float, y: float, z: float, yaw: float, pitch: float, roll: float) -> None:
+        msg = PoseInFrame(timestamp=_stamp(t), frame_id=FRAME,
+                          pose=Pose(position=Vector3(x=x, y=y, z=z), orientation=quaternion(yaw, pitch, roll)))
+        self._w.write_message(topic, msg, log_time=_ns(t), publish_time=_ns(t))
+
+    def poses(self, topic: str, rows: np.ndarray) -> None:
+        """Many poses at once: ``rows`` (N, 7) = t, x, y, z, yaw, pitch, roll."""
+        for r in np.asarray(rows, dtype=np.float64):
+            self.pose(topic, *(float(v) for v in r))
+
+    def event(self, t: float, level: str, message: str, name: str = "navstress") -> None:
+        msg = Log(timestamp=_stamp(t), level=LEVELS[level], message=message, name=name)  # type: ignore[arg-type]
+        self._w.write_message(TOPIC_EVENTS, msg, log_time=_ns(t), publish_time=_ns(t))
+
+    def grid(self, topic: str, t: float, values: np.ndarray, origin_xy: tuple[float, float], cell_m: float,
+             field: str = "elevation") -> None:
+        """A 2-D float32 grid (rows along +y) anchored at ``origin_xy`` (the corner of cell [0, 0])."""
+        v = np.ascontiguousarray(values, dtype="<f4")
+        rows, cols = v.shape
+        msg = Grid(timestamp=_stamp(t), frame_id=FRAME,
+                   pose=Pose(position=Vector3(x=origin_xy[0], y=origin_xy[1], z=0.0), orientation=Quaternion(w=1.0)),
+                   column_count=cols, cell_size=Vector2(x=cell_m, y=cell_m), row_stride=cols * 4, cell_stride=4,
+                   fields=[PackedElementField(name=field, offset=0, type=PackedElementField.FLOAT32)],
+                   data=v.tobytes())
+        self._w.write_message(topic, msg, log_time=_ns(t), publish_time=_ns(t))
+
+    def points(self, t: float, pts: np.ndarray) -> None:
+        """A lidar point cloud in the map frame, (N, 3)."""
+        p = np.ascontiguousarray(pts, dtype="<f4")
+        msg = PointCloud(timestamp=_stamp(t), frame_id=FRAME,
+                         pose=Pose(position=Vector3(), orientation=Quaternion(w=1.0)), point_stride=12,
+                         fields=[PackedElementField(name=n, offset=4 * i, type=PackedElementField.FLOAT32)
+                                 for i, n in enumerate("xyz")], data=p.tobytes())
+        self._w.write_message(TOPIC_LIDAR, msg, log_time=_ns(t), publish_time=_ns(t))
+
+    def scene(self, obstacles: list[dict[str, Any]], start: tuple[float, float, float], goal: tuple[float, float],
+              ground_z: tuple[float, float]) -> None:
+        """Obstacles (dicts with kind, x, y, yaw, size, z) as cubes; start and goal as spheres."""
+        cubes = [CubePrimitive(pose=Pose(position=Vector3(x=o["x"], y=o["y"], z=o["z"] + o["size"][2] / 2),
+                                         orientation=quaternion(o["yaw"], 0.0, 0.0)),
+                               size=Vector3(x=o["size"][0], y=o["size"][1], z=o["size"][2]),
+                               color=_KIND_COLORS.get(o["kind"], Color(r=0.5, g=0.5, b=0.5, a=1.0)))
+                 for o in obstacles]
+        marks = [SpherePrimitive(pose=Pose(position=Vector3(x=start[0], y=start[1], z=ground_z[0] + 0.5),
+                                           orientation=Quaternion(w=1.0)),
+                                 size=Vector3(x=1, y=1, z=1), color=Color(r=0.1, g=0.3, b=1.0, a=1.0)),
+                 SpherePrimitive(pose=Pose(position=Vector3(x=goal[0], y=goal[1], z=ground_z[1] + 0.5),
+                                           orientation=Quaternion(w=1.0)),
+                                 size=Vector3(x=1, y=1, z=1), color=Color(r=1.0, g=0.2, b=0.1, a=1.0))]
+        ent = SceneEntity(timestamp=_stamp(0.0), frame_id=FRAME, id="world", frame_locked=True,
+                          cubes=cubes, spheres=marks)
+        self._w.write_message(TOPIC_SCENE, SceneUpdate(entities=[ent]), log_time=0, publish_time=0)
+
+    # -- lifecycle ---------------------------------------------------------------------
+    def close(self) -> Path:
+        """Finish the file and move it into place atomically; returns the final path."""
+        self._w.finish()
+        self._f.flush()
+        os.fsync(self._f.fileno())
+        self._f.close()
+        os.replace(self._tmp, self.path)
+        return self.path
+
+    def abort(self) -> None:
+        """Drop the partial file (used when the run itself could not be recorded)."""
+        try:
+            self._f.close()
+        finally:
+            self._tmp.unlink(missing_ok=True)
+
+    def __enter__(self) -> "TraceWriter":
+        return self
+
+    def __exit__(self, exc_type: object, exc: object, tb: object) -> None:
+        if exc_type is None:
+            self.close()
+        else:
+            self.abort()
+
+
+# -- reading ----------------------------------------------------------------------------
+@dataclass(frozen=True)
+class TraceEvent:
+    t: float
+    level: int
+    name: str
+    message: str
+
+
+def _messages(path: str | os.PathLike[str], topics: list[str]) -> Iterator[tuple[str, int, Any]]:
+    try:
+        with open(path, "rb") as f:
+            reader = make_reader(f, decoder_factories=[DecoderFactory()])
+            for _schema, channel, message, decoded in reader.iter_decoded_messages(topics=topics):
+                yield channel.topic, message.log_time, decoded
+    except FileNotFoundError:
+        raise StoreError(f"trace={str(path)!r} does not exist") from None
+    except Exception as err:  # mcap raises several unrelated types on corrupt input
+        if isinstance(err, StoreError):
+            raise
+        raise StoreError(f"trace={str(path)!r} is unreadable: {type(err).__name__}: {err}") from None
+
+
+def read_poses(path: str | os.PathLike[str], topic: str = TOPIC_TRUTH) -> np.ndarray:
+    """(N, 7) float64: t, x, y, z, yaw, pitch, roll, in time order."""
+    rows = []
+    for _topic, log_time, m in _messages(path, [topic]):
+        p = m.pose.position
+        rows.append((log_time / 1e9, p.x, p.y, p.z, *euler(m.pose.orientation)))
+    return np.array(rows, dtype=np.float64).reshape(-1, 7)
+
+
+def read_events(path: str | os.PathLike[str]) -> list[TraceEvent]:
+    return [TraceEvent(lt / 1e9, m.level, m.name, m.message) for _t, lt, m in _messages(path, [TOPIC_EVENTS])]
+
+
+def read_grid(path: str | os.PathLike[str], topic: str = TOPIC_MAP) -> tuple[np.ndarray, tuple[float, float], float] | None:
+    """The last grid on ``topic``: (values rows x cols float32, origin xy, cell_m), or None."""
+    last = None
+    for _t, _lt, m in _messages(path, [topic]):
+        last = m
+    if last is None:
+        return None
+    vals = np.frombuffer(last.data, dtype="<f4").reshape(-1, last.column_count).copy()
+    return vals, (last.pose.position.x, last.pose.position.y), last.cell_size.x
+
+
+def read_metadata(path: str | os.PathLike[str]) -> dict[str, str]:
+    with open(path, "rb") as f:
+        for md in make_reader(f).iter_metadata():
+            if md.name == "navstress.run":
+                return dict(md.metadata)
+    return {}
