@@ -116,6 +116,9 @@ class Status:
 
     kind: Literal["arrived", "error"]
     message: str = ""
+    #: True when the error is not the stack's own verdict but a failure around it (its process
+    #: died, hung, or spoke garbage): the run is then Fail-Other, not Fail-Error.
+    infrastructure: bool = False
 
 
 @runtime_checkable
