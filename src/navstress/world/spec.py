@@ -195,14 +195,37 @@ def _pydantic_to_spec_error(err: ValidationError, prefix: str = "") -> SpecError
     inner = ctx.get("error")
     if isinstance(inner, SpecError):
         return inner
-    expected = e["msg"]
+    expected = str(e["msg"]).removeprefix("Input should be ").removeprefix("Value error, ")
     bounds = {k: ctx[k] for k in ("ge", "gt", "le", "lt") if k in ctx}
-    if bounds:
+    kind = e["type"]
+    value = e.get("input")
+    if isinstance(value, float) and math.isnan(value):
+        expected = "a number (not NaN)"
+    elif bounds:
         sym = {"ge": ">=", "gt": ">", "le": "<=", "lt": "<"}
         expected = "a value " + " and ".join(f"{sym[k]} {v}" for k, v in bounds.items())
-    elif e["type"] == "extra_forbidden":
+    elif kind == "extra_forbidden":
         expected = "a known field (this one is not part of the spec; check its spelling)"
-    return SpecError(field, e.get("input"), expected)
+    elif kind in _EXPECTED:
+        expected = _EXPECTED[kind]
+    elif kind == "literal_error":
+        expected = f"one of {ctx.get('expected', '')}"
+    elif kind == "missing" and e["loc"] and isinstance(e["loc"][-1], int):
+        field = field.rsplit(".", 1)[0]
+        expected = f"a list with an item at index {e['loc'][-1]} (the list is too short)"
+    elif kind == "missing":
+        expected = "a value (this field is required)"
+    return SpecError(field, value, expected)
+
+
+_EXPECTED = {
+    "float_parsing": "a number", "float_type": "a number", "finite_number": "a finite number",
+    "int_parsing": "an integer", "int_type": "an integer", "int_from_float": "an integer (no fractional part)",
+    "bool_parsing": "true or false", "bool_type": "true or false",
+    "tuple_type": "a list", "list_type": "a list", "too_long": "a shorter list",
+    "dict_type": "a mapping of fields", "model_type": "a mapping of fields", "model_attributes_type": "a mapping of fields",
+    "string_type": "a string",
+}
 
 
 def parse_spec(data: dict[str, Any]) -> WorldSpec:

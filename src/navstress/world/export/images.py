@@ -1,0 +1,245 @@
+"""Pictures of a world: a 16-bit heightmap PNG and a top-down preview.
+
+Heightmap: a 16-bit grayscale PNG, north up (image row 0 is the map's top edge, y = max),
+heights mapped linearly from [z_min, z_max] to [0, 65535]; the range in meters is written
+as PNG text chunks (``navstress:z_min``, ``navstress:z_max``, ``navstress:cell_m``) and
+returned. Round trip error is at most half a quantisation step, (z_max - z_min) / 131070.
+
+Preview: a hillshaded, colour-coded terrain with a colour bar in meters, obstacles as
+rotated rectangles coloured per kind, start (with heading arrow) and goal, the free
+areas around them, axes in meters, and a title with the key descriptors.
+:func:`draw_world` draws onto any matplotlib ``Axes`` so that trajectories can be
+overlaid later on the same picture.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from navstress.world.export._grid import write_atomic
+from navstress.world.world import Terrain, World
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.cm import ScalarMappable
+
+_Z_MIN, _Z_MAX, _CELL = "navstress:z_min", "navstress:z_max", "navstress:cell_m"
+
+
+@dataclass(frozen=True)
+class HeightmapInfo:
+    """What :func:`write_heightmap_png` wrote: pixel 0 is ``z_min`` m, 65535 is ``z_max`` m."""
+
+    path: Path
+    z_min: float
+    z_max: float
+    width: int
+    height: int
+
+    @property
+    def z_range(self) -> float:
+        return self.z_max - self.z_min
+
+
+def heightmap_png_bytes(heights: np.ndarray, cell_m: float) -> tuple[bytes, float, float]:
+    """Encode a height grid (rows along +y) as a 16-bit north-up PNG; returns (png, z_min, z_max).
+
+    A flat grid (z_min == z_max) encodes as all zeros.
+    """
+    from PIL import Image
+    from PIL.PngImagePlugin import PngInfo
+
+    h = np.asarray(heights, dtype=np.float64)
+    if h.ndim != 2 or h.size == 0 or not np.all(np.isfinite(h)):
+        raise ValueError("heights must be a non-empty 2-D array of finite values")
+    z_min, z_max = float(h.min()), float(h.max())
+    span = z_max - z_min
+    q = np.zeros(h.shape, np.uint16) if span <= 0 else np.rint((h - z_min) / span * 65535.0).astype(np.uint16)
+    img = Image.fromarray(np.ascontiguousarray(q[::-1]))  # row 0 of the image = north edge
+    info = PngInfo()
+    info.add_text(_Z_MIN, repr(z_min))
+    info.add_text(_Z_MAX, repr(z_max))
+    info.add_text(_CELL, repr(float(cell_m)))
+    buf = io.BytesIO()
+    img.save(buf, format="PNG", pnginfo=info)
+    return buf.getvalue(), z_min, z_max
+
+
+def write_heightmap_png(terrain: Terrain, path: str | Path) -> HeightmapInfo:
+    """Write the terrain as a 16-bit grayscale PNG (one pixel per vertex), atomically."""
+    p = Path(path)
+    data, z_min, z_max = heightmap_png_bytes(terrain.heights, terrain.cell_m)
+    write_atomic(p, data)
+    rows, cols = terrain.heights.shape
+    return HeightmapInfo(path=p, z_min=z_min, z_max=z_max, width=cols, height=rows)
+
+
+def read_heightmap_png(path: str | Path) -> tuple[np.ndarray, float, float]:
+    """Read a PNG written by :func:`write_heightmap_png`: (heights rows along +y, z_min, z_max)."""
+    from PIL import Image
+
+    with Image.open(path) as img:
+        text: dict[str, Any] = dict(getattr(img, "text", {}))
+        q = np.array(img, dtype=np.float64)
+    if _Z_MIN not in text or _Z_MAX not in text:
+        raise ValueError(f"{path}: not a navstress heightmap (no {_Z_MIN}/{_Z_MAX} text chunks)")
+    z_min, z_max = float(text[_Z_MIN]), float(text[_Z_MAX])
+    return (z_min + q[::-1] / 65535.0 * (z_max - z_min)), z_min, z_max
+
+
+# ---- preview ------------------------------------------------------------------------------
+
+#: Fill colours per obstacle kind (unknown kinds cycle through _EXTRA).
+KIND_COLOURS: dict[str, str] = {"tree": "#1f6f3a", "building": "#3b4a63"}
+_EXTRA = ("#4b4f9c", "#b5651d", "#6a3d9a", "#2b8cbe", "#444444")
+_START, _GOAL = "#1565c0", "#d62828"
+
+
+def _kind_colour(kind: str, kinds: list[str]) -> str:
+    if kind in KIND_COLOURS:
+        return KIND_COLOURS[kind]
+    others = [k for k in kinds if k not in KIND_COLOURS]
+    return _EXTRA[others.index(kind) % len(_EXTRA)] if kind in others else _EXTRA[0]
+
+
+def _terrain_cmap() -> Any:
+    from matplotlib.colors import LinearSegmentedColormap
+
+    # light sand (low) -> olive -> brown (high): quiet enough for the obstacles to stand out
+    return LinearSegmentedColormap.from_list(
+        "navstress_ground", ["#eef0e2", "#d9d3a8", "#c2a878", "#9b7a55", "#6e5440"])
+
+
+def obstruction_pct(world: World) -> float:
+    """Percent of the map area covered by obstacle footprints (footprints never overlap)."""
+    sx, sy = world.size_m
+    return 100.0 * sum(o.area for o in world.obstacles) / (sx * sy)
+
+
+def world_title(world: World) -> str:
+    """A one/two-line title with the key descriptors: size, obstruction %, ground, seed."""
+    sx, sy = world.size_m
+    g = world.spec.ground
+    if g.model == "fractal":
+        ground = f"fractal ground (amp {g.amplitude_m:g} m, \u03bb {g.wavelength_m:g} m, {g.octaves} oct.)"
+    else:
+        ground = f"s = {g.subdivisions}, d = {g.deformation:g} m"
+        if g.deformation == 0:
+            ground += " (flat)"
+    counts: dict[str, int] = {}
+    for o in world.obstacles:
+        counts[o.kind] = counts.get(o.kind, 0) + 1
+    parts = ", ".join(f"{n} {k}{'s' if n != 1 else ''}" for k, n in sorted(counts.items())) or "no obstacles"
+    return (f"obstruction {obstruction_pct(world):.1f} %  \u00b7  {ground}  \u00b7  seed {world.seed}\n"
+            f"{sx:g} m \u00d7 {sy:g} m, {parts}")
+
+
+def draw_world(ax: Axes, world: World, *, legend: bool = True, hillshade: bool = True) -> ScalarMappable:
+    """Draw ``world`` top-down on ``ax`` (x right, y up, meters); returns the terrain mappable
+    (for a colour bar). Later code can plot trajectories on the same ``ax``."""
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.collections import PolyCollection
+    from matplotlib.colors import LightSource, Normalize
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Circle, FancyArrow, Patch
+
+    terrain = world.terrain
+    h = terrain.heights.astype(np.float64)
+    sx, sy = terrain.size_m
+    z_min, z_max = float(h.min()), float(h.max())
+    if z_max - z_min < 1e-6:  # flat: centre the colour scale on the height
+        z_min, z_max = z_min - 0.5, z_max + 0.5
+    norm = Normalize(vmin=z_min, vmax=z_max)
+    cmap = _terrain_cmap()
+    half = terrain.cell_m / 2
+    extent = (-half, sx + half, -half, sy + half)
+    if hillshade and float(h.max() - h.min()) > 1e-6:
+        ls = LightSource(azdeg=315, altdeg=40)
+        # LightSource assumes row 0 at the top; our row 0 is y = 0 (origin="lower"), so the
+        # light would come from the south-east: shade the flipped grid and flip back instead.
+        rgb = ls.shade(h[::-1], cmap=cmap, norm=norm, blend_mode="soft", vert_exag=1.0,
+                       dx=terrain.cell_m, dy=terrain.cell_m)[::-1]
+        ax.imshow(rgb, origin="lower", extent=extent, interpolation="bilinear", zorder=0)
+    else:
+        ax.imshow(h, origin="lower", extent=extent, cmap=cmap, norm=norm, interpolation="nearest", zorder=0)
+
+    kinds = sorted({o.kind for o in world.obstacles})
+    handles: list[Any] = []
+    for kind in kinds:
+        obs = [o for o in world.obstacles if o.kind == kind]
+        colour = _kind_colour(kind, kinds)
+        polys = [o.corners() for o in obs]
+        lw = 0.3 if len(obs) > 400 else 0.6
+        ax.add_collection(PolyCollection(polys, facecolors=colour, edgecolors="black", linewidths=lw,
+                                         alpha=0.95, zorder=3))
+        handles.append(Patch(facecolor=colour, edgecolor="black", label=f"{kind} ({len(obs)})"))
+
+    m = world.mission
+    r = m.free_radius_m
+    for (px, py), colour in (((m.start[0], m.start[1]), _START), (m.goal, _GOAL)):
+        if r > 0:
+            ax.add_patch(Circle((px, py), r, facecolor=colour, alpha=0.10, edgecolor=colour,
+                                linestyle="--", linewidth=1.2, zorder=4))
+    arrow_len = max(3.0, 0.06 * max(sx, sy))
+    sxp, syp, yaw = m.start
+    ax.add_patch(FancyArrow(sxp, syp, arrow_len * math.cos(yaw), arrow_len * math.sin(yaw),
+                            width=arrow_len * 0.09, head_width=arrow_len * 0.32, head_length=arrow_len * 0.32,
+                            length_includes_head=True, color=_START, zorder=6))
+    ax.plot([sxp], [syp], marker="o", markersize=8, color=_START, markeredgecolor="white", zorder=7)
+    ax.plot([m.goal[0]], [m.goal[1]], marker="*", markersize=17, color=_GOAL, markeredgecolor="white",
+            markeredgewidth=1.0, zorder=7)
+
+    ax.set_xlim(0, sx)
+    ax.set_ylim(0, sy)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    if legend:
+        handles += [
+            Line2D([], [], marker="o", color=_START, markeredgecolor="white", markersize=8, linestyle="",
+                   label=f"start (yaw {math.degrees(yaw):.0f}\u00b0)"),
+            Line2D([], [], marker="*", color=_GOAL, markeredgecolor="white", markersize=13, linestyle="",
+                   label="goal"),
+        ]
+        if r > 0:
+            handles.append(Patch(facecolor="#888888", alpha=0.25, edgecolor="#555555", linestyle="--",
+                                 label=f"free area (r = {r:g} m)"))
+        ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0,
+                  fontsize=9, frameon=False)
+    mappable = ScalarMappable(norm=norm, cmap=cmap)
+    mappable.set_array(np.array([]))
+    return mappable
+
+
+def preview_png_bytes(world: World, *, dpi: int = 110) -> bytes:
+    """Render the preview of ``world`` to PNG bytes (Agg backend; no display needed)."""
+    from matplotlib.figure import Figure
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    sx, sy = world.size_m
+    aspect = sy / sx
+    fig = Figure(figsize=(9.5, max(4.0, 7.0 * aspect)), dpi=dpi, layout="constrained")
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    mappable = draw_world(ax, world)
+    cbar = fig.colorbar(mappable, ax=ax, location="bottom", shrink=0.7, pad=0.01, aspect=40)
+    cbar.set_label("ground height [m]")
+    ax.set_title(world_title(world), fontsize=10.5, loc="left")
+    ax.grid(True, color="white", alpha=0.35, linewidth=0.6)
+    ax.set_axisbelow(False)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi)
+    return buf.getvalue()
+
+
+def write_preview(world: World, path: str | Path, *, dpi: int = 110) -> Path:
+    """Write the top-down preview PNG of ``world`` to ``path`` (atomically); returns the path."""
+    p = Path(path)
+    write_atomic(p, preview_png_bytes(world, dpi=dpi))
+    return p

@@ -1,0 +1,140 @@
+"""Gazebo SDF (1.9) world: heightmap ground, static boxes, sun, physics.
+
+The ground is a ``<heightmap>`` whose 16-bit grayscale PNG is written beside the ``.sdf``
+and referenced by a relative URI (resolved against the SDF file by sdformat >= 9 / gz-sim;
+Gazebo classic may need the folder on ``GAZEBO_RESOURCE_PATH``). Gazebo requires square
+heightmap images of side 2**n + 1, so the terrain is **resampled** onto the next such grid
+covering the whole map (a 251 x 251 grid becomes 257 x 257): the resampled values are the
+triangulated surface (``Terrain.height_at``) at the new vertices, so the ground differs from
+the simulator's by at most the piecewise-linear interpolation error between old vertices,
+plus 16-bit quantisation ((z_max - z_min) / 131070).
+
+Obstacles are static models named ``<kind>_<index>`` with ``<pose>x y z 0 0 yaw</pose>``
+where z = obstacle base + half its height (the box's centre), and a box of the obstacle's size.
+
+    >>> from navstress.world import World, WorldSpec
+    >>> xml, png = sdf_world(World.flat(WorldSpec(size_m=(20.0, 20.0))), "ground.png")
+    >>> xml.startswith("<?xml") and png.startswith(b"\\x89PNG")
+    True
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from pathlib import Path
+
+from navstress.world.export._grid import next_pow2_plus1, resample_square, write_atomic
+from navstress.world.export.images import heightmap_png_bytes
+from navstress.world.world import World
+
+SDF_VERSION = "1.9"
+_COLOURS = {"tree": (0.12, 0.44, 0.23), "building": (0.23, 0.29, 0.39)}
+_DEFAULT_COLOUR = (0.5, 0.5, 0.5)
+
+
+@dataclass(frozen=True)
+class SdfExport:
+    """What :func:`write_sdf` wrote."""
+
+    sdf_path: Path
+    heightmap_path: Path
+    heightmap_side: int
+    z_min: float
+    z_max: float
+
+
+def _sub(parent: ET.Element, tag: str, text: str | None = None, **attrs: str) -> ET.Element:
+    el = ET.SubElement(parent, tag, attrs)
+    if text is not None:
+        el.text = text
+    return el
+
+
+def _f(v: float) -> str:
+    return f"{v:.9g}"
+
+
+def _material(parent: ET.Element, rgb: tuple[float, float, float]) -> None:
+    mat = _sub(parent, "material")
+    c = " ".join(_f(v) for v in rgb) + " 1"
+    _sub(mat, "ambient", c)
+    _sub(mat, "diffuse", c)
+    _sub(mat, "specular", "0.1 0.1 0.1 1")
+
+
+def sdf_world(world: World, heightmap_uri: str, *, step_s: float = 0.002) -> tuple[str, bytes]:
+    """The SDF text of ``world`` and the PNG bytes of its heightmap (to be saved at ``heightmap_uri``)."""
+    text, png, _, _, _ = _build(world, heightmap_uri, step_s)
+    return text, png
+
+
+def _build(world: World, heightmap_uri: str, step_s: float) -> tuple[str, bytes, int, float, float]:
+    terrain = world.terrain
+    rows, cols = terrain.heights.shape
+    side = next_pow2_plus1(max(rows, cols))
+    grid = resample_square(terrain, side)
+    png, z_min, z_max = heightmap_png_bytes(grid, terrain.cell_m)
+    sx, sy = terrain.size_m
+    z_span = z_max - z_min if z_max > z_min else 1.0  # a flat map: all pixels 0 -> z_min
+
+    sdf = ET.Element("sdf", version=SDF_VERSION)
+    w = _sub(sdf, "world", name=f"navstress_{world.seed}")
+    phys = _sub(w, "physics", name="default", type="ode")
+    _sub(phys, "max_step_size", _f(step_s))
+    _sub(phys, "real_time_factor", "1")
+    _sub(phys, "real_time_update_rate", _f(1.0 / step_s))
+    _sub(w, "gravity", "0 0 -9.81")
+    scene = _sub(w, "scene")
+    _sub(scene, "ambient", "0.5 0.5 0.5 1")
+    _sub(scene, "background", "0.7 0.8 0.95 1")
+    _sub(scene, "shadows", "true")
+
+    sun = _sub(w, "light", name="sun", type="directional")
+    _sub(sun, "cast_shadows", "true")
+    _sub(sun, "pose", f"{_f(sx / 2)} {_f(sy / 2)} {_f(z_max + 50)} 0 0 0")
+    _sub(sun, "diffuse", "0.85 0.85 0.8 1")
+    _sub(sun, "specular", "0.2 0.2 0.2 1")
+    _sub(sun, "direction", "-0.5 0.4 -0.8")
+
+    ground = _sub(w, "model", name="ground")
+    _sub(ground, "static", "true")
+    link = _sub(ground, "link", name="link")
+    for tag in ("collision", "visual"):
+        el = _sub(link, tag, name=tag)
+        hm = _sub(_sub(el, "geometry"), "heightmap")
+        _sub(hm, "uri", heightmap_uri)
+        _sub(hm, "size", f"{_f(sx)} {_f(sy)} {_f(z_span)}")
+        _sub(hm, "pos", f"{_f(sx / 2)} {_f(sy / 2)} {_f(z_min)}")
+        if tag == "visual":
+            _material(el, (0.76, 0.69, 0.53))
+
+    for k, o in enumerate(world.obstacles):
+        m = _sub(w, "model", name=f"{o.kind}_{k:04d}")
+        _sub(m, "static", "true")
+        _sub(m, "pose", f"{_f(o.x)} {_f(o.y)} {_f(o.z + o.size[2] / 2)} 0 0 {_f(o.yaw)}")
+        ln = _sub(m, "link", name="link")
+        size = " ".join(_f(v) for v in o.size)
+        for tag in ("collision", "visual"):
+            el = _sub(ln, tag, name=tag)
+            _sub(_sub(_sub(el, "geometry"), "box"), "size", size)
+            if tag == "visual":
+                _material(el, _COLOURS.get(o.kind, _DEFAULT_COLOUR))
+
+    ms = world.mission
+    w.append(ET.Comment(f" mission: start (x, y, yaw) = ({ms.start[0]:g}, {ms.start[1]:g}, "
+                        f"{math.degrees(ms.start[2]):.1f} deg), goal = ({ms.goal[0]:g}, {ms.goal[1]:g}) "))
+    ET.indent(sdf)
+    text = '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(sdf, encoding="unicode") + "\n"
+    return text, png, side, z_min, z_max
+
+
+def write_sdf(world: World, path: str | Path, *, step_s: float = 0.002) -> SdfExport:
+    """Write ``path`` (.sdf) and ``<stem>_heightmap.png`` beside it (each atomically)."""
+    p = Path(path)
+    hm = p.with_name(f"{p.stem}_heightmap.png")
+    text, png, side, z_min, z_max = _build(world, hm.name, step_s)
+    write_atomic(hm, png)
+    write_atomic(p, text.encode("utf-8"))
+    return SdfExport(sdf_path=p, heightmap_path=hm, heightmap_side=side, z_min=z_min, z_max=z_max)
