@@ -154,7 +154,7 @@ def draw_world(ax: Axes, world: World, *, legend: bool = True, hillshade: bool =
     sx, sy = terrain.size_m
     z_min, z_max = float(h.min()), float(h.max())
     if z_max - z_min < 1e-6:  # flat: centre the colour scale on the height
-        z_min, z_max = z_min - 0.5, z_max + 0.5
+        z_min, z_max = z_min - 0.25, z_max + 0.75  # a light tone, not mid-brown
     norm = Normalize(vmin=z_min, vmax=z_max)
     cmap = _terrain_cmap()
     half = terrain.cell_m / 2

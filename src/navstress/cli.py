@@ -1,0 +1,475 @@
+"""The ``navstress`` command line.
+
+    navstress world generate --trees 6 --seed 1 -o worlds/trees6
+    navstress world show worlds/trees6
+    navstress world export worlds/trees6 --format sdf -o trees6.sdf
+    navstress demo -o demo-out
+
+Every user error (a :class:`~navstress.errors.NavstressError` or a bad flag) prints ONE line on
+stderr, ``error: <field>=<value> is invalid: expected ...; fix``, exits with code 2 and writes
+nothing.
+"""
+
+from __future__ import annotations
+
+import math
+import shutil
+import sys
+import tempfile
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from typer import _click as click
+from typer.core import TyperGroup
+
+from navstress import __version__
+from navstress.errors import NavstressError, SpecError, WorldFileError
+
+EXIT_USAGE = 2
+PREVIEW = "preview.png"
+EXPORT_FORMATS = ("mjcf", "sdf", "gltf", "glb", "obj", "png")
+
+
+class _OneLineErrors(TyperGroup):
+    """Root group: user errors become one line on stderr and exit code 2."""
+
+    def main(self, args: Sequence[str] | None = None, prog_name: str | None = None,
+             complete_var: str | None = None, standalone_mode: bool = True,
+             windows_expand_args: bool = True, **extra: Any) -> Any:
+        try:
+            rv = super().main(args=args, prog_name=prog_name, complete_var=complete_var,
+                              standalone_mode=False, windows_expand_args=windows_expand_args, **extra)
+        except click.exceptions.NoArgsIsHelpError as e:
+            click.echo(e.ctx.get_help())
+            sys.exit(0)
+        except click.exceptions.UsageError as e:
+            _fail(_usage_line(e))
+        except click.exceptions.ClickException as e:
+            _fail(e.format_message())
+        except NavstressError as e:
+            _fail(str(e))
+        except click.exceptions.Abort:
+            click.echo("aborted", err=True)
+            sys.exit(1)
+        sys.exit(rv if isinstance(rv, int) else 0)
+
+
+def _usage_line(e: Any) -> str:
+    msg = " ".join(str(e.format_message()).split()).rstrip(".")
+    msg = msg[:1].lower() + msg[1:]
+    param = getattr(e, "param", None)
+    opts = list(getattr(param, "opts", None) or [])
+    if opts and not any(o in msg for o in opts):
+        msg = f"{'/'.join(opts)}: {msg}"
+    return f"{msg}; see --help"
+
+
+def _fail(line: str) -> None:
+    line = " ".join(line.split())
+    click.echo(f"error: {line}", err=True)
+    sys.exit(EXIT_USAGE)
+
+
+def _version(value: bool) -> None:
+    if value:
+        click.echo(f"navstress {__version__}")
+        raise typer.Exit()
+
+
+app = typer.Typer(cls=_OneLineErrors, add_completion=False, no_args_is_help=True,
+                  rich_markup_mode=None, pretty_exceptions_enable=False,
+                  help="Stress-test robot navigation software in generated virtual worlds.")
+world_app = typer.Typer(no_args_is_help=True, rich_markup_mode=None,
+                        help="Generate, inspect and export worlds (terrain, obstacles, mission).")
+app.add_typer(world_app, name="world")
+
+
+@app.callback()
+def _root(version: Annotated[bool, typer.Option("--version", callback=_version, is_eager=True,
+                                                help="Print the navstress version and exit.")] = False) -> None:
+    """Stress-test robot navigation software in generated virtual worlds."""
+
+
+# ---- flag parsing -------------------------------------------------------------------------
+
+def _number(flag: str, raw: str, expected: str) -> float:
+    try:
+        v = float(raw)
+    except ValueError:
+        raise SpecError(flag, raw, expected) from None
+    if math.isnan(v) or math.isinf(v):
+        raise SpecError(flag, raw, expected)
+    return v
+
+
+def _integer(flag: str, raw: str, expected: str) -> int:
+    try:
+        return int(raw)
+    except ValueError:
+        raise SpecError(flag, raw, expected) from None
+
+
+_KIND_ALIASES = {"trees": "tree", "buildings": "building"}
+
+
+def parse_mix(raw: str) -> dict[str, float]:
+    """``"trees=3,buildings=1"`` -> ``{"tree": 3.0, "building": 1.0}`` (plural names accepted)."""
+    expected = "comma-separated TYPE=WEIGHT pairs with weights >= 0"
+    fix = "e.g. --mix trees=1,buildings=1"
+    out: dict[str, float] = {}
+    for part in raw.split(","):
+        name, sep, weight = part.partition("=")
+        name = name.strip().lower()
+        if not sep or not name:
+            raise SpecError("--mix", raw, expected, fix)
+        try:
+            w = float(weight)
+        except ValueError:
+            raise SpecError("--mix", raw, expected, fix) from None
+        if not w >= 0 or math.isinf(w):
+            raise SpecError("--mix", raw, expected, fix)
+        key = _KIND_ALIASES.get(name, name)
+        if key in out:
+            raise SpecError("--mix", raw, f"{expected}, each type once", fix)
+        out[key] = w
+    return out
+
+
+# spec field (prefix) -> flag that sets it
+_FIELD_FLAGS = {
+    "size_m": "--size", "cell_m": "--cell", "ground.subdivisions": "--subdivisions",
+    "ground.deformation": "--deformation", "ground.model": "--ground",
+    "obstacles.obstruction.tree": "--trees", "obstacles.obstruction.building": "--buildings",
+    "obstacles.total": "--obstruction", "obstacles.mix": "--mix",
+}
+
+
+def build_spec(*, spec_file: Path | None = None, size: str | None = None, cell: str | None = None,
+               subdivisions: str | None = None, deformation: str | None = None, ground: str | None = None,
+               trees: str | None = None, buildings: str | None = None, obstruction: str | None = None,
+               mix: str | None = None) -> Any:
+    """The WorldSpec from an optional spec file with flags overriding it (raises SpecError
+    naming the flag when a flag value is the culprit)."""
+    from navstress.world.spec import load_spec, parse_spec
+
+    data: dict[str, Any] = load_spec(spec_file).model_dump(mode="python") if spec_file else {}
+    given: set[str] = set()
+    if size is not None:
+        parts = size.lower().split("x")
+        if len(parts) > 2:
+            raise SpecError("--size", size, "a map side M or WxH in meters")
+        vals = [_number("--size", p, "a map side M or WxH in meters") for p in parts]
+        data["size_m"] = (vals[0], vals[-1])
+        given.add("--size")
+    if cell is not None:
+        data["cell_m"] = _number("--cell", cell, "a cell size in meters")
+        given.add("--cell")
+    g = dict(data.get("ground", {}))
+    if subdivisions is not None:
+        g["subdivisions"] = _integer("--subdivisions", subdivisions, "an integer >= 0")
+        given.add("--subdivisions")
+    if deformation is not None:
+        g["deformation"] = _number("--deformation", deformation, "a displacement scale in meters >= 0")
+        given.add("--deformation")
+    if ground is not None:
+        g["model"] = ground
+        given.add("--ground")
+    data["ground"] = g
+    o = dict(data.get("obstacles", {}))
+    per_type = {k: v for k, v in (("tree", trees), ("building", buildings)) if v is not None}
+    if per_type and obstruction is not None:
+        raise SpecError("--obstruction", obstruction, "either --trees/--buildings or --obstruction with --mix",
+                        "not both")
+    if per_type:
+        obs = dict(o.get("obstruction", {})) if o.get("total") is None else {}
+        for kind, raw in per_type.items():
+            flag = "--trees" if kind == "tree" else "--buildings"
+            obs[kind] = _number(flag, raw, "a percentage in [0, 100)")
+            given.add(flag)
+        o.update(obstruction=obs, total=None, mix=None)
+    if obstruction is not None:
+        o.update(total=_number("--obstruction", obstruction, "a percentage in [0, 100)"), obstruction={})
+        given.add("--obstruction")
+    if mix is not None:
+        if o.get("total") is None:
+            raise SpecError("--mix", mix, "to be used with --obstruction (a total to split)",
+                            "add --obstruction PCT or use --trees/--buildings")
+        o["mix"] = parse_mix(mix)
+        given.add("--mix")
+    data["obstacles"] = o
+    try:
+        return parse_spec(data)
+    except SpecError as e:
+        for prefix, flag in _FIELD_FLAGS.items():
+            if flag in given and (e.field == prefix or e.field.startswith(prefix + ".")):
+                raise SpecError(flag, e.value, e.expected, e.fix) from None
+        raise
+
+
+def _check_out_dir(path: Path, flag: str = "--output") -> None:
+    from navstress.world.world import is_world_dir
+
+    if path.exists() and not is_world_dir(path):
+        raise WorldFileError(f"{flag}={str(path)!r} is invalid: expected a new path or an existing world "
+                             "directory (it exists and is not a world); choose another path or remove it")
+
+
+def _save_with_preview(world: Any, out: Path) -> None:
+    """Save the world and its preview so that either both appear or nothing does."""
+    from navstress.world.export.images import preview_png_bytes
+    from navstress.world.export._grid import write_atomic
+
+    png = preview_png_bytes(world)  # render first: a failure here writes nothing
+    world.save(out)
+    write_atomic(out / PREVIEW, png)
+
+
+def _descriptor_table(world: Any, title: str) -> Any:
+    from rich.table import Table
+
+    from navstress.world.export.images import obstruction_pct
+
+    t = Table(title=title, show_header=True, header_style="bold", title_justify="left")
+    t.add_column("descriptor")
+    t.add_column("value", justify="right")
+    spec = world.spec
+    g = spec.ground
+    rows: list[tuple[str, str]] = [
+        ("size", f"{spec.size_m[0]:g} m x {spec.size_m[1]:g} m (cell {spec.cell_m:g} m)"),
+        ("seed", str(world.seed)),
+        ("ground", f"subdivide s={g.subdivisions} d={g.deformation:g} m" if g.model == "subdivide"
+         else f"fractal amp={g.amplitude_m:g} m wavelength={g.wavelength_m:g} m octaves={g.octaves}"),
+        ("obstruction", f"{obstruction_pct(world):.2f} %"),
+    ]
+    ms = world.mission
+    rows.append(("mission", f"({ms.start[0]:g}, {ms.start[1]:g}) -> ({ms.goal[0]:g}, {ms.goal[1]:g}), "
+                            f"{ms.straight_distance_m:.1f} m"))
+    d = world.descriptors
+    if d.get("obstruction_target_pct"):
+        target = sum(d["obstruction_target_pct"].values())
+        rows[3] = ("obstruction", f"{rows[3][1]} (target {target:g} %)")
+    counts: dict[str, int] = {}
+    for o in world.obstacles:
+        counts[o.kind] = counts.get(o.kind, 0) + 1
+    rows.insert(4, ("obstacles", ", ".join(f"{n} {k}{'s' if n != 1 else ''}" for k, n in sorted(counts.items()))
+                    or "none"))
+    if "height_min_m" in d:
+        rows.append(("height", f"{_fmt(d['height_min_m'])} .. {_fmt(d['height_max_m'])} m "
+                               f"(std {_fmt(d.get('height_std_m'))} m)"))
+    for key, val in sorted(d.items()):
+        if key.startswith(_HIDDEN):
+            continue
+        rows.append((key, _fmt(val)))
+    for k, v in rows:
+        t.add_row(k, v)
+    return t
+
+
+_HIDDEN = ("placement_", "traversability", "obstruction_", "n_obstacles", "height_m", "height_min", "height_max",
+           "height_std")
+
+
+def _fmt(v: Any) -> str:
+    if isinstance(v, float):
+        return f"{v:.4g}"
+    if isinstance(v, dict):
+        return ", ".join(f"{k}={_fmt(x)}" for k, x in v.items()) or "-"
+    if v is None:
+        return "-"
+    return str(v)
+
+
+def _console() -> Any:
+    from rich.console import Console
+
+    return Console(width=110, soft_wrap=False)
+
+
+# ---- world commands -----------------------------------------------------------------------
+
+_M = "M"
+_PCT = "PCT"
+
+
+@world_app.command("generate")
+def world_generate(
+    output: Annotated[Path, typer.Option("--output", "-o", metavar="DIR", help=(
+        "World directory to write (world.json, terrain.npz, preview.png). Must be new or an "
+        "existing world directory, which is replaced."))],
+    size: Annotated[str | None, typer.Option(metavar="M|WxH", help=(
+        "Map size in meters: one side M for a square map or WxH; each in [10, 2000], a whole "
+        "multiple of --cell. Default 100."))] = None,
+    cell: Annotated[str | None, typer.Option(metavar=_M, help=(
+        "Terrain cell size in meters, in [0.05, 2]. Default 0.4."))] = None,
+    subdivisions: Annotated[str | None, typer.Option("--subdivisions", "-s", metavar="S", help=(
+        "Ground subdivisions s, an integer in [0, 10]: 2**s+1 control vertices per side "
+        "(small s: large smooth bumps; large s: small sharp ones). Default 0."))] = None,
+    deformation: Annotated[str | None, typer.Option("--deformation", "-d", metavar=_M, help=(
+        "Ground deformation d in meters, in [0, 50]: scale of the vertical displacement of the "
+        "control vertices. Default 0 (flat)."))] = None,
+    ground: Annotated[str | None, typer.Option(metavar="subdivide|fractal", help=(
+        "Ground model: 'subdivide' (the paper's, uses -s/-d) or 'fractal' (multi-octave "
+        "noise; set its parameters in a --spec file). Default subdivide."))] = None,
+    trees: Annotated[str | None, typer.Option(metavar=_PCT, help=(
+        "Percent of the map area covered by trees (1 m x 1 m x 5 m boxes), in [0, 100). Default 0."))] = None,
+    buildings: Annotated[str | None, typer.Option(metavar=_PCT, help=(
+        "Percent of the map area covered by buildings (9 m x 9 m x 8 m boxes), in [0, 100). "
+        "Above about 28% placement may not find room. Default 0."))] = None,
+    obstruction: Annotated[str | None, typer.Option(metavar=_PCT, help=(
+        "Total obstruction percent in [0, 100), split between types by --mix. Not with "
+        "--trees/--buildings."))] = None,
+    mix: Annotated[str | None, typer.Option(metavar="TYPE=W,...", help=(
+        "Weights splitting --obstruction between obstacle types, e.g. trees=3,buildings=1 "
+        "(weights >= 0; 'tree'/'trees' and 'building'/'buildings' both accepted)."))] = None,
+    spec: Annotated[Path | None, typer.Option("--spec", metavar="FILE", help=(
+        "WorldSpec file (YAML or JSON); the flags above override its fields."))] = None,
+    seed: Annotated[str, typer.Option(metavar="N", help=(
+        "Map seed, an integer >= 0: the same spec and seed give the same world."))] = "0",
+) -> None:
+    """Generate one world from a spec and a seed; write it with a preview and print its descriptors."""
+    from navstress.world.generate import generate
+
+    seed_v = _integer("--seed", seed, "an integer >= 0")
+    if seed_v < 0:
+        raise SpecError("--seed", seed, "an integer >= 0")
+    world_spec = build_spec(spec_file=spec, size=size, cell=cell, subdivisions=subdivisions,
+                            deformation=deformation, ground=ground, trees=trees, buildings=buildings,
+                            obstruction=obstruction, mix=mix)
+    _check_out_dir(output)
+    world = generate(world_spec, seed_v)
+    _save_with_preview(world, output)
+    con = _console()
+    con.print(_descriptor_table(world, f"world {output}"))
+    con.print(f"wrote {output}/ (world.json, terrain.npz, {PREVIEW})")
+
+
+@world_app.command("show")
+def world_show(
+    world_dir: Annotated[Path, typer.Argument(metavar="DIR", help="A world directory.")],
+    output: Annotated[Path | None, typer.Option("--output", "-o", metavar="FILE", help=(
+        "Where to write the preview PNG. Default: DIR/preview.png."))] = None,
+) -> None:
+    """Print a world's descriptors and write its top-down preview PNG."""
+    from navstress.world.export.images import write_preview
+    from navstress.world.world import World
+
+    world = World.load(world_dir)
+    dest = output if output is not None else world_dir / PREVIEW
+    _check_file_out(dest)
+    write_preview(world, dest)
+    con = _console()
+    con.print(_descriptor_table(world, f"world {world_dir}"))
+    con.print(f"wrote {dest}")
+
+
+def _check_file_out(dest: Path) -> None:
+    if dest.exists() and dest.is_dir():
+        raise SpecError("--output", str(dest), "a file path (this is a directory)")
+
+
+@world_app.command("export")
+def world_export(
+    world_dir: Annotated[Path, typer.Argument(metavar="DIR", help="A world directory.")],
+    fmt: Annotated[str, typer.Option("--format", "-f", metavar="|".join(EXPORT_FORMATS), help=(
+        "mjcf: standalone MuJoCo model (heightfield + boxes, no robot); sdf: Gazebo SDF world "
+        "(writes FILE and FILE-stem_heightmap.png beside it, resampled to a 2^n+1 square); "
+        "gltf/glb: mesh scene (y-up); obj: mesh (z-up world coordinates); png: 16-bit heightmap "
+        "(height range in its text chunks)."))],
+    output: Annotated[Path, typer.Option("--output", "-o", metavar="FILE", help="File to write.")],
+) -> None:
+    """Export a world to another tool's format."""
+    from navstress.world.export._grid import write_atomic
+    from navstress.world.world import World
+
+    f = fmt.lower()
+    if f not in EXPORT_FORMATS:
+        raise SpecError("--format", fmt, f"one of {', '.join(EXPORT_FORMATS)}")
+    _check_file_out(output)
+    world = World.load(world_dir)
+    if f == "mjcf":
+        from navstress.sim.model import world_to_mjcf  # lazily: the simulator is heavy
+
+        write_atomic(output, world_to_mjcf(world).encode("utf-8"))
+        written = [output]
+    elif f == "sdf":
+        from navstress.world.export.sdf import write_sdf
+
+        r = write_sdf(world, output)
+        written = [r.sdf_path, r.heightmap_path]
+        rows, cols = world.terrain.heights.shape
+        if (rows, cols) != (r.heightmap_side, r.heightmap_side):
+            click.echo(f"note: heightmap resampled from {cols}x{rows} to {r.heightmap_side}x{r.heightmap_side} "
+                       "(Gazebo needs a square 2^n+1 image)")
+    elif f == "png":
+        from navstress.world.export.images import write_heightmap_png
+
+        info = write_heightmap_png(world.terrain, output)
+        written = [output]
+        click.echo(f"heightmap {info.width}x{info.height}, 0..65535 = {info.z_min:.4g}..{info.z_max:.4g} m")
+    else:
+        from navstress.world.export.mesh import write_mesh
+
+        write_mesh(world, output, "glb" if f == "gltf" and output.suffix.lower() == ".glb" else f)
+        written = [output]
+    click.echo("wrote " + ", ".join(str(p) for p in written))
+
+
+# ---- demo ---------------------------------------------------------------------------------
+
+DEMO_WORLDS: dict[str, dict[str, Any]] = {
+    "flat-empty": {},
+    "trees-6pct": {"obstacles": {"obstruction": {"tree": 6}}},
+    "buildings-20pct": {"obstacles": {"obstruction": {"building": 20}}},
+    "bumpy-s4-d2": {"ground": {"subdivisions": 4, "deformation": 2.0}},
+    "fractal": {"ground": {"model": "fractal", "amplitude_m": 1.0}},
+}
+
+
+@app.command("demo")
+def demo(
+    output: Annotated[Path, typer.Option("--output", "-o", metavar="DIR", help=(
+        "Folder to write the demo worlds into (created; must be new, empty, or a previous demo)."))] = Path("demo-out"),
+    seed: Annotated[str, typer.Option(metavar="N", help="Seed of every demo world, an integer >= 0.")] = "1",
+) -> None:
+    """Generate a handful of contrasting worlds with previews (a quick tour of navstress)."""
+    from navstress.world.generate import generate
+    from navstress.world.spec import parse_spec
+    from navstress.world.world import is_world_dir
+
+    seed_v = _integer("--seed", seed, "an integer >= 0")
+    if seed_v < 0:
+        raise SpecError("--seed", seed, "an integer >= 0")
+    if output.exists():
+        ok = output.is_dir() and all(p.name in DEMO_WORLDS and is_world_dir(p) for p in output.iterdir()
+                                     if not p.name.startswith("."))
+        if not ok:
+            raise WorldFileError(f"--output={str(output)!r} is invalid: expected a new or empty folder or a "
+                                 "previous demo output; choose another path or remove it")
+    output.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{output.name}.", dir=output.parent))
+    con = _console()
+    try:
+        for name, data in DEMO_WORLDS.items():
+            world = generate(parse_spec(data), seed_v)
+            _save_with_preview(world, tmp / name)
+            from navstress.world.export.images import obstruction_pct
+
+            con.print(f"  {name:<16} obstruction {obstruction_pct(world):5.1f} %   -> {output / name / PREVIEW}")
+        if output.exists():
+            shutil.rmtree(output)
+        tmp.rename(output)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    con.print(f"wrote {len(DEMO_WORLDS)} worlds into {output}/")
+
+
+def main() -> None:
+    """Console-script entry point (``navstress``)."""
+    app()
+
+
+if __name__ == "__main__":
+    main()
