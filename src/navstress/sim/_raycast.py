@@ -1,0 +1,469 @@
+"""Numba kernels of the lidar ray caster (internal; use :mod:`navstress.sim.lidar`).
+
+Coordinates: x, y in *cell units* (world metres / cell_m), z in metres, ray parameter ``t``
+in metres along a unit world direction (so ``dx = dir_x / cell_m``). Cell (cx, cy) spans
+[cx, cx+1] x [cy, cy+1] and is split by the diagonal from vertex (cy, cx) to (cy+1, cx+1),
+the triangulation MuJoCo uses for an hfield (checked against ``mujoco.mj_ray``).
+
+The terrain is the solid {(x, y) in the map, z <= h(x, y)}: top triangles plus vertical side
+walls under the map edge (extending down without a base). Faces are two-sided, as in MuJoCo.
+Boxes are rows ``[x, y, yaw, hx, hy, zb, zt]`` (centre, yaw, half sides, bottom, top), also
+two-sided (a ray starting inside a box hits where it leaves it, as ``mj_ray`` does).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+INF = np.inf
+
+
+@njit(cache=True, nogil=True)
+def _tri_height(h: np.ndarray, cx: int, cy: int, u: float, v: float) -> float:
+    """Height at local (u, v) in cell (cx, cy) on the MuJoCo triangulation."""
+    h00 = float(h[cy, cx])
+    h10 = float(h[cy, cx + 1])
+    h01 = float(h[cy + 1, cx])
+    h11 = float(h[cy + 1, cx + 1])
+    if u >= v:
+        return h00 + u * (h10 - h00) + v * (h11 - h10)
+    return h00 + v * (h01 - h00) + u * (h11 - h01)
+
+
+@njit(cache=True, nogil=True)
+def height_at_cells(h: np.ndarray, x: float, y: float) -> float:
+    """Height at (x, y) in cell units, clamped to the map."""
+    ncx = h.shape[1] - 1
+    ncy = h.shape[0] - 1
+    x = min(max(x, 0.0), float(ncx))
+    y = min(max(y, 0.0), float(ncy))
+    cx = min(int(math.floor(x)), ncx - 1)
+    cy = min(int(math.floor(y)), ncy - 1)
+    return _tri_height(h, cx, cy, x - cx, y - cy)
+
+
+@njit(cache=True, nogil=True)
+def _cell_hit(h: np.ndarray, cx: int, cy: int, ox: float, oy: float, oz: float,
+              dx: float, dy: float, dz: float, ta: float, tb: float, sgn: float) -> float:
+    """First t in [ta, tb] where the ray crosses the surface in cell (cx, cy) from side ``sgn``
+    (+1: from above, -1: from below); inf if none. Exact: F = z - h is linear on each triangle."""
+    h00 = float(h[cy, cx])
+    h10 = float(h[cy, cx + 1])
+    h01 = float(h[cy + 1, cx])
+    h11 = float(h[cy + 1, cx + 1])
+    ua = ox + ta * dx - cx
+    va = oy + ta * dy - cy
+    ub = ox + tb * dx - cx
+    vb = oy + tb * dy - cy
+    wa = ua - va
+    wb = ub - vb
+    # split at the diagonal u == v when the segment crosses it
+    n = 1
+    td = tb
+    if (wa > 0.0 and wb < 0.0) or (wa < 0.0 and wb > 0.0):
+        td = ta + (tb - ta) * (wa / (wa - wb))
+        n = 2
+    p0 = ta
+    for k in range(n):
+        p1 = td if (n == 2 and k == 0) else tb
+        wm = 0.5 * ((ox + p0 * dx - cx) - (oy + p0 * dy - cy) + (ox + p1 * dx - cx) - (oy + p1 * dy - cy))
+        u0 = ox + p0 * dx - cx
+        v0 = oy + p0 * dy - cy
+        u1 = ox + p1 * dx - cx
+        v1 = oy + p1 * dy - cy
+        if wm >= 0.0:
+            g0 = h00 + u0 * (h10 - h00) + v0 * (h11 - h10)
+            g1 = h00 + u1 * (h10 - h00) + v1 * (h11 - h10)
+        else:
+            g0 = h00 + v0 * (h01 - h00) + u0 * (h11 - h01)
+            g1 = h00 + v1 * (h01 - h00) + u1 * (h11 - h01)
+        f0 = sgn * (oz + p0 * dz - g0)
+        f1 = sgn * (oz + p1 * dz - g1)
+        if f0 <= 0.0:
+            return p0
+        if f1 <= 0.0:
+            return p0 + (p1 - p0) * (f0 / (f0 - f1))
+        p0 = p1
+    return INF
+
+
+@njit(cache=True, nogil=True)
+def march_terrain(h: np.ndarray, mip: np.ndarray, moff: np.ndarray, mnx: np.ndarray,
+                  ox: float, oy: float, oz: float, dx: float, dy: float, dz: float,
+                  t0: float, t1: float, above: bool) -> tuple[float, float]:
+    """First terrain hit of the ray in [t0, t1]: returns (t_hit or inf, t_clear).
+
+    ``t_clear``: the ray is known free of terrain on [t0, t_clear) (t1, or where it leaves the
+    map). ``above=True`` asserts the ray is above the surface at t0 (plane marching): a start
+    at or below the surface (rounding) is then a hit at t0. Max-height mipmap levels skip
+    blocks the ray passes over.
+    """
+    ncx = h.shape[1] - 1
+    ncy = h.shape[0] - 1
+    W = float(ncx)
+    H = float(ncy)
+    tlo = t0
+    thi = t1
+    # clip to the map rectangle
+    if dx != 0.0:
+        ta = (0.0 - ox) / dx
+        tb = (W - ox) / dx
+        if ta > tb:
+            ta, tb = tb, ta
+        tlo = max(tlo, ta)
+        thi = min(thi, tb)
+    elif ox < 0.0 or ox > W:
+        return INF, t1
+    if dy != 0.0:
+        ta = (0.0 - oy) / dy
+        tb = (H - oy) / dy
+        if ta > tb:
+            ta, tb = tb, ta
+        tlo = max(tlo, ta)
+        thi = min(thi, tb)
+    elif oy < 0.0 or oy > H:
+        return INF, t1
+    if tlo > thi:
+        return INF, t1
+    x = ox + tlo * dx
+    y = oy + tlo * dy
+    f = oz + tlo * dz - height_at_cells(h, x, y)
+    if tlo > t0:  # entered through a side wall: the wall is solid below the edge profile
+        if f <= 0.0:
+            return tlo, tlo
+        sgn = 1.0
+    elif above:
+        if f <= 0.0:
+            return tlo, tlo
+        sgn = 1.0
+    else:
+        if f == 0.0:
+            return tlo, tlo
+        sgn = 1.0 if f > 0.0 else -1.0
+    # starting cell, resolving boundaries by the direction of travel
+    if dx < 0.0:
+        cx = int(math.ceil(x)) - 1
+    else:
+        cx = int(math.floor(x))
+    if dy < 0.0:
+        cy = int(math.ceil(y)) - 1
+    else:
+        cy = int(math.floor(y))
+    cx = min(max(cx, 0), ncx - 1)
+    cy = min(max(cy, 0), ncy - 1)
+    nlev = moff.shape[0]
+    lev = 0
+    t = tlo
+    while True:
+        bx = cx >> lev
+        by = cy >> lev
+        if dx > 0.0:
+            xb = min((bx + 1) << lev, ncx)
+            tx = (xb - ox) / dx
+        elif dx < 0.0:
+            xb = bx << lev
+            tx = (xb - ox) / dx
+        else:
+            tx = INF
+        if dy > 0.0:
+            yb = min((by + 1) << lev, ncy)
+            ty = (yb - oy) / dy
+        elif dy < 0.0:
+            yb = by << lev
+            ty = (yb - oy) / dy
+        else:
+            ty = INF
+        te = min(tx, ty, thi)
+        if sgn > 0.0:
+            zmin = oz + dz * (t if dz >= 0.0 else te)
+            if zmin > mip[moff[lev] + by * mnx[lev] + bx]:
+                skip = True
+            elif lev > 0:
+                lev -= 1
+                continue
+            else:
+                skip = False
+        else:
+            skip = False
+        if not skip:
+            th = _cell_hit(h, cx, cy, ox, oy, oz, dx, dy, dz, t, te, sgn)
+            if th <= te:
+                return th, th
+        if te >= thi:
+            break
+        # step into the next block
+        if tx <= ty:
+            cx = (bx + 1) << lev if dx > 0.0 else (bx << lev) - 1
+        if ty <= tx:
+            cy = (by + 1) << lev if dy > 0.0 else (by << lev) - 1
+        if tx < ty:
+            yy = oy + te * dy
+            ylo = by << lev
+            yhi = min(((by + 1) << lev) - 1, ncy - 1)
+            cy = min(max(int(math.ceil(yy)) - 1 if dy < 0.0 else int(math.floor(yy)), ylo), yhi)
+        elif ty < tx:
+            xx = ox + te * dx
+            xlo = bx << lev
+            xhi = min(((bx + 1) << lev) - 1, ncx - 1)
+            cx = min(max(int(math.ceil(xx)) - 1 if dx < 0.0 else int(math.floor(xx)), xlo), xhi)
+        if cx < 0 or cx >= ncx or cy < 0 or cy >= ncy:
+            break
+        t = te
+        if skip and lev + 1 < nlev:
+            lev += 1
+    # left the map (or reached t1) without crossing the top surface
+    if sgn < 0.0 and thi < t1:
+        return thi, thi  # below the surface all the way to the edge: the side wall, from inside
+    return INF, thi
+
+
+@njit(cache=True, nogil=True)
+def ray_box(b: np.ndarray, i: int, ox: float, oy: float, oz: float,
+            dx: float, dy: float, dz: float) -> float:
+    """Distance along unit ray (world metres) to box i (two-sided slab test); inf if missed."""
+    c = math.cos(b[i, 2])
+    s = math.sin(b[i, 2])
+    px = ox - b[i, 0]
+    py = oy - b[i, 1]
+    lx = c * px + s * py
+    ly = -s * px + c * py
+    ldx = c * dx + s * dy
+    ldy = -s * dx + c * dy
+    hx = b[i, 3]
+    hy = b[i, 4]
+    tn = -INF
+    tf = INF
+    if ldx != 0.0:
+        a = (-hx - lx) / ldx
+        bb = (hx - lx) / ldx
+        if a > bb:
+            a, bb = bb, a
+        tn = max(tn, a)
+        tf = min(tf, bb)
+    elif lx < -hx or lx > hx:
+        return INF
+    if ldy != 0.0:
+        a = (-hy - ly) / ldy
+        bb = (hy - ly) / ldy
+        if a > bb:
+            a, bb = bb, a
+        tn = max(tn, a)
+        tf = min(tf, bb)
+    elif ly < -hy or ly > hy:
+        return INF
+    if dz != 0.0:
+        a = (b[i, 5] - oz) / dz
+        bb = (b[i, 6] - oz) / dz
+        if a > bb:
+            a, bb = bb, a
+        tn = max(tn, a)
+        tf = min(tf, bb)
+    elif oz < b[i, 5] or oz > b[i, 6]:
+        return INF
+    if tn > tf or tf < 0.0:
+        return INF
+    if tn >= 0.0:
+        return tn
+    return tf  # origin inside: the exit face
+
+
+@njit(cache=True, nogil=True)
+def cast_rays_kernel(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarray, mnx: np.ndarray,
+                     boxes: np.ndarray, origins: np.ndarray, dirs: np.ndarray, max_range: float,
+                     out: np.ndarray) -> None:
+    """Per-ray reference path: terrain march from t=0 plus every box (pruned by distance)."""
+    nb = boxes.shape[0]
+    for r in range(origins.shape[0]):
+        ox, oy, oz = origins[r, 0], origins[r, 1], origins[r, 2]
+        dx, dy, dz = dirs[r, 0], dirs[r, 1], dirs[r, 2]
+        best = INF
+        for i in range(nb):
+            tb = ray_box(boxes, i, ox, oy, oz, dx, dy, dz)
+            if tb < best:
+                best = tb
+        tend = min(best, max_range)
+        th, _ = march_terrain(h, mip, moff, mnx, ox / cell, oy / cell, oz, dx / cell, dy / cell, dz,
+                              0.0, tend, False)
+        if th < best:
+            best = th
+        out[r] = best if best <= max_range else INF
+
+
+@njit(cache=True, nogil=True)
+def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarray, mnx: np.ndarray,
+                grad_max: float, boxes: np.ndarray, origin: np.ndarray, rot: np.ndarray,
+                cos_el: np.ndarray, sin_el: np.ndarray, cos_az: np.ndarray, sin_az: np.ndarray,
+                max_range: float, min_range: float, plane_march: bool, out: np.ndarray) -> None:
+    """One scan: out[channel, azimuth] = range (inf: no return). Channels ascending in elevation.
+
+    Per azimuth column, all channels lie in one plane through the sensor's z axis. Boxes come
+    from world-heading sector bins (built per scan), each tested only on the contiguous channel
+    range whose world slope can reach it. The terrain is marched once per column, lowest
+    channel first: channel k+1 starts where channel k hit or was proven clear. This is exact
+    when the column plane is steep enough that the terrain section is a graph in it
+    (tan(inclination) > max terrain gradient) and the sensor is inside the map above the
+    ground; otherwise each channel is marched from the sensor (still exact, slower).
+    """
+    nch = cos_el.shape[0]
+    naz = cos_az.shape[0]
+    ox, oy, oz = origin[0], origin[1], origin[2]
+    ncx = h.shape[1] - 1
+    ncy = h.shape[0] - 1
+    inside = 0.0 <= ox / cell <= ncx and 0.0 <= oy / cell <= ncy
+    mono = plane_march and inside and (oz - height_at_cells(h, ox / cell, oy / cell) > 0.0)
+    # ---- per-scan box preparation and sector binning (world heading) -------------------
+    nb = boxes.shape[0]
+    nsec = 360
+    sec_w = 2.0 * math.pi / nsec
+    dmin = np.empty(nb)
+    mlo = np.empty(nb)
+    mhi = np.empty(nb)
+    s0 = np.empty(nb, np.int64)
+    s1 = np.empty(nb, np.int64)
+    counts = np.zeros(nsec + 1, np.int64)
+    for i in range(nb):
+        c = math.cos(boxes[i, 2])
+        s = math.sin(boxes[i, 2])
+        px = ox - boxes[i, 0]
+        py = oy - boxes[i, 1]
+        lx = abs(c * px + s * py)
+        ly = abs(-s * px + c * py)
+        hx = boxes[i, 3]
+        hy = boxes[i, 4]
+        qx = max(lx - hx, 0.0)
+        qy = max(ly - hy, 0.0)
+        dn = math.sqrt(qx * qx + qy * qy)
+        df = math.sqrt((lx + hx) ** 2 + (ly + hy) ** 2)
+        dmin[i] = dn
+        if dn > max_range:
+            s0[i] = 0
+            s1[i] = -1
+            continue
+        cb = boxes[i, 5] - oz
+        ct = boxes[i, 6] - oz
+        if dn <= 0.0:
+            mlo[i] = -INF if cb < 0.0 else cb / df
+            mhi[i] = INF if ct >= 0.0 else ct / df
+        else:
+            mlo[i] = cb / df if cb >= 0.0 else cb / dn
+            mhi[i] = ct / dn if ct >= 0.0 else ct / df
+        mlo[i] -= 1e-9 * (1.0 + abs(mlo[i]))
+        mhi[i] += 1e-9 * (1.0 + abs(mhi[i]))
+        rc = math.sqrt(px * px + py * py)
+        rad = math.sqrt(hx * hx + hy * hy)
+        if rc <= rad * 1.000001 + 1e-9:
+            s0[i] = 0
+            s1[i] = nsec - 1
+        else:
+            th = math.atan2(-py, -px)
+            dl = math.asin(min(1.0, rad / rc)) + 1e-9
+            s0[i] = int(math.floor((th - dl) / sec_w))
+            s1[i] = int(math.floor((th + dl) / sec_w))
+        for q in range(s0[i], s1[i] + 1):
+            counts[(q % nsec) + 1] += 1
+    for q in range(nsec):
+        counts[q + 1] += counts[q]
+    fill = counts[:nsec].copy()
+    bins = np.empty(counts[nsec], np.int64)
+    for i in range(nb):
+        for q in range(s0[i], s1[i] + 1):
+            qq = q % nsec
+            bins[fill[qq]] = i
+            fill[qq] += 1
+    stamp = np.full(nb, -1, np.int64)
+    # ---- columns ----------------------------------------------------------------------
+    dirs = np.empty((nch, 3))
+    slope = np.empty(nch)
+    best = np.empty(nch)
+    uwx, uwy, uwz = rot[0, 2], rot[1, 2], rot[2, 2]
+    for a in range(naz):
+        ca = cos_az[a]
+        sa = sin_az[a]
+        awx = rot[0, 0] * ca + rot[0, 1] * sa
+        awy = rot[1, 0] * ca + rot[1, 1] * sa
+        awz = rot[2, 0] * ca + rot[2, 1] * sa
+        for k in range(nch):
+            ce = cos_el[k]
+            se = sin_el[k]
+            rx = ce * awx + se * uwx
+            ry = ce * awy + se * uwy
+            rz = ce * awz + se * uwz
+            dirs[k, 0] = rx
+            dirs[k, 1] = ry
+            dirs[k, 2] = rz
+            hxy = math.sqrt(rx * rx + ry * ry)
+            slope[k] = rz / hxy if hxy > 0.0 else (INF if rz > 0.0 else -INF)
+            best[k] = INF
+        # boxes: sectors spanned by the column's headings (monotonic in elevation)
+        th0 = math.atan2(dirs[0, 1], dirs[0, 0])
+        th1 = math.atan2(dirs[nch - 1, 1], dirs[nch - 1, 0])
+        d = th1 - th0
+        d = (d + math.pi) % (2.0 * math.pi) - math.pi
+        lo = min(th0, th0 + d)
+        hi = max(th0, th0 + d)
+        q0 = int(math.floor(lo / sec_w))
+        q1 = int(math.floor(hi / sec_w))
+        for q in range(q0, q1 + 1):
+            qq = q % nsec
+            for e in range(counts[qq], counts[qq + 1]):
+                i = bins[e]
+                if stamp[i] == a:
+                    continue
+                stamp[i] = a
+                # contiguous channel range whose world slope can reach the box
+                k0 = 0
+                while k0 < nch and slope[k0] < mlo[i]:
+                    k0 += 1
+                k1 = nch - 1
+                while k1 >= k0 and slope[k1] > mhi[i]:
+                    k1 -= 1
+                for k in range(k0, k1 + 1):
+                    rx = dirs[k, 0]
+                    ry = dirs[k, 1]
+                    hxy = math.sqrt(rx * rx + ry * ry)
+                    if dmin[i] > best[k] * hxy:
+                        continue
+                    tb = ray_box(boxes, i, ox, oy, oz, rx, ry, dirs[k, 2])
+                    if tb < best[k]:
+                        best[k] = tb
+        # terrain: one march per column, lowest unresolved channel first
+        use_plane = False
+        lx = 0.0
+        ly = 0.0
+        if mono:
+            nx = awy * uwz - awz * uwy
+            ny = awz * uwx - awx * uwz
+            nz = awx * uwy - awy * uwx
+            nn = math.sqrt(nx * nx + ny * ny + nz * nz)
+            nxy = math.sqrt(nx * nx + ny * ny)
+            if nxy > 1e-12 * nn and nxy > grad_max * abs(nz) * (1.0 + 1e-6) + 1e-12 * nn:
+                lx = ny / nxy
+                ly = -nx / nxy
+                if lx * awx + ly * awy < 0.0:
+                    lx = -lx
+                    ly = -ly
+                use_plane = True
+        p_clear = 0.0
+        for k in range(nch):
+            rx = dirs[k, 0]
+            ry = dirs[k, 1]
+            rz = dirs[k, 2]
+            tend = min(best[k], max_range)
+            if use_plane:
+                rl = rx * lx + ry * ly
+                tstart = p_clear / rl * (1.0 - 1e-12) if rl > 0.0 else INF
+            else:
+                rl = 0.0
+                tstart = 0.0
+            if tstart < tend:
+                th, tc = march_terrain(h, mip, moff, mnx, ox / cell, oy / cell, oz,
+                                       rx / cell, ry / cell, rz, tstart, tend, use_plane)
+                if th < best[k]:
+                    best[k] = th
+                if use_plane:
+                    p_clear = max(p_clear, min(th, tc) * rl)
+            r = best[k]
+            out[k, a] = r if (min_range <= r <= max_range) else INF
