@@ -1,0 +1,173 @@
+"""ReferenceConfig: every parameter of the reference navigation stack (POM + DTM + P3D).
+
+One frozen pydantic model; load it from YAML/JSON with :func:`load_config` or from a mapping
+with :func:`parse_config`. Bad values raise :class:`~navstress.errors.SpecError` naming
+``field=value`` and the allowed range.
+
+    >>> cfg = ReferenceConfig()
+    >>> (cfg.control_rate_hz, cfg.n_arcs, cfg.nodes_per_arc, cfg.forward_arcs)
+    (10.0, 20, 15, 19)
+    >>> parse_config({"n_arcs": 0})
+    Traceback (most recent call last):
+    ...
+    navstress.errors.SpecError: n_arcs=0 is invalid: expected a value >= 2
+
+The footprint is *not* a parameter here: the planner uses the :class:`~navstress.robot.RobotSpec`
+the navigator is given in ``reset`` (that is how the paper's footprint fault is injected), grown
+by ``footprint_margin_m``. The goal tolerance comes from the mission (``NavMission``).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from navstress.errors import SpecError
+
+__all__ = ["GlobalConfig", "ReferenceConfig", "load_config", "parse_config"]
+
+
+class ReferenceConfig(BaseModel):
+    """Parameters of ``reference-v1``. Lengths in meters, angles in degrees, rates in Hz.
+
+    Costs: a node (the robot footprint placed at one point of an arc) costs
+    ``slope_weight * slope / max_slope + roughness_weight * roughness / max_roughness`` (each ratio
+    in [0, 1] on traversable ground) and is infinite when a footprint cell is unknown or an
+    obstacle, or the slope or roughness exceeds its maximum. An arc costs the sum of its node costs
+    plus ``goal_weight`` times the remaining distance to the goal from its end. An arc whose node
+    cost sum exceeds ``election_threshold`` cannot be elected; when none can, the navigator stops
+    with ``Status("error", "no arc elected")``.
+    """
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    # --- loop ---
+    control_rate_hz: float = Field(10.0, gt=0.0, le=100.0, description="control cycle rate (the framework calls step at this rate)")
+    # --- P3D arc fan ---
+    n_arcs: int = Field(20, ge=2, le=200, description="paths considered per cycle (forward arcs + the turn-in-place path when enabled)")
+    nodes_per_arc: int = Field(15, ge=2, le=100, description="nodes (footprint placements) along each arc")
+    arc_length_m: float = Field(3.0, gt=0.0, le=20.0, description="length of every forward arc")
+    max_curvature_per_m: float = Field(1.0, gt=0.0, le=10.0, description="the sharpest arcs' curvature; forward arcs are evenly spaced in [-max, +max], straight included")
+    turn_in_place: bool = Field(True, description="one of the n_arcs paths is a turn on the spot toward the goal side")
+    turn_in_place_angle_deg: float = Field(90.0, gt=0.0, le=180.0, description="rotation covered by the turn-in-place path's nodes")
+    turn_in_place_penalty_m: float = Field(1.0, ge=0.0, description="extra goal-distance charged to turning on the spot (it makes no progress)")
+    # --- costs ---
+    max_slope_deg: float = Field(25.0, gt=0.0, lt=90.0, description="footprint plane tilt above which a node is untraversable")
+    max_roughness_m: float = Field(0.2, gt=0.0, description="max |residual| of cell heights to the footprint plane above which a node is untraversable")
+    slope_weight: float = Field(1.0, ge=0.0, description="cost per node at the max slope")
+    roughness_weight: float = Field(1.0, ge=0.0, description="cost per node at the max roughness")
+    goal_weight: float = Field(1.0, gt=0.0, description="cost per meter of remaining distance to the goal from an arc's end")
+    election_threshold: float = Field(12.0, gt=0.0, description="an arc whose summed node cost exceeds this is not electable")
+    unknown_cell_cost: float = Field(math.inf, description="cost of a node whose footprint touches a never-seen cell (infinite: the paper's P3D)")
+    obstacle_height_m: float = Field(0.3, gt=0.0, description="a cell is an obstacle when it rises this much (plus the max-slope allowance) above its 3x3 neighbourhood's ground")
+    footprint_margin_m: float = Field(0.1, ge=0.0, le=2.0, description="added on every side of the believed RobotSpec footprint")
+    # --- speed ---
+    max_speed_mps: float = Field(1.0, gt=0.0, description="top linear speed (capped by the RobotSpec's max_speed_mps)")
+    slowdown_per_cost: float = Field(1.0, ge=0.0, description="speed = max * (1 - min(0.7, slowdown * mean node cost))")
+    # --- DTM ---
+    cell_m: float = Field(0.3, ge=0.05, le=2.0, description="map cell size")
+    map_margin_m: float = Field(30.0, ge=5.0, le=1000.0, description="the map grid covers the start-goal bounding box plus this margin on every side")
+    max_range_m: float = Field(40.0, gt=0.0, description="lidar points farther than this from the sensor are not integrated")
+    base_height_m: float | None = Field(None, description="height of the robot frame origin above the ground, used only to seed cells under the robot when nothing around is known; None = the RobotSpec's wheel radius")
+    fill_radius_m: float = Field(3.0, gt=0.0, description="known cells within this radius give the ground plane used to fill never-seen cells under the robot")
+    # --- POM ---
+    pose_tau_xy_s: float = Field(2.0, gt=0.0, description="time constant pulling the odometry-propagated position toward the pose sensor")
+    pose_tau_yaw_s: float = Field(2.0, gt=0.0, description="time constant pulling the yaw toward the pose sensor")
+    history_s: float = Field(30.0, gt=0.0, description="how long pose history is kept for placing scans by their time")
+    # --- initial scan manoeuvre ---
+    scan_turn_deg: float = Field(360.0, ge=0.0, le=720.0, description="turn on the spot at start (0 = none)")
+    scan_forward_m: float = Field(3.0, ge=0.0, le=20.0, description="then drive this far straight ahead (0 = none)")
+    scan_yaw_rate_rps: float = Field(0.6, gt=0.0, description="turn rate during the scan manoeuvre")
+    scan_speed_mps: float = Field(0.5, gt=0.0, description="speed of the forward part of the scan manoeuvre")
+    # --- seeds ---
+    cost_jitter: float = Field(0.0, ge=0.0, description="uniform noise in [0, cost_jitter) added to each arc cost, drawn from the run seed; 0 = fully deterministic given the observations (the seed is then unused)")
+
+    @model_validator(mode="after")
+    def _check(self) -> "ReferenceConfig":
+        if self.forward_arcs < 1 or self.forward_arcs % 2 == 0:
+            raise SpecError("n_arcs", self.n_arcs,
+                            "a number of forward arcs that is odd (so the fan is symmetric and includes straight)",
+                            f"use n_arcs={self.n_arcs + 1}" + (" or turn_in_place=false" if not self.turn_in_place else ""))
+        if not (self.unknown_cell_cost >= 0.0):
+            raise SpecError("unknown_cell_cost", self.unknown_cell_cost, "a cost >= 0 (inf = never drive over unknown)")
+        if self.base_height_m is not None and not (0.0 <= self.base_height_m <= 5.0):
+            raise SpecError("base_height_m", self.base_height_m, "a height in [0, 5] meters or null")
+        return self
+
+    @property
+    def forward_arcs(self) -> int:
+        """Number of curved/straight forward arcs (n_arcs minus the turn-in-place path)."""
+        return self.n_arcs - 1 if self.turn_in_place else self.n_arcs
+
+    @property
+    def control_period_s(self) -> float:
+        return 1.0 / self.control_rate_hz
+
+
+class GlobalConfig(ReferenceConfig):
+    """Parameters of ``reference-global-v1``: the local planner plus a global cost-to-go.
+
+    The global planner is a Dijkstra wavefront from the goal over the current map (8-connected),
+    replanned every ``replan_period_s``: obstacle cells are forbidden, cells within the believed
+    footprint's half width plus ``inflation_margin_m`` of an obstacle cost ``inflated_cost_factor``
+    times more, never-seen cells are optimistic (``unknown_cost_factor``, 1 = as free ground).
+    """
+
+    replan_period_s: float = Field(2.0, gt=0.0, description="period of the global replanning")
+    inflation_margin_m: float = Field(0.2, ge=0.0, description="extra inflation around obstacles")
+    inflated_cost_factor: float = Field(10.0, ge=1.0, description="cost multiplier of cells near obstacles")
+    unknown_cost_factor: float = Field(1.0, ge=1.0, description="cost multiplier of never-seen cells")
+    carrot_m: float = Field(4.0, gt=0.0, description="look-ahead along the global path that sets the turn-in-place direction")
+
+
+def _to_spec_error(err: ValidationError) -> SpecError:
+    e = err.errors(include_url=False)[0]
+    field = ".".join(str(p) for p in e["loc"]) or "config"
+    ctx = e.get("ctx") or {}
+    inner = ctx.get("error")
+    if isinstance(inner, SpecError):
+        return inner
+    bounds = {k: ctx[k] for k in ("ge", "gt", "le", "lt") if k in ctx}
+    if bounds:
+        sym = {"ge": ">=", "gt": ">", "le": "<=", "lt": "<"}
+        expected = "a value " + " and ".join(f"{sym[k]} {v}" for k, v in bounds.items())
+    elif e["type"] == "extra_forbidden":
+        expected = "a known parameter (check its spelling)"
+    else:
+        expected = str(e["msg"])
+    return SpecError(field, e.get("input"), expected)
+
+
+def parse_config(data: dict[str, Any], *, cls: type[ReferenceConfig] = ReferenceConfig) -> ReferenceConfig:
+    """Validate a mapping into ``cls`` (ReferenceConfig or GlobalConfig); SpecError on bad input."""
+    if not isinstance(data, dict):
+        raise SpecError("config", data, "a mapping of parameters")
+    try:
+        return cls.model_validate(data)
+    except SpecError:
+        raise
+    except ValidationError as err:
+        raise _to_spec_error(err) from None
+
+
+def load_config(path: str | Path, *, cls: type[ReferenceConfig] = ReferenceConfig) -> ReferenceConfig:
+    """Read a config from a YAML (``.yaml``/``.yml``) or JSON file."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except OSError as err:
+        raise SpecError("config", str(p), "a readable YAML or JSON file", str(err.strerror)) from None
+    try:
+        data = json.loads(text) if p.suffix == ".json" else yaml.safe_load(text)
+    except (json.JSONDecodeError, yaml.YAMLError) as err:
+        raise SpecError("config", str(p), "valid YAML/JSON", str(err).splitlines()[0]) from None
+    if data is None:
+        data = {}
+    if not isinstance(data, dict):
+        raise SpecError("config", str(p), "a mapping of parameters at the top level")
+    return parse_config(data, cls=cls)

@@ -1,0 +1,189 @@
+"""ReferenceNavigator (``reference-v1``): the paper's POM + DTM + P3D stack, rebuilt.
+
+Each ``step``: POM fuses the cycle's odometry, IMU and pose readings; DTM integrates every new
+scan with the pose estimate at the scan's time and marks the ground under the robot as known
+(the robot stands on it; the lidar cannot see there); then either the initial scan manoeuvre
+(turn on the spot, then drive a few meters straight) or P3D's arc election runs. Status
+``arrived`` when the perceived position is within the mission's goal tolerance;
+``Status("error", "no arc elected")`` when no arc is electable. Both are latched: later steps
+repeat them.
+
+Only :mod:`navstress.nav.api` and :mod:`navstress.robot` are used (DESIGN invariant 1).
+Deterministic given the seed and the observations; with the default ``cost_jitter=0`` the seed is
+not even used.
+
+    >>> from navstress.nav.api import Navigator
+    >>> isinstance(ReferenceNavigator(), Navigator)
+    True
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from navstress.errors import NavigatorError
+from navstress.nav.api import Command, NavMission, Observation, Status
+from navstress.nav.reference.config import ReferenceConfig
+from navstress.nav.reference.planner import ArcEvaluation, ArcPlanner, footprint_cells, node_cost
+from navstress.nav.reference.pose import Pose, PoseEstimator, wrap_angle
+from navstress.nav.reference.terrain_map import TerrainMap, step_threshold
+from navstress.robot import RobotSpec
+from navstress.seeding import rng
+
+__all__ = ["NO_ARC", "ReferenceNavigator"]
+
+NO_ARC = "no arc elected"
+
+
+class ReferenceNavigator:
+    """The reference navigation stack under test (module doc). ``config`` defaults to
+    :class:`ReferenceConfig`; the footprint comes from the RobotSpec given to :meth:`reset`."""
+
+    name = "reference-v1"
+
+    def __init__(self, config: ReferenceConfig | None = None) -> None:
+        self.config: ReferenceConfig = config if config is not None else ReferenceConfig()
+        self._ready = False
+
+    # ----------------------------------------------------------------- protocol
+    def reset(self, mission: NavMission, robot: RobotSpec, *, seed: int) -> None:
+        """Start a run: fresh pose filter, empty map, scan manoeuvre pending."""
+        cfg = self.config
+        if not all(math.isfinite(v) for v in (*mission.start, *mission.goal)):
+            raise NavigatorError(f"mission start/goal must be finite, got {mission.start} -> {mission.goal}")
+        if not mission.goal_tolerance_m > 0:
+            raise NavigatorError(f"mission goal_tolerance_m={mission.goal_tolerance_m} must be > 0")
+        self.mission = mission
+        self.robot = robot
+        self.seed = int(seed)
+        self._rng = rng(self.seed, self.name)
+        self.planner = ArcPlanner(cfg, robot)
+        self.pom = PoseEstimator(mission.start, cfg.pose_tau_xy_s, cfg.pose_tau_yaw_s, cfg.history_s)
+        step = step_threshold(cfg.obstacle_height_m, cfg.max_slope_deg, cfg.cell_m)
+        self.terrain = TerrainMap.covering([mission.start[:2], mission.goal], cfg.map_margin_m, cfg.cell_m,
+                                           step, cfg.max_range_m)
+        self._base_height = cfg.base_height_m if cfg.base_height_m is not None else robot.wheel_radius_m
+        self.phase = "scan_turn" if cfg.scan_turn_deg > 0 else ("scan_forward" if cfg.scan_forward_m > 0 else "navigate")
+        self._turned = 0.0
+        self._driven = 0.0
+        self._prev_odom: tuple[float, float, float] | None = None
+        self._last_t: float | None = None
+        self._last_cmd = (0.0, 0.0)
+        self._latched: Status | None = None
+        self.last_evaluation: ArcEvaluation | None = None
+        self.last_elected: int = -1
+        self.messages: list[tuple[float, str]] = []
+        self._ready = True
+
+    def step(self, obs: Observation) -> Command | Status:
+        """One control cycle (module doc)."""
+        if not self._ready:
+            raise NavigatorError("step() called before reset()")
+        if self._latched is not None:
+            return self._latched
+        pose = self.pom.update(obs.t, obs.odom, obs.imu, obs.pose)
+        for scan in obs.scans:
+            self.terrain.integrate(scan.points, scan.mount, self.pom.pose_at(scan.t))
+        self._mark_under_robot(pose)
+        self._progress_manoeuvre(obs)
+        dt = obs.t - self._last_t if self._last_t is not None else self.config.control_period_s
+        self._last_t = obs.t
+        gx, gy = self.mission.goal
+        if math.hypot(pose.x - gx, pose.y - gy) <= self.mission.goal_tolerance_m:
+            return self._latch(obs.t, Status("arrived"))
+        if self.phase == "scan_turn":
+            v, w = 0.0, min(self.config.scan_yaw_rate_rps, self.robot.max_yaw_rate_rps)
+        elif self.phase == "scan_forward":
+            v, w = min(self.config.scan_speed_mps, self.planner.max_speed), 0.0
+        else:
+            self._on_cycle(obs.t, pose)
+            ev = self.planner.evaluate(self.terrain, pose.x, pose.y, pose.yaw, self._spin_direction(pose))
+            goal = self._goal_terms(ev, pose)
+            jit = self._rng.uniform(0.0, self.config.cost_jitter, len(goal)) if self.config.cost_jitter > 0 else None
+            idx = self.planner.elect(ev, goal, jit)
+            self.last_evaluation, self.last_elected = ev, idx
+            if idx < 0:
+                return self._latch(obs.t, Status("error", NO_ARC))
+            v, w = self.planner.command(ev, idx)
+        return self._limit(v, w, max(dt, 1e-6))
+
+    def close(self) -> None:
+        """Nothing to release (no threads, no files); the map and trajectory stay readable."""
+
+    # ----------------------------------------------------------------- readouts
+    def final_map(self) -> tuple[np.ndarray, tuple[float, float], float]:
+        """(elevation float32 rows x cols with NaN = unknown, origin xy of cell [0, 0]'s corner, cell_m)."""
+        self._require_reset()
+        return self.terrain.elevation(), self.terrain.origin, self.terrain.cell_m
+
+    def perceived_trajectory(self) -> np.ndarray:
+        """(N, 7) float64: t, x, y, z, yaw, pitch, roll, one row per step since reset."""
+        self._require_reset()
+        return self.pom.trajectory()
+
+    # ----------------------------------------------------------------- hooks (the global navigator overrides)
+    def _on_cycle(self, t: float, pose: Pose) -> None:
+        """Called once per navigation cycle before the arc election."""
+
+    def _goal_terms(self, ev: ArcEvaluation, pose: Pose) -> np.ndarray:
+        """goal_weight x straight-line distance from each arc's end to the goal (turn in place:
+        from the current position, plus its penalty)."""
+        gx, gy = self.mission.goal
+        ends = ev.nodes[:, -1, :2]
+        d = np.hypot(ends[:, 0] - gx, ends[:, 1] - gy)
+        d = np.where(ev.is_spin, math.hypot(pose.x - gx, pose.y - gy) + self.config.turn_in_place_penalty_m, d)
+        return self.config.goal_weight * d
+
+    def _spin_direction(self, pose: Pose) -> int:
+        """Turn on the spot toward the goal's side."""
+        gx, gy = self.mission.goal
+        return 1 if wrap_angle(math.atan2(gy - pose.y, gx - pose.x) - pose.yaw) >= 0 else -1
+
+    # ----------------------------------------------------------------- internals
+    def _require_reset(self) -> None:
+        if not self._ready:
+            raise NavigatorError("reset() must be called first")
+
+    def _latch(self, t: float, status: Status) -> Status:
+        self._latched = status
+        self.messages.append((t, f"{status.kind}: {status.message}" if status.message else status.kind))
+        return status
+
+    def _mark_under_robot(self, pose: Pose) -> None:
+        cells = footprint_cells(pose.x, pose.y, pose.yaw, 0.5 * self.robot.length_m, 0.5 * self.robot.width_m,
+                                self.terrain)
+        if cells is not None and len(cells[0]):
+            self.terrain.fill_unknown(cells[0], cells[1], (pose.x, pose.y), self.config.fill_radius_m,
+                                      pose.z - self._base_height)
+
+    def _progress_manoeuvre(self, obs: Observation) -> None:
+        od = obs.odom
+        if self._prev_odom is not None and self.phase != "navigate":
+            px, py, pyaw = self._prev_odom
+            if self.phase == "scan_turn":
+                self._turned += abs(wrap_angle(od.yaw - pyaw))
+                if self._turned >= math.radians(self.config.scan_turn_deg):
+                    self.phase = "scan_forward" if self.config.scan_forward_m > 0 else "navigate"
+            elif self.phase == "scan_forward":
+                self._driven += math.hypot(od.x - px, od.y - py)
+                if self._driven >= self.config.scan_forward_m or self._blocked_ahead():
+                    self.phase = "navigate"
+        self._prev_odom = (od.x, od.y, od.yaw)
+
+    def _blocked_ahead(self) -> bool:
+        """Known obstacle (or too steep) under the footprint 0.5 m ahead; unknown cells allowed."""
+        p = self.pom.current
+        ev_x, ev_y = p.x + 0.5 * math.cos(p.yaw), p.y + 0.5 * math.sin(p.yaw)
+        return not math.isfinite(node_cost(self.planner, self.terrain, ev_x, ev_y, p.yaw, unknown_cost=0.0))
+
+    def _limit(self, v: float, w: float, dt: float) -> Command:
+        """Acceleration limits of the believed robot."""
+        lv, lw = self._last_cmd
+        dv = self.robot.max_accel_mps2 * dt
+        dw = self.robot.max_yaw_accel_rps2 * dt
+        v = min(max(v, lv - dv), lv + dv)
+        w = min(max(w, lw - dw), lw + dw)
+        self._last_cmd = (v, w)
+        return Command(float(v), float(w))

@@ -1,0 +1,248 @@
+"""DTM: an elevation grid in the perceived (map) frame built from lidar points.
+
+Cell ``[i, j]`` covers ``x in [ox + j*c, ox + (j+1)*c)``, ``y in [oy + i*c, oy + (i+1)*c)``
+(rows along +y, ``(ox, oy)`` the corner of cell ``[0, 0]``), the layout of the run traces.
+Each cell keeps min, max and sum of z and a hit count; a cell with no hit is unknown (NaN in
+:meth:`TerrainMap.elevation`).
+
+A cell is an **obstacle** when its max z rises above the lowest min z of its known 3x3
+neighbourhood by more than ``step_threshold = obstacle_height + tan(max_slope) * 2*sqrt(2)*c``:
+the second term is the rise a traversable slope can produce across two cells diagonally, so that
+slopes up to ``max_slope`` are never taken for obstacles (the price: on flat ground a step must be
+that much taller to be flagged; lower steps are caught by the planner's roughness cost).
+
+Points are placed with the pose estimate at the scan's time (sensor -> robot via the mount ->
+map via the pose, roll and pitch included). Integration is a compiled loop (numba).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+from navstress.nav.reference.pose import Pose
+
+__all__ = ["TerrainMap", "step_threshold"]
+
+
+def step_threshold(obstacle_height_m: float, max_slope_deg: float, cell_m: float) -> float:
+    """Height step above the neighbourhood ground that marks a cell as an obstacle (module doc)."""
+    return obstacle_height_m + math.tan(math.radians(max_slope_deg)) * 2.0 * math.sqrt(2.0) * cell_m
+
+
+@nb.njit(cache=True)
+def _integrate(points: np.ndarray, rot: np.ndarray, trans: np.ndarray, ox: float, oy: float,
+               cell: float, max_range2: float, zmin: np.ndarray, zmax: np.ndarray,
+               zsum: np.ndarray, count: np.ndarray) -> int:
+    nr, nc = zmin.shape
+    inv = 1.0 / cell
+    added = 0
+    for k in range(points.shape[0]):
+        px = np.float64(points[k, 0])
+        py = np.float64(points[k, 1])
+        pz = np.float64(points[k, 2])
+        if not (px * px + py * py + pz * pz <= max_range2):  # also drops NaN
+            continue
+        x = rot[0, 0] * px + rot[0, 1] * py + rot[0, 2] * pz + trans[0]
+        y = rot[1, 0] * px + rot[1, 1] * py + rot[1, 2] * pz + trans[1]
+        z = rot[2, 0] * px + rot[2, 1] * py + rot[2, 2] * pz + trans[2]
+        fj = (x - ox) * inv
+        fi = (y - oy) * inv
+        if not (fi >= 0.0 and fj >= 0.0 and fi < nr and fj < nc):
+            continue
+        i = int(fi)
+        j = int(fj)
+        if count[i, j] == 0:
+            zmin[i, j] = z
+            zmax[i, j] = z
+            zsum[i, j] = z
+        else:
+            if z < zmin[i, j]:
+                zmin[i, j] = z
+            if z > zmax[i, j]:
+                zmax[i, j] = z
+            zsum[i, j] += z
+        count[i, j] += 1
+        added += 1
+    return added
+
+
+@nb.njit(cache=True, inline="always")
+def cell_is_obstacle(zmin: np.ndarray, zmax: np.ndarray, count: np.ndarray, i: int, j: int,
+                     step: float) -> bool:
+    """True if known cell (i, j) rises more than ``step`` above its known 3x3 neighbourhood's min."""
+    nr, nc = zmin.shape
+    ground = zmin[i, j]
+    for a in range(max(0, i - 1), min(nr, i + 2)):
+        for b in range(max(0, j - 1), min(nc, j + 2)):
+            if count[a, b] > 0 and zmin[a, b] < ground:
+                ground = zmin[a, b]
+    return zmax[i, j] - ground > step
+
+
+@nb.njit(cache=True)
+def _obstacle_grid(zmin: np.ndarray, zmax: np.ndarray, count: np.ndarray, step: float) -> np.ndarray:
+    nr, nc = zmin.shape
+    out = np.zeros((nr, nc), dtype=np.bool_)
+    for i in range(nr):
+        for j in range(nc):
+            if count[i, j] > 0:
+                out[i, j] = cell_is_obstacle(zmin, zmax, count, i, j, step)
+    return out
+
+
+@nb.njit(cache=True)
+def _fill_unknown(cells_i: np.ndarray, cells_j: np.ndarray, n: int, cx: float, cy: float,
+                  radius_cells: int, ox: float, oy: float, cell: float, fallback_z: float,
+                  step: float, zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray,
+                  count: np.ndarray) -> int:
+    """Give never-seen cells (cells_i/j[:n]) the height of a plane fitted to the known,
+    non-obstacle cells within ``radius_cells`` of (cx, cy); ``fallback_z`` if fewer than 6."""
+    nr, nc = zmin.shape
+    ci = int((cy - oy) / cell)
+    cj = int((cx - ox) / cell)
+    # least squares z = a + b dx + c dy on cell centres (centred on cx, cy)
+    sw = 0.0
+    sx = 0.0
+    sy = 0.0
+    sz = 0.0
+    sxx = 0.0
+    sxy = 0.0
+    syy = 0.0
+    sxz = 0.0
+    syz = 0.0
+    for a in range(max(0, ci - radius_cells), min(nr, ci + radius_cells + 1)):
+        for b in range(max(0, cj - radius_cells), min(nc, cj + radius_cells + 1)):
+            if count[a, b] == 0 or (a - ci) ** 2 + (b - cj) ** 2 > radius_cells ** 2:
+                continue
+            if cell_is_obstacle(zmin, zmax, count, a, b, step):
+                continue
+            dx = ox + (b + 0.5) * cell - cx
+            dy = oy + (a + 0.5) * cell - cy
+            z = zsum[a, b] / count[a, b]
+            sw += 1.0
+            sx += dx
+            sy += dy
+            sz += z
+            sxx += dx * dx
+            sxy += dx * dy
+            syy += dy * dy
+            sxz += dx * z
+            syz += dy * z
+    za = fallback_z
+    gb = 0.0
+    gc = 0.0
+    if sw >= 6.0:
+        mx = sx / sw
+        my = sy / sw
+        mz = sz / sw
+        cxx = sxx / sw - mx * mx
+        cxy = sxy / sw - mx * my
+        cyy = syy / sw - my * my
+        cxz = sxz / sw - mx * mz
+        cyz = syz / sw - my * mz
+        det = cxx * cyy - cxy * cxy
+        if det > 1e-9:
+            gb = (cxz * cyy - cyz * cxy) / det
+            gc = (cyz * cxx - cxz * cxy) / det
+        za = mz - gb * mx - gc * my
+    filled = 0
+    for k in range(n):
+        a = cells_i[k]
+        b = cells_j[k]
+        if count[a, b] > 0:
+            continue
+        dx = ox + (b + 0.5) * cell - cx
+        dy = oy + (a + 0.5) * cell - cy
+        z = za + gb * dx + gc * dy
+        zmin[a, b] = z
+        zmax[a, b] = z
+        zsum[a, b] = z
+        count[a, b] = 1
+        filled += 1
+    return filled
+
+
+class TerrainMap:
+    """Elevation grid with per-cell min/max/sum/count (see module doc).
+
+    >>> m = TerrainMap((0.0, 0.0), (10, 20), 0.5)
+    >>> m.cell_of(1.2, 3.1)
+    (6, 2)
+    >>> bool(np.isnan(m.elevation()).all())
+    True
+    """
+
+    def __init__(self, origin_xy: tuple[float, float], shape: tuple[int, int], cell_m: float,
+                 step_m: float = 0.5, max_range_m: float = 40.0) -> None:
+        if shape[0] < 1 or shape[1] < 1 or not cell_m > 0:
+            raise ValueError(f"bad map geometry: shape={shape}, cell_m={cell_m}")
+        self.origin = (float(origin_xy[0]), float(origin_xy[1]))
+        self.cell_m = float(cell_m)
+        self.step_m = float(step_m)
+        self.max_range_m = float(max_range_m)
+        self.zmin = np.zeros(shape, dtype=np.float64)
+        self.zmax = np.zeros(shape, dtype=np.float64)
+        self.zsum = np.zeros(shape, dtype=np.float64)
+        self.count = np.zeros(shape, dtype=np.int32)
+
+    @classmethod
+    def covering(cls, points_xy: list[tuple[float, float]], margin_m: float, cell_m: float,
+                 step_m: float, max_range_m: float) -> "TerrainMap":
+        """A map covering the bounding box of ``points_xy`` plus ``margin_m`` on every side."""
+        xs = [p[0] for p in points_xy]
+        ys = [p[1] for p in points_xy]
+        ox, oy = min(xs) - margin_m, min(ys) - margin_m
+        nc = int(math.ceil((max(xs) + margin_m - ox) / cell_m))
+        nr = int(math.ceil((max(ys) + margin_m - oy) / cell_m))
+        return cls((ox, oy), (nr, nc), cell_m, step_m, max_range_m)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return (int(self.zmin.shape[0]), int(self.zmin.shape[1]))
+
+    def cell_of(self, x: float, y: float) -> tuple[int, int]:
+        """(row i, col j) of the cell holding (x, y); may be outside the grid."""
+        return (int(math.floor((y - self.origin[1]) / self.cell_m)),
+                int(math.floor((x - self.origin[0]) / self.cell_m)))
+
+    def cell_center(self, i: int, j: int) -> tuple[float, float]:
+        return (self.origin[0] + (j + 0.5) * self.cell_m, self.origin[1] + (i + 0.5) * self.cell_m)
+
+    def integrate(self, points: np.ndarray, mount: tuple[float, float, float], pose: Pose) -> int:
+        """Add a scan's sensor-frame points placed with ``pose``; returns how many landed in the grid."""
+        pts = np.asarray(points)
+        if pts.ndim != 2 or pts.shape[0] == 0:
+            return 0
+        if pts.shape[1] != 3:
+            raise ValueError(f"lidar points must be (N, 3), got {pts.shape}")
+        if pts.dtype != np.float32 and pts.dtype != np.float64:
+            pts = pts.astype(np.float64)
+        rot, trans = pose.sensor_transform(mount)
+        return int(_integrate(np.ascontiguousarray(pts), rot, trans, self.origin[0], self.origin[1],
+                              self.cell_m, self.max_range_m ** 2, self.zmin, self.zmax, self.zsum, self.count))
+
+    def known(self) -> np.ndarray:
+        return self.count > 0
+
+    def elevation(self) -> np.ndarray:
+        """Mean height per cell, NaN where never seen (float32, rows along +y)."""
+        out = np.full(self.shape, np.nan, dtype=np.float32)
+        k = self.count > 0
+        out[k] = (self.zsum[k] / self.count[k]).astype(np.float32)
+        return out
+
+    def obstacles(self) -> np.ndarray:
+        """Bool grid: known cells that are obstacles (module doc)."""
+        return np.asarray(_obstacle_grid(self.zmin, self.zmax, self.count, self.step_m))
+
+    def fill_unknown(self, cells_i: np.ndarray, cells_j: np.ndarray, center_xy: tuple[float, float],
+                     radius_m: float, fallback_z: float) -> int:
+        """Give the never-seen cells among ``cells`` the ground plane fitted around ``center_xy``
+        (the robot stands there, so the ground under it exists). Returns cells filled."""
+        return int(_fill_unknown(cells_i, cells_j, len(cells_i), center_xy[0], center_xy[1],
+                                 max(1, int(round(radius_m / self.cell_m))), self.origin[0], self.origin[1],
+                                 self.cell_m, fallback_z, self.step_m, self.zmin, self.zmax, self.zsum,
+                                 self.count))
