@@ -1,0 +1,460 @@
+"""Conformance checker for navigators (in the spirit of Gymnasium's ``utils/env_checker.py``).
+
+:func:`check_navigator` drives a navigator through a scripted sequence of synthetic
+observations (no simulator: the robot drives straight on flat ground, a 32-channel lidar scan of
+that ground is built analytically) and runs named checks:
+
+``builds``            the factory returns an object with reset/step/close
+``valid-types``       every answer is a Command with finite float v/omega or a Status
+                      with kind "arrived"/"error" (an infrastructure error fails it)
+``resets-cleanly``    reset twice on one instance with the same seed: identical answers
+``deterministic``     a fresh instance, same seed, same observations: identical answers
+                      (another seed may differ: reported, not judged)
+``empty-scan``        a scan with no points and a cycle without scans or pose: no exception
+``within-budget``     every step's wall time <= the budget (the first step of the first run is
+                      a warm-up, reported but not judged: JIT compilation happens there)
+``close-idempotent``  close() twice after a run, and twice on an instance never reset
+
+A navigator that hangs *in-process* hangs the checker (a thread cannot be killed); wrap it in
+an :class:`~navstress.nav.external.ExternalNavigator` to get a budget enforced.
+
+    >>> report = check_navigator("straightline-v1")        # doctest: +SKIP
+    >>> print(report_text(report)); report.passed          # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import traceback
+import warnings
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from navstress.nav.api import (
+    Command,
+    Imu,
+    LidarScan,
+    NavMission,
+    Navigator,
+    Observation,
+    Odometry,
+    PoseReading,
+    Status,
+)
+from navstress.nav.registry import (
+    NavigatorNote,
+    call_factory,
+    load_config,
+    load_factory,
+    resolve,
+)
+from navstress.robot import RobotSpec
+
+__all__ = [
+    "CHECK_NAMES", "CheckReport", "CheckResult", "check_navigator", "flat_ground_scan",
+    "format_report", "report_text", "synthetic_observations",
+]
+
+CHECK_NAMES = ("builds", "valid-types", "resets-cleanly", "deterministic", "empty-scan",
+               "within-budget", "close-idempotent")
+
+Answer = tuple[str, Any, Any]  # ("command", v, omega) | ("status", kind, message)
+
+
+@dataclass(frozen=True)
+class CheckResult:
+    """One named check: passed or not, and a line saying why."""
+
+    name: str
+    passed: bool
+    detail: str
+
+
+@dataclass
+class CheckReport:
+    """All checks of one navigator, plus the measured per-step wall times (seconds)."""
+
+    navigator: str
+    results: list[CheckResult]
+    step_budget_s: float
+    step_times_s: list[float] = field(default_factory=list)
+    warmup_step_s: float | None = None
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def passed(self) -> bool:
+        return all(r.passed for r in self.results)
+
+    def result(self, name: str) -> CheckResult:
+        for r in self.results:
+            if r.name == name:
+                return r
+        raise KeyError(name)
+
+    def timing(self) -> dict[str, float]:
+        """n, median, p95 and max of the judged step times (seconds)."""
+        t = np.asarray(self.step_times_s, dtype=float)
+        if t.size == 0:
+            return {"n": 0.0}
+        return {"n": float(t.size), "median": float(np.median(t)),
+                "p95": float(np.percentile(t, 95)), "max": float(t.max())}
+
+    def __str__(self) -> str:
+        lines = [f"navigator {self.navigator}: {'PASS' if self.passed else 'FAIL'}"]
+        lines += [f"  [{'pass' if r.passed else 'FAIL'}] {r.name}: {r.detail}" for r in self.results]
+        lines += [f"  note: {n}" for n in self.notes]
+        return "\n".join(lines)
+
+
+# ---------------------------------------------------------------- synthetic observations
+
+
+def flat_ground_scan(robot: RobotSpec, t: float, *, azimuth_steps: int = 360,
+                     channels: int = 32, elev_min_deg: float = -30.7, elev_max_deg: float = 10.7,
+                     max_range_m: float = 70.0) -> LidarScan:
+    """The scan of an infinite flat ground, in the sensor frame, computed analytically.
+
+    The sensor is ``robot.wheel_radius_m + robot.lidar.z_m`` above the ground (chassis origin at
+    axle height, robot level). A channel at elevation e < 0 hits at horizontal distance
+    ``h / tan(-e)``; rays going up or beyond ``max_range_m`` give no return and are omitted.
+    """
+    h = robot.wheel_radius_m + robot.lidar.z_m
+    elev = np.radians(np.linspace(elev_min_deg, elev_max_deg, channels))
+    elev = elev[elev < 0]
+    elev = elev[h / np.sin(-elev) <= max_range_m]
+    r = h / np.tan(-elev)
+    az = np.arange(azimuth_steps) * (2.0 * np.pi / azimuth_steps)
+    rr, aa = np.meshgrid(r, az, indexing="ij")
+    pts = np.stack([rr * np.cos(aa), rr * np.sin(aa), np.full_like(rr, -h)], axis=-1)
+    mount = (robot.lidar.x_m, robot.lidar.y_m, robot.lidar.z_m)
+    return LidarScan(t, pts.reshape(-1, 3).astype(np.float32), mount)
+
+
+CHECK_MISSION = NavMission(start=(0.0, 0.0, 0.0), goal=(20.0, 10.0), goal_tolerance_m=2.0)
+
+
+def synthetic_observations(robot: RobotSpec, n_steps: int, *, dt: float = 0.1,
+                           speed: float = 0.5, azimuth_steps: int = 360) -> list[Observation]:
+    """A scripted drive straight along +x from the origin at ``speed`` on flat ground.
+
+    Every cycle has a flat-ground scan; the pose sensor reads every second cycle (``None``
+    otherwise, as a slower sensor would). Not closed-loop: the script ignores the commands.
+    """
+    scan0 = flat_ground_scan(robot, 0.0, azimuth_steps=azimuth_steps)
+    out = []
+    for k in range(1, n_steps + 1):
+        t = k * dt
+        x = speed * t
+        pose = PoseReading(t, x, 0.0, 0.0, 0.0, 0.0, 0.0) if k % 2 == 0 else None
+        scan = LidarScan(t - 0.5 * dt, scan0.points, scan0.mount)
+        out.append(Observation(t, Odometry(t, x, 0.0, 0.0, speed, 0.0),
+                               Imu(t, 0.0, 0.0, 0.0, (0.0, 0.0, 0.0)), pose, (scan,)))
+    return out
+
+
+def _empty_scan_observations(robot: RobotSpec, dt: float = 0.1) -> list[Observation]:
+    empty = np.zeros((0, 3), dtype=np.float32)
+    mount = (robot.lidar.x_m, robot.lidar.y_m, robot.lidar.z_m)
+
+    def base(t: float) -> tuple[Odometry, Imu]:
+        return Odometry(t, 0.0, 0.0, 0.0, 0.0, 0.0), Imu(t, 0.0, 0.0, 0.0, (0.0, 0.0, 0.0))
+
+    o1, i1 = base(dt)
+    o2, i2 = base(2 * dt)
+    o3, i3 = base(3 * dt)
+    return [
+        Observation(dt, o1, i1, PoseReading(dt, 0, 0, 0, 0, 0, 0), (LidarScan(dt, empty, mount),)),
+        Observation(2 * dt, o2, i2, None, ()),
+        Observation(3 * dt, o3, i3, None, (LidarScan(3 * dt, empty, mount),)),
+    ]
+
+
+# ---------------------------------------------------------------- running
+
+
+class _Invalid(Exception):
+    pass
+
+
+def _normalise(out: object) -> Answer:
+    """Validate one answer; :class:`_Invalid` says what is wrong."""
+    if isinstance(out, Command):
+        for name in ("v", "omega"):
+            val = getattr(out, name)
+            if isinstance(val, bool) or not isinstance(val, (int, float, np.floating, np.integer)):
+                raise _Invalid(f"Command.{name}={val!r} is a {type(val).__name__}, not a float")
+            if not math.isfinite(float(val)):
+                raise _Invalid(f"Command.{name}={val!r} is not finite")
+        return ("command", float(out.v), float(out.omega))
+    if isinstance(out, Status):
+        if out.kind not in ("arrived", "error"):
+            raise _Invalid(f"Status.kind={out.kind!r} is not 'arrived' or 'error'")
+        if not isinstance(out.message, str):
+            raise _Invalid(f"Status.message={out.message!r} is not a string")
+        if getattr(out, "infrastructure", False):
+            raise _Invalid(f"infrastructure error: {out.message}")
+        return ("status", out.kind, out.message)
+    raise _Invalid(f"step returned {type(out).__name__} ({out!r:.80}), not a Command or Status")
+
+
+@dataclass
+class _Run:
+    answers: list[Answer]
+    times: list[float]
+    invalid: str | None = None
+
+
+def _drive(nav: Navigator, robot: RobotSpec, seed: int, obs: list[Observation]) -> _Run:
+    """reset + steps until a Status (the run would end there) or the script ends."""
+    nav.reset(CHECK_MISSION, robot, seed=seed)
+    run = _Run([], [])
+    for k, o in enumerate(obs):
+        t0 = time.perf_counter()
+        out = nav.step(o)
+        run.times.append(time.perf_counter() - t0)
+        try:
+            ans = _normalise(out)
+        except _Invalid as e:
+            if run.invalid is None:
+                run.invalid = f"step {k}: {e}"
+            ans = ("invalid", repr(out), None)
+        run.answers.append(ans)
+        if ans[0] != "command":
+            break
+    return run
+
+
+def _why(e: BaseException) -> str:
+    frames = traceback.extract_tb(e.__traceback__)
+    where = f" (at {Path(frames[-1].filename).name}:{frames[-1].lineno})" if frames else ""
+    return f"raised {type(e).__name__}: {e}{where}"
+
+
+def _first_difference(a: list[Answer], b: list[Answer]) -> str:
+    for k, (x, y) in enumerate(zip(a, b)):
+        if x != y:
+            return f"step {k}: {_show(x)} vs {_show(y)}"
+    return f"{len(a)} vs {len(b)} answers"
+
+
+def _show(a: Answer) -> str:
+    if a[0] == "command":
+        return f"Command(v={a[1]!r}, omega={a[2]!r})"
+    if a[0] == "status":
+        return f"Status({a[1]!r}, {a[2]!r:.60})"
+    return str(a[1])
+
+
+def _safe_close(nav: Navigator | None) -> None:
+    if nav is not None:
+        try:
+            nav.close()
+        except Exception:
+            pass
+
+
+def check_navigator(
+    name_or_factory: str | Callable[..., Navigator],
+    config: Mapping[str, Any] | str | Path | None = None,
+    *,
+    seed: int = 12345,
+    n_steps: int = 30,
+    step_budget_s: float = 0.5,
+    robot: RobotSpec | None = None,
+    azimuth_steps: int = 360,
+) -> CheckReport:
+    """Run every named check on a registered navigator (by name) or a factory.
+
+    ``config`` is passed to the factory (``factory(config=...)``); ``step_budget_s`` is the
+    wall-clock budget per step judged by ``within-budget``.
+    """
+    notes: list[str] = []
+    if isinstance(name_or_factory, str):
+        spec, note = resolve(name_or_factory)
+        if note:
+            notes.append(note)
+        label = spec.id
+        factory = load_factory(spec)
+    else:
+        factory = name_or_factory
+        label = getattr(factory, "__qualname__", None) or repr(factory)
+    cfg = load_config(config)
+    robot = robot or RobotSpec()
+    obs = synthetic_observations(robot, n_steps, azimuth_steps=azimuth_steps)
+    results: list[CheckResult] = []
+    times: list[float] = []
+    warmup: float | None = None
+
+    def build() -> Navigator:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", NavigatorNote)
+            return call_factory(factory, cfg, name=label)
+
+    def skipped(names: tuple[str, ...], why: str) -> None:
+        results.extend(CheckResult(n, False, f"not run: {why}") for n in names)
+
+    # builds
+    try:
+        nav_a: Navigator | None = build()
+        results.append(CheckResult("builds", True, f"{type(nav_a).__name__} with config {cfg!r}"))
+    except Exception as e:
+        results.append(CheckResult("builds", False, _why(e)))
+        skipped(CHECK_NAMES[1:], "the navigator could not be built")
+        return CheckReport(label, results, step_budget_s, notes=notes)
+
+    # valid-types + resets-cleanly on instance A
+    run1 = run2 = None
+    try:
+        run1 = _drive(nav_a, robot, seed, obs)
+        warmup, times = run1.times[0] if run1.times else None, list(run1.times[1:])
+        ok = run1.invalid is None
+        detail = (f"{len(run1.answers)} answers: "
+                  + ", ".join(f"{n} {k}" for k, n in _count(run1.answers).items())
+                  if ok else str(run1.invalid))
+        results.append(CheckResult("valid-types", ok, detail))
+    except Exception as e:
+        results.append(CheckResult("valid-types", False, "first run " + _why(e)))
+    if run1 is not None:
+        try:
+            run2 = _drive(nav_a, robot, seed, obs)
+            times += run2.times
+            same = run2.answers == run1.answers
+            results.append(CheckResult(
+                "resets-cleanly", same,
+                "second reset, same seed: identical answers" if same else
+                "second reset, same seed, different answers: "
+                + _first_difference(run1.answers, run2.answers)))
+        except Exception as e:
+            results.append(CheckResult("resets-cleanly", False, "second reset/run " + _why(e)))
+    else:
+        skipped(("resets-cleanly",), "the first run failed")
+
+    # deterministic: fresh instances
+    if run1 is not None:
+        nav_b = nav_c = None
+        try:
+            nav_b = build()
+            run3 = _drive(nav_b, robot, seed, obs)
+            times += run3.times
+            same = run3.answers == run1.answers
+            try:
+                nav_c = build()
+                run4 = _drive(nav_c, robot, seed + 1, obs)
+                times += run4.times
+                other = ("another seed gives different answers" if run4.answers != run1.answers
+                         else "another seed gives the same answers")
+            except Exception as e:
+                other = "another seed " + _why(e)
+            results.append(CheckResult(
+                "deterministic", same,
+                (f"fresh instance, seed {seed}: identical answers; {other}" if same else
+                 f"fresh instance, seed {seed}, different answers: "
+                 + _first_difference(run1.answers, run3.answers))))
+        except Exception as e:
+            results.append(CheckResult("deterministic", False, "fresh instance " + _why(e)))
+        finally:
+            _safe_close(nav_b)
+            _safe_close(nav_c)
+    else:
+        skipped(("deterministic",), "the first run failed")
+
+    # empty-scan
+    nav_d = None
+    try:
+        nav_d = build()
+        run5 = _drive(nav_d, robot, seed, _empty_scan_observations(robot))
+        times += run5.times
+        results.append(CheckResult(
+            "empty-scan", run5.invalid is None,
+            "empty scan and a cycle without scans or pose: valid answers"
+            if run5.invalid is None else str(run5.invalid)))
+    except Exception as e:
+        results.append(CheckResult("empty-scan", False, _why(e)))
+    finally:
+        _safe_close(nav_d)
+
+    # within-budget
+    if times:
+        worst = max(times)
+        over = sum(t > step_budget_s for t in times)
+        med = float(np.median(times))
+        results.append(CheckResult(
+            "within-budget", over == 0,
+            f"{len(times)} steps: median {med * 1e3:.2f} ms, max {worst * 1e3:.2f} ms, "
+            f"budget {step_budget_s * 1e3:.0f} ms"
+            + (f"; {over} over budget" if over else "")
+            + (f"; warm-up step {warmup * 1e3:.1f} ms not judged" if warmup is not None else "")))
+    else:
+        skipped(("within-budget",), "no step was timed")
+
+    # close-idempotent
+    problems = []
+    for label_c, nav in (("after a run", nav_a), ("never reset", None)):
+        try:
+            target = nav if nav is not None else build()
+            target.close()
+            target.close()
+        except Exception as e:
+            problems.append(f"{label_c}: {_why(e)}")
+    results.append(CheckResult("close-idempotent", not problems,
+                               "close() twice after a run and on a never-reset instance"
+                               if not problems else "; ".join(problems)))
+    order = {n: i for i, n in enumerate(CHECK_NAMES)}
+    results.sort(key=lambda r: order.get(r.name, len(order)))
+    return CheckReport(label, results, step_budget_s, times, warmup, notes)
+
+
+def _count(answers: list[Answer]) -> dict[str, int]:
+    counts: dict[str, int] = {}
+    for a in answers:
+        key = a[0] if a[0] != "status" else f"status {a[1]}"
+        counts[key] = counts.get(key, 0) + 1
+    return counts
+
+
+# ---------------------------------------------------------------- reporting
+
+
+def format_report(report: CheckReport) -> Any:
+    """A rich renderable (table + verdict) for ``rich.console.Console().print``."""
+    from rich.console import Group
+    from rich.table import Table
+    from rich.text import Text
+
+    table = Table(title=f"navigator conformance: {report.navigator}", title_justify="left")
+    table.add_column("check", no_wrap=True)
+    table.add_column("result", no_wrap=True)
+    table.add_column("detail")
+    for r in report.results:
+        table.add_row(r.name, Text("pass", style="green") if r.passed
+                      else Text("FAIL", style="bold red"), r.detail)
+    parts: list[Any] = [table]
+    parts += [Text(f"note: {n}", style="yellow") for n in report.notes]
+    failed = [r.name for r in report.results if not r.passed]
+    parts.append(Text(f"{report.navigator}: PASS ({len(report.results)} checks)", style="bold green")
+                 if not failed else
+                 Text(f"{report.navigator}: FAIL ({', '.join(failed)})", style="bold red"))
+    return Group(*parts)
+
+
+def report_text(report: CheckReport, *, width: int = 110) -> str:
+    """:func:`format_report` rendered to plain text."""
+    from rich.console import Console
+
+    console = Console(width=width, record=True, color_system=None, force_terminal=False,
+                      file=_Null())
+    console.print(format_report(report))
+    return console.export_text()
+
+
+class _Null:
+    def write(self, s: str) -> int:
+        return len(s)
+
+    def flush(self) -> None:
+        pass

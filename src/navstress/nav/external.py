@@ -1,0 +1,475 @@
+"""Out-of-process navigators: any program that speaks the line protocol of :mod:`navstress.nav.wire`.
+
+:class:`ExternalNavigator` implements :class:`~navstress.nav.api.Navigator` by spawning a
+process and exchanging one JSON line per request over its stdin/stdout. It enforces a
+wall-clock budget per request. That budget is a *safety net that ends the run*, never an input
+to the simulation: a navigator answering within budget gets exactly the same observations and
+produces the same trajectory whatever its speed (DESIGN invariant 3); one that overruns it, crashes
+or answers garbage ends the run with ``Status("error", "navigator process ...",
+infrastructure=True)`` and a precise reason (exit code and last stderr lines; ``no answer within 2.0 s``; ``invalid message: ...``),
+which the run loop classifies (DESIGN invariant 4). :attr:`ExternalNavigator.failure` keeps the
+machine-readable kind.
+
+The process runs in its own session (process group); ``close()`` (always called) asks it to exit,
+then kills the whole group and reaps it, so no process is left behind.
+
+    navigator = ExternalNavigator([sys.executable, "my_nav.py"], step_budget_s=2.0)
+
+:func:`serve` does the opposite: it runs any in-process navigator behind the protocol
+(``python -m navstress.nav.external NAME``), e.g. to isolate a stack that may crash.
+"""
+
+from __future__ import annotations
+
+import collections
+import contextlib
+import json
+import os
+import select
+import shlex
+import shutil
+import signal
+import subprocess
+import sys
+import threading
+import time
+import weakref
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import IO, Any, Literal
+
+from navstress.errors import NavigatorError, SpecError
+from navstress.nav import wire
+from navstress.nav.api import Command, NavMission, Navigator, Observation, Status
+from navstress.robot import RobotSpec
+
+__all__ = ["ExternalFailure", "ExternalNavigator", "external_from_config", "serve"]
+
+MAX_LINE_BYTES = 64 * 1024 * 1024
+"""A reply line longer than this (without a newline) is a protocol violation."""
+
+FailureKind = Literal["exit", "timeout", "protocol", "navigator"]
+
+
+@dataclass(frozen=True)
+class ExternalFailure:
+    """Why an external navigator ended the run.
+
+    ``kind``: ``exit`` (the process ended), ``timeout`` (no answer within budget),
+    ``protocol`` (garbage or an unexpected message), ``navigator`` (it refused a reset).
+    """
+
+    kind: FailureKind
+    message: str
+
+
+def _fmt_s(seconds: float) -> str:
+    s = f"{seconds:.3f}".rstrip("0")
+    return s + "0" if s.endswith(".") else s
+
+
+def _describe_exit(rc: int) -> str:
+    if rc < 0:
+        try:
+            name = signal.Signals(-rc).name
+        except ValueError:
+            name = f"signal {-rc}"
+        return f"was killed by {name} (exit code {rc})"
+    return f"exited with code {rc}"
+
+
+def _kill_group(proc: subprocess.Popen[bytes]) -> None:
+    """SIGKILL the process group of ``proc`` (its own session) and reap the leader."""
+    with contextlib.suppress(ProcessLookupError, PermissionError):
+        os.killpg(proc.pid, signal.SIGKILL)
+    with contextlib.suppress(Exception):
+        proc.kill()
+    with contextlib.suppress(Exception):
+        proc.wait(timeout=5.0)
+
+
+class ExternalNavigator:
+    """A navigator running in another process, spoken to over the line protocol.
+
+    ``argv``: the command to start (no shell). The process is started on the first ``reset``
+    (and started afresh on a ``reset`` after a failure). Budgets are wall-clock seconds:
+    ``reset_budget_s`` covers start-up + hello and each reset, ``step_budget_s`` each step.
+    A command that cannot be started raises :class:`NavigatorError` (a configuration error);
+    everything that goes wrong later ends the run with a ``Status("error", ...)``.
+    """
+
+    def __init__(
+        self,
+        argv: Sequence[str],
+        *,
+        step_budget_s: float = 2.0,
+        reset_budget_s: float = 30.0,
+        close_budget_s: float = 2.0,
+        cwd: str | Path | None = None,
+        env: Mapping[str, str] | None = None,
+        stderr_lines: int = 8,
+    ) -> None:
+        argv = [str(a) for a in argv]
+        if not argv:
+            raise SpecError("command", argv, "a non-empty list: program and arguments")
+        for name, value in (("step_budget_s", step_budget_s), ("reset_budget_s", reset_budget_s),
+                            ("close_budget_s", close_budget_s)):
+            if not (isinstance(value, (int, float)) and value > 0):
+                raise SpecError(name, value, "a positive number of seconds")
+        prog = argv[0]
+        if shutil.which(prog, path=(env or os.environ).get("PATH")) is None and not (
+            os.sep in prog and os.access(prog, os.X_OK)
+        ):
+            raise NavigatorError(
+                f"cannot start navigator process: {prog!r} is not an executable file or a "
+                "program on PATH; fix the 'command' of the navigator config"
+            )
+        self.argv = argv
+        self.step_budget_s = float(step_budget_s)
+        self.reset_budget_s = float(reset_budget_s)
+        self.close_budget_s = float(close_budget_s)
+        self.cwd = None if cwd is None else str(cwd)
+        self.env = None if env is None else {**os.environ, **env}
+        self.failure: ExternalFailure | None = None
+        self.remote_name: str | None = None
+        self.step_times_s: list[float] = []
+        self._stderr: collections.deque[str] = collections.deque(maxlen=stderr_lines)
+        self._proc: subprocess.Popen[bytes] | None = None
+        self._stderr_thread: threading.Thread | None = None
+        self._buf = bytearray()
+        self._finalizer: weakref.finalize | None = None  # type: ignore[type-arg]
+
+    # ------------------------------------------------------------ Navigator
+
+    def reset(self, mission: NavMission, robot: RobotSpec, *, seed: int) -> None:
+        """Start the process if needed (hello), then send ``reset``. Failures are kept and
+        reported by the next ``step``; only a command that cannot start raises."""
+        if self._proc is None or self.failure is not None or _exited(self._proc):
+            self._shutdown(graceful=False)
+            self.failure = None
+            self._spawn()
+            reply = self._request(wire.hello_message(), self.reset_budget_s, "hello")
+            if reply is None:
+                return
+            if reply.get("type") != "hello":
+                self._fail("protocol", f"sent an invalid message in reply to hello: expected "
+                           f"type 'hello', got {reply.get('type')!r}")
+                return
+            if reply.get("protocol") != wire.PROTOCOL_VERSION:
+                self._fail("protocol", f"speaks protocol {reply.get('protocol')!r}, navstress "
+                           f"speaks {wire.PROTOCOL_VERSION}")
+                return
+            name = reply.get("name")
+            self.remote_name = name if isinstance(name, str) else None
+        reply = self._request(wire.reset_message(mission, robot, seed), self.reset_budget_s, "reset")
+        if reply is None:
+            return
+        if reply.get("type") == "ok":
+            return
+        if reply.get("type") == "status" and reply.get("kind") == "error":
+            self._fail("navigator", f"refused the reset: {reply.get('message', '')}")
+            return
+        self._fail("protocol", "sent an invalid message in reply to reset: expected "
+                   f"{{'type': 'ok'}}, got {_clip(reply)}")
+
+    def step(self, obs: Observation) -> Command | Status:
+        """One control cycle; ``Status('error', 'navigator process ...')`` on any failure."""
+        if self.failure is not None:
+            return Status("error", self.failure.message, infrastructure=True)
+        if self._proc is None:
+            self._fail("protocol", "was stepped before reset")
+            return Status("error", self.failure.message, infrastructure=True)  # type: ignore[union-attr]
+        t0 = time.monotonic()
+        reply = self._request(wire.step_message(obs), self.step_budget_s, "step")
+        self.step_times_s.append(time.monotonic() - t0)
+        if reply is None:
+            return Status("error", self.failure.message, infrastructure=True)  # type: ignore[union-attr]
+        try:
+            return wire.decode_command_or_status(reply)
+        except wire.WireError as e:
+            self._fail("protocol", f"sent an invalid message in reply to step: {e}")
+            return Status("error", self.failure.message, infrastructure=True)  # type: ignore[union-attr]
+
+    def close(self) -> None:
+        """Ask the process to exit, then kill its process group and reap it. Idempotent."""
+        self._shutdown(graceful=self.failure is None)
+
+    def __enter__(self) -> ExternalNavigator:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    @property
+    def pid(self) -> int | None:
+        """The process id while a process is held (for tests and diagnostics)."""
+        return None if self._proc is None else self._proc.pid
+
+    # ------------------------------------------------------------ internals
+
+    def _spawn(self) -> None:
+        try:
+            proc = subprocess.Popen(
+                self.argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                cwd=self.cwd, env=self.env, start_new_session=True, bufsize=0,
+            )
+        except OSError as e:
+            raise NavigatorError(
+                f"cannot start navigator process {shlex.join(self.argv)!r}: {e.strerror or e}; "
+                "fix the 'command' of the navigator config"
+            ) from e
+        assert proc.stdin is not None and proc.stdout is not None and proc.stderr is not None
+        os.set_blocking(proc.stdin.fileno(), False)
+        os.set_blocking(proc.stdout.fileno(), False)
+        self._proc = proc
+        self._buf = bytearray()
+        self._stderr.clear()
+        self._finalizer = weakref.finalize(self, _kill_group, proc)
+        stream = proc.stderr
+        lines = self._stderr
+
+        def drain() -> None:
+            for raw in iter(stream.readline, b""):
+                text = raw.decode("utf-8", "replace").rstrip()
+                if text:
+                    lines.append(text)
+
+        self._stderr_thread = threading.Thread(target=drain, name="navstress-ext-stderr",
+                                               daemon=True)
+        self._stderr_thread.start()
+
+    def _fail(self, kind: FailureKind, detail: str) -> None:
+        """Record the failure, kill the process now (reaped again in close)."""
+        self.failure = ExternalFailure(kind, f"navigator process {detail}")
+        self._shutdown(graceful=False)
+
+    def _stderr_tail(self) -> str:
+        if self._stderr_thread is not None:
+            self._stderr_thread.join(timeout=0.5)  # let it read what the process left
+        if not self._stderr:
+            return "no stderr output"
+        return "last stderr lines: " + " | ".join(self._stderr)
+
+    def _exit_failure(self, what: str) -> None:
+        proc = self._proc
+        assert proc is not None
+        deadline = time.monotonic() + 1.0
+        rc = _peek_exit(proc)
+        while rc is None and time.monotonic() < deadline:
+            time.sleep(0.002)
+            rc = _peek_exit(proc)
+        if rc is None:
+            self._fail("exit", f"closed its stdout during {what} (still running); "
+                       + self._stderr_tail())
+            return
+        tail = self._stderr_tail()
+        self._fail("exit", f"{_describe_exit(rc)} during {what}; {tail}")
+
+    def _request(self, msg: dict[str, Any], budget_s: float, what: str) -> dict[str, Any] | None:
+        """Write one message and read one reply line within ``budget_s`` (wall clock).
+
+        Reading and writing are multiplexed, so a process that writes before it has read the
+        whole request cannot deadlock us. Returns the parsed reply, or None after a failure.
+        """
+        proc = self._proc
+        assert proc is not None and proc.stdin is not None and proc.stdout is not None
+        data = memoryview(wire.dumps(msg))
+        win, rout = proc.stdin.fileno(), proc.stdout.fileno()
+        deadline = time.monotonic() + budget_s
+        while True:
+            nl = self._buf.find(b"\n")
+            if nl >= 0:
+                line = bytes(self._buf[:nl])
+                del self._buf[: nl + 1]
+                if not line.strip():
+                    continue  # tolerate blank lines
+                if len(data):
+                    self._fail("protocol", f"answered {what} before reading all of it")
+                    return None
+                try:
+                    return wire.loads(line)
+                except wire.WireError as e:
+                    self._fail("protocol", f"sent an invalid message in reply to {what}: {e}")
+                    return None
+            if len(self._buf) > MAX_LINE_BYTES:
+                self._fail("protocol", f"sent an invalid message in reply to {what}: a line "
+                           f"longer than {MAX_LINE_BYTES} bytes")
+                return None
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                self._fail("timeout", f"gave no answer within {_fmt_s(budget_s)} s to {what} "
+                           f"(budget exceeded; the run ends, the process is killed)")
+                return None
+            wlist = [win] if len(data) else []
+            try:
+                readable, writable, _ = select.select([rout], wlist, [], remaining)
+            except InterruptedError:
+                continue
+            if writable:
+                try:
+                    n = os.write(win, data[: 1 << 16])
+                    data = data[n:]
+                except BlockingIOError:
+                    pass
+                except (BrokenPipeError, ConnectionResetError):
+                    self._exit_failure(what)
+                    return None
+            if readable:
+                try:
+                    chunk = os.read(rout, 1 << 16)
+                except BlockingIOError:
+                    continue
+                if not chunk:
+                    self._exit_failure(what)
+                    return None
+                self._buf += chunk
+
+    def _shutdown(self, *, graceful: bool) -> None:
+        proc = self._proc
+        if proc is None:
+            return
+        self._proc = None
+        if graceful and not _exited(proc) and proc.stdin is not None:
+            with contextlib.suppress(OSError):
+                os.write(proc.stdin.fileno(), wire.dumps(wire.close_message()))
+            with contextlib.suppress(OSError):
+                proc.stdin.close()
+            deadline = time.monotonic() + self.close_budget_s
+            while time.monotonic() < deadline and not _exited(proc):
+                time.sleep(0.005)
+        _kill_group(proc)  # the leader and anything it started
+        for stream in (proc.stdin, proc.stdout):
+            if stream is not None:
+                with contextlib.suppress(OSError):
+                    stream.close()
+        if self._stderr_thread is not None:
+            self._stderr_thread.join(timeout=1.0)
+        if proc.stderr is not None:
+            with contextlib.suppress(OSError):
+                proc.stderr.close()
+        if self._finalizer is not None:
+            self._finalizer.detach()
+            self._finalizer = None
+
+
+def _peek_exit(proc: subprocess.Popen[bytes]) -> int | None:
+    """The leader's exit code (negative: killed by that signal) or None while it runs,
+    *without reaping it*, so its pid (also the process-group id) cannot be reused before
+    the group is killed. Falls back to ``poll()`` where ``waitid`` is missing."""
+    if proc.returncode is not None:
+        return proc.returncode
+    if hasattr(os, "waitid"):
+        try:
+            info = os.waitid(os.P_PID, proc.pid, os.WEXITED | os.WNOHANG | os.WNOWAIT)
+        except ChildProcessError:
+            return proc.poll()
+        if info is None:
+            return None
+        if info.si_code == os.CLD_EXITED:
+            return int(info.si_status)
+        return -int(info.si_status)
+    return proc.poll()
+
+
+def _exited(proc: subprocess.Popen[bytes]) -> bool:
+    return _peek_exit(proc) is not None
+
+
+def _clip(obj: object, n: int = 120) -> str:
+    text = json.dumps(obj) if isinstance(obj, dict) else repr(obj)
+    return text if len(text) <= n else text[:n] + "..."
+
+
+_CONFIG_KEYS = ("command", "step_budget_s", "reset_budget_s", "close_budget_s", "cwd", "env")
+
+
+def external_from_config(*, config: Mapping[str, Any]) -> ExternalNavigator:
+    """Registry factory (``external-v1``): config ``{"command": [...] | "cmd line", ...}``.
+
+    Optional keys: ``step_budget_s``, ``reset_budget_s``, ``close_budget_s``, ``cwd``, ``env``.
+    """
+    unknown = sorted(set(config) - set(_CONFIG_KEYS))
+    if unknown:
+        raise SpecError(f"navigator-config.{unknown[0]}", config[unknown[0]],
+                        f"one of the keys {', '.join(_CONFIG_KEYS)}")
+    if "command" not in config:
+        raise SpecError("navigator-config.command", None,
+                        'the command that starts the navigator, e.g. ["python3", "my_nav.py"]')
+    command = config["command"]
+    if isinstance(command, str):
+        command = shlex.split(command)
+    if not (isinstance(command, (list, tuple)) and command
+            and all(isinstance(c, str) for c in command)):
+        raise SpecError("navigator-config.command", command, "a non-empty list of strings")
+    kwargs: dict[str, Any] = {k: config[k] for k in ("step_budget_s", "reset_budget_s",
+                                                      "close_budget_s", "cwd", "env")
+                              if k in config}
+    return ExternalNavigator(command, **kwargs)
+
+
+# ---------------------------------------------------------------- the other side
+
+
+def serve(navigator: Navigator, inp: IO[bytes], out: IO[bytes], *, name: str = "") -> int:
+    """Serve an in-process navigator over the line protocol until ``close`` or end of input.
+
+    Anything the navigator prints on stdout is moved to stderr (stdout carries the protocol).
+    An exception in ``reset``/``step`` is answered as ``status`` error with its message.
+    """
+
+    def send(msg: dict[str, Any]) -> None:
+        out.write(wire.dumps(msg))
+        out.flush()
+
+    try:
+        for raw in inp:
+            msg = wire.loads(raw)
+            kind = msg["type"]
+            if kind == "hello":
+                send({"type": "hello", "protocol": wire.PROTOCOL_VERSION, "name": name})
+            elif kind == "reset":
+                try:
+                    with contextlib.redirect_stdout(sys.stderr):
+                        navigator.reset(wire.decode_mission(msg["mission"]),
+                                        RobotSpec.model_validate(msg["robot"]),
+                                        seed=int(msg["seed"]))
+                    send({"type": "ok"})
+                except Exception as e:  # the run loop classifies it
+                    send({"type": "status", "kind": "error",
+                          "message": f"reset raised {type(e).__name__}: {e}"})
+            elif kind == "step":
+                try:
+                    obs = wire.decode_observation(msg["obs"])
+                    with contextlib.redirect_stdout(sys.stderr):
+                        answer = navigator.step(obs)
+                    send(wire.encode_command_or_status(answer))
+                except Exception as e:
+                    send({"type": "status", "kind": "error",
+                          "message": f"step raised {type(e).__name__}: {e}"})
+            elif kind == "close":
+                break
+            else:
+                raise wire.WireError(f"unknown message type {kind!r}")
+    finally:
+        with contextlib.redirect_stdout(sys.stderr):
+            navigator.close()
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m navstress.nav.external NAME [CONFIG]``: serve a registered navigator."""
+    from navstress.nav.registry import make_navigator
+
+    args = list(sys.argv[1:] if argv is None else argv)
+    if not args or args[0] in ("-h", "--help") or len(args) > 2:
+        print("usage: python -m navstress.nav.external NAVIGATOR [CONFIG_JSON_OR_PATH]",
+              file=sys.stderr)
+        return 2
+    with contextlib.redirect_stdout(sys.stderr):
+        nav = make_navigator(args[0], args[1] if len(args) > 1 else None)
+    return serve(nav, sys.stdin.buffer, sys.stdout.buffer, name=args[0])
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,282 @@
+"""Fault injection as wrappers around a navigator, never as edits of the stack under test.
+
+A fault is selected by name (``--fault NAME``); :func:`list_faults` gives each with a one-line
+description. Two kinds:
+
+* *belief/sensor faults* wrap any navigator (:class:`FaultyNavigator`): they change what the
+  navigator is told (the RobotSpec in ``reset``) or what it observes (odometry, lidar scans);
+* *config mutants* build a reference navigator (``reference-*``) with a mutated
+  :class:`~navstress.nav.reference.config.ReferenceConfig`; they refuse other navigators.
+
+    >>> [f.name for f in list_faults()][:2]
+    ['small-footprint', 'odometry-scale']
+    >>> factory = apply_fault(my_factory, "small-footprint")  # doctest: +SKIP
+    >>> navigator = factory(config={})                         # doctest: +SKIP
+
+All randomness (``dropped-scans``) is drawn from a generator derived from the run seed given to
+``reset`` (DESIGN invariant 2): the same seed drops the same scans.
+"""
+
+from __future__ import annotations
+
+import collections
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from navstress.errors import NavigatorError
+from navstress.nav.api import Command, NavMission, Navigator, Observation, Odometry, Status
+from navstress.robot import RobotSpec
+from navstress.seeding import rng
+
+__all__ = [
+    "DelayedScans", "DroppedScans", "Fault", "FaultyNavigator", "ObservationFault",
+    "OdometryScale", "SmallFootprint", "apply_fault", "get_fault", "list_faults",
+]
+
+NavigatorFactory = Callable[..., Navigator]
+
+
+class ObservationFault:
+    """Base of wrapper faults: hooks on ``reset`` (the robot believed) and on observations.
+
+    Subclasses keep per-run state, reset in :meth:`on_reset`; the identity hooks are defaults.
+    """
+
+    def on_reset(self, mission: NavMission, robot: RobotSpec, seed: int) -> RobotSpec:
+        return robot
+
+    def on_observation(self, obs: Observation) -> Observation:
+        return obs
+
+
+class FaultyNavigator:
+    """``inner`` under an :class:`ObservationFault`; itself a Navigator.
+
+        >>> isinstance(FaultyNavigator(object(), SmallFootprint()), Navigator)  # doctest: +SKIP
+    """
+
+    def __init__(self, inner: Navigator, fault: ObservationFault) -> None:
+        self.inner = inner
+        self.fault = fault
+
+    def reset(self, mission: NavMission, robot: RobotSpec, *, seed: int) -> None:
+        self.inner.reset(mission, self.fault.on_reset(mission, robot, seed), seed=seed)
+
+    def step(self, obs: Observation) -> Command | Status:
+        return self.inner.step(self.fault.on_observation(obs))
+
+    def close(self) -> None:
+        self.inner.close()
+
+
+class SmallFootprint(ObservationFault):
+    """The paper's fault: the navigator believes the robot is 0.84 m x 0.45 m
+    (:meth:`RobotSpec.footprint_fault`); every other field of the real robot is kept."""
+
+    def on_reset(self, mission: NavMission, robot: RobotSpec, seed: int) -> RobotSpec:
+        small = RobotSpec.footprint_fault()
+        return robot.model_copy(update={"name": small.name, "length_m": small.length_m,
+                                        "width_m": small.width_m})
+
+
+class OdometryScale(ObservationFault):
+    """Odometry distances scaled by ``scale`` (1.05: a wheel-radius error of 5%).
+
+    Each increment between successive odometry readings is scaled in the frame of the previous
+    reading (forward and lateral parts), yaw increments are kept, and the faulty pose is
+    integrated from the first reading after reset; ``v`` is scaled too, ``omega`` is not.
+    """
+
+    def __init__(self, scale: float = 1.05) -> None:
+        if not (math.isfinite(scale) and scale > 0):
+            raise NavigatorError(f"odometry-scale: scale={scale!r} is invalid: expected > 0")
+        self.scale = scale
+        self._last: Odometry | None = None
+        self._faulty: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    def on_reset(self, mission: NavMission, robot: RobotSpec, seed: int) -> RobotSpec:
+        self._last = None
+        return robot
+
+    def on_observation(self, obs: Observation) -> Observation:
+        o = obs.odom
+        if self._last is None:
+            self._faulty = (o.x, o.y, o.yaw)
+        else:
+            p = self._last
+            dx, dy = o.x - p.x, o.y - p.y
+            c, s = math.cos(p.yaw), math.sin(p.yaw)
+            fwd, lat = c * dx + s * dy, -s * dx + c * dy  # increment in the previous body frame
+            fx, fy, fyaw = self._faulty
+            cf, sf = math.cos(fyaw), math.sin(fyaw)
+            k = self.scale
+            fx += k * (cf * fwd - sf * lat)
+            fy += k * (sf * fwd + cf * lat)
+            dyaw = math.remainder(o.yaw - p.yaw, math.tau)
+            self._faulty = (fx, fy, fyaw + dyaw)
+        self._last = o
+        fx, fy, fyaw = self._faulty
+        odom = Odometry(o.t, fx, fy, math.remainder(fyaw, math.tau), o.v * self.scale, o.omega)
+        return replace(obs, odom=odom)
+
+
+class DroppedScans(ObservationFault):
+    """Each lidar scan is dropped with probability ``fraction`` (default 0.3), independently,
+    drawn from a generator derived from the run seed. ``seen``/``dropped`` count this run's scans."""
+
+    def __init__(self, fraction: float = 0.3) -> None:
+        if not (0.0 <= fraction <= 1.0):
+            raise NavigatorError(f"dropped-scans: fraction={fraction!r} is invalid: "
+                                 "expected a probability in [0, 1]")
+        self.fraction = fraction
+        self._rng: np.random.Generator = rng(0, "fault", "dropped-scans")
+        self.seen = 0
+        self.dropped = 0
+
+    def on_reset(self, mission: NavMission, robot: RobotSpec, seed: int) -> RobotSpec:
+        self._rng = rng(seed, "fault", "dropped-scans")
+        self.seen = self.dropped = 0
+        return robot
+
+    def on_observation(self, obs: Observation) -> Observation:
+        if not obs.scans:
+            return obs
+        keep = self._rng.random(len(obs.scans)) >= self.fraction
+        self.seen += len(obs.scans)
+        self.dropped += int((~keep).sum())
+        return replace(obs, scans=tuple(s for s, k in zip(obs.scans, keep) if k))
+
+
+class DelayedScans(ObservationFault):
+    """Scans are delivered ``cycles`` control cycles late (default 3, 0.3 s at 10 Hz), with
+    their original capture time ``t``; the last ``cycles`` cycles' scans are never delivered."""
+
+    def __init__(self, cycles: int = 3) -> None:
+        if not (isinstance(cycles, int) and cycles >= 0):
+            raise NavigatorError(f"delayed-scans: cycles={cycles!r} is invalid: expected an "
+                                 "integer >= 0")
+        self.cycles = cycles
+        self._queue: collections.deque[tuple[Any, ...]] = collections.deque()
+
+    def on_reset(self, mission: NavMission, robot: RobotSpec, seed: int) -> RobotSpec:
+        self._queue.clear()
+        return robot
+
+    def on_observation(self, obs: Observation) -> Observation:
+        self._queue.append(obs.scans)
+        late = self._queue.popleft() if len(self._queue) > self.cycles else ()
+        return replace(obs, scans=late)
+
+
+# ---------------------------------------------------------------- config mutants
+
+
+def _is_reference(factory: NavigatorFactory) -> bool:
+    if getattr(factory, "__navstress_reference__", False):
+        return True  # a reference factory already under a config mutant
+    module = getattr(factory, "__module__", "") or ""
+    return module == "navstress.nav.reference" or module.startswith("navstress.nav.reference.")
+
+
+def _unknown_as_free(cfg: dict[str, Any]) -> dict[str, Any]:
+    # flat ground costs slope_weight*0 + roughness_weight*0 = 0 per node (ReferenceConfig doc)
+    return {**cfg, "unknown_cell_cost": 0.0}
+
+
+def _permissive_slope(cfg: dict[str, Any]) -> dict[str, Any]:
+    from navstress.nav.reference.config import ReferenceConfig
+
+    current = float(cfg.get("max_slope_deg", ReferenceConfig.model_fields["max_slope_deg"].default))
+    return {**cfg, "max_slope_deg": min(2.0 * current, 89.0)}
+
+
+# ---------------------------------------------------------------- the catalogue
+
+
+@dataclass(frozen=True)
+class Fault:
+    """A named fault: ``wrapper`` builds the per-run wrapper state, or ``mutate`` the config."""
+
+    name: str
+    description: str
+    wrapper: Callable[[], ObservationFault] | None = None
+    mutate: Callable[[dict[str, Any]], dict[str, Any]] | None = None
+
+    @property
+    def reference_only(self) -> bool:
+        return self.mutate is not None
+
+
+_FAULTS: dict[str, Fault] = {f.name: f for f in (
+    Fault("small-footprint", "navigator told the robot is 0.84 m x 0.45 m; the simulated one is "
+          "1.14 m x 0.67 m (the paper's fault)", wrapper=SmallFootprint),
+    Fault("odometry-scale", "odometry distances scaled by 1.05 (scaled increments integrated)",
+          wrapper=OdometryScale),
+    Fault("dropped-scans", "30% of lidar scans dropped, drawn from the run seed",
+          wrapper=DroppedScans),
+    Fault("delayed-scans", "lidar scans delivered 3 control cycles late (original timestamps)",
+          wrapper=DelayedScans),
+    Fault("unknown-as-free", "reference stack only: never-seen cells cost as flat ground "
+          "(unknown_cell_cost=0 instead of inf)", mutate=_unknown_as_free),
+    Fault("permissive-slope", "reference stack only: max_slope_deg doubled (capped at 89)",
+          mutate=_permissive_slope),
+)}
+
+
+def list_faults() -> list[Fault]:
+    """Every fault, in catalogue order (name + one-line description)."""
+    return list(_FAULTS.values())
+
+
+def get_fault(name: str) -> Fault:
+    """The fault called ``name``; :class:`NavigatorError` listing the faults otherwise."""
+    try:
+        return _FAULTS[name]
+    except (KeyError, TypeError):
+        import difflib
+
+        close = difflib.get_close_matches(str(name), list(_FAULTS), n=1, cutoff=0.5)
+        hint = f" Did you mean {close[0]!r}?" if close else ""
+        raise NavigatorError(
+            f"unknown fault {name!r}.{hint} Known faults: {', '.join(_FAULTS)}"
+        ) from None
+
+
+def apply_fault(factory: NavigatorFactory, fault_name: str, *,
+                navigator: str | None = None) -> NavigatorFactory:
+    """A factory building ``factory``'s navigator under the fault ``fault_name``.
+
+    ``navigator`` (the registered name) only improves error messages. Config mutants raise
+    :class:`NavigatorError` at once unless ``factory`` is a reference navigator.
+    """
+    fault = get_fault(fault_name)
+    label = navigator or getattr(factory, "__qualname__", repr(factory))
+    if fault.mutate is not None:
+        if not _is_reference(factory):
+            raise NavigatorError(
+                f"fault {fault.name!r} mutates the reference stack's configuration and applies "
+                f"only to reference navigators (reference-v1, reference-global-v1), not to "
+                f"{label!r}; faults for any navigator: "
+                + ", ".join(f.name for f in _FAULTS.values() if not f.reference_only)
+            )
+        mutate = fault.mutate
+
+        def build_mutant(*, config: Mapping[str, Any] | None = None) -> Navigator:
+            return factory(config=mutate(dict(config or {})))
+
+        build_mutant.__qualname__ = f"{fault.name}({label})"
+        build_mutant.__navstress_reference__ = True  # type: ignore[attr-defined]
+        return build_mutant
+
+    make_wrapper = fault.wrapper
+    assert make_wrapper is not None
+
+    def build_wrapped(*, config: Mapping[str, Any] | None = None) -> Navigator:
+        return FaultyNavigator(factory(config=dict(config or {})), make_wrapper())
+
+    build_wrapped.__qualname__ = f"{fault.name}({label})"
+    return build_wrapped

@@ -1,0 +1,328 @@
+"""The navigator registry: versioned names ("name-vN") mapped to lazy "module:attr" factories.
+
+Navigators are found in two places, in the spirit of Gymnasium's ``envs/registration.py``:
+
+* the entry-point group ``navstress.navigators`` of any installed distribution, so a third-party
+  package registers its navigator in its own ``pyproject.toml`` with no change to navstress::
+
+      [project.entry-points."navstress.navigators"]
+      straightline-v1 = "navstress_example_straightline.navigator:StraightLineNavigator"
+
+* :func:`register` in the running process (takes precedence over entry points).
+
+A factory is a class or a callable taking the configuration mapping as keyword ``config=``.
+Nothing is imported until :func:`make_navigator` asks for it.
+
+    >>> from navstress.nav.api import Command
+    >>> class Stop:
+    ...     def __init__(self, config): self.config = config
+    ...     def reset(self, mission, robot, *, seed): pass
+    ...     def step(self, obs): return Command(0.0, 0.0)
+    ...     def close(self): pass
+    >>> register("stop-v1", Stop)
+    >>> make_navigator("stop-v1", {"gain": 2}).config
+    {'gain': 2}
+    >>> unregister("stop-v1")
+"""
+
+from __future__ import annotations
+
+import difflib
+import importlib
+import json
+import re
+import warnings
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+from navstress.errors import NavigatorError, SpecError
+from navstress.nav.api import Navigator
+
+__all__ = [
+    "ENTRY_POINT_GROUP", "NavigatorFactory", "NavigatorNote", "NavigatorSpec", "load_config",
+    "call_factory", "list_navigators", "load_factory", "make_navigator", "parse_name",
+    "reference_global_v1", "reference_v1", "register", "resolve", "unregister",
+]
+
+ENTRY_POINT_GROUP = "navstress.navigators"
+
+NavigatorFactory = Callable[..., Navigator]
+"""Called as ``factory(config=mapping)``; returns a :class:`~navstress.nav.api.Navigator`."""
+
+_NAME_RE = re.compile(r"^(?P<base>[A-Za-z0-9][A-Za-z0-9_.-]*?)(?:-v(?P<version>\d+))?$")
+_TARGET_RE = re.compile(r"^[A-Za-z_][\w.]*:[A-Za-z_][\w.]*$")
+
+
+class NavigatorNote(UserWarning):
+    """Informational note from the registry (e.g. which version an unversioned name chose)."""
+
+
+@dataclass(frozen=True)
+class NavigatorSpec:
+    """One registered navigator: its full id, its factory and where it was registered."""
+
+    id: str  # "name-vN"
+    base: str
+    version: int
+    target: str | NavigatorFactory  # "module:attr" (lazy) or the factory itself
+    source: str  # "register()" or "entry point of <distribution>"
+
+    @property
+    def target_text(self) -> str:
+        t = self.target
+        if isinstance(t, str):
+            return t
+        return f"{getattr(t, '__module__', '?')}:{getattr(t, '__qualname__', repr(t))}"
+
+
+_registered: dict[str, NavigatorSpec] = {}
+
+
+def parse_name(name: str) -> tuple[str, int | None]:
+    """``"reference-v1"`` -> ``("reference", 1)``; ``"reference"`` -> ``("reference", None)``."""
+    m = _NAME_RE.match(name) if isinstance(name, str) else None
+    if m is None:
+        raise NavigatorError(
+            f"navigator name {name!r} is invalid: expected 'name-vN' (letters, digits, '_', '.', "
+            "'-'), e.g. 'reference-v1'"
+        )
+    v = m.group("version")
+    return m.group("base"), None if v is None else int(v)
+
+
+def _make_spec(name: str, target: str | NavigatorFactory, source: str) -> NavigatorSpec:
+    base, version = parse_name(name)
+    if version is None:
+        raise NavigatorError(
+            f"navigator id {name!r} needs a version: register it as '{name}-v1'"
+        )
+    if isinstance(target, str) and not _TARGET_RE.match(target):
+        raise NavigatorError(
+            f"navigator {name!r}: entry point {target!r} is invalid: expected 'module:attr', "
+            "e.g. 'my_package.nav:MyNavigator'"
+        )
+    if not isinstance(target, str) and not callable(target):
+        raise NavigatorError(f"navigator {name!r}: factory {target!r} is not callable")
+    return NavigatorSpec(f"{base}-v{version}", base, version, target, source)
+
+
+def register(name: str, target: str | NavigatorFactory, *, override: bool = False) -> None:
+    """Register ``name`` ("name-vN") in this process. ``target``: "module:attr" or a factory.
+
+    Registering the same target again is a no-op; another target needs ``override=True``.
+    """
+    spec = _make_spec(name, target, "register()")
+    old = _registered.get(spec.id)
+    if old is not None and old.target != spec.target and not override:
+        raise NavigatorError(
+            f"navigator {spec.id!r} is already registered to {old.target_text}; pass "
+            "override=True to replace it"
+        )
+    _registered[spec.id] = spec
+
+
+def unregister(name: str) -> None:
+    """Remove a navigator registered with :func:`register` (entry points stay)."""
+    _registered.pop(name, None)
+
+
+def _entry_point_specs() -> dict[str, NavigatorSpec]:
+    """Navigators declared by installed distributions (read fresh on each call)."""
+    found: dict[str, NavigatorSpec] = {}
+    conflicts: dict[str, list[str]] = {}
+    for ep in metadata.entry_points(group=ENTRY_POINT_GROUP):
+        dist = getattr(ep.dist, "name", None) or "an unknown distribution"
+        try:
+            spec = _make_spec(ep.name, ep.value, f"entry point of {dist}")
+        except NavigatorError:
+            continue  # a malformed third-party entry must not break every other navigator
+        old = found.get(spec.id)
+        if old is not None and old.target != spec.target:
+            conflicts.setdefault(spec.id, [f"{old.source} ({old.target_text})"]).append(
+                f"{spec.source} ({spec.target_text})"
+            )
+            continue
+        found[spec.id] = spec
+    for name, where in conflicts.items():
+        found[name] = NavigatorSpec(
+            name, found[name].base, found[name].version, found[name].target,
+            "CONFLICT: " + "; ".join(where),
+        )
+    return found
+
+
+def _all_specs() -> dict[str, NavigatorSpec]:
+    specs = _entry_point_specs()
+    specs.update(_registered)
+    return specs
+
+
+def list_navigators() -> list[NavigatorSpec]:
+    """Every known navigator, sorted by name then version."""
+    return sorted(_all_specs().values(), key=lambda s: (s.base, s.version))
+
+
+def resolve(name: str) -> tuple[NavigatorSpec, str | None]:
+    """The spec for ``name`` and an optional note (e.g. "'reference' means 'reference-v1'").
+
+    Unknown names raise :class:`NavigatorError` listing the known ones and the closest match.
+    """
+    base, version = parse_name(name)
+    specs = _all_specs()
+    known = sorted(specs)
+    if version is not None and f"{base}-v{version}" in specs:
+        spec = specs[f"{base}-v{version}"]
+        note = None
+    else:
+        versions = sorted(s.version for s in specs.values() if s.base == base)
+        if versions and version is None:
+            spec = specs[f"{base}-v{versions[-1]}"]
+            note = (f"navigator {name!r} has no version; using the latest, {spec.id!r} "
+                    f"(write {spec.id!r} to pin it)")
+        elif versions:
+            raise NavigatorError(
+                f"navigator {name!r} has no version v{version}; known versions of {base!r}: "
+                + ", ".join(f"{base}-v{v}" for v in versions)
+            )
+        else:
+            close = difflib.get_close_matches(name, known + sorted({s.base for s in specs.values()}),
+                                              n=1, cutoff=0.5)
+            hint = f" Did you mean {close[0]!r}?" if close else ""
+            listing = ", ".join(known) if known else "none (is navstress installed with pip?)"
+            raise NavigatorError(f"unknown navigator {name!r}.{hint} Known navigators: {listing}")
+    if spec.source.startswith("CONFLICT"):
+        raise NavigatorError(
+            f"navigator {spec.id!r} is declared by several packages with different targets: "
+            f"{spec.source[len('CONFLICT: '):]}; uninstall one of them"
+        )
+    return spec, note
+
+
+def load_factory(spec: NavigatorSpec) -> NavigatorFactory:
+    """Import the factory of ``spec`` (the lazy "module:attr")."""
+    if not isinstance(spec.target, str):
+        return spec.target
+    module_name, _, attr = spec.target.partition(":")
+    try:
+        obj: Any = importlib.import_module(module_name)
+        for part in attr.split("."):
+            obj = getattr(obj, part)
+    except Exception as e:
+        raise NavigatorError(
+            f"navigator {spec.id!r} ({spec.source}) could not be loaded from {spec.target!r}: "
+            f"{type(e).__name__}: {e}"
+        ) from e
+    if not callable(obj):
+        raise NavigatorError(f"navigator {spec.id!r}: {spec.target!r} is not callable")
+    return obj  # type: ignore[no-any-return]
+
+
+def load_config(config: Mapping[str, Any] | str | Path | None) -> dict[str, Any]:
+    """A navigator configuration as a dict: a mapping, inline JSON ("{...}"), a path to a
+    JSON/YAML file, or None (empty)."""
+    if config is None:
+        return {}
+    if isinstance(config, Mapping):
+        return dict(config)
+    text_value = str(config)
+    if isinstance(config, str) and text_value.lstrip().startswith("{"):
+        try:
+            data: Any = json.loads(text_value)
+        except json.JSONDecodeError as e:
+            raise SpecError("navigator-config", text_value, "a JSON object or a file path",
+                            f"fix the JSON: {e.msg} at column {e.colno}") from None
+    else:
+        path = Path(config)
+        if not path.is_file():
+            raise SpecError("navigator-config", text_value, "a JSON/YAML file or inline JSON",
+                            "no such file")
+        text = path.read_text(encoding="utf-8")
+        try:
+            if path.suffix.lower() in (".yaml", ".yml"):
+                import yaml
+
+                data = yaml.safe_load(text)
+            else:
+                data = json.loads(text)
+        except Exception as e:
+            raise SpecError("navigator-config", text_value, "a valid JSON or YAML file",
+                            f"{type(e).__name__}: {e}") from None
+        if data is None:
+            data = {}
+    if not isinstance(data, dict):
+        raise SpecError("navigator-config", text_value, "a mapping of option names to values",
+                        f"got a {type(data).__name__}")
+    return data
+
+
+def call_factory(factory: NavigatorFactory, config: Mapping[str, Any], *, name: str) -> Navigator:
+    """``factory(config=config)``, checked to return a Navigator; errors become NavigatorError."""
+    try:
+        nav = factory(config=dict(config))
+    except NavigatorError:
+        raise
+    except SpecError:
+        raise
+    except Exception as e:
+        raise NavigatorError(
+            f"navigator {name!r} could not be built with config {dict(config)!r}: "
+            f"{type(e).__name__}: {e}"
+        ) from e
+    if not isinstance(nav, Navigator):
+        raise NavigatorError(
+            f"navigator {name!r}: its factory returned {type(nav).__name__}, which lacks "
+            "reset/step/close of the Navigator protocol"
+        )
+    return nav
+
+
+def make_navigator(
+    name: str,
+    config: Mapping[str, Any] | str | Path | None = None,
+    *,
+    fault: str | None = None,
+) -> Navigator:
+    """Build the navigator registered as ``name`` with ``config``; optionally under ``fault``
+    (see :func:`navstress.nav.faults.list_faults`).
+
+    An unversioned name resolves to the latest version and emits a :class:`NavigatorNote`.
+    """
+    spec, note = resolve(name)
+    if note:
+        warnings.warn(note, NavigatorNote, stacklevel=2)
+    factory = load_factory(spec)
+    cfg = load_config(config)
+    if fault is not None:
+        from navstress.nav.faults import apply_fault
+
+        factory = apply_fault(factory, fault, navigator=spec.id)
+    return call_factory(factory, cfg, name=spec.id)
+
+
+# ---------------------------------------------------------------- built-in factories
+# (declared as entry points in navstress's own pyproject.toml; the reference classes take a
+# ReferenceConfig object, the registry hands factories a mapping: these adapt.)
+
+
+def reference_v1(*, config: Mapping[str, Any] | None = None) -> Navigator:
+    """``reference-v1``: :class:`~navstress.nav.reference.ReferenceNavigator` with its
+    :class:`~navstress.nav.reference.config.ReferenceConfig` parsed from ``config``."""
+    from navstress.nav.reference import ReferenceNavigator, parse_config
+
+    return ReferenceNavigator(parse_config(dict(config or {})))
+
+
+def reference_global_v1(*, config: Mapping[str, Any] | None = None) -> Navigator:
+    """``reference-global-v1``: :class:`~navstress.nav.reference.GlobalNavigator` with a
+    :class:`~navstress.nav.reference.config.GlobalConfig` parsed from ``config``."""
+    from navstress.nav.reference import GlobalConfig, GlobalNavigator, parse_config
+
+    return GlobalNavigator(parse_config(dict(config or {}), cls=GlobalConfig))
+
+
+# config-mutant faults (navstress.nav.faults) apply to factories carrying this mark
+reference_v1.__navstress_reference__ = True  # type: ignore[attr-defined]
+reference_global_v1.__navstress_reference__ = True  # type: ignore[attr-defined]

@@ -1,0 +1,244 @@
+"""The line protocol spoken by out-of-process navigators: one JSON object per line.
+
+navstress (the host) writes one request per line on the navigator's stdin and reads exactly one
+reply line from its stdout for every request except ``close``. The full schema with example
+lines is in ``docs/plugins.md``; in short:
+
+====================================================  =====================================================
+host -> navigator                                      navigator -> host
+====================================================  =====================================================
+``{"type":"hello","protocol":1}``                      ``{"type":"hello","protocol":1,"name":"..."}``
+``{"type":"reset","mission":{..},"robot":{..},         ``{"type":"ok"}``  (or a ``status`` error)
+"seed":N}``
+``{"type":"step","obs":{..}}``                         ``{"type":"command","v":..,"omega":..}`` or
+                                                       ``{"type":"status","kind":"arrived"|"error",
+                                                       "message":".."}``
+``{"type":"close"}``                                   (no reply; the process exits)
+====================================================  =====================================================
+
+Lidar points travel as base64 of little-endian float32 ``(N, 3)`` to keep lines compact.
+
+    >>> from navstress.nav.api import Odometry, Imu, Observation
+    >>> obs = Observation(0.1, Odometry(0.1, 0, 0, 0, 0, 0), Imu(0.1, 0, 0, 0, (0, 0, 0)))
+    >>> decode_observation(encode_observation(obs)).odom.t
+    0.1
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+import math
+from typing import Any
+
+import numpy as np
+
+from navstress.nav.api import (
+    Command,
+    Imu,
+    LidarScan,
+    NavMission,
+    Observation,
+    Odometry,
+    PoseReading,
+    Status,
+)
+from navstress.robot import RobotSpec
+
+__all__ = [
+    "PROTOCOL_VERSION", "WireError", "decode_command_or_status", "decode_mission",
+    "decode_observation", "decode_points", "dumps", "encode_command_or_status",
+    "encode_mission", "encode_observation", "encode_points", "loads", "step_message",
+    "reset_message", "hello_message", "close_message",
+]
+
+PROTOCOL_VERSION = 1
+"""Bumped on any incompatible change of the message schema."""
+
+
+class WireError(ValueError):
+    """A line that is not a valid protocol message (the text says what is wrong)."""
+
+
+# ---------------------------------------------------------------- low level
+
+def dumps(msg: dict[str, Any]) -> bytes:
+    """One message as one UTF-8 line, newline included (no NaN/inf allowed)."""
+    return (json.dumps(msg, separators=(",", ":"), allow_nan=False) + "\n").encode("utf-8")
+
+
+def _reject_constant(name: str) -> float:
+    raise WireError(f"non-finite number {name} is not allowed")
+
+
+def loads(line: bytes | str) -> dict[str, Any]:
+    """Parse one line into a message object; :class:`WireError` says why it is not one."""
+    if isinstance(line, bytes):
+        try:
+            line = line.decode("utf-8")
+        except UnicodeDecodeError as e:
+            raise WireError(f"not UTF-8 ({e.reason} at byte {e.start})") from None
+    text = line.strip()
+    if not text:
+        raise WireError("empty line")
+    try:
+        msg = json.loads(text, parse_constant=_reject_constant)
+    except json.JSONDecodeError as e:
+        raise WireError(f"not JSON ({e.msg}): {_clip(text)}") from None
+    if not isinstance(msg, dict):
+        raise WireError(f"expected a JSON object, got {type(msg).__name__}: {_clip(text)}")
+    kind = msg.get("type")
+    if not isinstance(kind, str):
+        raise WireError(f"missing string field 'type': {_clip(text)}")
+    return msg
+
+
+def _clip(text: str, n: int = 120) -> str:
+    return repr(text if len(text) <= n else text[:n] + "...")
+
+
+def encode_points(points: np.ndarray) -> str:
+    """(N, 3) points as base64 of little-endian float32, row-major."""
+    arr = np.ascontiguousarray(np.asarray(points, dtype="<f4").reshape(-1, 3))
+    return base64.b64encode(arr.tobytes()).decode("ascii")
+
+
+def decode_points(data: str, n: int | None = None) -> np.ndarray:
+    """Inverse of :func:`encode_points`: an (N, 3) float32 array (native byte order)."""
+    try:
+        raw = base64.b64decode(data.encode("ascii"), validate=True)
+    except (ValueError, UnicodeEncodeError) as e:
+        raise WireError(f"points are not valid base64: {e}") from None
+    if len(raw) % 12:
+        raise WireError(f"points hold {len(raw)} bytes, not a multiple of 12 (3 x float32)")
+    pts = np.frombuffer(raw, dtype="<f4").reshape(-1, 3).astype(np.float32)
+    if n is not None and len(pts) != n:
+        raise WireError(f"points field holds {len(pts)} points but n={n}")
+    return pts
+
+
+# ---------------------------------------------------------------- host -> navigator
+
+def hello_message() -> dict[str, Any]:
+    return {"type": "hello", "protocol": PROTOCOL_VERSION}
+
+
+def close_message() -> dict[str, Any]:
+    return {"type": "close"}
+
+
+def encode_mission(mission: NavMission) -> dict[str, Any]:
+    return {
+        "start": [float(v) for v in mission.start],
+        "goal": [float(v) for v in mission.goal],
+        "goal_tolerance_m": float(mission.goal_tolerance_m),
+    }
+
+
+def decode_mission(d: dict[str, Any]) -> NavMission:
+    try:
+        sx, sy, syaw = (float(v) for v in d["start"])
+        gx, gy = (float(v) for v in d["goal"])
+        return NavMission((sx, sy, syaw), (gx, gy), float(d.get("goal_tolerance_m", 2.0)))
+    except (KeyError, TypeError, ValueError) as e:
+        raise WireError(f"invalid mission {d!r}: {e}") from None
+
+
+def reset_message(mission: NavMission, robot: RobotSpec, seed: int) -> dict[str, Any]:
+    return {
+        "type": "reset",
+        "mission": encode_mission(mission),
+        "robot": robot.model_dump(mode="json"),
+        "seed": int(seed),
+    }
+
+
+def encode_observation(obs: Observation) -> dict[str, Any]:
+    o, i = obs.odom, obs.imu
+    out: dict[str, Any] = {
+        "t": float(obs.t),
+        "odom": {"t": o.t, "x": o.x, "y": o.y, "yaw": o.yaw, "v": o.v, "omega": o.omega},
+        "imu": {"t": i.t, "roll": i.roll, "pitch": i.pitch, "yaw": i.yaw,
+                "rates": [float(r) for r in i.rates]},
+        "pose": None,
+        "scans": [
+            {"t": float(s.t), "mount": [float(m) for m in s.mount],
+             "n": int(np.asarray(s.points).reshape(-1, 3).shape[0]),
+             "points": encode_points(s.points)}
+            for s in obs.scans
+        ],
+    }
+    if obs.pose is not None:
+        p = obs.pose
+        out["pose"] = {"t": p.t, "x": p.x, "y": p.y, "z": p.z,
+                       "yaw": p.yaw, "pitch": p.pitch, "roll": p.roll}
+    # plain floats everywhere (numpy scalars are not JSON)
+    for key in ("odom", "imu", "pose"):
+        sub = out[key]
+        if sub is not None:
+            for k, v in sub.items():
+                if k != "rates":
+                    sub[k] = float(v)
+    return out
+
+
+def step_message(obs: Observation) -> dict[str, Any]:
+    return {"type": "step", "obs": encode_observation(obs)}
+
+
+def decode_observation(d: dict[str, Any]) -> Observation:
+    """Inverse of :func:`encode_observation` (for navigators written in Python)."""
+    try:
+        od, im = d["odom"], d["imu"]
+        odom = Odometry(*(float(od[k]) for k in ("t", "x", "y", "yaw", "v", "omega")))
+        r = [float(v) for v in im["rates"]]
+        imu = Imu(float(im["t"]), float(im["roll"]), float(im["pitch"]), float(im["yaw"]),
+                  (r[0], r[1], r[2]))
+        pose = None
+        if d.get("pose") is not None:
+            pd = d["pose"]
+            pose = PoseReading(*(float(pd[k]) for k in ("t", "x", "y", "z", "yaw", "pitch", "roll")))
+        scans = tuple(
+            LidarScan(float(s["t"]), decode_points(s["points"], s.get("n")),
+                      tuple(float(m) for m in s["mount"]))  # type: ignore[arg-type]
+            for s in d.get("scans", [])
+        )
+        return Observation(float(d["t"]), odom, imu, pose, scans)
+    except (KeyError, TypeError, ValueError, IndexError) as e:
+        if isinstance(e, WireError):
+            raise
+        raise WireError(f"invalid observation: {type(e).__name__}: {e}") from None
+
+
+# ---------------------------------------------------------------- navigator -> host
+
+def encode_command_or_status(out: Command | Status) -> dict[str, Any]:
+    if isinstance(out, Command):
+        return {"type": "command", "v": float(out.v), "omega": float(out.omega)}
+    return {"type": "status", "kind": out.kind, "message": out.message}
+
+
+def _finite(msg: dict[str, Any], key: str) -> float:
+    v = msg.get(key)
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise WireError(f"field {key!r} must be a number, got {v!r}")
+    f = float(v)
+    if not math.isfinite(f):
+        raise WireError(f"field {key!r} must be finite, got {v!r}")
+    return f
+
+
+def decode_command_or_status(msg: dict[str, Any]) -> Command | Status:
+    """A navigator's answer to ``step``; :class:`WireError` for anything else."""
+    kind = msg.get("type")
+    if kind == "command":
+        return Command(_finite(msg, "v"), _finite(msg, "omega"))
+    if kind == "status":
+        sk = msg.get("kind")
+        if sk not in ("arrived", "error"):
+            raise WireError(f"status kind must be 'arrived' or 'error', got {sk!r}")
+        message = msg.get("message", "")
+        if not isinstance(message, str):
+            raise WireError(f"status message must be a string, got {message!r}")
+        return Status(sk, message)
+    raise WireError(f"expected a 'command' or 'status' message, got type {kind!r}")
