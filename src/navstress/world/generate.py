@@ -40,8 +40,11 @@ def generate(spec: WorldSpec, seed: int, *, robot: RobotSpec | None = None) -> W
     raw = make_heights(spec.ground, spec.grid_shape, spec.cell_m, rng(seed, "terrain"))
     mission = make_mission(spec, rng(seed, "mission"))
     placement = place_obstacles(spec, mission, seed)
-    heights, obstacles, _ = level_terrain(raw, spec.cell_m, placement.obstacles)
-    terrain = Terrain(heights, spec.cell_m)
+    lev = level_terrain(raw, spec.cell_m, placement.obstacles)
+    obstacles = lev.obstacles
+    terrain = Terrain(lev.heights, spec.cell_m)
     desc = describe(spec, terrain, tuple(obstacles), mission, robot=robot, placement=placement)
+    desc["levelled_clusters"] = lev.n_clusters
+    desc["levelled_largest_cluster"] = lev.largest_cluster
     return World(spec=spec, seed=seed, terrain=terrain, obstacles=tuple(obstacles), mission=mission,
                  descriptors=desc)

@@ -18,18 +18,22 @@ sub-stream ``rng(seed, "obstacles", kind)``):
   among those (position uniform inside the cell) and accepts them sequentially (numba). This
   is random sequential adsorption restricted to the free space; rounds repeat until the target
   is met or no proposal fits for :data:`STALL_ROUNDS` rounds.
-* Trimming: when an obstacle would overshoot the target by more than :data:`STOP_TOL_PP`
-  percentage points, its sides are scaled down (same aspect) so that the type lands exactly on
-  its target; at most one obstacle per type is trimmed (its size may be below the envelope).
+* Stopping and trimming: a type stops once within ``tol = min(STOP_TOL_PP pp, half a mean
+  footprint)`` of its target. An obstacle that would overshoot the target by more than ``tol``
+  has its sides scaled down (same aspect) so that the type lands exactly on its target; at most
+  one obstacle per type is trimmed (its size may then be below the variability envelope).
 
-Levelling (:func:`level_terrain`): each obstacle's base height ``z`` is the mean raw terrain
-height over the vertices within its footprint plus an apron; vertices within the apron of the
-nearest obstacle are set to ``z`` exactly; beyond, the height blends back to the raw terrain
-with ``1 - smoothstep`` over ``blend_m``. The apron is at least 1.5 cells, so every terrain cell
-touching a footprint has all corners at ``z``: the footprint lies exactly on the ground (no
-floating, no buried corner) on the triangulated surface. Where two obstacles' blend zones
-meet, each vertex follows its nearest obstacle; the result is continuous (equal distances give
-equal weights) but only C0 along the bisector.
+Levelling (:func:`level_terrain`): an obstacle's *vertex box* is the set of terrain vertices
+of every cell its footprint touches (the footprint's bounding box pushed out to the vertex
+lattice: an apron of 0 to 1 cell). Every vertex of the vertex box is set to the base height
+``z``, so the footprint lies exactly on the triangulated ground (no floating, no buried
+corner). Obstacles whose vertex boxes share a vertex (gaps below about two cells) must share
+``z``: they form a cluster (union-find) whose ``z`` is the mean raw height over the union of
+their vertex boxes (so on rough ground a dense forest stands on terraces). Outside the vertex
+boxes, within ``blend_m`` of one, the height is ``h + W * (z* - h)`` with
+``W = max_k (1 - smoothstep(e_k / blend_m))`` and ``z*`` the inverse-square-distance weighted
+mean of the nearby obstacles' ``z`` (``e_k`` = distance to vertex box k), which tends to
+``z_k`` next to box k: a smooth return to the raw terrain.
 """
 
 from __future__ import annotations
@@ -50,7 +54,6 @@ FAIL_TOL_PP = 0.5  # the contract: achieved within 0.5 pp of the target, or Gene
 STALL_ROUNDS = 4
 MAX_ROUNDS = 2000
 MAX_RASTER_CELLS = 4_000_000
-APRON_M = 0.5
 BLEND_M = 2.0
 
 
@@ -199,7 +202,7 @@ def place_obstacles(spec: WorldSpec, mission: Mission, seed: int) -> PlacementRe
         lo_y, hi_y = t.base_m[1] * (1 - v), t.base_m[1] * (1 + v)
         mean_area = t.base_m[0] * t.base_m[1]
         target_area = targets[kind] / 100.0 * map_area
-        stop_tol = STOP_TOL_PP / 100.0 * map_area
+        stop_tol = min(STOP_TOL_PP / 100.0 * map_area, mean_area / 2)
         kx = max(0, math.ceil(lo_x / 2 / ras.rx) - 1)
         ky = max(0, math.ceil(lo_y / 2 / ras.ry) - 1)
         achieved, tried, trimmed, rounds, stall = 0.0, 0, 0, 0, 0
@@ -245,79 +248,111 @@ def place_obstacles(spec: WorldSpec, mission: Mission, seed: int) -> PlacementRe
 
 
 @numba.njit(cache=True)
-def _level(h: np.ndarray, cell: float, xs: np.ndarray, ys: np.ndarray, hxs: np.ndarray, hys: np.ndarray,
-           apron: float, blend: float, zs_out: np.ndarray, dist_out: np.ndarray) -> np.ndarray:
+def _find(parent: np.ndarray, k: int) -> int:
+    while parent[k] != k:
+        parent[k] = parent[parent[k]]
+        k = parent[k]
+    return k
+
+
+@numba.njit(cache=True)
+def _level(h: np.ndarray, cell: float, x0s: np.ndarray, x1s: np.ndarray, y0s: np.ndarray, y1s: np.ndarray,
+           blend: float, zs_out: np.ndarray, root_out: np.ndarray) -> np.ndarray:
+    """Level the vertex boxes of all obstacles (clusters sharing a vertex get one z), then blend."""
     rows, cols = h.shape
-    n = xs.shape[0]
-    near = np.full((rows, cols), -1, np.int64)
-    # base heights: mean raw height over vertices within footprint + apron
+    n = x0s.shape[0]
+    bj0 = np.empty(n, np.int64)
+    bj1 = np.empty(n, np.int64)
+    bi0 = np.empty(n, np.int64)
+    bi1 = np.empty(n, np.int64)
+    parent = np.arange(n)
+    owner = np.full((rows, cols), -1, np.int64)
     for k in range(n):
-        reach = apron
-        j0 = max(0, int(math.floor((xs[k] - hxs[k] - reach) / cell)))
-        j1 = min(cols - 1, int(math.ceil((xs[k] + hxs[k] + reach) / cell)))
-        i0 = max(0, int(math.floor((ys[k] - hys[k] - reach) / cell)))
-        i1 = min(rows - 1, int(math.ceil((ys[k] + hys[k] + reach) / cell)))
-        acc = 0.0
-        cnt = 0
-        for i in range(i0, i1 + 1):
-            dy = max(abs(i * cell - ys[k]) - hys[k], 0.0)
-            for j in range(j0, j1 + 1):
-                dx = max(abs(j * cell - xs[k]) - hxs[k], 0.0)
-                if dx * dx + dy * dy <= reach * reach:
-                    acc += h[i, j]
-                    cnt += 1
-        zs_out[k] = acc / cnt if cnt > 0 else h[min(rows - 1, max(0, int(round(ys[k] / cell)))),
-                                                min(cols - 1, max(0, int(round(xs[k] / cell))))]
-    zs32 = zs_out.astype(np.float32).astype(np.float64)
-    zs_out[:] = zs32
-    for k in range(n):
-        reach = apron + blend
-        j0 = max(0, int(math.floor((xs[k] - hxs[k] - reach) / cell)))
-        j1 = min(cols - 1, int(math.ceil((xs[k] + hxs[k] + reach) / cell)))
-        i0 = max(0, int(math.floor((ys[k] - hys[k] - reach) / cell)))
-        i1 = min(rows - 1, int(math.ceil((ys[k] + hys[k] + reach) / cell)))
-        for i in range(i0, i1 + 1):
-            dy = max(abs(i * cell - ys[k]) - hys[k], 0.0)
-            for j in range(j0, j1 + 1):
-                dx = max(abs(j * cell - xs[k]) - hxs[k], 0.0)
-                d = math.sqrt(dx * dx + dy * dy)
-                if d < dist_out[i, j]:
-                    dist_out[i, j] = d
-                    near[i, j] = k
-    out = h.copy()
+        bj0[k] = max(0, int(math.floor(x0s[k] / cell)))
+        bj1[k] = min(cols - 1, int(math.ceil(x1s[k] / cell)))
+        bi0[k] = max(0, int(math.floor(y0s[k] / cell)))
+        bi1[k] = min(rows - 1, int(math.ceil(y1s[k] / cell)))
+        for i in range(bi0[k], bi1[k] + 1):
+            for j in range(bj0[k], bj1[k] + 1):
+                o = owner[i, j]
+                if o < 0:
+                    owner[i, j] = k
+                else:
+                    ra = _find(parent, o)
+                    rb = _find(parent, k)
+                    if ra != rb:
+                        parent[max(ra, rb)] = min(ra, rb)
+    acc = np.zeros(n)
+    cnt = np.zeros(n, np.int64)
     for i in range(rows):
         for j in range(cols):
-            k = near[i, j]
-            if k < 0:
-                continue
-            d = dist_out[i, j]
-            if d <= apron:
-                out[i, j] = zs_out[k]
-            elif d < apron + blend:
-                t = (d - apron) / blend
+            o = owner[i, j]
+            if o >= 0:
+                r = _find(parent, o)
+                acc[r] += h[i, j]
+                cnt[r] += 1
+    zr = np.zeros(n)
+    for k in range(n):
+        if cnt[k] > 0:
+            zr[k] = np.float32(acc[k] / cnt[k])  # exactly representable in the float32 output
+    for k in range(n):
+        root_out[k] = _find(parent, k)
+        zs_out[k] = zr[root_out[k]]
+    out = h.copy()
+    wmax = np.zeros((rows, cols))
+    sm = np.zeros((rows, cols))
+    smz = np.zeros((rows, cols))
+    reach = int(math.ceil(blend / cell))
+    for k in range(n):
+        for i in range(max(0, bi0[k] - reach), min(rows - 1, bi1[k] + reach) + 1):
+            dy = max(max(bi0[k] - i, i - bi1[k]), 0) * cell
+            for j in range(max(0, bj0[k] - reach), min(cols - 1, bj1[k] + reach) + 1):
+                if owner[i, j] >= 0:
+                    continue
+                dx = max(max(bj0[k] - j, j - bj1[k]), 0) * cell
+                e = math.sqrt(dx * dx + dy * dy)
+                if e >= blend:
+                    continue
+                t = e / blend
                 w = 1.0 - t * t * (3.0 - 2.0 * t)
-                out[i, j] = h[i, j] + w * (zs_out[k] - h[i, j])
+                if w > wmax[i, j]:
+                    wmax[i, j] = w
+                m = 1.0 / (e * e)
+                sm[i, j] += m
+                smz[i, j] += m * zs_out[k]
+    for i in range(rows):
+        for j in range(cols):
+            if owner[i, j] >= 0:
+                out[i, j] = zr[_find(parent, owner[i, j])]
+            elif wmax[i, j] > 0.0:
+                out[i, j] = h[i, j] + wmax[i, j] * (smz[i, j] / sm[i, j] - h[i, j])
     return out
 
 
-def level_terrain(heights: np.ndarray, cell_m: float, obstacles: list[Obstacle],
-                  apron_m: float | None = None, blend_m: float = BLEND_M
-                  ) -> tuple[np.ndarray, list[Obstacle], np.ndarray]:
-    """Level the ground under every obstacle (see module docstring).
+@dataclass(frozen=True)
+class Levelled:
+    """Result of :func:`level_terrain`."""
 
-    Returns (float32 heights, obstacles with ``z`` set, distance in meters from each vertex to
-    the nearest footprint, ``inf`` beyond ``apron + blend``). Obstacles must be axis-aligned."""
-    apron = max(APRON_M, 1.5 * cell_m) if apron_m is None else apron_m
+    heights: np.ndarray  # float32
+    obstacles: list[Obstacle]  # with z set
+    n_clusters: int  # groups of obstacles sharing a levelled base
+    largest_cluster: int
+
+
+def level_terrain(heights: np.ndarray, cell_m: float, obstacles: list[Obstacle],
+                  blend_m: float = BLEND_M) -> Levelled:
+    """Level the ground under every obstacle (see the module docstring); any yaw is accepted
+    (the levelled box is the axis-aligned bounding box of the footprint)."""
     h = np.asarray(heights, dtype=np.float64)
-    dist = np.full(h.shape, np.inf)
     if not obstacles:
-        return h.astype(np.float32), list(obstacles), dist
-    xs = np.array([o.x for o in obstacles])
-    ys = np.array([o.y for o in obstacles])
-    hxs = np.array([o.size[0] / 2 for o in obstacles])
-    hys = np.array([o.size[1] / 2 for o in obstacles])
+        return Levelled(h.astype(np.float32), [], 0, 0)
+    corners = np.array([o.corners() for o in obstacles])  # (n, 4, 2)
+    lo, hi = corners.min(axis=1), corners.max(axis=1)
     zs = np.zeros(len(obstacles))
-    out = _level(h, float(cell_m), xs, ys, hxs, hys, float(apron), float(blend_m), zs, dist)
+    roots = np.zeros(len(obstacles), np.int64)
+    out = _level(h, float(cell_m), lo[:, 0].copy(), hi[:, 0].copy(), lo[:, 1].copy(), hi[:, 1].copy(),
+                 float(blend_m), zs, roots)
     placed = [Obstacle(kind=o.kind, x=o.x, y=o.y, yaw=o.yaw, size=o.size, z=float(z))
               for o, z in zip(obstacles, zs)]
-    return out.astype(np.float32), placed, dist
+    sizes = np.bincount(roots)
+    return Levelled(out.astype(np.float32), placed, int(np.count_nonzero(sizes)), int(sizes.max()))
