@@ -203,7 +203,8 @@ def build_spec(*, spec_file: Path | None = None, size: str | None = None, cell: 
         return parse_spec(data)
     except SpecError as e:
         for prefix, flag in _FIELD_FLAGS.items():
-            if flag in given and (e.field == prefix or e.field.startswith(prefix + ".")):
+            flagged = flag in given or (flag == "--mix" and "--obstruction" in given)
+            if flagged and (e.field == prefix or e.field.startswith(prefix + ".")):
                 raise SpecError(flag, e.value, e.expected, e.fix) from None
         raise
 
