@@ -1,0 +1,88 @@
+"""SimConfig: time step, friction model, sensor rates, noise and latency of a simulation.
+
+All defaults are the DESIGN "default fidelity". Everything random (noise, rate jitter, command
+latency jitter) is drawn from generators derived from the run seed (see
+:class:`navstress.sim.simulation.Simulation`); ``noise=False`` and ``jitter=False`` make a run
+exactly nominal.
+
+    >>> SimConfig().timestep_s
+    0.005
+    >>> SimConfig(lidar_enabled=False).lidar_enabled
+    False
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+from typing import Any
+
+from navstress.errors import SpecError
+
+
+@dataclass(frozen=True)
+class SimConfig:
+    """Physics and sensor settings. Rates in Hz, times in seconds, angles in radians."""
+
+    # --- physics (see docs/simulation.md for why) ---
+    timestep_s: float = 0.005
+    solver_iterations: int = 20
+    friction: float = 0.8  # wheel-ground Coulomb coefficient (dry dirt / grass)
+    friction_floor: float = 0.05  # smallest directional share of the friction limit
+    slip_eps_mps: float = 0.005  # below this slip speed both directions keep full (static) friction
+    wheel_torque_nm: float = 60.0  # per-wheel motor torque limit
+    wheel_kv: float = 100.0  # wheel velocity-servo gain, N m per rad/s
+    wheel_armature: float = 0.1  # reflected rotor inertia of the geared wheel motor, kg m^2
+    skid_factor: float = 2.7  # effective-track expansion of the skid steer (calibrated on flat ground)
+    yaw_kp: float = 1.0  # drive firmware yaw-rate loop (gyro feedback), per unit rate error
+    yaw_ki: float = 4.0
+    max_speed_mps: float = 20.0  # any body speed above this is physics instability
+    # --- events ---
+    flip_threshold_rad: float = math.radians(60.0)
+    map_margin_m: float = 0.7  # the robot "left the map" when its centre is this close to an edge
+    collision_debounce_s: float = 0.5
+    # --- command path ---
+    command_latency_s: float = 0.05
+    command_latency_jitter_s: float = 0.02
+    # --- sensors ---
+    lidar_enabled: bool = True
+    odom_rate_hz: float = 50.0
+    imu_rate_hz: float = 100.0
+    pose_rate_hz: float = 10.0
+    rate_jitter: float = 0.05  # each sensor period is scaled by 1 + U(-j, j)
+    noise: bool = True
+    jitter: bool = True
+    pose_pos_std_m: float = 0.05
+    pose_att_std_rad: float = 0.01
+    imu_att_std_rad: float = 0.002
+    imu_rate_std_rps: float = 0.005
+    imu_yaw_drift_rps: float = 2e-4  # random-walk intensity of the yaw bias, rad/s/sqrt(s)
+    # --- observer ---
+    observer_rate_hz: float = 10.0
+
+    def __post_init__(self) -> None:
+        positive = ("timestep_s", "friction", "wheel_torque_nm", "wheel_kv", "skid_factor",
+                    "odom_rate_hz", "imu_rate_hz", "pose_rate_hz", "observer_rate_hz", "max_speed_mps",
+                    "flip_threshold_rad")
+        for name in positive:
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise SpecError(f"sim.{name}", v, "a finite number > 0")
+        if self.timestep_s > 0.02:
+            raise SpecError("sim.timestep_s", self.timestep_s, "at most 0.02 s for stable contacts",
+                            "use the default 0.005")
+        nonneg = ("friction_floor", "slip_eps_mps", "wheel_armature", "yaw_kp", "yaw_ki", "map_margin_m",
+                  "collision_debounce_s", "command_latency_s", "command_latency_jitter_s", "rate_jitter",
+                  "pose_pos_std_m", "pose_att_std_rad", "imu_att_std_rad", "imu_rate_std_rps",
+                  "imu_yaw_drift_rps")
+        for name in nonneg:
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+                raise SpecError(f"sim.{name}", v, "a finite number >= 0")
+        if self.rate_jitter >= 0.5:
+            raise SpecError("sim.rate_jitter", self.rate_jitter, "a fraction in [0, 0.5)")
+        if self.solver_iterations < 1:
+            raise SpecError("sim.solver_iterations", self.solver_iterations, "an integer >= 1")
+
+    def to_json(self) -> dict[str, Any]:
+        return {f.name: getattr(self, f.name) for f in fields(self)}

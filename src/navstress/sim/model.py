@@ -1,0 +1,276 @@
+"""MuJoCo model of a World and a RobotSpec.
+
+Terrain is one heightfield (``hfield``) spanning the map ``[0, size_x] x [0, size_y]``: its geom
+sits at the map centre at the lowest terrain height; heights are normalised to [0, 1] by hand
+and the elevation range is ``max - min`` (a small positive value on a flat world). MuJoCo
+stores hfield row 0 at -y, which is World's row 0 (y = 0), so rows map one to one; the MJCF
+``elevation`` attribute lists rows from +y down, so :func:`world_to_mjcf` writes them flipped.
+Each cell is split along the (i, j)-(i+1, j+1) diagonal, as ``Terrain.height_at`` assumes.
+
+Obstacles are static boxes named ``obstacle_<index>`` (geom group 1, collision bit 2). The
+robot (geom group 3) is an RMP 400 class skid steer: a chassis body with a belly box that
+touches the ground (bit 1), a massless bumper box of the full footprint that touches obstacles
+(bit 2), and four sphere wheels (bit 1: ground only) on velocity-servo hinges.
+
+Skid steer friction: every wheel-ground contact frame is turned so that its first tangent is
+the wheel's rolling direction and the pyramidal friction limits are split between rolling and
+lateral directions in proportion to the slip direction (:func:`align_wheel_contacts`): the
+friction force then opposes the slip as in Coulomb's law, which isotropic soft MuJoCo contacts
+do not do for a four-wheel skid steer (it barely turns). See docs/simulation.md.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import mujoco
+import numba
+import numpy as np
+
+from navstress.errors import SimulationError
+from navstress.robot import RobotSpec
+from navstress.sim.config import SimConfig
+from navstress.world.world import World
+
+TERRAIN_GROUP = 0
+OBSTACLE_GROUP = 1
+ROBOT_GROUP = 3
+GROUND_BIT = 1
+OBSTACLE_BIT = 2
+HFIELD_BASE_M = 1.0
+FLAT_ELEVATION_M = 1e-3
+CHASSIS_CLEARANCE_M = 0.12  # belly height above the ground
+WHEEL_MASS_FRACTION = 0.05  # of the total mass, each wheel
+
+
+def _f(x: float) -> str:
+    return repr(float(x))
+
+
+def _terrain_params(world: World) -> tuple[np.ndarray, float, float]:
+    """Heights normalised to [0, 1], the base height and the elevation range (meters)."""
+    h = np.asarray(world.terrain.heights, dtype=np.float64)
+    if h.ndim != 2 or min(h.shape) < 2 or not np.all(np.isfinite(h)):
+        raise SimulationError(f"terrain heights of shape {h.shape} are not a finite 2-D grid of >= 2x2")
+    lo, hi = float(h.min()), float(h.max())
+    rng = hi - lo
+    if rng <= FLAT_ELEVATION_M:
+        return np.zeros_like(h), lo, FLAT_ELEVATION_M
+    return (h - lo) / rng, lo, rng
+
+
+def _world_xml(world: World, *, inline: bool) -> tuple[str, str, np.ndarray]:
+    """(asset xml, worldbody xml, normalised heights)."""
+    sx, sy = world.terrain.size_m
+    norm, base, elev = _terrain_params(world)
+    rows, cols = norm.shape
+    elevation = ""
+    if inline:  # MJCF lists rows from +y to -y
+        elevation = ' elevation="' + " ".join(f"{v:.7g}" for v in norm[::-1].ravel()) + '"'
+    asset = (f'<hfield name="terrain" nrow="{rows}" ncol="{cols}" '
+             f'size="{_f(sx / 2)} {_f(sy / 2)} {_f(elev)} {_f(HFIELD_BASE_M)}"{elevation}/>')
+    body = [f'<geom name="terrain" type="hfield" hfield="terrain" pos="{_f(sx / 2)} {_f(sy / 2)} {_f(base)}" '
+            f'group="{TERRAIN_GROUP}" contype="{GROUND_BIT}" conaffinity="{GROUND_BIT}" rgba="0.5 0.45 0.35 1"/>']
+    for k, o in enumerate(world.obstacles):
+        hx, hy, hz = (s / 2 for s in o.size)
+        body.append(f'<geom name="obstacle_{k}" type="box" size="{_f(hx)} {_f(hy)} {_f(hz)}" '
+                    f'pos="{_f(o.x)} {_f(o.y)} {_f(o.z + hz)}" euler="0 0 {_f(o.yaw)}" '
+                    f'group="{OBSTACLE_GROUP}" contype="{OBSTACLE_BIT}" conaffinity="{OBSTACLE_BIT}" '
+                    f'rgba="0.3 0.5 0.3 1"/>')
+    return asset, "\n".join(body), norm
+
+
+def world_to_mjcf(world: World) -> str:
+    """The world alone (terrain + obstacles) as one self-contained MJCF document.
+
+    >>> from navstress.world.spec import WorldSpec
+    >>> w = World.flat(WorldSpec(size_m=(20.0, 20.0)))
+    >>> m = mujoco.MjModel.from_xml_string(world_to_mjcf(w))
+    >>> m.nhfield
+    1
+    """
+    asset, body, _ = _world_xml(world, inline=True)
+    return (f'<mujoco model="navstress-world-{world.seed}">\n<compiler angle="radian"/>\n'
+            f"<asset>\n{asset}\n</asset>\n<worldbody>\n{body}\n</worldbody>\n</mujoco>\n")
+
+
+def _robot_xml(robot: RobotSpec, cfg: SimConfig, pose: tuple[float, float, float, float]) -> tuple[str, str]:
+    """(worldbody xml, actuator xml) of the robot placed at (x, y, z_ground, yaw)."""
+    x, y, zg, yaw = pose
+    r = robot.wheel_radius_m
+    mw = WHEEL_MASS_FRACTION * robot.mass_kg
+    mc = robot.mass_kg - 4 * mw
+    L, W, H = robot.length_m, robot.width_m, robot.body_height_m
+    zc = CHASSIS_CLEARANCE_M + H / 2 - r  # chassis box centre relative to the axle height
+    ixx = mc * (W**2 + H**2) / 12
+    iyy = mc * (L**2 + H**2) / 12
+    izz = mc * (L**2 + W**2) / 12
+    bx = max(robot.wheelbase_m / 2, 0.05)
+    by = max(robot.track_m / 2 - robot.wheel_width_m / 2 - 0.01, 0.05)
+    fric = f'friction="{_f(cfg.friction)} 0.005 0.0001"'
+    wheels = []
+    names = ("front_left", "rear_left", "front_right", "rear_right")
+    for i, (sxn, syn) in enumerate(((1, 1), (-1, 1), (1, -1), (-1, -1))):
+        wheels.append(
+            f'<body name="wheel_{names[i]}" pos="{_f(sxn * robot.wheelbase_m / 2)} {_f(syn * robot.track_m / 2)} 0">'
+            f'<joint name="wheel_{names[i]}" type="hinge" axis="0 1 0" armature="{_f(cfg.wheel_armature)}"/>'
+            f'<geom name="wheel_{names[i]}" type="sphere" size="{_f(r)}" mass="{_f(mw)}" group="{ROBOT_GROUP}" '
+            f'contype="{GROUND_BIT}" conaffinity="{GROUND_BIT}" condim="3" {fric} rgba="0.1 0.1 0.1 1"/>'
+            f"</body>")
+    lm = robot.lidar
+    body = (
+        f'<body name="chassis" pos="{_f(x)} {_f(y)} {_f(zg + r + 0.002)}" euler="0 0 {_f(yaw)}">'
+        f'<freejoint name="chassis"/>'
+        f'<inertial pos="0 0 {_f(zc)}" mass="{_f(mc)}" diaginertia="{_f(ixx)} {_f(iyy)} {_f(izz)}"/>'
+        f'<geom name="belly" type="box" size="{_f(bx)} {_f(by)} {_f(H / 2)}" pos="0 0 {_f(zc)}" mass="0" '
+        f'group="{ROBOT_GROUP}" contype="{GROUND_BIT}" conaffinity="{GROUND_BIT}" {fric} rgba="0.8 0.3 0.1 1"/>'
+        f'<geom name="bumper" type="box" size="{_f(L / 2)} {_f(W / 2)} {_f(H / 2)}" pos="0 0 {_f(zc)}" mass="0" '
+        f'group="{ROBOT_GROUP}" contype="{OBSTACLE_BIT}" conaffinity="{OBSTACLE_BIT}" rgba="0.8 0.3 0.1 0.3"/>'
+        f'<site name="lidar" pos="{_f(lm.x_m)} {_f(lm.y_m)} {_f(lm.z_m)}"/>'
+        + "".join(wheels) + "</body>")
+    act = "".join(
+        f'<velocity name="wheel_{n}" joint="wheel_{n}" kv="{_f(cfg.wheel_kv)}" '
+        f'forcerange="{_f(-cfg.wheel_torque_nm)} {_f(cfg.wheel_torque_nm)}"/>' for n in names)
+    return body, act
+
+
+@dataclass(frozen=True, eq=False)
+class RobotModel:
+    """A compiled model and the indices the simulation needs."""
+
+    model: mujoco.MjModel
+    chassis_body: int
+    wheel_bodies: np.ndarray  # (4,) FL, RL, FR, RR
+    wheel_dofs: np.ndarray  # (4,) dof index of each wheel hinge
+    wheel_qpos: np.ndarray  # (4,) qpos index of each wheel hinge
+    wheel_of_geom: np.ndarray  # (ngeom,) wheel index 0..3, or -1
+    obstacle_of_geom: np.ndarray  # (ngeom,) obstacle index, or -1
+    bumper_geom: int
+    lidar_site: int
+    map_size: tuple[float, float]
+
+
+def build_model(world: World, robot: RobotSpec = RobotSpec(), cfg: SimConfig = SimConfig(),
+                start: tuple[float, float, float] | None = None) -> RobotModel:
+    """Compile world + robot; the robot starts at ``start`` (x, y, yaw), default the mission start."""
+    sx, sy, syaw = start if start is not None else world.mission.start
+    size = world.terrain.size_m
+    if not (0.0 <= sx <= size[0] and 0.0 <= sy <= size[1]):
+        raise SimulationError(f"start=({sx}, {sy}) lies outside the map [0, {size[0]}] x [0, {size[1]}]")
+    # ground under the start: the highest of the four wheel footprints, so no wheel starts buried
+    c, s = math.cos(syaw), math.sin(syaw)
+    zg = max(world.terrain.height_at(sx + c * dx - s * dy, sy + s * dx + c * dy)
+             for dx in (-robot.wheelbase_m / 2, 0.0, robot.wheelbase_m / 2)
+             for dy in (-robot.track_m / 2, 0.0, robot.track_m / 2))
+    asset, wbody, norm = _world_xml(world, inline=False)
+    rbody, act = _robot_xml(robot, cfg, (sx, sy, zg, syaw))
+    xml = (f'<mujoco model="navstress">\n<compiler angle="radian"/>\n'
+           f'<option timestep="{_f(cfg.timestep_s)}" integrator="implicitfast" solver="Newton" '
+           f'iterations="{cfg.solver_iterations}" ls_iterations="10" cone="pyramidal"/>\n'
+           f'<default><geom solref="0.02 1"/></default>\n'
+           f"<asset>\n{asset}\n</asset>\n<worldbody>\n{wbody}\n{rbody}\n</worldbody>\n"
+           f"<actuator>{act}</actuator>\n</mujoco>\n")
+    try:
+        m = mujoco.MjModel.from_xml_string(xml)
+    except ValueError as err:
+        raise SimulationError(f"MuJoCo rejected the model: {err}") from None
+    m.hfield_data[:] = norm.astype(np.float32).ravel()  # row 0 = -y = World row 0
+    name = lambda t, n: mujoco.mj_name2id(m, t, n)  # noqa: E731
+    G, B, J = mujoco.mjtObj.mjOBJ_GEOM, mujoco.mjtObj.mjOBJ_BODY, mujoco.mjtObj.mjOBJ_JOINT
+    names = ("front_left", "rear_left", "front_right", "rear_right")
+    wheel_of_geom = -np.ones(m.ngeom, np.int64)
+    obstacle_of_geom = -np.ones(m.ngeom, np.int64)
+    for i, n in enumerate(names):
+        wheel_of_geom[name(G, f"wheel_{n}")] = i
+    for k in range(len(world.obstacles)):
+        obstacle_of_geom[name(G, f"obstacle_{k}")] = k
+    joints = [name(J, f"wheel_{n}") for n in names]
+    return RobotModel(
+        model=m, chassis_body=name(B, "chassis"),
+        wheel_bodies=np.array([name(B, f"wheel_{n}") for n in names], np.int64),
+        wheel_dofs=np.array([m.jnt_dofadr[j] for j in joints], np.int64),
+        wheel_qpos=np.array([m.jnt_qposadr[j] for j in joints], np.int64),
+        wheel_of_geom=wheel_of_geom, obstacle_of_geom=obstacle_of_geom,
+        bumper_geom=name(G, "bumper"), lidar_site=mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, "lidar"),
+        map_size=(float(size[0]), float(size[1])))
+
+
+@numba.njit(cache=True)
+def align_wheel_contacts(frame: np.ndarray, friction: np.ndarray, pos: np.ndarray, geom: np.ndarray,
+                         wheel_of_geom: np.ndarray, qvel: np.ndarray, cmat: np.ndarray, cpos: np.ndarray,
+                         wpos: np.ndarray, wdof: np.ndarray, mu: float, floor: float,
+                         eps: float) -> int:  # pragma: no cover - compiled
+    """Turn wheel contact frames to (normal, rolling, lateral) and split ``mu`` by slip direction.
+
+    The pyramidal limits become ``mu*|s_roll|/|s|`` and ``mu*|s_lat|/|s|`` (at least ``floor*mu``;
+    full ``mu`` both ways when ``|s| << eps``), with ``s`` the wheel's slip velocity at the contact
+    at the start of the step: Coulomb friction opposing the slip, one step late. Returns the
+    number of contacts changed.
+    """
+    n = frame.shape[0]
+    k = 0
+    ax, ay, az = cmat[0, 1], cmat[1, 1], cmat[2, 1]
+    wx = cmat[0, 0] * qvel[3] + cmat[0, 1] * qvel[4] + cmat[0, 2] * qvel[5]
+    wy = cmat[1, 0] * qvel[3] + cmat[1, 1] * qvel[4] + cmat[1, 2] * qvel[5]
+    wz = cmat[2, 0] * qvel[3] + cmat[2, 1] * qvel[4] + cmat[2, 2] * qvel[5]
+    for i in range(n):
+        w = wheel_of_geom[geom[i, 0]]
+        if w < 0:
+            w = wheel_of_geom[geom[i, 1]]
+        if w < 0:
+            continue
+        nx, ny, nz = frame[i, 0], frame[i, 1], frame[i, 2]
+        tx = ay * nz - az * ny
+        ty = az * nx - ax * nz
+        tz = ax * ny - ay * nx
+        s = (tx * tx + ty * ty + tz * tz) ** 0.5
+        if s < 1e-6:
+            continue
+        tx /= s
+        ty /= s
+        tz /= s
+        ux = ny * tz - nz * ty
+        uy = nz * tx - nx * tz
+        uz = nx * ty - ny * tx
+        frame[i, 3] = tx
+        frame[i, 4] = ty
+        frame[i, 5] = tz
+        frame[i, 6] = ux
+        frame[i, 7] = uy
+        frame[i, 8] = uz
+        spin = qvel[wdof[w]]
+        rx, ry, rz = pos[i, 0] - cpos[0], pos[i, 1] - cpos[1], pos[i, 2] - cpos[2]
+        vx = qvel[0] + wy * rz - wz * ry
+        vy = qvel[1] + wz * rx - wx * rz
+        vz = qvel[2] + wx * ry - wy * rx
+        qx, qy, qz = pos[i, 0] - wpos[w, 0], pos[i, 1] - wpos[w, 1], pos[i, 2] - wpos[w, 2]
+        vx += spin * (ay * qz - az * qy)
+        vy += spin * (az * qx - ax * qz)
+        vz += spin * (ax * qy - ay * qx)
+        sl = vx * tx + vy * ty + vz * tz
+        st = vx * ux + vy * uy + vz * uz
+        mag = (sl * sl + st * st + eps * eps) ** 0.5
+        e = eps / mag
+        friction[i, 0] = mu * max(abs(sl) / mag, e, floor)
+        friction[i, 1] = mu * max(abs(st) / mag, e, floor)
+        k += 1
+    return k
+
+
+@numba.njit(cache=True)
+def obstacle_contacts(geom: np.ndarray, obstacle_of_geom: np.ndarray, bumper: int,
+                      out: np.ndarray) -> int:  # pragma: no cover - compiled
+    """Write the obstacle indices touched by the bumper into ``out``; return how many."""
+    k = 0
+    for i in range(geom.shape[0]):
+        g0, g1 = geom[i, 0], geom[i, 1]
+        o = -1
+        if g0 == bumper:
+            o = obstacle_of_geom[g1]
+        elif g1 == bumper:
+            o = obstacle_of_geom[g0]
+        if o >= 0 and k < out.shape[0]:
+            out[k] = o
+            k += 1
+    return k
