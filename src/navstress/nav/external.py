@@ -136,6 +136,7 @@ class ExternalNavigator:
         self.step_times_s: list[float] = []
         self._stderr: collections.deque[str] = collections.deque(maxlen=stderr_lines)
         self._proc: subprocess.Popen[bytes] | None = None
+        self.last_pid: int | None = None  # kept after the process is gone (diagnostics)
         self._stderr_thread: threading.Thread | None = None
         self._buf = bytearray()
         self._finalizer: weakref.finalize | None = None  # type: ignore[type-arg]
@@ -223,6 +224,7 @@ class ExternalNavigator:
         os.set_blocking(proc.stdin.fileno(), False)
         os.set_blocking(proc.stdout.fileno(), False)
         self._proc = proc
+        self.last_pid = proc.pid
         self._buf = bytearray()
         self._stderr.clear()
         self._finalizer = weakref.finalize(self, _kill_group, proc)
