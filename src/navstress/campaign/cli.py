@@ -1,0 +1,130 @@
+"""``navstress campaign init|run|status|export`` and ``navstress replay`` (mounted by navstress.cli).
+
+    navstress campaign init --preset demo -o demo.yaml
+    navstress campaign run demo.yaml -o demo-campaign --workers 2
+    navstress campaign status demo-campaign
+    navstress campaign export demo-campaign --format parquet
+    navstress replay demo-campaign trees/tree=4/m0/r1/reference-v1/nominal
+
+User errors raise :class:`~navstress.errors.SpecError` / :class:`~navstress.errors.StoreError`;
+the root CLI prints them on one line and exits 2.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from navstress.campaign.presets import PRESETS, preset_yaml
+from navstress.campaign.progress import CampaignProgress, format_counts
+from navstress.campaign.store import OUTCOMES, Store
+from navstress.errors import SpecError
+
+campaign_app = typer.Typer(no_args_is_help=True, rich_markup_mode=None,
+                           help="Plan, run, follow and export campaigns of many runs.")
+
+
+@campaign_app.command("init")
+def init(
+    out: Annotated[Path, typer.Option("--output", "-o", help="Spec file to write (YAML).")],
+    preset: Annotated[str, typer.Option("--preset", help="demo (about 2 min on 2 cores) or paper (the paper's design).")] = "demo",
+    force: Annotated[bool, typer.Option("--force", help="Overwrite an existing file.")] = False,
+) -> None:
+    """Write a ready campaign spec from a preset."""
+    if preset not in PRESETS:
+        raise SpecError("--preset", preset, f"one of {list(PRESETS)}")
+    if out.exists() and not force:
+        raise SpecError("--output", str(out), "a path that does not exist yet", "pass --force to overwrite it")
+    text = preset_yaml(preset)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_name(f".{out.name}.tmp")
+    tmp.write_text(text, encoding="utf-8")
+    os.replace(tmp, out)
+    typer.echo(f"wrote {out} (preset {preset})")
+
+
+@campaign_app.command("run")
+def run(
+    spec: Annotated[Path, typer.Argument(help="Campaign spec (YAML).")],
+    out: Annotated[Path, typer.Option("--output", "-o", help="Campaign directory (created, or resumed).")],
+    workers: Annotated[int | None, typer.Option("--workers", "-j", help="Parallel runs (default: all cores).")] = None,
+    executor: Annotated[str, typer.Option("--executor", help="local (process pool) or ray.")] = "local",
+    ray_address: Annotated[str | None, typer.Option("--ray-address", help="Ray cluster address (default: start a local one).")] = None,
+    wall_limit: Annotated[float | None, typer.Option("--wall-limit", help="Per-run wall-clock limit in seconds (default timeout_s*2+120).")] = None,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
+) -> None:
+    """Run a campaign (resumes where it stopped if DIR already holds it)."""
+    from navstress.campaign.executors import run_campaign
+
+    if executor not in ("local", "ray"):
+        raise SpecError("--executor", executor, "local or ray")
+    if workers is not None and workers < 1:
+        raise SpecError("--workers", workers, "an integer >= 1")
+    if wall_limit is not None and not wall_limit > 0:
+        raise SpecError("--wall-limit", wall_limit, "seconds > 0")
+    with CampaignProgress(enabled=not quiet) as bar:
+        res = run_campaign(spec, out, workers=workers, executor=executor,  # type: ignore[arg-type]
+                           ray_address=ray_address, wall_limit_s=wall_limit, on_start=bar.on_start,
+                           on_record=bar.on_record)
+    typer.echo(f"{out}: {res.already_done + res.recorded}/{res.planned} runs recorded "
+               f"({res.recorded} this session, {res.wall_s:.0f} s, {res.workers} workers); "
+               + format_counts(res.counts, markup=False))
+
+
+@campaign_app.command("status")
+def status(directory: Annotated[Path, typer.Argument(help="Campaign directory.")]) -> None:
+    """Show progress and outcome counts, per experiment."""
+    with Store.open(directory) as store:
+        done, planned = store.progress()
+        table = Table(title=f"campaign {store.spec.name}: {done}/{planned} runs ({100 * done / max(planned, 1):.0f}%)")
+        table.add_column("experiment")
+        table.add_column("done", justify="right")
+        for o in OUTCOMES:
+            table.add_column(o, justify="right")
+        for name, d, p, counts in store.per_experiment():
+            table.add_row(name, f"{d}/{p}", *(str(counts[o]) for o in OUTCOMES))
+        total = store.outcome_counts()
+        table.add_row("all", f"{done}/{planned}", *(str(total[o]) for o in OUTCOMES))
+        Console().print(table)
+        mean = store.mean_wall_s()
+        if mean is not None and done < planned:
+            typer.echo(f"remaining: {planned - done} runs, about {(planned - done) * mean / 3600:.1f} h of "
+                       f"single-worker time at {mean:.1f} s/run")
+
+
+@campaign_app.command("export")
+def export(
+    directory: Annotated[Path, typer.Argument(help="Campaign directory.")],
+    fmt: Annotated[str, typer.Option("--format", "-f", help="csv or parquet.")] = "csv",
+    out: Annotated[Path | None, typer.Option("--output", "-o", help="File to write (default DIR/runs.FORMAT).")] = None,
+) -> None:
+    """Write the runs table as CSV or Parquet."""
+    if fmt not in ("csv", "parquet"):
+        raise SpecError("--format", fmt, "csv or parquet")
+    with Store.open(directory) as store:
+        path = store.export(fmt, out)  # type: ignore[arg-type]
+        n = store.progress()[0]
+    typer.echo(f"wrote {path} ({n} runs)")
+
+
+def replay(
+    directory: Annotated[Path, typer.Argument(help="Campaign directory.")],
+    run_id: Annotated[str, typer.Argument(help="The run to replay (a run_id of the runs table).")],
+    keep: Annotated[Path | None, typer.Option("--keep", help="Keep the new trace at this path.")] = None,
+) -> None:
+    """Re-run one run from its recorded seeds; exit 0 if the new trace is byte-identical, 1 if not."""
+    from navstress.campaign.replay import replay as do_replay
+
+    r = do_replay(directory, run_id, keep=keep)
+    typer.echo(f"{run_id}: stored {r.stored.outcome} ({r.stored.reason}); replayed {r.new.outcome} ({r.new.reason})")
+    if r.identical:
+        typer.echo(f"identical: the new trace has the same bytes as {r.stored_trace} (sha256 {r.new_sha256[:16]})")
+        return
+    typer.echo(f"DIFFERENT: stored sha256 {r.stored_sha256[:16]}, replayed {r.new_sha256[:16]}; "
+               f"record fields that differ: {', '.join(r.record_differences) or 'none'}")
+    raise typer.Exit(1)

@@ -1,0 +1,308 @@
+"""CampaignSpec: what a campaign runs, validated before anything runs.
+
+A campaign has experiment classes; each sweeps one or more WorldSpec parameters (a
+cartesian product when several), on top of a base world spec plus per-experiment
+overrides. Every point of a sweep is a *configuration*; its ``config`` is the mapping of
+swept paths to values. Each configuration gets ``maps_per_config`` maps and each map
+``runs_per_map`` runs, for every navigator and every fault (``null`` = nominal).
+
+    >>> spec = parse_campaign({"name": "t", "seed": 1, "experiments": [
+    ...     {"name": "trees", "sweep": {"obstacles.obstruction.tree": {"start": 0, "stop": 4, "step": 2}}}]})
+    >>> [c.key for c in spec.experiments[0].configurations(spec.world)]
+    ['tree=0', 'tree=2', 'tree=4']
+
+Every error is a :class:`~navstress.errors.SpecError` naming the field path, e.g.
+``experiments[0].sweep.ground.deformaton=... is invalid``.
+"""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import itertools
+import json
+import math
+import re
+import typing
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from navstress.errors import SpecError
+from navstress.world.spec import WorldSpec, _pydantic_to_spec_error, parse_spec
+
+_STRICT = ConfigDict(frozen=True, extra="forbid")
+_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
+#: Most values a single experiment may expand to (guards against a typo'd step of 1e-9).
+MAX_CONFIGS_PER_EXPERIMENT = 10_000
+
+
+class Range(BaseModel):
+    """``start`` to ``stop`` inclusive with a fixed ``step`` (> 0); or an explicit ``values`` list."""
+
+    model_config = _STRICT
+    start: float | None = None
+    stop: float | None = None
+    step: float | None = Field(None, gt=0.0)
+    values: list[float | int | str | bool] | None = None
+
+    @model_validator(mode="after")
+    def _one_form(self) -> "Range":
+        ranged = (self.start, self.stop, self.step)
+        if self.values is not None:
+            if any(v is not None for v in ranged):
+                raise ValueError("give either start/stop/step or values, not both")
+            if not self.values:
+                raise ValueError("values must not be empty")
+        elif any(v is None for v in ranged):
+            raise ValueError("give start, stop and step (all three), or a values list")
+        elif self.stop < self.start:  # type: ignore[operator]
+            raise ValueError(f"stop ({self.stop:g}) must be >= start ({self.start:g})")
+        return self
+
+    def expand(self) -> list[Any]:
+        """The sampled values; integers stay integers when start and step are whole.
+
+        Float ranges are computed as ``start + i*step`` rounded to 10 decimals (no drift),
+        ``stop`` included when it lies on the grid within 1e-9 steps."""
+        if self.values is not None:
+            return list(self.values)
+        assert self.start is not None and self.stop is not None and self.step is not None
+        n = math.floor((self.stop - self.start) / self.step + 1e-9) + 1
+        if n > MAX_CONFIGS_PER_EXPERIMENT:
+            raise ValueError(f"the range has {n} values (at most {MAX_CONFIGS_PER_EXPERIMENT})")
+        whole = float(self.start).is_integer() and float(self.step).is_integer()
+        out: list[Any] = []
+        for i in range(n):
+            v = round(self.start + i * self.step, 10)
+            out.append(int(v) if whole else v)
+        return out
+
+
+class NavigatorSpec(BaseModel):
+    """A navigator under test: a registered name (or a ``module:attr`` target) and its config."""
+
+    model_config = _STRICT
+    name: str = "reference-v1"
+    config: dict[str, Any] = Field(default_factory=dict)
+    target: str | None = Field(None, description="'module:attr' factory, registered under `name` in every worker")
+
+
+class ExperimentSpec(BaseModel):
+    """One experiment class: a sweep over world parameters plus base overrides."""
+
+    model_config = _STRICT
+    name: str
+    sweep: dict[str, Range] = Field(default_factory=dict)
+    overrides: dict[str, Any] = Field(default_factory=dict)
+    faults: list[str | None] | None = None  # None: the campaign's faults
+
+    @field_validator("name")
+    @classmethod
+    def _name(cls, v: str) -> str:
+        if not _NAME.match(v):
+            raise ValueError("a name of letters, digits, '_', '.', '-' (it becomes a directory name)")
+        return v
+
+    def configurations(self, base: dict[str, Any]) -> list["Configuration"]:
+        """Every point of the sweep (cartesian product, in sweep order), with its WorldSpec."""
+        paths = list(self.sweep)
+        short = _short_names(paths)
+        grids = [self.sweep[p].expand() for p in paths]
+        merged = _deep_merge(base, self.overrides)
+        out: list[Configuration] = []
+        for combo in itertools.product(*grids) if grids else [()]:
+            values = dict(zip(paths, combo))
+            key = ",".join(f"{short[p]}={_fmt(v)}" for p, v in values.items()) or "base"
+            data = copy.deepcopy(merged)
+            for p, v in values.items():
+                _set_path(data, p, v)
+            out.append(Configuration(experiment=self.name, key=key, values=values, world=data))
+        return out
+
+
+class CampaignSpec(BaseModel):
+    """A whole campaign (see module doc)."""
+
+    model_config = _STRICT
+    name: str = "campaign"
+    seed: int = Field(0, ge=0)
+    world: dict[str, Any] = Field(default_factory=dict, description="the base WorldSpec mapping")
+    experiments: list[ExperimentSpec] = Field(min_length=1)
+    maps_per_config: int = Field(5, ge=1, le=10_000)
+    runs_per_map: int = Field(5, ge=1, le=10_000)
+    navigators: list[NavigatorSpec] = Field(default_factory=lambda: [NavigatorSpec()], min_length=1)
+    faults: list[str | None] = Field(default_factory=lambda: [None], min_length=1)
+    timeout_s: float = Field(400.0, gt=0.0, le=86_400.0)
+    goal_tolerance_m: float = Field(2.0, gt=0.0)
+    record_lidar: bool = False
+    sim: dict[str, Any] = Field(default_factory=dict, description="simulation overrides passed to every run")
+
+    @field_validator("name")
+    @classmethod
+    def _name(cls, v: str) -> str:
+        if not _NAME.match(v):
+            raise ValueError("a name of letters, digits, '_', '.', '-'")
+        return v
+
+    def canonical_json(self) -> str:
+        """A stable text of the validated spec (used to refuse resuming with another spec)."""
+        return json.dumps(self.model_dump(mode="json"), sort_keys=True, separators=(",", ":"))
+
+    def digest(self) -> str:
+        return hashlib.sha256(self.canonical_json().encode()).hexdigest()[:16]
+
+    def faults_of(self, exp: ExperimentSpec) -> list[str | None]:
+        return list(exp.faults) if exp.faults is not None else list(self.faults)
+
+
+@dataclass(frozen=True)
+class Configuration:
+    """One point of a sweep: ``values`` maps swept paths to values; ``world`` is its WorldSpec mapping."""
+
+    experiment: str
+    key: str
+    values: dict[str, Any]
+    world: dict[str, Any]
+
+    def world_spec(self) -> WorldSpec:
+        return parse_spec(self.world)
+
+
+# ---- validation ----------------------------------------------------------------------
+
+
+def parse_campaign(data: Any) -> CampaignSpec:
+    """Validate a mapping into a CampaignSpec and check every configuration (SpecError on bad input).
+
+    Checks, before anything runs: every field, every swept path exists in WorldSpec, every
+    configuration validates as a WorldSpec, experiment names are unique, no duplicate navigator/fault."""
+    if not isinstance(data, dict):
+        raise SpecError("campaign", type(data).__name__, "a mapping of fields at the top level")
+    try:
+        spec = CampaignSpec.model_validate(data)
+    except SpecError:
+        raise
+    except ValidationError as err:
+        e = _pydantic_to_spec_error(err)
+        raise SpecError(re.sub(r"\.(\d+)(?=\.|$)", r"[\1]", e.field), e.value, e.expected, e.fix) from None
+    try:
+        base = parse_spec(spec.world)
+    except SpecError as err:
+        raise SpecError(f"world.{err.field}", err.value, err.expected, err.fix) from None
+    base_data = spec.world
+    seen: set[str] = set()
+    for i, exp in enumerate(spec.experiments):
+        where = f"experiments[{i}]"
+        if exp.name in seen:
+            raise SpecError(f"{where}.name", exp.name, "a name unique among experiments", "rename one of them")
+        seen.add(exp.name)
+        for path, rng in exp.sweep.items():
+            if not _path_exists(WorldSpec, path.split(".")):
+                raise SpecError(f"{where}.sweep", path, "a WorldSpec parameter path such as "
+                                "'obstacles.obstruction.tree', 'ground.deformation' or 'ground.subdivisions'",
+                                "check the spelling against `navstress world` options")
+            try:
+                rng.expand()
+            except ValueError as e:
+                raise SpecError(f"{where}.sweep.{path}", rng.model_dump(exclude_none=True), str(e)) from None
+        try:
+            parse_spec(_deep_merge(base_data, exp.overrides))
+        except SpecError as err:
+            raise SpecError(f"{where}.overrides.{err.field}", err.value, err.expected, err.fix) from None
+        for cfg in exp.configurations(base_data):
+            try:
+                cfg.world_spec()
+            except SpecError as err:
+                raise SpecError(f"{where}.sweep[{cfg.key}].{err.field}", err.value, err.expected, err.fix) from None
+        faults = spec.faults_of(exp)
+        if len(set(faults)) != len(faults):
+            raise SpecError(f"{where}.faults" if exp.faults is not None else "faults", faults,
+                            "a list without duplicates")
+    names = [n.name for n in spec.navigators]
+    if len(set(names)) != len(names):
+        raise SpecError("navigators", names, "navigator names without duplicates")
+    if len(set(spec.faults)) != len(spec.faults):
+        raise SpecError("faults", spec.faults, "a list without duplicates")
+    for f in [f for e in spec.experiments for f in spec.faults_of(e)]:
+        if f is not None and not _NAME.match(f):
+            raise SpecError("faults", f, "a fault name of letters, digits, '_', '.', '-' (or null for nominal)")
+    del base
+    return spec
+
+
+def load_campaign(path: str | Path) -> tuple[CampaignSpec, str]:
+    """Read and validate a campaign YAML/JSON file; returns the spec and the text as given."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except OSError as err:
+        raise SpecError("campaign", str(p), "a readable YAML or JSON file", str(err.strerror)) from None
+    return parse_campaign_text(text, str(p)), text
+
+
+def parse_campaign_text(text: str, name: str = "campaign") -> CampaignSpec:
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as err:
+        raise SpecError("campaign", name, "valid YAML/JSON", str(err).splitlines()[0]) from None
+    return parse_campaign(data if data is not None else {})
+
+
+# ---- helpers -------------------------------------------------------------------------
+
+
+def _path_exists(model: type[BaseModel], parts: list[str]) -> bool:
+    """Whether ``parts`` names a leaf of the pydantic ``model`` (dict fields accept any key)."""
+    if not parts:
+        return False
+    field = model.model_fields.get(parts[0])
+    if field is None:
+        return False
+    ann = field.annotation
+    rest = parts[1:]
+    if isinstance(ann, type) and issubclass(ann, BaseModel):
+        return _path_exists(ann, rest)
+    origin = typing.get_origin(ann)
+    if origin is dict:
+        return len(rest) == 1
+    return not rest
+
+
+def _short_names(paths: list[str]) -> dict[str, str]:
+    """The last path component, or the full path where two swept paths share it."""
+    last = [p.rsplit(".", 1)[-1] for p in paths]
+    return {p: (s if last.count(s) == 1 else p) for p, s in zip(paths, last)}
+
+
+def _fmt(v: Any) -> str:
+    if isinstance(v, bool):
+        return str(v).lower()
+    if isinstance(v, float):
+        return f"{v:g}" if abs(v) >= 1e-4 or v == 0 else repr(v)
+    return str(v)
+
+
+def _deep_merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
+    out = copy.deepcopy(base)
+    for k, v in over.items():
+        if isinstance(v, dict) and isinstance(out.get(k), dict):
+            out[k] = _deep_merge(out[k], v)
+        else:
+            out[k] = copy.deepcopy(v)
+    return out
+
+
+def _set_path(data: dict[str, Any], path: str, value: Any) -> None:
+    parts = path.split(".")
+    node = data
+    for p in parts[:-1]:
+        nxt = node.get(p)
+        if not isinstance(nxt, dict):
+            nxt = {}
+            node[p] = nxt
+        node = nxt
+    node[parts[-1]] = value

@@ -1,0 +1,373 @@
+"""The campaign store: one directory that loses nothing.
+
+Layout of ``DIR``::
+
+    spec.yaml          the campaign spec as given (byte for byte)
+    campaign.sqlite    SQLite (WAL): tables meta, planned, runs
+    worlds/<experiment>/<config>/m<k>/    generated worlds (World.save, atomic)
+    traces/<experiment>/<config>/m<k>/r<j>-<navigator>-<fault>.mcap    run traces (atomic)
+
+Every record is one ``INSERT`` in its own transaction (a record is there whole or not at
+all); ``run_id`` is the primary key, so no run can be recorded twice. Only the campaign
+driver writes (single writer), holding an exclusive lock on ``DIR/.lock`` (released by the
+OS even on SIGKILL). On resume the runs already in ``runs`` are skipped, and stale partial
+files (``.*.partial`` traces, ``.m<k>.*`` world temp dirs) are removed.
+
+    >>> import tempfile
+    >>> from navstress.campaign.presets import demo
+    >>> from navstress.campaign.spec import parse_campaign
+    >>> d = tempfile.mkdtemp()
+    >>> with Store.create(d, parse_campaign(demo()), "...") as s:
+    ...     s.progress()
+    (0, 32)
+"""
+
+from __future__ import annotations
+
+import csv
+import fcntl
+import json
+import math
+import os
+import shutil
+import sqlite3
+import time
+from collections import Counter
+from dataclasses import fields
+from pathlib import Path
+from types import TracebackType
+from typing import IO, Any, Literal
+
+from navstress.campaign.plan import Plan, plan
+from navstress.campaign.spec import CampaignSpec, parse_campaign_text
+from navstress.errors import SpecError, StoreError
+from navstress.run.outcome import Outcome
+from navstress.run.record import RunRecord, RunTask
+
+DB_NAME = "campaign.sqlite"
+SPEC_NAME = "spec.yaml"
+LOCK_NAME = ".lock"
+SCHEMA_VERSION = "1"
+OUTCOMES: tuple[str, ...] = tuple(o.value for o in Outcome)
+
+#: The ``runs`` table columns, in order (RunRecord fields).
+COLUMNS: tuple[str, ...] = tuple(f.name for f in fields(RunRecord))
+_TYPES = {"map_index": "INTEGER", "run_index": "INTEGER", "map_seed": "INTEGER", "run_seed": "INTEGER",
+          "collisions": "INTEGER", "duration_s": "REAL", "wall_s": "REAL", "goal_distance_m": "REAL",
+          "path_length_m": "REAL", "tortuousness": "REAL", "first_collision_s": "REAL"}
+_FLOATS = ("duration_s", "wall_s", "goal_distance_m", "path_length_m", "tortuousness")
+_OUR_NAMES = {SPEC_NAME, "worlds", "traces", LOCK_NAME, DB_NAME, DB_NAME + "-wal", DB_NAME + "-shm",
+              f".{SPEC_NAME}.tmp", ".campaign.sqlite.tmp"}
+
+
+def _connect(path: Path) -> sqlite3.Connection:
+    con = sqlite3.connect(path, timeout=30.0, isolation_level=None)
+    con.row_factory = sqlite3.Row
+    con.execute("PRAGMA journal_mode=WAL")
+    con.execute("PRAGMA synchronous=FULL")
+    return con
+
+
+def _schema(con: sqlite3.Connection) -> None:
+    cols = ", ".join(f"{c} {_TYPES.get(c, 'TEXT')}" + (" PRIMARY KEY" if c == "run_id" else "") for c in COLUMNS)
+    con.execute("CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)")
+    con.execute("CREATE TABLE IF NOT EXISTS planned (run_id TEXT PRIMARY KEY, seq INTEGER NOT NULL, "
+                "experiment TEXT, config TEXT, map_index INTEGER, run_index INTEGER, navigator TEXT, "
+                "fault TEXT, task TEXT NOT NULL)")
+    con.execute(f"CREATE TABLE IF NOT EXISTS runs ({cols}, recorded_at REAL)")
+
+
+class Store:
+    """An open campaign directory. Use :meth:`create` (run/resume) or :meth:`open` (read)."""
+
+    def __init__(self, root: Path, con: sqlite3.Connection, spec: CampaignSpec, lock: IO[str] | None) -> None:
+        self.root = root
+        self.con = con
+        self.spec = spec
+        self._lock = lock
+
+    # ---- opening ---------------------------------------------------------------------
+    @classmethod
+    def create(cls, root: str | Path, spec: CampaignSpec, spec_text: str) -> "Store":
+        """Create the store for ``spec`` in ``root``, or reopen it to resume (same spec only).
+
+        Takes the directory's write lock; raises StoreError if another run holds it, if the
+        directory holds a different campaign, or is a non-empty directory of something else."""
+        d = Path(root)
+        if d.exists() and not d.is_dir():
+            raise StoreError(f"output={str(d)!r} exists and is not a directory; choose another -o")
+        d.mkdir(parents=True, exist_ok=True)
+        lock = cls._take_lock(d)
+        try:
+            db = d / DB_NAME
+            if db.exists():
+                store = cls._open_db(d, lock)
+                if store.spec.digest() != spec.digest():
+                    store.con.close()
+                    raise StoreError(f"output={str(d)!r} holds campaign {store.spec.name!r} made from a different "
+                                     f"spec ({d / SPEC_NAME}); resume with that spec, or choose a new -o")
+                return store
+            extra = sorted(p.name for p in d.iterdir() if p.name not in _OUR_NAMES)
+            if extra:
+                raise StoreError(f"output={str(d)!r} is a non-empty directory that is not a campaign "
+                                 f"(holds {extra[:3]}); choose a new or empty -o")
+            _atomic_write(d / SPEC_NAME, spec_text)
+            p = plan(spec, d)
+            tmp = d / ".campaign.sqlite.tmp"
+            tmp.unlink(missing_ok=True)
+            con = sqlite3.connect(tmp, isolation_level=None)
+            _schema(con)
+            con.execute("BEGIN")
+            con.executemany("INSERT INTO meta VALUES (?, ?)", [
+                ("schema", SCHEMA_VERSION), ("spec_digest", spec.digest()), ("spec_json", spec.canonical_json()),
+                ("name", spec.name)])
+            con.executemany("INSERT INTO planned VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)", [
+                (t.run_id, i, t.experiment, json.dumps(t.config, sort_keys=True), t.map_index, t.run_index,
+                 t.navigator, t.fault, _task_json(t, d)) for i, t in enumerate(p.tasks)])
+            con.execute("COMMIT")
+            con.close()
+            _fsync_path(tmp)
+            os.replace(tmp, db)
+            return cls._open_db(d, lock)
+        except BaseException:
+            lock.close()
+            raise
+
+    @classmethod
+    def open(cls, root: str | Path) -> "Store":
+        """Open an existing campaign directory for reading (no lock taken)."""
+        d = Path(root)
+        if not (d / DB_NAME).is_file():
+            raise StoreError(f"campaign={str(d)!r} is not a campaign directory (no {DB_NAME}); "
+                             "create one with `navstress campaign run SPEC -o DIR`")
+        return cls._open_db(d, None)
+
+    @classmethod
+    def _open_db(cls, d: Path, lock: IO[str] | None) -> "Store":
+        try:
+            con = _connect(d / DB_NAME)
+            meta = {r["key"]: r["value"] for r in con.execute("SELECT key, value FROM meta")}
+            spec = _spec_from_json(meta["spec_json"])
+        except (sqlite3.DatabaseError, KeyError) as err:
+            raise StoreError(f"campaign={str(d)!r} has a corrupt {DB_NAME}: {err}") from None
+        if meta.get("schema") != SCHEMA_VERSION:
+            raise StoreError(f"campaign={str(d)!r} has store schema {meta.get('schema')!r}, expected {SCHEMA_VERSION}")
+        return cls(d, con, spec, lock)
+
+    @staticmethod
+    def _take_lock(d: Path) -> IO[str]:
+        f = open(d / LOCK_NAME, "a+", encoding="utf-8")
+        try:
+            fcntl.flock(f.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            f.close()
+            raise StoreError(f"output={str(d)!r} is in use by another `navstress campaign run`; "
+                             "wait for it to finish or stop it") from None
+        return f
+
+    def close(self) -> None:
+        self.con.close()
+        if self._lock is not None:
+            self._lock.close()
+            self._lock = None
+
+    def __enter__(self) -> "Store":
+        return self
+
+    def __exit__(self, t: type[BaseException] | None, e: BaseException | None, tb: TracebackType | None) -> None:
+        self.close()
+
+    # ---- planned work ----------------------------------------------------------------
+    def plan(self) -> Plan:
+        """The campaign's plan for this directory (paths resolved under the current root)."""
+        return plan(self.spec, self.root)
+
+    def planned_ids(self) -> list[str]:
+        return [r[0] for r in self.con.execute("SELECT run_id FROM planned ORDER BY seq")]
+
+    def task(self, run_id: str) -> RunTask:
+        """The planned task of ``run_id`` with paths under the current root."""
+        row = self.con.execute("SELECT task FROM planned WHERE run_id = ?", (run_id,)).fetchone()
+        if row is None:
+            raise StoreError(f"run_id={run_id!r} is not a run of campaign {self.spec.name!r}; "
+                             "list them with `navstress campaign export DIR --format csv`")
+        d = json.loads(row[0])
+        d["world_dir"] = str((self.root / d["world_dir"]).resolve())
+        d["trace_path"] = str((self.root / d["trace_path"]).resolve())
+        return RunTask(**d)
+
+    def done_ids(self) -> set[str]:
+        return {r[0] for r in self.con.execute("SELECT run_id FROM runs")}
+
+    def pending(self) -> list[RunTask]:
+        """Planned tasks not yet recorded, in plan order."""
+        done = self.done_ids()
+        return [t for t in self.plan().tasks if t.run_id not in done]
+
+    def cleanup_partials(self) -> list[Path]:
+        """Remove partial traces and world temp dirs left by a killed run; returns what was removed."""
+        removed: list[Path] = []
+        for sub in ("traces", "worlds"):
+            base = self.root / sub
+            if not base.is_dir():
+                continue
+            for p in sorted(base.rglob(".*")):
+                if not p.exists() and not p.is_symlink():
+                    continue
+                if p.is_dir():
+                    shutil.rmtree(p, ignore_errors=True)
+                else:
+                    p.unlink(missing_ok=True)
+                removed.append(p)
+        return removed
+
+    # ---- records ---------------------------------------------------------------------
+    def add(self, record: RunRecord) -> bool:
+        """Record one run atomically; False (and nothing written) if ``run_id`` is already recorded."""
+        row = record.to_row()
+        if row["trace"]:
+            row["trace"] = _rel(row["trace"], self.root)
+        vals = [row[c] for c in COLUMNS] + [time.time()]
+        self.con.execute("BEGIN IMMEDIATE")
+        try:
+            cur = self.con.execute(
+                f"INSERT INTO runs ({', '.join(COLUMNS)}, recorded_at) VALUES ({', '.join('?' * (len(COLUMNS) + 1))}) "
+                "ON CONFLICT(run_id) DO NOTHING", vals)
+            self.con.execute("COMMIT")
+        except BaseException:
+            self.con.execute("ROLLBACK")
+            raise
+        return cur.rowcount == 1
+
+    def records(self) -> list[RunRecord]:
+        """Every recorded run, in plan order."""
+        q = (f"SELECT {', '.join('r.' + c for c in COLUMNS)} FROM runs r LEFT JOIN planned p USING (run_id) "
+             "ORDER BY p.seq")
+        return [_record(dict(r)) for r in self.con.execute(q)]
+
+    def progress(self) -> tuple[int, int]:
+        """(recorded, planned)."""
+        done = self.con.execute("SELECT COUNT(*) FROM runs").fetchone()[0]
+        total = self.con.execute("SELECT COUNT(*) FROM planned").fetchone()[0]
+        return int(done), int(total)
+
+    def outcome_counts(self) -> dict[str, int]:
+        c = Counter({o: 0 for o in OUTCOMES})
+        for o, n in self.con.execute("SELECT outcome, COUNT(*) FROM runs GROUP BY outcome"):
+            c[o] = n
+        return dict(c)
+
+    def per_experiment(self) -> list[tuple[str, int, int, dict[str, int]]]:
+        """(experiment, recorded, planned, outcome counts) per experiment, in spec order."""
+        out = []
+        for exp in self.spec.experiments:
+            planned = self.con.execute("SELECT COUNT(*) FROM planned WHERE experiment = ?", (exp.name,)).fetchone()[0]
+            counts = {o: 0 for o in OUTCOMES}
+            for o, n in self.con.execute("SELECT outcome, COUNT(*) FROM runs WHERE experiment = ? GROUP BY outcome",
+                                         (exp.name,)):
+                counts[o] = n
+            out.append((exp.name, sum(counts.values()), int(planned), counts))
+        return out
+
+    def mean_wall_s(self) -> float | None:
+        v = self.con.execute("SELECT AVG(wall_s) FROM runs").fetchone()[0]
+        return None if v is None else float(v)
+
+    # ---- export ----------------------------------------------------------------------
+    def export(self, fmt: Literal["csv", "parquet"], out: str | Path | None = None) -> Path:
+        """Write the runs table (plan order) as CSV or Parquet; returns the path written (atomically)."""
+        if fmt not in ("csv", "parquet"):
+            raise SpecError("format", fmt, "csv or parquet")
+        dest = Path(out) if out is not None else self.root / f"runs.{fmt}"
+        q = f"SELECT {', '.join('r.' + c for c in COLUMNS)} FROM runs r LEFT JOIN planned p USING (run_id) ORDER BY p.seq"
+        rows = [dict(r) for r in self.con.execute(q)]
+        dest.parent.mkdir(parents=True, exist_ok=True)
+        tmp = dest.with_name(f".{dest.name}.tmp")
+        try:
+            if fmt == "csv":
+                with open(tmp, "w", newline="", encoding="utf-8") as f:
+                    w = csv.DictWriter(f, fieldnames=list(COLUMNS))
+                    w.writeheader()
+                    w.writerows(rows)
+            else:
+                import pyarrow as pa
+                import pyarrow.parquet as pq
+
+                schema = pa.schema([(c, _ARROW[_TYPES.get(c, "TEXT")]()) for c in COLUMNS])
+                table = pa.Table.from_pylist(rows, schema=schema)
+                pq.write_table(table, tmp)
+            os.replace(tmp, dest)
+        finally:
+            tmp.unlink(missing_ok=True)
+        return dest
+
+
+def _arrow_types() -> dict[str, Any]:
+    def lazy(name: str) -> Any:
+        def f() -> Any:
+            import pyarrow as pa
+            return getattr(pa, name)()
+        return f
+    return {"INTEGER": lazy("int64"), "REAL": lazy("float64"), "TEXT": lazy("string")}
+
+
+_ARROW = _arrow_types()
+
+
+def read_export(path: str | Path) -> list[dict[str, Any]]:
+    """Read back an exported runs table (CSV or Parquet) as rows with typed values."""
+    p = Path(path)
+    if p.suffix == ".parquet":
+        import pyarrow.parquet as pq
+        return list(pq.read_table(p).to_pylist())
+    with open(p, newline="", encoding="utf-8") as f:
+        rows = list(csv.DictReader(f))
+    out = []
+    for r in rows:
+        d: dict[str, Any] = {}
+        for c in COLUMNS:
+            v = r[c]
+            t = _TYPES.get(c, "TEXT")
+            d[c] = None if v == "" and (t != "TEXT" or c in ("fault", "trace")) else (
+                int(v) if t == "INTEGER" else float(v) if t == "REAL" else v)
+        out.append(d)
+    return out
+
+
+def _record(row: dict[str, Any]) -> RunRecord:
+    for c in _FLOATS:
+        if row[c] is None:  # SQLite stores NaN as NULL
+            row[c] = math.nan
+    return RunRecord.from_row(row)
+
+
+def _task_json(t: RunTask, root: Path) -> str:
+    d = json.loads(t.to_json())
+    d["world_dir"] = _rel(d["world_dir"], root)
+    d["trace_path"] = _rel(d["trace_path"], root)
+    return json.dumps(d, sort_keys=True)
+
+
+def _rel(path: str, root: Path) -> str:
+    try:
+        return str(Path(path).resolve().relative_to(root.resolve()))
+    except ValueError:
+        return path
+
+
+def _spec_from_json(text: str) -> CampaignSpec:
+    return parse_campaign_text(text)
+
+
+def _atomic_write(path: Path, text: str) -> None:
+    tmp = path.with_name(f".{path.name}.tmp")
+    with open(tmp, "w", encoding="utf-8") as f:
+        f.write(text)
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, path)
+
+
+def _fsync_path(path: Path) -> None:
+    with open(path, "rb") as f:
+        os.fsync(f.fileno())
