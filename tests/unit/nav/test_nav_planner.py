@@ -1,0 +1,169 @@
+"""P3D: footprint coverage, arc costs around posts, unknown cells and the believed footprint."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from nav_scenes import Scene, grid_points
+
+from navstress.nav.reference.config import ReferenceConfig
+from navstress.nav.reference.planner import ArcPlanner, arc_nodes, footprint_cells
+from navstress.nav.reference.pose import Pose
+from navstress.nav.reference.terrain_map import TerrainMap, step_threshold
+from navstress.robot import RobotSpec
+
+
+def _clip_area(rect: np.ndarray, x0: float, y0: float, c: float) -> float:
+    """Area of (convex polygon rect) inside the square [x0, x0+c] x [y0, y0+c] (Sutherland-Hodgman)."""
+    poly = [tuple(p) for p in rect]
+    for axis, bound, keep_ge in ((0, x0, True), (0, x0 + c, False), (1, y0, True), (1, y0 + c, False)):
+        out = []
+        for k in range(len(poly)):
+            p, q = poly[k], poly[(k + 1) % len(poly)]
+            pin = (p[axis] >= bound) if keep_ge else (p[axis] <= bound)
+            qin = (q[axis] >= bound) if keep_ge else (q[axis] <= bound)
+            if pin:
+                out.append(p)
+            if pin != qin:
+                f = (bound - p[axis]) / (q[axis] - p[axis])
+                out.append((p[0] + f * (q[0] - p[0]), p[1] + f * (q[1] - p[1])))
+        poly = out
+        if not poly:
+            return 0.0
+    xs, ys = np.array(poly).T
+    return 0.5 * abs(float(np.dot(xs, np.roll(ys, 1)) - np.dot(ys, np.roll(xs, 1))))
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.floats(-3, 3), st.floats(-3, 3), st.floats(-math.pi, math.pi), st.floats(0.05, 1.5),
+       st.floats(0.05, 1.0), st.sampled_from([0.1, 0.25, 0.3, 0.4]))
+def test_footprint_cells_are_exactly_the_overlapped_cells(x: float, y: float, yaw: float, hl: float, hw: float,
+                                                         cell: float) -> None:
+    m = TerrainMap((-6.0, -6.0), (int(12 / cell) + 1, int(12 / cell) + 1), cell)
+    got = footprint_cells(x, y, yaw, hl, hw, m)
+    assert got is not None
+    cells = set(zip(got[0].tolist(), got[1].tolist()))
+    c, s = math.cos(yaw), math.sin(yaw)
+    rect = np.array([[x + a * c - b * s, y + a * s + b * c] for a, b in ((hl, hw), (-hl, hw), (-hl, -hw), (hl, -hw))])
+    i0, j0 = m.cell_of(rect[:, 0].min(), rect[:, 1].min())
+    i1, j1 = m.cell_of(rect[:, 0].max(), rect[:, 1].max())
+    for i in range(i0 - 1, i1 + 2):
+        for j in range(j0 - 1, j1 + 2):
+            area = _clip_area(rect, m.origin[0] + j * cell, m.origin[1] + i * cell, cell)
+            if area > 1e-9:
+                assert (i, j) in cells, f"cell {(i, j)} overlapped by {area} m2 but not covered"
+            elif area == 0.0:
+                assert (i, j) not in cells
+    assert len(cells) * cell * cell >= 4 * hl * hw - 1e-9
+
+
+def test_footprint_leaving_the_map_is_none() -> None:
+    m = TerrainMap((0.0, 0.0), (10, 10), 0.3)
+    assert footprint_cells(0.2, 1.5, 0.0, 0.57, 0.33, m) is None
+    assert footprint_cells(1.5, 1.5, 0.0, 0.57, 0.33, m) is not None
+
+
+def test_arc_nodes_lie_on_circles_of_the_right_curvature() -> None:
+    k = np.array([-1.0, -0.3, 0.0, 0.5])
+    n = arc_nodes(1.0, 2.0, 0.7, k, 3.0, 15)
+    assert n.shape == (4, 15, 3)
+    for a, kk in enumerate(k):
+        seg = np.hypot(*np.diff(np.vstack([[1.0, 2.0], n[a, :, :2]]), axis=0).T)
+        chord = 2 * np.sin(kk * 0.1) / kk if kk else 0.2
+        assert np.allclose(seg, chord, atol=1e-9)  # equally spaced at arc length 0.2
+        assert n[a, -1, 2] == pytest.approx(0.7 + kk * 3.0)
+
+
+def _known_map(scene: Scene, cell: float = 0.3, skip: tuple[float, float, float, float] | None = None,
+               origin: float = -10.0) -> TerrainMap:
+    m = TerrainMap((origin, origin), (int(-2 * origin / cell), int(-2 * origin / cell)), cell,
+                   step_threshold(0.3, 25.0, cell), 100.0)
+    pts = grid_points(scene, origin + 0.5, -origin - 0.5, origin + 0.5, -origin - 0.5, skip=skip)
+    m.integrate(pts, (0.0, 0.0, 0.0), Pose(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+    return m
+
+
+def _goal_terms(planner: ArcPlanner, ev, goal: tuple[float, float], here: tuple[float, float]) -> np.ndarray:  # type: ignore[no-untyped-def]
+    ends = ev.nodes[:, -1, :2]
+    d = np.hypot(ends[:, 0] - goal[0], ends[:, 1] - goal[1])
+    return np.where(ev.is_spin, math.hypot(here[0] - goal[0], here[1] - goal[1]) + 1.0, d)
+
+
+def test_prefers_a_free_arc_around_a_post() -> None:
+    post = (1.8, -0.5, 0.0, 2.8, 0.5, 5.0)  # a 1 m tree 1.8 m ahead
+    m = _known_map(Scene(boxes=(post,)))
+    p = ArcPlanner(ReferenceConfig(), RobotSpec())
+    ev = p.evaluate(m, 0.0, 0.0, 0.0, 1)
+    straight = int(np.flatnonzero(ev.curvatures == 0.0)[0])
+    assert math.isinf(ev.terrain_cost[straight])
+    idx = p.elect(ev, _goal_terms(p, ev, (9.0, 0.0), (0.0, 0.0)))
+    assert idx >= 0 and not ev.is_spin[idx] and ev.curvatures[idx] != 0.0
+    assert ev.terrain_cost[idx] < 5.0
+    # the elected arc's footprints never touch a post cell, and it is the best free one toward the goal
+    obst = m.obstacles()
+    for x, y, th in ev.nodes[idx]:
+        ci, cj = footprint_cells(x, y, th, p.half_length, p.half_width, m)  # type: ignore[misc]
+        assert not obst[ci, cj].any()
+    free = np.isfinite(ev.terrain_cost)
+    assert free.sum() >= 4  # many arcs still free on both sides
+    v, w = p.command(ev, idx)
+    assert 0 < v <= 1.0 and w == pytest.approx(v * ev.curvatures[idx])
+
+
+def test_never_drives_through_unknown() -> None:
+    # the ground ahead-right is never seen: only arcs that stay in known cells may be elected
+    m = _known_map(Scene(), skip=(1.0, 10.0, -10.0, 0.6))
+    p = ArcPlanner(ReferenceConfig(), RobotSpec())
+    ev = p.evaluate(m, 0.0, 0.0, 0.0, 1)
+    known = m.known()
+    for a in range(len(ev.curvatures)):
+        touches_unknown = False
+        for x, y, th in ev.nodes[a]:
+            ci, cj = footprint_cells(x, y, th, p.half_length, p.half_width, m)  # type: ignore[misc]
+            touches_unknown |= bool((~known[ci, cj]).any())
+        assert math.isinf(ev.terrain_cost[a]) == touches_unknown
+    idx = p.elect(ev, _goal_terms(p, ev, (9.0, -3.0), (0.0, 0.0)))
+    assert idx >= 0 and (ev.is_spin[idx] or ev.curvatures[idx] > 0)  # left, away from the unknown
+
+
+def test_finite_unknown_cost_lets_arcs_through_at_a_price() -> None:
+    m = _known_map(Scene(), skip=(1.5, 10.0, -10.0, 10.0))
+    inf_p = ArcPlanner(ReferenceConfig(), RobotSpec())
+    fin_p = ArcPlanner(ReferenceConfig(unknown_cell_cost=0.01), RobotSpec())
+    blocked = ~np.isfinite(inf_p.evaluate(m, 0.0, 0.0, 0.0, 1).terrain_cost)
+    assert blocked.sum() >= 10  # every arc that reaches x > 1.5 m
+    ev = fin_p.evaluate(m, 0.0, 0.0, 0.0, 1)
+    assert np.isfinite(ev.terrain_cost).all()
+    assert (ev.terrain_cost[blocked] > 0.01).all() and (ev.terrain_cost[~blocked] < 0.01).all()
+
+
+def test_smaller_believed_footprint_squeezes_through_a_gap_the_nominal_refuses() -> None:
+    # two walls leave a 0.75 m gap, cells [0, 0.75) in y (cell 0.25): the real robot is 0.67 wide,
+    # with the 0.1 m margin the nominal belief needs 0.87 m; the faulty belief (0.45 + 0.2) fits.
+    walls = ((1.5, -3.0, 0.0, 3.0, -0.01, 2.0), (1.5, 0.76, 0.0, 3.0, 3.0, 2.0))
+    m = _known_map(Scene(boxes=walls), cell=0.25)
+    y0 = 0.375
+    results = {}
+    for name, robot in (("nominal", RobotSpec()), ("fault", RobotSpec.footprint_fault())):
+        p = ArcPlanner(ReferenceConfig(), robot)
+        ev = p.evaluate(m, -0.5, y0, 0.0, 1)
+        straight = int(np.flatnonzero(ev.curvatures == 0.0)[0])
+        idx = p.elect(ev, _goal_terms(p, ev, (10.0, y0), (-0.5, y0)))
+        results[name] = (ev.terrain_cost[straight], idx == straight)
+    assert math.isinf(results["nominal"][0]) and not results["nominal"][1]
+    assert math.isfinite(results["fault"][0]) and results["fault"][1]
+
+
+def test_steep_slope_is_untraversable_and_moderate_slope_costs_more() -> None:
+    flat = ArcPlanner(ReferenceConfig(), RobotSpec()).evaluate(_known_map(Scene()), 0.0, 0.0, 0.0, 1)
+    mid = ArcPlanner(ReferenceConfig(), RobotSpec()).evaluate(_known_map(Scene(a=math.tan(math.radians(12)))), 0.0, 0.0, 0.0, 1)
+    steep = ArcPlanner(ReferenceConfig(), RobotSpec()).evaluate(_known_map(Scene(a=math.tan(math.radians(30)))), 0.0, 0.0, 0.0, 1)
+    assert np.all(flat.terrain_cost < 0.5)
+    assert np.all(mid.terrain_cost > flat.terrain_cost + 5.0) and np.isfinite(mid.terrain_cost).all()
+    assert not np.isfinite(steep.terrain_cost).any()
+    # 12 deg over 15 nodes: 15 * 12/25 = 7.2 with the default weights
+    assert mid.terrain_cost[9] == pytest.approx(15 * 12 / 25, abs=0.6)
