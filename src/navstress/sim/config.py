@@ -18,6 +18,7 @@ from dataclasses import dataclass, fields
 from typing import Any
 
 from navstress.errors import SpecError
+from navstress.sim.lidar import LidarConfig
 
 
 @dataclass(frozen=True)
@@ -46,6 +47,7 @@ class SimConfig:
     command_latency_jitter_s: float = 0.02
     # --- sensors ---
     lidar_enabled: bool = True
+    lidar: LidarConfig = LidarConfig()  # channels, azimuth steps, rate, range, noise
     odom_rate_hz: float = 50.0
     imu_rate_hz: float = 100.0
     pose_rate_hz: float = 10.0
@@ -85,4 +87,6 @@ class SimConfig:
             raise SpecError("sim.solver_iterations", self.solver_iterations, "an integer >= 1")
 
     def to_json(self) -> dict[str, Any]:
-        return {f.name: getattr(self, f.name) for f in fields(self)}
+        out = {f.name: getattr(self, f.name) for f in fields(self)}
+        out["lidar"] = {f.name: getattr(self.lidar, f.name) for f in fields(self.lidar)}
+        return out

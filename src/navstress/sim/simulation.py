@@ -16,8 +16,6 @@ truth (real poses, collisions, stop events) for the run's classification.
 from __future__ import annotations
 
 import math
-from typing import Any
-
 import mujoco
 import numpy as np
 
@@ -26,6 +24,7 @@ from navstress.nav.api import Command, Imu, LidarScan, Observation, Odometry, Po
 from navstress.robot import RobotSpec
 from navstress.seeding import rng
 from navstress.sim.config import SimConfig
+from navstress.sim.lidar import Lidar, build_scene
 from navstress.sim.model import RobotModel, align_wheel_contacts, build_model, obstacle_contacts
 from navstress.sim.observer import Observer, StopEvent
 from navstress.sim.sensors import ImuSensor, PoseSensor, WheelOdometry, euler_from_mat
@@ -71,18 +70,13 @@ class Simulation:
                                       cfg.pose_att_std_rad, cfg.noise)
         self.imu_sensor = ImuSensor(rng(seed, "sim", "noise", "imu"), cfg.imu_att_std_rad, cfg.imu_rate_std_rps,
                                     cfg.imu_yaw_drift_rps, cfg.noise, 0.0)
-        self._lidar: Any = None
+        self._lidar: Lidar | None = None
         self._lidar_gen = rng(seed, "sim", "noise", "lidar")
         rates = {"odom": cfg.odom_rate_hz, "imu": cfg.imu_rate_hz, "pose": cfg.pose_rate_hz,
                  "observer": cfg.observer_rate_hz}
         if cfg.lidar_enabled:
-            try:
-                from navstress.sim import lidar as lidar_mod
-            except ImportError as err:
-                raise SimulationError(f"lidar is enabled but navstress.sim.lidar is unavailable ({err}); "
-                                      "use SimConfig(lidar_enabled=False)") from None
-            lcfg = lidar_mod.LidarConfig()
-            self._lidar = lidar_mod.Lidar(lidar_mod.build_scene(world), lcfg)
+            lcfg = cfg.lidar
+            self._lidar = Lidar(build_scene(world), lcfg)
             rates["lidar"] = float(lcfg.rate_hz)
         self._period = {n: 1.0 / r for n, r in rates.items()}
         self._next: dict[str, int] = {n: 0 for n in rates}
@@ -238,6 +232,7 @@ class Simulation:
             elif name == "lidar":
                 origin = d.site_xpos[rm.lidar_site].copy()
                 srot = d.site_xmat[rm.lidar_site].reshape(3, 3).copy()
+                assert self._lidar is not None
                 pts = self._lidar.scan(origin, srot, self._lidar_gen if cfg.noise else None)
                 lm = self.robot.lidar
                 self._scans.append(LidarScan(t, pts, (lm.x_m, lm.y_m, lm.z_m)))
