@@ -1,0 +1,267 @@
+"""One run: the navigator under test drives the simulated robot through a world's mission.
+
+:func:`run_mission` is the lockstep loop (DESIGN invariant 3)::
+
+    observe -> navigator.step -> command (applied after the simulated latency) -> advance one
+    control period (jittered from the run seed) -> ... until the navigator says arrived or
+    error, the robot flips or leaves the map, or the (simulated) timeout.
+
+The run is then classified (:mod:`navstress.run.outcome`) and its MCAP trace written
+atomically (:mod:`navstress.run.trace`). :func:`execute` does all of it from a plain
+:class:`~navstress.run.record.RunTask` and never raises for a run-level problem: a navigator
+that raises, a navigator process that dies or hangs, an unstable simulation each become a
+classified record with the reason (DESIGN invariant 4).
+
+Wall-clock time is measured (``wall_s``) but never enters the simulation or the trace: the
+same task gives a byte-identical trace.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+import traceback
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from navstress.nav.api import Command, NavMission, Navigator, Status
+from navstress.robot import RobotSpec
+from navstress.run.metrics import drop_jitter, path_length, tortuousness
+from navstress.run.outcome import Classification, RunFacts, classify
+from navstress.run.record import RunRecord, RunTask
+from navstress.run.trace import TOPIC_MAP, TOPIC_PERCEIVED, TOPIC_TERRAIN, TOPIC_TRUTH, TraceWriter
+from navstress.seeding import derive_seed, rng
+from navstress.world.world import World
+
+DEFAULT_CONTROL_RATE_HZ = 10.0
+CONTROL_JITTER = 0.05  # each control period is scaled by 1 + U(-j, j), drawn from the run seed
+
+
+@dataclass
+class RunResult:
+    """Everything one run produced (the record is derived from it)."""
+
+    classification: Classification
+    facts: RunFacts
+    duration_s: float
+    wall_s: float
+    truth: np.ndarray  # (N, 7) t, x, y, z, yaw, pitch, roll
+    perceived: np.ndarray | None
+    final_map: tuple[np.ndarray, tuple[float, float], float] | None
+    events: list[tuple[float, str, str]] = field(default_factory=list)  # (t, level, message)
+    path_length_m: float = 0.0
+    tortuousness: float = 0.0
+
+
+def _attr_through_wrappers(nav: Any, name: str) -> Any:
+    """``nav.name``, looking through fault wrappers (``.inner``)."""
+    seen = 0
+    while nav is not None and seen < 8:
+        if hasattr(nav, name):
+            return getattr(nav, name)
+        nav = getattr(nav, "inner", None)
+        seen += 1
+    return None
+
+
+def control_rate_hz(nav: Navigator) -> float:
+    """The rate at which the framework calls ``step``: ``nav.control_rate_hz`` or
+    ``nav.config.control_rate_hz`` if the navigator declares one, else 10 Hz."""
+    rate = _attr_through_wrappers(nav, "control_rate_hz")
+    if rate is None:
+        cfg = _attr_through_wrappers(nav, "config")
+        rate = getattr(cfg, "control_rate_hz", None)
+    rate = float(rate) if rate is not None else DEFAULT_CONTROL_RATE_HZ
+    return rate if math.isfinite(rate) and rate > 0 else DEFAULT_CONTROL_RATE_HZ
+
+
+def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: RobotSpec | None = None,
+                timeout_s: float = 400.0, goal_tolerance_m: float = 2.0, sim_config: Any = None,
+                trace: TraceWriter | None = None, record_lidar: bool = False,
+                stop_on_collision: bool = True) -> RunResult:
+    """Run ``navigator`` on ``world``'s mission in the simulation seeded by ``run_seed``.
+
+    ``robot`` is the simulated truth (default RobotSpec()); the navigator is told the same
+    robot (a fault wrapper may change what it believes). A collision ends the run by default
+    (``stop_on_collision``: the operator's emergency stop), so Fail-Collision runs keep the
+    time and place of their first collision.
+    """
+    from navstress.errors import NavstressError, SimulationError
+    from navstress.sim.config import SimConfig
+    from navstress.sim.simulation import Simulation
+
+    robot = robot or RobotSpec()
+    cfg = sim_config if sim_config is not None else SimConfig()
+    wall0 = time.perf_counter()
+    events: list[tuple[float, str, str]] = []
+    error: str | None = None
+    nav_failure = False
+    arrived = timed_out = False
+    other: list[str] = []
+    sim = None
+    try:
+        sim = Simulation(world, robot, cfg, seed=run_seed)
+        mission = NavMission(start=world.mission.start, goal=world.mission.goal, goal_tolerance_m=goal_tolerance_m)
+        period = 1.0 / control_rate_hz(navigator)
+        jitter = rng(run_seed, "loop", "control")
+        try:
+            navigator.reset(mission, robot, seed=derive_seed(run_seed, "navigator"))
+        except Exception as err:  # the stack under test failed; record, don't crash
+            error, nav_failure = f"navigator reset raised {type(err).__name__}: {err}", True
+        while error is None:
+            obs = sim.observe()
+            try:
+                out = navigator.step(obs)
+            except Exception as err:
+                error, nav_failure = f"navigator raised {type(err).__name__}: {err}", True
+                events.append((sim.t, "error", error))
+                break
+            if isinstance(out, Status):
+                if out.kind == "arrived":
+                    arrived = True
+                    events.append((sim.t, "info", f"navigator: arrived {out.message}".rstrip()))
+                else:
+                    error, nav_failure = out.message or "navigator reported an error", out.infrastructure
+                    events.append((sim.t, "error", f"navigator: {error}"))
+                break
+            if not isinstance(out, Command):
+                error, nav_failure = f"navigator returned {type(out).__name__}, not Command or Status", True
+                events.append((sim.t, "error", error))
+                break
+            try:
+                sim.command(out)
+            except NavstressError as err:
+                error, nav_failure = f"navigator sent an invalid command: {err}", True
+                events.append((sim.t, "error", error))
+                break
+            dt = period * (1.0 + CONTROL_JITTER * (2.0 * float(jitter.random()) - 1.0)) if cfg.jitter else period
+            sim.advance(min(dt, max(timeout_s - sim.t, 0.0)) if sim.t + dt > timeout_s else dt)
+            if sim.observer.collisions and stop_on_collision:
+                break
+            if sim.stopped is not None:
+                break
+            if sim.t >= timeout_s - 1e-9:
+                timed_out = True
+                events.append((sim.t, "warning", f"timeout after {timeout_s:g} s"))
+                break
+    except SimulationError as err:
+        other.append(str(err))
+        events.append((sim.t if sim is not None else 0.0, "error", str(err)))
+    finally:
+        try:
+            navigator.close()
+        except Exception as err:  # close must not lose the run
+            events.append((sim.t if sim is not None else 0.0, "warning", f"navigator close raised {err!r}"))
+
+    if sim is None:  # the world could not be simulated at all
+        truth = np.zeros((0, 7))
+        duration = 0.0
+        goal_d = float("inf")
+        collisions, first_col = 0, None
+    else:
+        d = sim.data
+        cb = sim.rm.chassis_body
+        obs_poses = sim.observer.poses
+        last = obs_poses[-1] if len(obs_poses) else None
+        p = d.xpos[cb]
+        if last is None or sim.t > last[0] + 1e-9:
+            from navstress.sim.sensors import euler_from_mat
+            yaw, pitch, roll = euler_from_mat(d.xmat[cb].reshape(3, 3))
+            sim.observer.record_pose((sim.t, float(p[0]), float(p[1]), float(p[2]), yaw, pitch, roll))
+        truth = np.array(sim.observer.poses)
+        duration = sim.t
+        goal_d = math.hypot(float(p[0]) - world.mission.goal[0], float(p[1]) - world.mission.goal[1])
+        collisions = len(sim.observer.collisions)
+        first_col = sim.observer.collisions[0].t if collisions else None
+        for c in sim.observer.collisions:
+            kind = world.obstacles[c.obstacle].kind if 0 <= c.obstacle < len(world.obstacles) else "?"
+            events.append((c.t, "warning", f"collision with obstacle {c.obstacle} ({kind}) at ({c.x:.2f}, {c.y:.2f})"))
+        if sim.stopped is not None:
+            other.append(f"{sim.stopped.reason} at t={sim.stopped.t:.1f} s")
+            events.append((sim.stopped.t, "error", sim.stopped.reason))
+
+    facts = RunFacts(arrived=arrived, goal_distance_m=goal_d, goal_tolerance_m=goal_tolerance_m,
+                     collisions=collisions, first_collision_s=first_col, error=error,
+                     navigator_failure=nav_failure, timed_out=timed_out, other=tuple(other))
+    cls = classify(facts)
+    events.sort(key=lambda e: e[0])
+    events.append((duration, "info", f"end of run: {cls.outcome.label}: {cls.reason}"))
+    perceived = _attr_through_wrappers(navigator, "perceived_trajectory")
+    final_map = _attr_through_wrappers(navigator, "final_map")
+    try:
+        perceived_arr = np.asarray(perceived(), dtype=np.float64).reshape(-1, 7) if callable(perceived) else None
+    except Exception:
+        perceived_arr = None
+    try:
+        fmap = final_map() if callable(final_map) else None
+    except Exception:
+        fmap = None
+    xy = drop_jitter(truth[:, 1:3], 0.02) if len(truth) else np.zeros((0, 2))
+    result = RunResult(classification=cls, facts=facts, duration_s=duration, wall_s=time.perf_counter() - wall0,
+                       truth=truth, perceived=perceived_arr, final_map=fmap, events=events,
+                       path_length_m=path_length(xy), tortuousness=tortuousness(truth[:, 1:3]) if len(truth) else 0.0)
+    if trace is not None:
+        _write_trace(trace, world, result)
+    return result
+
+
+def _write_trace(tw: TraceWriter, world: World, r: RunResult) -> None:
+    h = world.terrain.heights
+    m = world.mission
+    tw.scene([o.to_json() for o in world.obstacles], m.start, m.goal,
+             (world.terrain.height_at(m.start[0], m.start[1]), world.terrain.height_at(m.goal[0], m.goal[1])))
+    c = world.terrain.cell_m
+    tw.grid(TOPIC_TERRAIN, 0.0, h, (-c / 2, -c / 2), c, field="height")
+    tw.poses(TOPIC_TRUTH, r.truth)
+    if r.perceived is not None and len(r.perceived):
+        tw.poses(TOPIC_PERCEIVED, r.perceived)
+    for t, level, msg in r.events:
+        tw.event(t, level, msg)
+    if r.final_map is not None:
+        grid, origin, cell = r.final_map
+        tw.grid(TOPIC_MAP, r.duration_s, np.asarray(grid, dtype=np.float32), origin, float(cell))
+
+
+def execute(task: RunTask) -> RunRecord:
+    """Run one planned run end to end and return its record; writes ``task.trace_path``.
+
+    Never raises for a problem of the run itself; such problems are classified. Raises only
+    for an unusable task (a world directory that cannot be loaded, an unknown navigator or
+    fault): those are campaign errors, caught and recorded by the executors.
+    """
+    from navstress.nav.registry import make_navigator
+
+    wall0 = time.perf_counter()
+    world = World.load(task.world_dir)
+    nav = make_navigator(task.navigator, task.navigator_config or None, fault=task.fault)
+    sim_cfg = None
+    if task.sim_overrides:
+        from navstress.sim.config import SimConfig
+        sim_cfg = SimConfig(**task.sim_overrides)
+    meta = {"run_id": task.run_id, "run_seed": task.run_seed, "map_seed": task.map_seed,
+            "world_seed": world.seed, "navigator": task.navigator, "fault": task.fault or "",
+            "timeout_s": task.timeout_s, "goal_tolerance_m": task.goal_tolerance_m}
+    trace_path = Path(task.trace_path)
+    tw = TraceWriter(trace_path, meta)
+    try:
+        res = run_mission(world, nav, run_seed=task.run_seed, timeout_s=task.timeout_s,
+                          goal_tolerance_m=task.goal_tolerance_m, sim_config=sim_cfg, trace=tw,
+                          record_lidar=task.record_lidar)
+        tw.close()
+    except BaseException:
+        tw.abort()
+        raise
+    f = res.facts
+    errors = [msg for _t, level, msg in res.events if level == "error"]
+    return RunRecord(
+        run_id=task.run_id, experiment=task.experiment, config=dict(task.config), map_index=task.map_index,
+        run_index=task.run_index, map_seed=task.map_seed, run_seed=task.run_seed, navigator=task.navigator,
+        fault=task.fault, outcome=res.classification.outcome.value, reason=res.classification.reason,
+        duration_s=res.duration_s, wall_s=time.perf_counter() - wall0,
+        goal_distance_m=f.goal_distance_m if math.isfinite(f.goal_distance_m) else -1.0,
+        path_length_m=res.path_length_m, tortuousness=res.tortuousness, collisions=f.collisions,
+        first_collision_s=f.first_collision_s, errors=errors, trace=os.fspath(trace_path))

@@ -1,0 +1,117 @@
+"""End to end: real missions, real MuJoCo simulation, real reference navigator, real traces."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from navstress.nav.api import Command, NavMission, Observation, Status
+from navstress.nav.registry import make_navigator
+from navstress.robot import RobotSpec
+from navstress.run.mission import execute, run_mission
+from navstress.run.record import RunTask
+from navstress.run.trace import TOPIC_MAP, TOPIC_PERCEIVED, read_events, read_grid, read_metadata, read_poses
+from navstress.world import Obstacle, World, WorldSpec, generate, parse_spec
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def small_world(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    w = generate(parse_spec({"size_m": [30, 30], "obstacles": {"obstruction": {"tree": 2}}}), 11)
+    d = tmp_path_factory.mktemp("worlds") / "w"
+    w.save(d)
+    return d
+
+
+def task(world_dir: Path, out: Path, **kw: object) -> RunTask:
+    base = dict(run_id="t/0", world_dir=str(world_dir), run_seed=5, trace_path=str(out / "run.mcap"), timeout_s=90.0)
+    base.update(kw)
+    return RunTask(**base)  # type: ignore[arg-type]
+
+
+def test_reference_reaches_the_goal_and_trace_holds_the_run(small_world: Path, tmp_path: Path) -> None:
+    rec = execute(task(small_world, tmp_path))
+    assert rec.outcome == "success", rec.reason
+    assert rec.goal_distance_m <= 2.0
+    assert rec.collisions == 0 and rec.duration_s > 10
+    w = World.load(small_world)
+    straight = w.mission.straight_distance_m
+    assert straight * 0.9 < rec.path_length_m < straight * 2.0
+    truth = read_poses(rec.trace)
+    assert truth[-1, 0] == pytest.approx(rec.duration_s)
+    assert np.hypot(truth[-1, 1] - w.mission.goal[0], truth[-1, 2] - w.mission.goal[1]) == pytest.approx(rec.goal_distance_m)
+    perceived = read_poses(rec.trace, TOPIC_PERCEIVED)
+    assert len(perceived) > 10
+    # the perceived trajectory is close to, but not the same as, the real one
+    gap = np.hypot(*(np.interp(perceived[:, 0], truth[:, 0], truth[:, k]) - perceived[:, k] for k in (1, 2)))
+    assert 0.0 < float(np.median(gap)) < 1.0
+    grid = read_grid(rec.trace, TOPIC_MAP)
+    assert grid is not None and np.isnan(grid[0]).any() and np.isfinite(grid[0]).any()
+    assert read_metadata(rec.trace)["run_seed"] == "5"
+    assert "Success" in read_events(rec.trace)[-1].message
+
+
+def test_same_task_same_trace_bytes(small_world: Path, tmp_path: Path) -> None:
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    ra = execute(task(small_world, tmp_path / "a", timeout_s=20.0))
+    rb = execute(task(small_world, tmp_path / "b", timeout_s=20.0))
+    assert Path(ra.trace).read_bytes() == Path(rb.trace).read_bytes()
+    rc = execute(task(small_world, tmp_path, timeout_s=20.0, run_seed=6))
+    assert not np.array_equal(read_poses(ra.trace)[:, 1:3], read_poses(rc.trace)[:, 1:3])
+
+
+def test_timeout_is_classified(small_world: Path, tmp_path: Path) -> None:
+    rec = execute(task(small_world, tmp_path, timeout_s=8.0))
+    assert rec.outcome == "fail-timeout"
+    assert rec.duration_s == pytest.approx(8.0, abs=0.01)
+
+
+class Raises:
+    def reset(self, mission: NavMission, robot: RobotSpec, *, seed: int) -> None:
+        self.n = 0
+
+    def step(self, obs: Observation) -> Command | Status:
+        self.n += 1
+        if self.n > 5:
+            raise ZeroDivisionError("planner bug")
+        return Command(0.5, 0.0)
+
+    def close(self) -> None:
+        pass
+
+
+class GivesUp(Raises):
+    def step(self, obs: Observation) -> Command | Status:
+        return Status("error", "no arc elected")
+
+
+class RamsTheWall(Raises):
+    def step(self, obs: Observation) -> Command | Status:
+        return Command(1.0, 0.0)
+
+
+def wall_world() -> World:
+    spec = WorldSpec(size_m=(30.0, 30.0))
+    from navstress.world import Mission
+    return World.flat(spec, obstacles=(Obstacle("building", 12.0, 5.0, 0.0, (2.0, 8.0, 3.0), 0.0),),
+                      mission=Mission((5.0, 5.0, 0.0), (25.0, 5.0), 3.0))
+
+
+@pytest.mark.parametrize("nav,outcome,text", [
+    (Raises(), "fail-other", "navigator raised ZeroDivisionError: planner bug"),
+    (GivesUp(), "fail-error", "no arc elected"),
+    (RamsTheWall(), "fail-collision", "collision"),
+])
+def test_navigator_failures_are_classified(nav: Raises, outcome: str, text: str) -> None:
+    r = run_mission(wall_world(), nav, run_seed=1, timeout_s=30.0)
+    assert r.classification.outcome.value == outcome
+    assert text in r.classification.reason
+
+
+def test_collision_stops_in_front_of_the_wall() -> None:
+    r = run_mission(wall_world(), RamsTheWall(), run_seed=1, timeout_s=30.0)
+    assert r.facts.first_collision_s is not None
+    # the chassis centre stays in front of the wall face (x = 11) by about half the robot length
+    assert r.truth[:, 1].max() < 11.0 - 0.4
