@@ -14,7 +14,6 @@ Approximation: 8-connected grid distances overestimate Euclidean length by up to
 
 from __future__ import annotations
 
-import heapq
 import math
 
 import numba as nb
@@ -48,29 +47,72 @@ def _inflate(obst: np.ndarray, radius_cells: float) -> np.ndarray:
     return out
 
 
+@nb.njit(cache=True, inline="always")
+def _push(hk: np.ndarray, hv: np.ndarray, n: int, key: float, val: int) -> int:
+    k = n
+    while k > 0:
+        parent = (k - 1) >> 1
+        if hk[parent] <= key:
+            break
+        hk[k] = hk[parent]
+        hv[k] = hv[parent]
+        k = parent
+    hk[k] = key
+    hv[k] = val
+    return n + 1
+
+
+@nb.njit(cache=True, inline="always")
+def _pop(hk: np.ndarray, hv: np.ndarray, n: int) -> int:
+    n -= 1
+    key = hk[n]
+    val = hv[n]
+    k = 0
+    while True:
+        c = 2 * k + 1
+        if c >= n:
+            break
+        if c + 1 < n and hk[c + 1] < hk[c]:
+            c += 1
+        if key <= hk[c]:
+            break
+        hk[k] = hk[c]
+        hv[k] = hv[c]
+        k = c
+    hk[k] = key
+    hv[k] = val
+    return n
+
+
 @nb.njit(cache=True)
 def _dijkstra(cost: np.ndarray, gi: int, gj: int, cell: float) -> np.ndarray:
+    """Dijkstra with a lazy-deletion binary heap on flat arrays (a cell is pushed at most 8 times)."""
     nr, nc = cost.shape
     dist = np.full((nr, nc), np.inf)
     if gi < 0 or gj < 0 or gi >= nr or gj >= nc:
         return dist
+    cap = 8 * nr * nc + 1
+    hk = np.empty(cap, dtype=np.float64)
+    hv = np.empty(cap, dtype=np.int64)
     dist[gi, gj] = 0.0
-    heap = [(0.0, gi * nc + gj)]
+    n = _push(hk, hv, 0, 0.0, gi * nc + gj)
     diag = math.sqrt(2.0) * cell
-    while len(heap) > 0:
-        d, idx = heapq.heappop(heap)
+    while n > 0:
+        d = hk[0]
+        idx = hv[0]
+        n = _pop(hk, hv, n)
         i = idx // nc
-        j = idx % nc
+        j = idx - i * nc
         if d > dist[i, j]:
             continue
         ci = cost[i, j]
         for di in range(-1, 2):
+            a = i + di
+            if a < 0 or a >= nr:
+                continue
             for dj in range(-1, 2):
-                if di == 0 and dj == 0:
-                    continue
-                a = i + di
                 b = j + dj
-                if a < 0 or b < 0 or a >= nr or b >= nc:
+                if (di == 0 and dj == 0) or b < 0 or b >= nc:
                     continue
                 cn = cost[a, b]
                 if math.isinf(cn):
@@ -84,7 +126,7 @@ def _dijkstra(cost: np.ndarray, gi: int, gj: int, cell: float) -> np.ndarray:
                 nd = d + step * 0.5 * (ci + cn)
                 if nd < dist[a, b]:
                     dist[a, b] = nd
-                    heapq.heappush(heap, (nd, a * nc + b))
+                    n = _push(hk, hv, n, nd, a * nc + b)
     return dist
 
 
