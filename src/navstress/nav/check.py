@@ -24,6 +24,7 @@ an :class:`~navstress.nav.external.ExternalNavigator` to get a budget enforced.
 
 from __future__ import annotations
 
+import io
 import math
 import time
 import traceback
@@ -284,7 +285,7 @@ def check_navigator(
         factory = name_or_factory
         label = getattr(factory, "__qualname__", None) or repr(factory)
     cfg = load_config(config)
-    robot = robot or RobotSpec()
+    robot = robot or RobotSpec.model_validate({})
     obs = synthetic_observations(robot, n_steps, azimuth_steps=azimuth_steps)
     results: list[CheckResult] = []
     times: list[float] = []
@@ -300,7 +301,7 @@ def check_navigator(
 
     # builds
     try:
-        nav_a: Navigator | None = build()
+        nav_a: Navigator = build()
         results.append(CheckResult("builds", True, f"{type(nav_a).__name__} with config {cfg!r}"))
     except Exception as e:
         results.append(CheckResult("builds", False, _why(e)))
@@ -396,7 +397,7 @@ def check_navigator(
     problems = []
     for label_c, nav in (("after a run", nav_a), ("never reset", None)):
         try:
-            target = nav if nav is not None else build()
+            target: Navigator = nav if nav is not None else build()
             target.close()
             target.close()
         except Exception as e:
@@ -447,14 +448,6 @@ def report_text(report: CheckReport, *, width: int = 110) -> str:
     from rich.console import Console
 
     console = Console(width=width, record=True, color_system=None, force_terminal=False,
-                      file=_Null())
+                      file=io.StringIO())
     console.print(format_report(report))
     return console.export_text()
-
-
-class _Null:
-    def write(self, s: str) -> int:
-        return len(s)
-
-    def flush(self) -> None:
-        pass

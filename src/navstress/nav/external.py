@@ -6,9 +6,9 @@ wall-clock budget per request. That budget is a *safety net that ends the run*, 
 to the simulation: a navigator answering within budget gets exactly the same observations and
 produces the same trajectory whatever its speed (DESIGN invariant 3); one that overruns it, crashes
 or answers garbage ends the run with ``Status("error", "navigator process ...",
-infrastructure=True)`` and a precise reason (exit code and last stderr lines; ``no answer within 2.0 s``; ``invalid message: ...``),
-which the run loop classifies (DESIGN invariant 4). :attr:`ExternalNavigator.failure` keeps the
-machine-readable kind.
+infrastructure=True)`` and a precise reason (exit code and last stderr lines; ``no answer
+within 2.0 s``; ``invalid message: ...``), which the run loop classifies (DESIGN invariant 4,
+Fail-Other). :attr:`ExternalNavigator.failure` keeps the machine-readable kind.
 
 The process runs in its own session (process group); ``close()`` (always called) asks it to exit,
 then kills the whole group and reaps it, so no process is left behind.
@@ -177,20 +177,20 @@ class ExternalNavigator:
     def step(self, obs: Observation) -> Command | Status:
         """One control cycle; ``Status('error', 'navigator process ...')`` on any failure."""
         if self.failure is not None:
-            return Status("error", self.failure.message, infrastructure=True)
+            return self._error()
         if self._proc is None:
             self._fail("protocol", "was stepped before reset")
-            return Status("error", self.failure.message, infrastructure=True)  # type: ignore[union-attr]
+            return self._error()
         t0 = time.monotonic()
         reply = self._request(wire.step_message(obs), self.step_budget_s, "step")
         self.step_times_s.append(time.monotonic() - t0)
         if reply is None:
-            return Status("error", self.failure.message, infrastructure=True)  # type: ignore[union-attr]
+            return self._error()
         try:
             return wire.decode_command_or_status(reply)
         except wire.WireError as e:
             self._fail("protocol", f"sent an invalid message in reply to step: {e}")
-            return Status("error", self.failure.message, infrastructure=True)  # type: ignore[union-attr]
+            return self._error()
 
     def close(self) -> None:
         """Ask the process to exit, then kill its process group and reap it. Idempotent."""
@@ -240,6 +240,10 @@ class ExternalNavigator:
         self._stderr_thread = threading.Thread(target=drain, name="navstress-ext-stderr",
                                                daemon=True)
         self._stderr_thread.start()
+
+    def _error(self) -> Status:
+        assert self.failure is not None
+        return Status("error", self.failure.message, infrastructure=True)
 
     def _fail(self, kind: FailureKind, detail: str) -> None:
         """Record the failure, kill the process now (reaped again in close)."""

@@ -242,7 +242,7 @@ def load_config(config: Mapping[str, Any] | str | Path | None) -> dict[str, Any]
         text = path.read_text(encoding="utf-8")
         try:
             if path.suffix.lower() in (".yaml", ".yml"):
-                import yaml
+                import yaml  # type: ignore[import-untyped,unused-ignore]
 
                 data = yaml.safe_load(text)
             else:

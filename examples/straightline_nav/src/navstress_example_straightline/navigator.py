@@ -75,8 +75,8 @@ class StraightLineNavigator:
         robot = self._robot
         vmax = min(float(self.params["max_speed_mps"] or robot.max_speed_mps), robot.max_speed_mps)
         omega = max(-robot.max_yaw_rate_rps,
-                    min(robot.max_yaw_rate_rps, float(self.params["heading_gain"]) * err))  # type: ignore[arg-type]
-        ramp = min(1.0, dist / float(self.params["slowdown_radius_m"]))  # type: ignore[arg-type]
+                    min(robot.max_yaw_rate_rps, float(self.params["heading_gain"]) * err))
+        ramp = min(1.0, dist / float(self.params["slowdown_radius_m"]))
         v = vmax * max(0.0, math.cos(err)) ** 2 * ramp
         return Command(v, omega)
 
