@@ -50,9 +50,9 @@ class _OneLineErrors(TyperGroup):
             _fail(e.format_message())
         except NavstressError as e:
             _fail(str(e))
-        except click.exceptions.Abort:
+        except KeyboardInterrupt:
             click.echo("aborted", err=True)
-            sys.exit(1)
+            sys.exit(130)
         sys.exit(rv if isinstance(rv, int) else 0)
 
 
@@ -465,6 +465,137 @@ def demo(
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     con.print(f"wrote {len(DEMO_WORLDS)} worlds into {output}/")
+
+
+# ---- runs ------------------------------------------------------------------------------------
+
+def _navigator_config(path: Path | None) -> dict[str, Any]:
+    if path is None:
+        return {}
+    from navstress.nav.registry import load_config
+
+    return dict(load_config(path))
+
+
+def _check_navigator(name: str, fault: str | None, config: dict[str, Any]) -> None:
+    """Fail fast (one line, exit 2) on an unknown navigator or fault, before any output is made."""
+    import warnings
+
+    from navstress.nav.registry import make_navigator
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        nav = make_navigator(name, config or None, fault=fault)
+    nav.close()
+
+
+@app.command("run")
+def run_cmd(
+    world_dir: Annotated[Path, typer.Argument(metavar="WORLD_DIR", help="A world directory (navstress world generate).")],
+    output: Annotated[Path, typer.Option("--output", "-o", metavar="OUT", help=(
+        "Folder for the traces (run-NNN.mcap), records (runs.jsonl) and trajectories.png; must be new or empty."))],
+    navigator: Annotated[str, typer.Option(metavar="NAME", help=(
+        "Navigator under test, by registered name (see `navstress nav list`).")) ] = "reference-v1",
+    navigator_config: Annotated[Path | None, typer.Option(metavar="FILE", help=(
+        "YAML/JSON configuration passed to the navigator."))] = None,
+    fault: Annotated[str | None, typer.Option(metavar="NAME", help=(
+        "Inject a named fault into the navigator (see `navstress nav faults`)."))] = None,
+    runs: Annotated[str, typer.Option(metavar="N", help="Number of runs (each with its own run seed), >= 1. Default 1.")] = "1",
+    seed: Annotated[str, typer.Option(metavar="N", help="Root seed of the run seeds, an integer >= 0. Default 0.")] = "0",
+    timeout: Annotated[str, typer.Option(metavar="S", help="Simulated-time limit of a run in seconds, > 0. Default 400.")] = "400",
+    goal_tolerance: Annotated[str, typer.Option(metavar="M", help="Success radius around the goal in meters, > 0. Default 2.")] = "2",
+) -> None:
+    """Run the navigator on a world's mission, classify each run, write traces and a picture."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
+    from navstress.run.batch import batch_picture, plan_batch, run_batch
+    from navstress.world.world import World
+
+    n = _integer("--runs", runs, "an integer >= 1")
+    if n < 1:
+        raise SpecError("--runs", runs, "an integer >= 1")
+    seed_v = _integer("--seed", seed, "an integer >= 0")
+    if seed_v < 0:
+        raise SpecError("--seed", seed, "an integer >= 0")
+    timeout_v = _number("--timeout", timeout, "a duration in seconds > 0")
+    if timeout_v <= 0:
+        raise SpecError("--timeout", timeout, "a duration in seconds > 0")
+    tol = _number("--goal-tolerance", goal_tolerance, "a distance in meters > 0")
+    if tol <= 0:
+        raise SpecError("--goal-tolerance", goal_tolerance, "a distance in meters > 0")
+    World.load(world_dir)  # a clear error for a non-world, before anything is written
+    cfg = _navigator_config(navigator_config)
+    _check_navigator(navigator, fault, cfg)
+    if output.exists() and (not output.is_dir() or any(output.iterdir())):
+        raise WorldFileError(f"--output={str(output)!r} is invalid: expected a new or empty folder; "
+                             "choose another path or remove it")
+    tasks = plan_batch(world_dir, output, navigator=navigator, navigator_config=cfg, fault=fault, runs=n,
+                       seed=seed_v, timeout_s=timeout_v, goal_tolerance_m=tol)
+    con = _console()
+    counts: dict[str, int] = {}
+    with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
+                  TimeRemainingColumn(), TextColumn("{task.fields[counts]}"), console=con) as prog:
+        bar = prog.add_task("runs", total=n, counts="")
+
+        def done(rec: Any) -> None:
+            counts[rec.outcome] = counts.get(rec.outcome, 0) + 1
+            prog.update(bar, advance=1, counts="  ".join(f"{k}={v}" for k, v in sorted(counts.items())))
+
+        records = run_batch(tasks, output, done)
+    from rich.table import Table
+
+    table = Table(title=f"{navigator}{' + ' + fault if fault else ''} on {world_dir}")
+    for col in ("run", "outcome", "sim s", "wall s", "goal m", "path m", "reason"):
+        table.add_column(col)
+    for r in records:
+        table.add_row(r.run_id, r.outcome, f"{r.duration_s:.1f}", f"{r.wall_s:.1f}", f"{r.goal_distance_m:.2f}",
+                      f"{r.path_length_m:.1f}", r.reason)
+    con.print(table)
+    pic = batch_picture(world_dir, records, output / "trajectories.png",
+                        f"{navigator}{' + ' + fault if fault else ''}: {n} run(s) on {world_dir.name}")
+    con.print(f"traces and records in {output}/, picture: {pic}")
+
+
+# ---- navigators ---------------------------------------------------------------------------------
+
+nav_app = typer.Typer(no_args_is_help=True, rich_markup_mode=None,
+                      help="Navigators under test: list them, list faults, check conformance.")
+app.add_typer(nav_app, name="nav")
+
+
+@nav_app.command("list")
+def nav_list() -> None:
+    """List the registered navigators (built-in and third-party entry points)."""
+    from navstress.nav.registry import list_navigators
+
+    con = _console()
+    for spec in list_navigators():
+        con.print(f"  {spec.id:<24} {spec.target_text}")
+
+
+@nav_app.command("faults")
+def nav_faults() -> None:
+    """List the faults that --fault can inject."""
+    from navstress.nav.faults import list_faults
+
+    con = _console()
+    for f in list_faults():
+        con.print(f"  {f.name:<18} {f.description}")
+
+
+@nav_app.command("check")
+def nav_check(
+    name: Annotated[str, typer.Argument(metavar="NAME", help="Registered navigator name, e.g. reference-v1.")],
+    navigator_config: Annotated[Path | None, typer.Option(metavar="FILE", help=(
+        "YAML/JSON configuration passed to the navigator."))] = None,
+) -> None:
+    """Run the conformance checks on a navigator; exit 1 if any check fails."""
+    from navstress.nav.check import check_navigator, format_report
+
+    report = check_navigator(name, _navigator_config(navigator_config) or None)
+    _console().print(format_report(report))
+    if not report.passed:
+        raise typer.Exit(1)
 
 
 def main() -> None:
