@@ -7,7 +7,8 @@ the triangulation MuJoCo uses for an hfield (checked against ``mujoco.mj_ray``).
 
 The terrain is the solid {(x, y) in the map, z <= h(x, y)}: top triangles plus vertical side
 walls under the map edge (extending down without a base). Faces are two-sided, as in MuJoCo.
-Boxes are rows ``[x, y, yaw, hx, hy, zb, zt]`` (centre, yaw, half sides, bottom, top), also
+Boxes are rows ``[x, y, yaw, hx, hy, zb, zt, cos(yaw), sin(yaw)]`` (centre, yaw, half sides,
+bottom, top), also
 two-sided (a ray starting inside a box hits where it leaves it, as ``mj_ray`` does).
 """
 
@@ -107,10 +108,12 @@ def march_terrain(h: np.ndarray, mip: np.ndarray, moff: np.ndarray, mnx: np.ndar
     H = float(ncy)
     tlo = t0
     thi = t1
+    idx = 1.0 / dx if dx != 0.0 else 0.0
+    idy = 1.0 / dy if dy != 0.0 else 0.0
     # clip to the map rectangle
     if dx != 0.0:
-        ta = (0.0 - ox) / dx
-        tb = (W - ox) / dx
+        ta = -ox * idx
+        tb = (W - ox) * idx
         if ta > tb:
             ta, tb = tb, ta
         tlo = max(tlo, ta)
@@ -118,8 +121,8 @@ def march_terrain(h: np.ndarray, mip: np.ndarray, moff: np.ndarray, mnx: np.ndar
     elif ox < 0.0 or ox > W:
         return INF, t1
     if dy != 0.0:
-        ta = (0.0 - oy) / dy
-        tb = (H - oy) / dy
+        ta = -oy * idy
+        tb = (H - oy) * idy
         if ta > tb:
             ta, tb = tb, ta
         tlo = max(tlo, ta)
@@ -128,21 +131,21 @@ def march_terrain(h: np.ndarray, mip: np.ndarray, moff: np.ndarray, mnx: np.ndar
         return INF, t1
     if tlo > thi:
         return INF, t1
+    nlev = moff.shape[0]
+    if oz + dz * (tlo if dz >= 0.0 else thi) > mip[moff[nlev - 1]]:
+        return INF, thi  # passes over the highest point of the map
     x = ox + tlo * dx
     y = oy + tlo * dy
-    f = oz + tlo * dz - height_at_cells(h, x, y)
+    sgn = 1.0
     if tlo > t0:  # entered through a side wall: the wall is solid below the edge profile
-        if f <= 0.0:
+        if oz + tlo * dz - height_at_cells(h, x, y) <= 0.0:
             return tlo, tlo
-        sgn = 1.0
-    elif above:
-        if f <= 0.0:
-            return tlo, tlo
-        sgn = 1.0
-    else:
+    elif not above:  # (above: a start at or below the surface is caught by the first cell test)
+        f = oz + tlo * dz - height_at_cells(h, x, y)
         if f == 0.0:
             return tlo, tlo
-        sgn = 1.0 if f > 0.0 else -1.0
+        if f < 0.0:
+            sgn = -1.0
     # starting cell, resolving boundaries by the direction of travel
     if dx < 0.0:
         cx = int(math.ceil(x)) - 1
@@ -154,7 +157,6 @@ def march_terrain(h: np.ndarray, mip: np.ndarray, moff: np.ndarray, mnx: np.ndar
         cy = int(math.floor(y))
     cx = min(max(cx, 0), ncx - 1)
     cy = min(max(cy, 0), ncy - 1)
-    nlev = moff.shape[0]
     lev = 0
     t = tlo
     while True:
@@ -162,18 +164,18 @@ def march_terrain(h: np.ndarray, mip: np.ndarray, moff: np.ndarray, mnx: np.ndar
         by = cy >> lev
         if dx > 0.0:
             xb = min((bx + 1) << lev, ncx)
-            tx = (xb - ox) / dx
+            tx = (xb - ox) * idx
         elif dx < 0.0:
             xb = bx << lev
-            tx = (xb - ox) / dx
+            tx = (xb - ox) * idx
         else:
             tx = INF
         if dy > 0.0:
             yb = min((by + 1) << lev, ncy)
-            ty = (yb - oy) / dy
+            ty = (yb - oy) * idy
         elif dy < 0.0:
             yb = by << lev
-            ty = (yb - oy) / dy
+            ty = (yb - oy) * idy
         else:
             ty = INF
         te = min(tx, ty, thi)
@@ -224,8 +226,8 @@ def march_terrain(h: np.ndarray, mip: np.ndarray, moff: np.ndarray, mnx: np.ndar
 def ray_box(b: np.ndarray, i: int, ox: float, oy: float, oz: float,
             dx: float, dy: float, dz: float) -> float:
     """Distance along unit ray (world metres) to box i (two-sided slab test); inf if missed."""
-    c = math.cos(b[i, 2])
-    s = math.sin(b[i, 2])
+    c = b[i, 7]
+    s = b[i, 8]
     px = ox - b[i, 0]
     py = oy - b[i, 1]
     lx = c * px + s * py
@@ -314,19 +316,18 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarray, m
     ncy = h.shape[0] - 1
     inside = 0.0 <= ox / cell <= ncx and 0.0 <= oy / cell <= ncy
     mono = plane_march and inside and (oz - height_at_cells(h, ox / cell, oy / cell) > 0.0)
-    # ---- per-scan box preparation and sector binning (world heading) -------------------
+    # ---- per-scan box preparation: distances, reachable slopes, heading intervals, bins --
     nb = boxes.shape[0]
     nsec = 360
     sec_w = 2.0 * math.pi / nsec
     dmin = np.empty(nb)
     mlo = np.empty(nb)
     mhi = np.empty(nb)
-    s0 = np.empty(nb, np.int64)
-    s1 = np.empty(nb, np.int64)
-    counts = np.zeros(nsec + 1, np.int64)
+    alo = np.empty(nb)
+    ahi = np.empty(nb)
     for i in range(nb):
-        c = math.cos(boxes[i, 2])
-        s = math.sin(boxes[i, 2])
+        c = boxes[i, 7]
+        s = boxes[i, 8]
         px = ox - boxes[i, 0]
         py = oy - boxes[i, 1]
         lx = abs(c * px + s * py)
@@ -339,8 +340,6 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarray, m
         df = math.sqrt((lx + hx) ** 2 + (ly + hy) ** 2)
         dmin[i] = dn
         if dn > max_range:
-            s0[i] = 0
-            s1[i] = -1
             continue
         cb = boxes[i, 5] - oz
         ct = boxes[i, 6] - oz
@@ -355,28 +354,43 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarray, m
         rc = math.sqrt(px * px + py * py)
         rad = math.sqrt(hx * hx + hy * hy)
         if rc <= rad * 1.000001 + 1e-9:
-            s0[i] = 0
-            s1[i] = nsec - 1
+            alo[i] = -4.0 * math.pi  # all headings
+            ahi[i] = 4.0 * math.pi
         else:
             th = math.atan2(-py, -px)
             dl = math.asin(min(1.0, rad / rc)) + 1e-9
-            s0[i] = int(math.floor((th - dl) / sec_w))
-            s1[i] = int(math.floor((th + dl) / sec_w))
-        for q in range(s0[i], s1[i] + 1):
+            alo[i] = th - dl
+            ahi[i] = th + dl
+    order = np.argsort(dmin)
+    counts = np.zeros(nsec + 1, np.int64)
+    for e in range(nb):
+        i = order[e]
+        if dmin[i] > max_range:
+            break
+        q0 = int(math.floor(alo[i] / sec_w))
+        q1 = min(int(math.floor(ahi[i] / sec_w)), q0 + nsec - 1)
+        for q in range(q0, q1 + 1):
             counts[(q % nsec) + 1] += 1
     for q in range(nsec):
         counts[q + 1] += counts[q]
     fill = counts[:nsec].copy()
     bins = np.empty(counts[nsec], np.int64)
-    for i in range(nb):
-        for q in range(s0[i], s1[i] + 1):
+    for e in range(nb):
+        i = order[e]
+        if dmin[i] > max_range:
+            break
+        q0 = int(math.floor(alo[i] / sec_w))
+        q1 = min(int(math.floor(ahi[i] / sec_w)), q0 + nsec - 1)
+        for q in range(q0, q1 + 1):
             qq = q % nsec
-            bins[fill[qq]] = i
+            bins[fill[qq]] = i  # each bin sorted by dmin
             fill[qq] += 1
-    stamp = np.full(nb, -1, np.int64)
     # ---- columns ----------------------------------------------------------------------
+    stamp = np.full(nb, -1, np.int64)
+    gmax = mip[moff[moff.shape[0] - 1]]
     dirs = np.empty((nch, 3))
     slope = np.empty(nch)
+    hxy = np.empty(nch)
     best = np.empty(nch)
     uwx, uwy, uwz = rot[0, 2], rot[1, 2], rot[2, 2]
     for a in range(naz):
@@ -394,41 +408,10 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarray, m
             dirs[k, 0] = rx
             dirs[k, 1] = ry
             dirs[k, 2] = rz
-            hxy = math.sqrt(rx * rx + ry * ry)
-            slope[k] = rz / hxy if hxy > 0.0 else (INF if rz > 0.0 else -INF)
+            hh = math.sqrt(rx * rx + ry * ry)
+            hxy[k] = hh
+            slope[k] = rz / hh if hh > 0.0 else (INF if rz > 0.0 else -INF)
             best[k] = INF
-        # boxes: sectors spanned by the column's headings (monotonic in elevation)
-        th0 = math.atan2(dirs[0, 1], dirs[0, 0])
-        th1 = math.atan2(dirs[nch - 1, 1], dirs[nch - 1, 0])
-        d = th1 - th0
-        d = (d + math.pi) % (2.0 * math.pi) - math.pi
-        lo = min(th0, th0 + d)
-        hi = max(th0, th0 + d)
-        q0 = int(math.floor(lo / sec_w))
-        q1 = int(math.floor(hi / sec_w))
-        for q in range(q0, q1 + 1):
-            qq = q % nsec
-            for e in range(counts[qq], counts[qq + 1]):
-                i = bins[e]
-                if stamp[i] == a:
-                    continue
-                stamp[i] = a
-                # contiguous channel range whose world slope can reach the box
-                k0 = 0
-                while k0 < nch and slope[k0] < mlo[i]:
-                    k0 += 1
-                k1 = nch - 1
-                while k1 >= k0 and slope[k1] > mhi[i]:
-                    k1 -= 1
-                for k in range(k0, k1 + 1):
-                    rx = dirs[k, 0]
-                    ry = dirs[k, 1]
-                    hxy = math.sqrt(rx * rx + ry * ry)
-                    if dmin[i] > best[k] * hxy:
-                        continue
-                    tb = ray_box(boxes, i, ox, oy, oz, rx, ry, dirs[k, 2])
-                    if tb < best[k]:
-                        best[k] = tb
         # terrain: one march per column, lowest unresolved channel first
         use_plane = False
         lx = 0.0
@@ -447,23 +430,61 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarray, m
                     ly = -ly
                 use_plane = True
         p_clear = 0.0
+        reach = 0.0
         for k in range(nch):
             rx = dirs[k, 0]
             ry = dirs[k, 1]
             rz = dirs[k, 2]
-            tend = min(best[k], max_range)
             if use_plane:
                 rl = rx * lx + ry * ly
                 tstart = p_clear / rl * (1.0 - 1e-12) if rl > 0.0 else INF
             else:
                 rl = 0.0
                 tstart = 0.0
-            if tstart < tend:
+            if rz >= 0.0 and oz + rz * tstart > gmax:
+                best[k] = INF  # climbing above the highest terrain point: clear to max range
+                if use_plane:
+                    p_clear = max(p_clear, max_range * rl)
+            elif tstart < max_range:
                 th, tc = march_terrain(h, mip, moff, mnx, ox / cell, oy / cell, oz,
-                                       rx / cell, ry / cell, rz, tstart, tend, use_plane)
-                if th < best[k]:
-                    best[k] = th
+                                       rx / cell, ry / cell, rz, tstart, max_range, use_plane)
+                best[k] = th
                 if use_plane:
                     p_clear = max(p_clear, min(th, tc) * rl)
+            reach = max(reach, min(best[k], max_range) * hxy[k])
+        # boxes: candidates from the sectors spanned by the column's headings, nearest first
+        th0 = math.atan2(dirs[0, 1], dirs[0, 0])
+        th1 = math.atan2(dirs[nch - 1, 1], dirs[nch - 1, 0])
+        d = (th1 - th0 + math.pi) % (2.0 * math.pi) - math.pi
+        lo = min(th0, th0 + d) - 1e-9
+        hi = max(th0, th0 + d) + 1e-9
+        q0 = int(math.floor(lo / sec_w))
+        q1 = int(math.floor(hi / sec_w))
+        for q in range(q0, q1 + 1):
+            qq = q % nsec
+            for e in range(counts[qq], counts[qq + 1]):
+                i = bins[e]
+                if dmin[i] > reach:
+                    break
+                if stamp[i] == a:
+                    continue
+                stamp[i] = a
+                # heading overlap of the box's interval with the column's
+                w0 = lo + (alo[i] - lo) % (2.0 * math.pi)
+                if w0 > hi and w0 + (ahi[i] - alo[i]) < lo + 2.0 * math.pi:
+                    continue
+                k0 = 0
+                while k0 < nch and slope[k0] < mlo[i]:
+                    k0 += 1
+                k1 = nch - 1
+                while k1 >= k0 and slope[k1] > mhi[i]:
+                    k1 -= 1
+                for k in range(k0, k1 + 1):
+                    if dmin[i] > best[k] * hxy[k]:
+                        continue
+                    tb = ray_box(boxes, i, ox, oy, oz, dirs[k, 0], dirs[k, 1], dirs[k, 2])
+                    if tb < best[k]:
+                        best[k] = tb
+        for k in range(nch):
             r = best[k]
             out[k, a] = r if (min_range <= r <= max_range) else INF

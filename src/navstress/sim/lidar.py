@@ -110,7 +110,8 @@ class LidarConfig:
 @dataclass(frozen=True, eq=False)
 class LidarScene:
     """What the lidar sees: terrain heights (float32, ``Terrain`` convention), ``cell_m``, and
-    boxes as rows ``[x, y, yaw, half_sx, half_sy, z_bottom, z_top]``. Derived acceleration data
+    boxes as rows ``[x, y, yaw, half_sx, half_sy, z_bottom, z_top]`` (stored with cos(yaw), sin(yaw)
+    appended as columns 7 and 8). Derived acceleration data
     (max-height mipmap, terrain gradient bound) is computed on construction."""
 
     heights: np.ndarray
@@ -129,10 +130,13 @@ class LidarScene:
             raise SpecError("scene.heights", "non-finite values", "finite heights")
         if not (isinstance(self.cell_m, (int, float)) and math.isfinite(self.cell_m) and self.cell_m > 0):
             raise SpecError("scene.cell_m", self.cell_m, "a cell size > 0 in metres")
-        b = np.ascontiguousarray(self.boxes, dtype=np.float64).reshape(-1, 7) if np.size(self.boxes) else \
-            np.zeros((0, 7), np.float64)
+        b = np.asarray(self.boxes, dtype=np.float64)
+        b = b.reshape(-1, b.shape[-1] if b.ndim == 2 else 7)[:, :7] if b.size else np.zeros((0, 7))
+        if b.shape[1] != 7:
+            raise SpecError("scene.boxes", f"shape {b.shape}", "rows of 7 values [x, y, yaw, hx, hy, zb, zt]")
         if not np.all(np.isfinite(b)) or np.any(b[:, 3:5] <= 0) or np.any(b[:, 6] < b[:, 5]):
             raise SpecError("scene.boxes", "invalid rows", "finite [x, y, yaw, hx>0, hy>0, zb, zt>=zb]")
+        b = np.ascontiguousarray(np.column_stack([b, np.cos(b[:, 2]), np.sin(b[:, 2])]))
         h.setflags(write=False)
         b.setflags(write=False)
         object.__setattr__(self, "heights", h)
