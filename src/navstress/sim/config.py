@@ -6,7 +6,7 @@ latency jitter) is drawn from generators derived from the run seed (see
 exactly nominal.
 
     >>> SimConfig().timestep_s
-    0.005
+    0.01
     >>> SimConfig(lidar_enabled=False).lidar_enabled
     False
 """
@@ -26,15 +26,16 @@ class SimConfig:
     """Physics and sensor settings. Rates in Hz, times in seconds, angles in radians."""
 
     # --- physics (see docs/simulation.md for why) ---
-    timestep_s: float = 0.005
+    timestep_s: float = 0.01
     solver_iterations: int = 20
     friction: float = 0.8  # wheel-ground Coulomb coefficient (dry dirt / grass)
     friction_floor: float = 0.05  # smallest directional share of the friction limit
     slip_eps_mps: float = 0.005  # below this slip speed both directions keep full (static) friction
     wheel_torque_nm: float = 60.0  # per-wheel motor torque limit
     wheel_kv: float = 100.0  # wheel velocity-servo gain, N m per rad/s
+    wheel_hold_gain: float = 5.0  # wheel-angle hold of the drive firmware, (rad/s) per rad of lag
     wheel_armature: float = 0.1  # reflected rotor inertia of the geared wheel motor, kg m^2
-    skid_factor: float = 2.7  # effective-track expansion of the skid steer (calibrated on flat ground)
+    skid_factor: float = 3.0  # effective-track expansion of the skid steer (calibrated on flat ground)
     yaw_kp: float = 1.0  # drive firmware yaw-rate loop (gyro feedback), per unit rate error
     yaw_ki: float = 4.0
     max_speed_mps: float = 20.0  # any body speed above this is physics instability
@@ -73,7 +74,7 @@ class SimConfig:
         if self.timestep_s > 0.02:
             raise SpecError("sim.timestep_s", self.timestep_s, "at most 0.02 s for stable contacts",
                             "use the default 0.005")
-        nonneg = ("friction_floor", "slip_eps_mps", "wheel_armature", "yaw_kp", "yaw_ki", "map_margin_m",
+        nonneg = ("friction_floor", "wheel_hold_gain", "slip_eps_mps", "wheel_armature", "yaw_kp", "yaw_ki", "map_margin_m",
                   "collision_debounce_s", "command_latency_s", "command_latency_jitter_s", "rate_jitter",
                   "pose_pos_std_m", "pose_att_std_rad", "imu_att_std_rad", "imu_rate_std_rps",
                   "imu_yaw_drift_rps")

@@ -62,6 +62,7 @@ class Simulation:
         self._target = (0.0, 0.0)
         self._v = self._w = self._yaw_i = 0.0
         self._half_track = robot.track_m / 2
+        self._wheel_ref = [float(self.data.qpos[q]) for q in self.rm.wheel_qpos]
         # sensors
         d = self.data
         self.odometry = WheelOdometry(robot.wheel_radius_m, robot.track_m * cfg.skid_factor,
@@ -82,6 +83,7 @@ class Simulation:
         self._next: dict[str, int] = {n: 0 for n in rates}
         self.observer = Observer(cfg.collision_debounce_s)
         self._contact_buf = np.zeros(64, np.int64)
+        self._rot9 = np.zeros(9)
         # readings since the last observe()
         self._scans: list[LidarScan] = []
         self._pose: PoseReading | None = None
@@ -159,9 +161,17 @@ class Simulation:
         rad = r.wheel_radius_m
         left = (self._v - dw_cmd * self._half_track) / rad
         right = (self._v + dw_cmd * self._half_track) / rad
+        # wheel-angle hold: each wheel tracks the integral of its speed command (bounded lag),
+        # so a stopped robot holds on a slope instead of creeping at torque / kv
+        qp, ref, lim, kp = self.data.qpos, self._wheel_ref, 0.5, cfg.wheel_hold_gain
         ctrl = self.data.ctrl
-        ctrl[0] = ctrl[1] = left
-        ctrl[2] = ctrl[3] = right
+        for i, wq in enumerate(self.rm.wheel_qpos):
+            cmd = left if i < 2 else right
+            a = float(qp[wq])
+            e = ref[i] + cmd * dt - a
+            e = min(max(e, -lim), lim)
+            ref[i] = a + e
+            ctrl[i] = cmd + kp * e
 
     def _step(self) -> None:
         m, d, rm, cfg = self.model, self.data, self.rm, self.config
@@ -182,9 +192,8 @@ class Simulation:
         sp = abs(qv[0]) + abs(qv[1]) + abs(qv[2])
         if not sp < cfg.max_speed_mps or (self._k % 50 == 0 and self._warnings() != self._warn0):
             self._unstable()
-        mujoco.mj_kinematics(m, d)  # poses at the new time for sensors, events and the observer
-        pos = d.xpos[rm.chassis_body]
-        x, y = float(pos[0]), float(pos[1])
+        qp = d.qpos
+        x, y = float(qp[0]), float(qp[1])
         if d.ncon:
             nk = obstacle_contacts(d.contact.geom, rm.obstacle_of_geom, rm.bumper_geom, self._contact_buf)
             if nk or self.observer._touching:
@@ -196,7 +205,8 @@ class Simulation:
         if not (mg <= x <= sx - mg and mg <= y <= sy - mg):
             self.observer.stopped(StopEvent(self.t, x, y, "left_map",
                                             f"robot left the map at ({x:.2f}, {y:.2f})"))
-        up_z = float(d.xmat[rm.chassis_body][8])
+        qw, qx, qy, qz = float(qp[3]), float(qp[4]), float(qp[5]), float(qp[6])
+        up_z = 1.0 - 2.0 * (qx * qx + qy * qy) / (qw * qw + qx * qx + qy * qy + qz * qz)
         if up_z < math.cos(cfg.flip_threshold_rad):
             self.observer.stopped(StopEvent(self.t, x, y, "flipped",
                                             f"robot tipped over (up-vector z={up_z:.2f})"))
@@ -217,8 +227,9 @@ class Simulation:
         d, rm, cfg, k, t = self.data, self.rm, self.config, self._k, self.t
         if self._warnings() != self._warn0:
             self._unstable()
-        cb = rm.chassis_body
-        rot = d.xmat[cb].reshape(3, 3)
+        pos = d.qpos[0:3].copy()  # free joint: chassis position and orientation at the new time
+        mujoco.mju_quat2Mat(self._rot9, d.qpos[3:7])
+        rot = self._rot9.reshape(3, 3)
         yaw, pitch, roll = euler_from_mat(rot)
         for name, nk in self._next.items():
             if nk > k:
@@ -228,17 +239,16 @@ class Simulation:
             elif name == "imu":
                 self._imu = self.imu_sensor.read(t, yaw, pitch, roll, d.qvel[3:6])
             elif name == "pose":
-                self._pose = self.pose_sensor.read(t, d.xpos[cb], yaw, pitch, roll)
+                self._pose = self.pose_sensor.read(t, pos, yaw, pitch, roll)
             elif name == "lidar":
-                origin = d.site_xpos[rm.lidar_site].copy()
-                srot = d.site_xmat[rm.lidar_site].reshape(3, 3).copy()
+                lm = self.robot.lidar
+                origin = pos + rot @ np.array([lm.x_m, lm.y_m, lm.z_m])
+                srot = rot.copy()
                 assert self._lidar is not None
                 pts = self._lidar.scan(origin, srot, self._lidar_gen if cfg.noise else None)
-                lm = self.robot.lidar
                 self._scans.append(LidarScan(t, pts, (lm.x_m, lm.y_m, lm.z_m)))
             else:
-                p = d.xpos[cb]
-                self.observer.record_pose((t, float(p[0]), float(p[1]), float(p[2]), yaw, pitch, roll))
+                self.observer.record_pose((t, float(pos[0]), float(pos[1]), float(pos[2]), yaw, pitch, roll))
             period = self._period[name]
             if cfg.jitter and cfg.rate_jitter > 0 and name != "observer":
                 period *= 1.0 + cfg.rate_jitter * (2.0 * float(self._timing[name].random()) - 1.0)

@@ -31,3 +31,13 @@ def rough(seed: int, size: float = 12.0, amp: float = 1.5) -> World:
     rows, cols = w.spec.grid_shape
     h = np.random.default_rng(seed).uniform(-amp, amp, (rows, cols)).astype(np.float32)
     return dataclasses.replace(w, terrain=Terrain(h, w.spec.cell_m))
+
+
+def bumpy(size: float = 40.0, amp: float = 0.3, wavelength: float = 3.0) -> World:
+    """Egg-box bumps of ``amp`` meters every ``wavelength`` meters."""
+    w = flat(size)
+    rows, cols = w.spec.grid_shape
+    y, x = np.mgrid[0:rows, 0:cols] * w.spec.cell_m
+    k = 2 * math.pi / wavelength
+    h = (amp * np.sin(k * x) * np.sin(k * y)).astype(np.float32)
+    return dataclasses.replace(w, terrain=Terrain(h, w.spec.cell_m))
