@@ -24,6 +24,7 @@ demo: $(VENV)/.installed
 	$(BIN)/navstress demo -o $(DEMO_OUT)
 
 test: $(VENV)/.installed-test
+	command -v chromium >/dev/null || (apt-get update -qq && apt-get install -y -qq chromium)
 	$(BIN)/python -m pytest -n 2 -q
 
 bench: $(VENV)/.installed
