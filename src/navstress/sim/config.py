@@ -50,7 +50,7 @@ class SimConfig:
     lidar_enabled: bool = True
     lidar: LidarConfig = LidarConfig()  # channels, azimuth steps, rate, range, noise
     odom_rate_hz: float = 50.0
-    imu_rate_hz: float = 100.0
+    imu_rate_hz: float = 50.0
     pose_rate_hz: float = 10.0
     rate_jitter: float = 0.05  # each sensor period is scaled by 1 + U(-j, j)
     noise: bool = True

@@ -31,7 +31,7 @@ class WheelOdometry:
     Left/right travel is the wheel radius times the mean rotation of the two wheels of a side;
     the heading change uses the calibrated effective track (``track_m``, the skid steer's
     geometric track times its skid factor, as a real platform's odometry is calibrated). Wheel
-    slip and skid therefore show up as odometry drift. Exact (midpoint) integration per update.
+    slip and skid therefore show up as odometry drift. Each update integrates the exact arc.
     """
 
     def __init__(self, wheel_radius_m: float, track_m: float, wheel_angles: np.ndarray, t: float) -> None:
@@ -50,9 +50,13 @@ class WheelOdometry:
         dr = self.r * 0.5 * float(d[2] + d[3])
         ds = 0.5 * (dl + dr)
         dth = (dr - dl) / self.track
-        mid = self.yaw + 0.5 * dth
-        self.x += ds * math.cos(mid)
-        self.y += ds * math.sin(mid)
+        if abs(dth) > 1e-9:  # the exact circular arc
+            k = ds / dth
+            self.x += k * (math.sin(self.yaw + dth) - math.sin(self.yaw))
+            self.y += k * (math.cos(self.yaw) - math.cos(self.yaw + dth))
+        else:
+            self.x += ds * math.cos(self.yaw)
+            self.y += ds * math.sin(self.yaw)
         self.yaw = wrap(self.yaw + dth)
         dt = t - self.t
         self.t = t

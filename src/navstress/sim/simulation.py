@@ -225,8 +225,6 @@ class Simulation:
 
     def _fire_due(self) -> None:
         d, rm, cfg, k, t = self.data, self.rm, self.config, self._k, self.t
-        if self._warnings() != self._warn0:
-            self._unstable()
         pos = d.qpos[0:3].copy()  # free joint: chassis position and orientation at the new time
         mujoco.mju_quat2Mat(self._rot9, d.qpos[3:7])
         rot = self._rot9.reshape(3, 3)
