@@ -89,8 +89,14 @@ def failure_record(task: RunTask, reason: str, wall_s: float = 0.0) -> RunRecord
         run_id=task.run_id, experiment=task.experiment, config=dict(task.config), map_index=task.map_index,
         run_index=task.run_index, map_seed=task.map_seed, run_seed=task.run_seed, navigator=task.navigator,
         fault=task.fault, outcome="fail-other", reason=reason, duration_s=0.0, wall_s=wall_s,
-        goal_distance_m=math.inf, path_length_m=0.0, tortuousness=0.0, collisions=0, first_collision_s=None,
+        goal_distance_m=-1.0, path_length_m=0.0, tortuousness=0.0, collisions=0, first_collision_s=None,
         errors=[reason], trace=None)
+
+
+def drop_partial_trace(task: RunTask) -> None:
+    """Remove the partial trace a killed run left behind (TraceWriter's ``.NAME.partial``)."""
+    p = Path(task.trace_path)
+    p.with_name(f".{p.name}.partial").unlink(missing_ok=True)
 
 
 def run_one(task: RunTask) -> RunRecord:
@@ -229,11 +235,35 @@ def _die_with_parent(parent_pid: int) -> None:
     threading.Thread(target=watch, daemon=True).start()
 
 
-def _worker_main(conn: mpc.Connection, parent_pid: int, targets: dict[str, str]) -> None:
-    """Worker loop: receive ("world", MapJob) or ("run", RunTask); answer ("ok"|"error", value)."""
+def warm_up() -> float:
+    """Run a 0.5 s mission on a small flat world so that this process's JIT and imports are done.
+
+    Returns the seconds it took. Best effort: any failure is ignored (the real run will report it)."""
+    import tempfile
+
+    t0 = time.perf_counter()
+    try:
+        from navstress.run.mission import execute
+        from navstress.world.spec import WorldSpec
+        from navstress.world.world import World
+
+        with tempfile.TemporaryDirectory(prefix="navstress-warmup-") as tmp:
+            World.flat(WorldSpec(size_m=(20.0, 20.0))).save(Path(tmp) / "w")
+            execute(RunTask(run_id="warm-up", world_dir=str(Path(tmp) / "w"), run_seed=0,
+                            trace_path=str(Path(tmp) / "t.mcap"), timeout_s=0.5))
+    except Exception:
+        pass
+    return time.perf_counter() - t0
+
+
+def _worker_main(conn: mpc.Connection, parent_pid: int, targets: dict[str, str], warm: bool) -> None:
+    """Worker loop: receive ("world", MapJob) or ("run", RunTask); answer ("started", None) when it
+    begins, then ("ok"|"error", value)."""
     _die_with_parent(parent_pid)
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the driver's business
     register_targets(targets)
+    if warm:
+        warm_up()
     while True:
         try:
             msg = conn.recv()
@@ -242,6 +272,7 @@ def _worker_main(conn: mpc.Connection, parent_pid: int, targets: dict[str, str])
         if msg is None:
             return
         kind, payload = msg
+        conn.send(("started", None))
         try:
             if kind == "world":
                 generate_world(payload)
@@ -260,20 +291,23 @@ class _Slot:
     kind: str = ""
     payload: Any = None
     started: float = 0.0
+    running: bool = False
 
 
 class LocalExecutor:
     """A pool of ``workers`` processes that knows which job each one holds (see module doc)."""
 
-    def __init__(self, workers: int, wall_limit_s: float, targets: dict[str, str] | None = None) -> None:
+    def __init__(self, workers: int, wall_limit_s: float, targets: dict[str, str] | None = None, *,
+                 warm: bool = True) -> None:
         self.workers = workers
+        self.warm = warm
         self.wall_limit_s = wall_limit_s
         self.targets = dict(targets or {})
         self._ctx = mp.get_context("spawn")
 
     def _spawn(self) -> _Slot:
         parent, child = self._ctx.Pipe(duplex=True)
-        proc = self._ctx.Process(target=_worker_main, args=(child, os.getpid(), self.targets), daemon=True)
+        proc = self._ctx.Process(target=_worker_main, args=(child, os.getpid(), self.targets, self.warm), daemon=True)
         proc.start()
         child.close()
         return _Slot(proc, parent)
@@ -310,15 +344,19 @@ class LocalExecutor:
                     if not s.kind:
                         continue
                     outcome: tuple[str, Any] | None = None
-                    if s.conn.poll():
+                    while outcome is None and s.conn.poll():
                         try:
                             outcome = s.conn.recv()
                         except (EOFError, OSError):
-                            outcome = None
+                            break
+                        if outcome[0] == "started":  # the clock starts when the worker (warm) begins
+                            s.started, s.running, outcome = time.monotonic(), True, None
                     if outcome is None and not s.proc.is_alive():
                         s.proc.join(1.0)
                         outcome = ("died", describe_exit(s.proc.exitcode))
                     limit = self.wall_limit_s if s.kind == "run" else WORLD_LIMIT_S
+                    if not s.running:  # still starting up (imports, warm-up): a generous limit
+                        limit = WORLD_LIMIT_S
                     if outcome is None and now - s.started > limit:
                         s.proc.kill()
                         s.proc.join(5.0)
@@ -343,7 +381,7 @@ class LocalExecutor:
                 s.conn.close()
 
     def _send(self, s: _Slot, kind: str, payload: Any) -> None:
-        s.kind, s.payload, s.started = kind, payload, time.monotonic()
+        s.kind, s.payload, s.started, s.running = kind, payload, time.monotonic(), False
         s.conn.send((kind, payload))
 
     def _finish(self, s: _Slot, outcome: tuple[str, Any], now: float, by_map: dict[str, deque[RunTask]],
@@ -367,8 +405,10 @@ class LocalExecutor:
         elif status == "error":
             sink(failure_record(payload, f"worker error: {str(value).splitlines()[0]}", wall))
         elif status == "died":
+            drop_partial_trace(payload)
             sink(failure_record(payload, f"run killed its worker process ({value})", wall))
         else:
+            drop_partial_trace(payload)
             sink(failure_record(payload, f"run exceeded wall-clock limit ({value}); worker killed", wall))
 
 

@@ -19,6 +19,7 @@ from typing import Any
 
 from navstress.campaign.executors import (
     RecordCallback,
+    drop_partial_trace,
     WORLD_LIMIT_S,
     failure_record,
     generate_world,
@@ -125,7 +126,9 @@ class RayExecutor:
             return
         if status == "ok":
             sink(value)
-        elif "WorkerCrashed" in why or "died" in why.lower():
+            return
+        drop_partial_trace(payload)
+        if "WorkerCrashed" in why or "died" in why.lower():
             sink(failure_record(payload, f"run killed its Ray worker ({why})", wall))
         else:
             sink(failure_record(payload, f"run failed on Ray: {why}", wall))

@@ -1,0 +1,191 @@
+"""Campaigns end to end with REAL missions (MuJoCo + navigators) on small 30 m worlds.
+
+Covers: resume after SIGKILL (no run lost or doubled, no partial trace), a crashing, a
+segfaulting, a raising and a hanging navigator inside a campaign (classified, campaign
+completes), replay identity, export, the CLI sub-app, and the Ray executor on a local Ray.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from navstress.campaign.cli import campaign_app, replay as replay_cmd
+from navstress.campaign.executors import run_campaign
+from navstress.campaign.replay import replay
+from navstress.campaign.store import Store, read_export
+
+HELPERS = str(Path(__file__).resolve().parents[1] / "unit" / "campaign")
+if HELPERS not in sys.path:
+    sys.path.insert(0, HELPERS)
+
+pytestmark = pytest.mark.slow
+
+
+def _spec(**over: Any) -> dict[str, Any]:
+    d: dict[str, Any] = {
+        "name": "small", "seed": 11, "world": {"size_m": [30.0, 30.0], "cell_m": 0.4},
+        "experiments": [{"name": "trees", "sweep": {"obstacles.obstruction.tree": {"values": [0, 3]}}}],
+        "maps_per_config": 1, "runs_per_map": 2, "navigators": [{"name": "reference-v1"}],
+        "faults": [None], "timeout_s": 40.0, "goal_tolerance_m": 2.0}
+    d.update(over)
+    return d
+
+
+def _write(path: Path, data: dict[str, Any]) -> Path:
+    path.write_text(yaml.safe_dump(data, sort_keys=False))
+    return path
+
+
+def _partials(d: Path) -> list[Path]:
+    return [p for p in d.rglob(".*") if p.name != ".lock"]
+
+
+@pytest.fixture(scope="module")
+def resumed(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A campaign SIGKILLed mid-way by a subprocess driver, then resumed to the end."""
+    root = tmp_path_factory.mktemp("resume")
+    spec = _write(root / "spec.yaml", _spec())
+    out = root / "out"
+    code = ("import sys; from navstress.campaign.executors import run_campaign;"
+            "run_campaign(sys.argv[1], sys.argv[2], workers=1)")
+    proc = subprocess.Popen([sys.executable, "-c", code, str(spec), str(out)])
+    db = out / "campaign.sqlite"
+    deadline = time.monotonic() + 120
+    done = 0
+    while time.monotonic() < deadline and proc.poll() is None:
+        time.sleep(0.2)
+        if db.exists():
+            try:
+                con = sqlite3.connect(db, timeout=1)
+                done = con.execute("SELECT COUNT(*) FROM runs").fetchone()[0]
+                con.close()
+            except sqlite3.Error:
+                continue
+            if done >= 1:
+                break
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    assert proc.returncode == -signal.SIGKILL, "the driver finished before it could be killed"
+    with Store.open(out) as s:
+        assert 1 <= s.progress()[0] < s.progress()[1]
+    time.sleep(0.6)  # orphaned workers notice the dead parent and exit
+    res = run_campaign(spec, out, workers=2)
+    assert res.already_done >= 1 and res.already_done + res.recorded == res.planned
+    return out
+
+
+def test_resume_after_sigkill_loses_and_doubles_nothing(resumed: Path) -> None:
+    with Store.open(resumed) as s:
+        planned = s.planned_ids()
+        rows = [r[0] for r in s.con.execute("SELECT run_id FROM runs")]
+        assert sorted(rows) == sorted(planned) and len(rows) == len(set(rows)) == 4
+        for r in s.records():
+            assert r.trace is not None and (resumed / r.trace).is_file(), r
+            assert r.outcome in ("success", "fail-collision", "fail-error", "fail-timeout", "fail-other")
+    assert _partials(resumed) == []
+    # a second run on a finished campaign does nothing
+    res = run_campaign(resumed / "spec.yaml", resumed, workers=1)
+    assert res.recorded == 0 and res.already_done == 4
+
+
+def test_replay_identity(resumed: Path, tmp_path: Path) -> None:
+    with Store.open(resumed) as s:
+        rec = s.records()[-1]
+    r = replay(resumed, rec.run_id, keep=tmp_path / "new.mcap")
+    assert r.identical and r.record_differences == ()
+    assert (tmp_path / "new.mcap").read_bytes() == (resumed / rec.trace).read_bytes()  # type: ignore[operator]
+    # a stored trace that differs is reported as different
+    stored = resumed / rec.trace  # type: ignore[operator]
+    original = stored.read_bytes()
+    try:
+        stored.write_bytes(original[:-1] + bytes([original[-1] ^ 1]))
+        assert not replay(resumed, rec.run_id).identical
+        result = CliRunner().invoke(_replay_app(), [str(resumed), rec.run_id])
+        assert result.exit_code == 1 and "DIFFERENT" in result.output
+    finally:
+        stored.write_bytes(original)
+    result = CliRunner().invoke(_replay_app(), [str(resumed), rec.run_id])
+    assert result.exit_code == 0 and "identical" in result.output
+
+
+def _replay_app() -> Any:
+    import typer
+    app = typer.Typer()
+    app.command()(replay_cmd)
+    return app
+
+
+def test_cli_status_and_export(resumed: Path, tmp_path: Path) -> None:
+    runner = CliRunner()
+    res = runner.invoke(campaign_app, ["status", str(resumed)])
+    assert res.exit_code == 0 and "4/4" in res.output
+    for fmt in ("csv", "parquet"):
+        out = tmp_path / f"r.{fmt}"
+        res = runner.invoke(campaign_app, ["export", str(resumed), "--format", fmt, "-o", str(out)])
+        assert res.exit_code == 0, res.output
+        rows = read_export(out)
+        with Store.open(resumed) as s:
+            assert [r["run_id"] for r in rows] == s.planned_ids()
+            assert [r["outcome"] for r in rows] == [r.outcome for r in s.records()]
+    res = runner.invoke(campaign_app, ["init", "--preset", "paper", "-o", str(tmp_path / "p.yaml")])
+    assert res.exit_code == 0 and "experiments" in (tmp_path / "p.yaml").read_text()
+
+
+MISBEHAVING = [
+    {"name": "exits-v1", "target": "campaign_navs:Exits", "config": {"after_s": 0.5}},
+    {"name": "segfaults-v1", "target": "campaign_navs:Segfaults", "config": {"after_s": 0.5}},
+    {"name": "raises-v1", "target": "campaign_navs:Raises", "config": {"after_s": 0.5}},
+    {"name": "hangs-v1", "target": "campaign_navs:Hangs", "config": {"after_s": 0.5}},
+    {"name": "reference-v1"},
+]
+
+
+def test_crashing_and_hanging_navigators_are_classified(tmp_path: Path) -> None:
+    spec = _write(tmp_path / "spec.yaml", _spec(
+        experiments=[{"name": "flat", "sweep": {"obstacles.obstruction.tree": {"values": [0]}}}],
+        runs_per_map=1, navigators=MISBEHAVING, timeout_s=30.0))
+    res = run_campaign(spec, tmp_path / "out", workers=2, wall_limit_s=12.0)
+    assert res.recorded == res.planned == 5
+    with Store.open(tmp_path / "out") as s:
+        by_nav = {r.navigator: r for r in s.records()}
+    assert by_nav["exits-v1"].outcome == "fail-other" and "exit code 7" in by_nav["exits-v1"].reason
+    assert by_nav["segfaults-v1"].outcome == "fail-other" and "SIGSEGV" in by_nav["segfaults-v1"].reason
+    assert by_nav["hangs-v1"].outcome == "fail-other" and "wall-clock limit" in by_nav["hangs-v1"].reason
+    assert by_nav["raises-v1"].outcome in ("fail-error", "fail-other")
+    assert "planner exploded" in by_nav["raises-v1"].reason + " ".join(by_nav["raises-v1"].errors)
+    assert by_nav["reference-v1"].trace is not None  # the campaign went on and ran the good navigator
+    assert _partials(tmp_path / "out") == []
+
+
+def test_ray_executor_on_local_cluster(tmp_path: Path) -> None:
+    ray = pytest.importorskip("ray", reason="ray is not installed (pip extra 'ray'; the 'test' extra installs it)")
+    spec = _write(tmp_path / "spec.yaml", _spec(
+        experiments=[{"name": "flat", "sweep": {"obstacles.obstruction.tree": {"values": [0]}}}],
+        runs_per_map=2, navigators=[{"name": "reference-v1"}, MISBEHAVING[0]], timeout_s=30.0))
+    os.environ.setdefault("RAY_AUTH_MODE", "disabled")
+    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False,
+             runtime_env={"env_vars": {"PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}})
+    try:
+        res = run_campaign(spec, tmp_path / "out", executor="ray")
+    finally:
+        ray.shutdown()
+    assert res.recorded == res.planned == 4 and res.workers == 2
+    with Store.open(tmp_path / "out") as s:
+        recs = s.records()
+        local_plan = [t.run_id for t in s.plan().tasks]
+    assert [r.run_id for r in recs] == local_plan
+    crashed = [r for r in recs if r.navigator == "exits-v1"]
+    assert all(r.outcome == "fail-other" and "Ray worker" in r.reason for r in crashed)
+    good = [r for r in recs if r.navigator == "reference-v1"]
+    assert all(r.trace and (tmp_path / "out" / r.trace).is_file() for r in good)

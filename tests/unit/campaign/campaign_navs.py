@@ -1,0 +1,68 @@
+"""Misbehaving navigators for campaign tests, importable by worker processes (``module:attr``).
+
+Each drives straight toward the goal for ``after_s`` simulated seconds, then misbehaves.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import math
+import os
+import time
+from typing import Any
+
+from navstress.nav.api import Command, NavMission, Observation, Status
+from navstress.robot import RobotSpec
+
+
+class _Base:
+    def __init__(self, config: dict[str, Any] | None = None) -> None:
+        self.after_s = float((config or {}).get("after_s", 1.0))
+        self.t0: float | None = None
+
+    def reset(self, mission: NavMission, robot: RobotSpec, *, seed: int) -> None:
+        self.t0 = None
+
+    def step(self, obs: Observation) -> Command | Status:
+        t = float(getattr(obs, "t", 0.0))
+        if self.t0 is None:
+            self.t0 = t
+        if t - self.t0 >= self.after_s:
+            return self.misbehave()
+        return Command(0.5, 0.0)
+
+    def misbehave(self) -> Command | Status:
+        return Command(0.0, 0.0)
+
+    def close(self) -> None:
+        pass
+
+
+class Exits(_Base):
+    """Kills its own process (as a crashing native library would)."""
+
+    def misbehave(self) -> Command | Status:
+        os._exit(7)
+
+
+class Segfaults(_Base):
+    """Dereferences a null pointer: SIGSEGV."""
+
+    def misbehave(self) -> Command | Status:
+        ctypes.string_at(0)
+        return Command(0.0, 0.0)
+
+
+class Hangs(_Base):
+    """Never answers again."""
+
+    def misbehave(self) -> Command | Status:
+        while True:
+            time.sleep(0.5)
+
+
+class Raises(_Base):
+    """Raises an exception from step()."""
+
+    def misbehave(self) -> Command | Status:
+        raise RuntimeError("planner exploded" + "!" * int(math.copysign(1, 1)))
