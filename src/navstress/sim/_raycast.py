@@ -215,7 +215,14 @@ def march_terrain(h: np.ndarray, mip: np.ndarray, moff: np.ndarray, mnx: np.ndar
             break
         t = te
         if skip and lev + 1 < nlev:
-            lev += 1
+            # climb only when entering the parent block at its near edge (else its max
+            # includes cells already passed and the test would usually fail)
+            if tx <= ty:
+                par = (cx >> lev) & 1
+                if par == (0 if dx > 0.0 else 1):
+                    lev += 1
+            elif ((cy >> lev) & 1) == (0 if dy > 0.0 else 1):
+                lev += 1
     # left the map (or reached t1) without crossing the top surface
     if sgn < 0.0 and thi < t1:
         return thi, thi  # below the surface all the way to the edge: the side wall, from inside
@@ -388,6 +395,7 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarray, m
     # ---- columns ----------------------------------------------------------------------
     stamp = np.full(nb, -1, np.int64)
     gmax = mip[moff[moff.shape[0] - 1]]
+    icell = 1.0 / cell
     dirs = np.empty((nch, 3))
     slope = np.empty(nch)
     hxy = np.empty(nch)
@@ -446,8 +454,8 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarray, m
                 if use_plane:
                     p_clear = max(p_clear, max_range * rl)
             elif tstart < max_range:
-                th, tc = march_terrain(h, mip, moff, mnx, ox / cell, oy / cell, oz,
-                                       rx / cell, ry / cell, rz, tstart, max_range, use_plane)
+                th, tc = march_terrain(h, mip, moff, mnx, ox * icell, oy * icell, oz,
+                                       rx * icell, ry * icell, rz, tstart, max_range, use_plane)
                 best[k] = th
                 if use_plane:
                     p_clear = max(p_clear, min(th, tc) * rl)
@@ -488,3 +496,43 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarray, m
         for k in range(nch):
             r = best[k]
             out[k, a] = r if (min_range <= r <= max_range) else INF
+
+
+@njit(cache=True, nogil=True)
+def rotation_error(r: np.ndarray) -> float:
+    """max |R^T R - I| (inf if det <= 0): cheap validity check of a rotation matrix."""
+    e = 0.0
+    for i in range(3):
+        for j in range(3):
+            s = r[0, i] * r[0, j] + r[1, i] * r[1, j] + r[2, i] * r[2, j]
+            e = max(e, abs(s - (1.0 if i == j else 0.0)))
+    det = (r[0, 0] * (r[1, 1] * r[2, 2] - r[1, 2] * r[2, 1]) - r[0, 1] * (r[1, 0] * r[2, 2] - r[1, 2] * r[2, 0])
+           + r[0, 2] * (r[1, 0] * r[2, 1] - r[1, 1] * r[2, 0]))
+    return e if det > 0.0 else INF
+
+
+@njit(cache=True, nogil=True)
+def count_finite(r: np.ndarray) -> int:
+    n = 0
+    for v in r.ravel():
+        if v < INF:
+            n += 1
+    return n
+
+
+@njit(cache=True, nogil=True)
+def points_from_ranges(r: np.ndarray, dirs: np.ndarray, noise: np.ndarray, std: float,
+                       pts: np.ndarray) -> None:
+    """Hit points (sensor frame) of the finite ranges, channel-major; noise[n] * std added."""
+    n = 0
+    use_noise = noise.shape[0] > 0
+    for k in range(r.shape[0]):
+        for a in range(r.shape[1]):
+            d = r[k, a]
+            if d < INF:
+                if use_noise:
+                    d = max(d + std * noise[n], 0.0)
+                pts[n, 0] = dirs[k, a, 0] * d
+                pts[n, 1] = dirs[k, a, 1] * d
+                pts[n, 2] = dirs[k, a, 2] * d
+                n += 1

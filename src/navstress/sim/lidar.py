@@ -204,10 +204,9 @@ def cast_rays(scene: LidarScene, origins: np.ndarray, directions: np.ndarray, ma
 def _check_pose(origin: np.ndarray, rotation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     o = np.ascontiguousarray(origin, dtype=np.float64)
     r = np.ascontiguousarray(rotation, dtype=np.float64)
-    if o.shape != (3,) or not np.all(np.isfinite(o)):
+    if o.shape != (3,) or not np.isfinite(o).all():
         raise SpecError("origin", origin, "a finite (3,) position in the world frame")
-    if r.shape != (3, 3) or not np.all(np.isfinite(r)) or not np.allclose(r.T @ r, np.eye(3), atol=1e-6) \
-            or np.linalg.det(r) <= 0:
+    if r.shape != (3, 3) or not _raycast.rotation_error(r) <= 1e-6:
         raise SpecError("rotation", rotation, "a (3, 3) rotation matrix (world from sensor)")
     return o, r
 
@@ -229,7 +228,7 @@ class Lidar:
         az = config.azimuths_rad
         self._cos_el, self._sin_el = np.cos(el), np.sin(el)
         self._cos_az, self._sin_az = np.cos(az), np.sin(az)
-        self._dirs = config.directions().astype(np.float32)
+        self._dirs = config.directions()
         self._out = np.empty((config.channels, config.azimuth_steps), np.float64)
 
     def ranges(self, origin: np.ndarray, rotation: np.ndarray) -> np.ndarray:
@@ -247,10 +246,13 @@ class Lidar:
     def scan(self, origin: np.ndarray, rotation: np.ndarray, rng: np.random.Generator | None = None) -> np.ndarray:
         """Hit points (N, 3) float32 in the sensor frame (x forward, y left, z up); rays without a
         return are omitted. With ``rng``, each range gets N(0, range_noise_std_m) noise along its
-        ray (drawn from ``rng`` only, one draw per return, in channel-major order)."""
-        rng_ = self._ranges(origin, rotation)
-        hit = np.isfinite(rng_)
-        d = rng_[hit]
-        if rng is not None and self.config.range_noise_std_m > 0:
-            d = np.maximum(d + rng.normal(0.0, self.config.range_noise_std_m, d.shape[0]), 0.0)
-        return (self._dirs[hit] * d[:, None]).astype(np.float32)
+        ray (``rng.standard_normal(N, dtype=float32)``, one draw per return in channel-major order; nothing else
+        is drawn), clamped at 0."""
+        r = self._ranges(origin, rotation)
+        n = _raycast.count_finite(r)
+        std = self.config.range_noise_std_m
+        noise = rng.standard_normal(n, dtype=np.float32) if (rng is not None and std > 0) else \
+            np.empty(0, np.float32)
+        pts = np.empty((n, 3), np.float32)
+        _raycast.points_from_ranges(r, self._dirs, noise, float(std), pts)
+        return pts
