@@ -1,0 +1,198 @@
+"""The whole analysis of one campaign directory (Q1, Q2, Q3 and more) in one value.
+
+    >>> a = analyze("demo-campaign")                      # doctest: +SKIP
+    >>> a.difficulty.level("trees", "tree=8")              # doctest: +SKIP
+    'very difficult'
+
+Works on a finished, partial (still running) or empty campaign: configurations without a
+run are listed with ``runs == 0`` and level ``"no data"``; :attr:`Analysis.missing` says
+what is not done yet. Difficulty, indeterminism and descriptor correlations use the nominal
+runs of one navigator (``navigator``, default: the spec's first); fault power compares each
+fault with that navigator's nominal runs on the same maps.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from navstress.analysis.descriptors_corr import Correlation, correlations, mean_descriptors, world_descriptors
+from navstress.analysis.difficulty import (LEVEL_RANK, LEVELS, Difficulty, DifficultyParams, LevelRange, Overlap,
+                                           assign_levels, level_ranges, reference_keys)
+from navstress.analysis.fault_power import FaultPower, LevelPower, by_level, fault_power
+from navstress.analysis.indeterminism import Curve, config_curves
+from navstress.analysis.stats import (NOMINAL, ConfigStats, config_key, config_stats, fault_name, planned_configs)
+from navstress.errors import NavstressError, SpecError
+from navstress.run.outcome import Outcome
+from navstress.run.record import RunRecord
+from navstress.run.trace import TOPIC_TRUTH, read_poses
+
+
+class TrajectoryCache:
+    """Decoded trajectories by (trace path, topic), read once per process (keyed by mtime too).
+
+    ``max_points`` > 0 thins a trajectory for drawing (every k-th sample, last kept)."""
+
+    def __init__(self) -> None:
+        self._c: dict[tuple[str, str, float], np.ndarray | None] = {}
+
+    def get(self, path: str | Path | None, topic: str = TOPIC_TRUTH) -> np.ndarray | None:
+        """(N, 7) poses, or None when the trace is missing or unreadable."""
+        if not path:
+            return None
+        p = str(path)
+        try:
+            mt = os.stat(p).st_mtime
+        except OSError:
+            return None
+        k = (p, topic, mt)
+        if k not in self._c:
+            try:
+                arr = read_poses(p, topic)
+                self._c[k] = arr if len(arr) else None
+            except NavstressError:
+                self._c[k] = None
+        return self._c[k]
+
+    @staticmethod
+    def thin(arr: np.ndarray, max_points: int) -> np.ndarray:
+        if max_points <= 0 or len(arr) <= max_points:
+            return arr
+        step = int(np.ceil(len(arr) / max_points))
+        idx = np.arange(0, len(arr), step)
+        if idx[-1] != len(arr) - 1:
+            idx = np.append(idx, len(arr) - 1)
+        return arr[idx]
+
+
+@dataclass
+class Analysis:
+    """Everything the report shows (see module doc)."""
+
+    root: Path
+    name: str
+    navigator: str
+    done: int
+    planned: int
+    outcome_counts: dict[str, int]
+    per_experiment: list[tuple[str, int, int, dict[str, int]]]
+    records: list[RunRecord]
+    stats: list[ConfigStats]  # every (config, navigator, fault)
+    nominal: list[ConfigStats]  # the difficulty navigator's nominal runs, one per configuration
+    difficulty: Difficulty
+    ranges: list[LevelRange]
+    overlaps: list[Overlap]
+    indeterminism: dict[tuple[str, str], dict[str, Curve]]
+    power: list[FaultPower]
+    power_levels: list[LevelPower]
+    correlations: list[Correlation]
+    world_dirs: dict[tuple[str, str], list[tuple[int, Path]]]
+    dt: float
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def missing(self) -> list[tuple[str, str, int, int]]:
+        """(experiment, config, recorded, planned) of every configuration not complete yet."""
+        return [(s.experiment, s.config_key, s.runs, s.planned) for s in self.stats
+                if s.planned and s.runs < s.planned]
+
+    def level(self, experiment: str, key: str) -> str:
+        return self.difficulty.level(experiment, key)
+
+    def to_json(self) -> dict[str, Any]:
+        """A JSON-able summary (numbers only; no trajectories)."""
+        return {
+            "campaign": self.name, "navigator": self.navigator, "done": self.done, "planned": self.planned,
+            "outcomes": self.outcome_counts,
+            "difficulty": {"threshold": self.difficulty.params.threshold, "k": self.difficulty.params.k,
+                           "weights": list(self.difficulty.params.weights), "notes": list(self.difficulty.notes),
+                           "reference": ["/".join(r) for r in self.difficulty.reference]},
+            "configurations": [dict(s.to_json(), level=self.level(s.experiment, s.config_key))
+                               for s in self.stats],
+            "level_ranges": [{"experiment": r.experiment, "parameter": r.parameter, "level": r.level,
+                              "values": list(r.values), "lo": r.lo, "hi": r.hi} for r in self.ranges],
+            "overlaps": [{"experiment": o.experiment, "levels": [o.a, o.b], "lo": o.lo, "hi": o.hi}
+                         for o in self.overlaps],
+            "indeterminism": [{"experiment": e, "config": k, **c.summary()}
+                              for (e, k), cs in self.indeterminism.items() for c in cs.values()],
+            "fault_power": [p.to_json() for p in self.power],
+            "fault_power_by_level": [{"level": p.level, "fault": p.fault, "configs": p.configs, "runs": p.runs,
+                                      "collisions": p.collisions, "collision_share": p.collision_share,
+                                      "new_failures": p.new_failures, "nominal_runs": p.nominal_runs,
+                                      "nominal_collisions": p.nominal_collisions,
+                                      "nominal_collision_share": p.nominal_collision_share}
+                                     for p in self.power_levels],
+            "descriptor_correlations": [c.to_json() for c in self.correlations],
+            "missing": [{"experiment": e, "config": k, "recorded": d, "planned": p} for e, k, d, p in self.missing],
+        }
+
+
+def trace_path(root: Path, rec: RunRecord) -> Path | None:
+    if not rec.trace:
+        return None
+    p = Path(rec.trace)
+    return p if p.is_absolute() else root / p
+
+
+def analyze(directory: str | Path, *, params: DifficultyParams | None = None, navigator: str | None = None,
+            dt: float = 1.0, cache: TrajectoryCache | None = None, confidence: float = 0.95,
+            interval: str = "wilson", is_reference: Callable[[ConfigStats], bool] | None = None) -> Analysis:
+    """Analyse the campaign in ``directory`` (read only; see module doc)."""
+    from navstress.campaign.store import Store
+
+    root = Path(directory)
+    cache = cache or TrajectoryCache()
+    with Store.open(root) as store:
+        spec = store.spec
+        records = store.records()
+        done, planned = store.progress()
+        counts = store.outcome_counts()
+        per_exp = store.per_experiment()
+        maps = store.plan().maps
+    navs = [n.name for n in spec.navigators]
+    nav = navigator or navs[0]
+    if nav not in navs:
+        raise SpecError("navigator", nav, f"one of the campaign's navigators {navs}")
+    stats = config_stats(records, planned_configs(spec), confidence=confidence, interval=interval)
+    nominal = [s for s in stats if s.navigator == nav and s.fault == NOMINAL]
+    refs = reference_keys(spec)
+    diff = assign_levels(nominal, is_reference or (lambda s: s.key in refs), params)
+    ranges, overlaps = level_ranges(nominal, diff)
+
+    # Q2: nominal runs of the navigator, grouped per configuration and map
+    by_cfg: dict[tuple[str, str], dict[int, list[tuple[bool, np.ndarray]]]] = {}
+    for r in records:
+        if r.navigator != nav or fault_name(r.fault) != NOMINAL:
+            continue
+        tr = cache.get(trace_path(root, r))
+        if tr is None:
+            continue
+        by_cfg.setdefault((r.experiment, config_key(r)), {}).setdefault(r.map_index, []).append(
+            (r.outcome == Outcome.SUCCESS.value, tr[:, :3]))
+    indet = {k: config_curves(v, dt) for k, v in by_cfg.items()}
+    indet = {k: v for k, v in indet.items() if v}
+
+    levels = {s.key: diff.level(*s.key) for s in nominal}
+    power = fault_power([r for r in records if r.navigator == nav], levels)
+    power_levels = by_level(power, LEVELS)
+
+    world_dirs: dict[tuple[str, str], list[tuple[int, Path]]] = {}
+    for m in maps:
+        world_dirs.setdefault((m.experiment, m.config_key), []).append((m.map_index, Path(m.world_dir)))
+    desc: dict[tuple[str, str], dict[str, float]] = {}
+    for key, dirs in world_dirs.items():
+        ds = [d for d in (world_descriptors(p) for _, p in dirs) if d is not None]
+        if ds:
+            desc[key] = mean_descriptors(ds)
+    rank = {k: LEVEL_RANK[v] for k, v in levels.items() if v in LEVEL_RANK}
+    succ = {s.key: s.success_rate for s in nominal if s.success_rate is not None}
+    corr = correlations(desc, rank, {k: float(v) for k, v in succ.items() if v is not None})
+    return Analysis(root=root, name=spec.name, navigator=nav, done=done, planned=planned, outcome_counts=counts,
+                    per_experiment=per_exp, records=records, stats=stats, nominal=nominal, difficulty=diff,
+                    ranges=ranges, overlaps=overlaps, indeterminism=indet, power=power, power_levels=power_levels,
+                    correlations=corr, world_dirs=world_dirs, dt=dt)
