@@ -23,7 +23,7 @@ per scan. See :func:`navstress.sim._raycast.scan_kernel`.
     >>> lidar = Lidar(build_scene(World.flat(WorldSpec(size_m=(20.0, 20.0)))))
     >>> r = lidar.ranges(np.array([10.0, 10.0, 1.0]), np.eye(3))
     >>> round(float(r[0, 0]), 4)  # lowest channel, -30.67 deg: 1 / sin(30.67 deg)
-    1.9612
+    1.9604
 """
 
 from __future__ import annotations

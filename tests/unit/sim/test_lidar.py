@@ -47,8 +47,6 @@ def random_rays(g: np.random.Generator, sc: LidarScene, n: int) -> tuple[np.ndar
             ang = g.uniform(0, 2 * np.pi)
             r = g.uniform(0.6, 1.5) * math.hypot(W, H)
             o[k] = (W / 2 + r * math.cos(ang), H / 2 + r * math.sin(ang), g.uniform(hmin, hmax + 3.0))
-            d = np.array([W / 2, H / 2, hmin]) - o[k] + g.normal(0, 1.0, 3)
-            o[k] += 0.0 * d
     d = g.normal(0, 1, (n, 3))
     d[:, 2] -= g.uniform(0, 1.5, n)
     outside = (o[:, 0] < 0) | (o[:, 0] > W) | (o[:, 1] < 0) | (o[:, 1] > H)
@@ -145,7 +143,9 @@ def mj_cast(m: mujoco.MjModel, d: mujoco.MjData, origins: np.ndarray, dirs: np.n
 
 
 def same(a: np.ndarray, b: np.ndarray, tol: float) -> np.ndarray:
-    return (np.isinf(a) & np.isinf(b)) | (np.abs(a - b) <= tol * (1 + np.abs(b)))
+    """Both miss, or both hit within tol * (1 + |b|) metres."""
+    with np.errstate(invalid="ignore"):
+        return (np.isinf(a) & np.isinf(b)) | (np.abs(a - b) <= tol * (1 + np.abs(b)))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -235,6 +235,31 @@ def test_scan_on_generated_hilly_world_equals_per_ray() -> None:
         origin = np.array([x, y, w.terrain.height_at(x, y) + 0.9])
         rot = rot_zyx(g.uniform(-3, 3), g.uniform(-0.25, 0.25), g.uniform(-0.25, 0.25))
         scan_vs_per_ray(sc, LidarConfig(azimuth_steps=120), origin, rot)
+
+
+def test_scan_matches_mujoco_multiray_on_generated_world() -> None:
+    """A whole (coarse) scan on a hilly world with trees and buildings against mj_multiRay."""
+    from navstress.world.generate import generate
+
+    spec = WorldSpec.model_validate({"size_m": [30.0, 30.0], "ground": {"subdivisions": 3, "deformation": 1.5},
+                                     "obstacles": {"obstruction": {"tree": 8, "building": 8}}})
+    w = generate(spec, seed=11)
+    sc = build_scene(w)
+    m, d = mujoco_model(sc)
+    x, y = 12.0, 17.0
+    origin = np.array([x, y, w.terrain.height_at(x, y) + 0.9])
+    rot = rot_zyx(0.7, 0.08, -0.05)
+    cfg = LidarConfig(azimuth_steps=90, max_range_m=30.0)
+    r = Lidar(sc, cfg).ranges(origin, rot).astype(np.float64).ravel()
+    vec = (cfg.directions().reshape(-1, 3) @ rot.T).ravel()
+    n = vec.size // 3
+    dist, gid = np.empty(n), np.empty(n, np.int32)
+    # pitfalls: normal=None must be passed; cutoff does not cap the reported distance
+    mujoco.mj_multiRay(m, d, origin, vec, None, 1, -1, gid, dist, None, n, cfg.max_range_m)
+    ref = np.where((dist >= cfg.min_range_m) & (dist <= cfg.max_range_m), dist, np.inf)
+    ok = same(r, ref, 1e-4)
+    assert ok.all(), (np.flatnonzero(~ok)[:5], r[~ok][:5], ref[~ok][:5])
+    assert np.isfinite(r).sum() > n // 2 and len(w.obstacles) > 5
 
 
 # ---------------------------------------------------------------------------------------------
@@ -354,12 +379,11 @@ def test_build_scene_from_world_obstacles() -> None:
     sc = build_scene(World.flat(spec, obstacles=(ob,)))
     assert sc.heights.dtype == np.float32 and sc.cell_m == spec.cell_m
     assert np.allclose(sc.boxes[:, :7], [[20.0, 15.0, 0.3, 0.5, 1.0, 0.5, 5.5]])
-    # a horizontal ray at z=3 from x=10 towards the box centre hits its rotated face
+    # a horizontal ray at z=3 from x=10 through the box centre enters its rotated +-x face
     t = cast_rays(sc, np.array([[10.0, 15.0, 3.0]]), np.array([[1.0, 0.0, 0.0]]), 70.0)[0]
-    corners = ob.corners()
-    xs = [p for p in corners]
-    assert 10.0 - 0.5 - 1.0 < t < 10.0  # between the inscribed and circumscribed bounds
-    assert len(xs) == 4
+    assert math.isclose(t, 10.0 - min(0.5 / math.cos(0.3), 1.0 / math.sin(0.3)), rel_tol=1e-12)
+    # above the box top (z = 5.5) it misses; below its base (z = 0.5) is under the ground plane
+    assert np.isinf(cast_rays(sc, np.array([[10.0, 15.0, 5.6]]), np.array([[1.0, 0.0, 0.0]]), 70.0)[0])
 
 
 # ---------------------------------------------------------------------------------------------
