@@ -598,6 +598,18 @@ def nav_check(
         raise typer.Exit(1)
 
 
+# ---- campaigns ---------------------------------------------------------------------------------
+
+def _mount_campaigns() -> None:
+    from navstress.campaign.cli import campaign_app, replay
+
+    app.add_typer(campaign_app, name="campaign")
+    app.command("replay")(replay)
+
+
+_mount_campaigns()
+
+
 def main() -> None:
     """Console-script entry point (``navstress``)."""
     app()
