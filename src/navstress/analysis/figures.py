@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -84,3 +85,185 @@ def trajectories_png(world: World, tracks: list[RunTrack], path: str | Path, *, 
         return out
     finally:
         plt.close(fig)
+
+
+# ---- analysis pictures (PNG bytes, for the HTML report) --------------------------------------
+
+LEVEL_STYLE: dict[str, tuple[str, str]] = {  # level -> (marker, colour)
+    "easy": ("o", "#1a9641"),
+    "challenging": ("s", "#f08a24"),
+    "very difficult": ("X", "#d7191c"),
+    "no data": ("o", "#bbbbbb"),
+}
+
+
+def _figure(w: float, h: float, dpi: int) -> Any:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(w, h), dpi=dpi, layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def png_bytes(fig: Any) -> bytes:
+    """Render a matplotlib Figure to PNG bytes."""
+    import io
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    return buf.getvalue()
+
+
+def _xs(values: list[Any]) -> tuple[list[float], list[str] | None]:
+    """Numeric x positions of parameter values (categorical positions when not all numeric)."""
+    try:
+        return [float(v) for v in values], None
+    except (TypeError, ValueError):
+        return [float(i) for i in range(len(values))], [str(v) for v in values]
+
+
+def class_figure(experiment: str, stats: list[Any], levels: dict[tuple[str, str], str], *, dpi: int = 90) -> bytes:
+    """The paper's Fig. 7-9 layout for one experiment class: success rate (95 % CI bars, the
+    level marked per point), median duration and median tortuousness of successful runs,
+    against the swept parameter. ``stats``: ConfigStats of the class (nominal runs)."""
+    items = [s for s in stats if s.experiment == experiment]
+    param = next(iter(items[0].params), "configuration") if items else "configuration"
+    xs, ticks = _xs([s.params.get(param, s.config_key) for s in items])
+    fig = _figure(11.0, 3.4, dpi)
+    axes = fig.subplots(1, 3, sharex=True)
+    seen: set[str] = set()
+    for x, s in zip(xs, items):
+        lev = levels.get(s.key, "no data")
+        mk, col = LEVEL_STYLE.get(lev, ("o", "#000000"))
+        if s.runs:
+            r = s.successes / s.runs
+            axes[0].errorbar([x], [100 * r], yerr=[[100 * (r - s.ci_low)], [100 * (s.ci_high - r)]], fmt=mk,
+                             color=col, ms=8, capsize=3, label=None if lev in seen else lev)
+            seen.add(lev)
+        if s.median_duration_s is not None:
+            axes[1].plot([x], [s.median_duration_s], mk, color=col, ms=8)
+        if s.median_tortuousness is not None:
+            axes[2].plot([x], [s.median_tortuousness], mk, color=col, ms=8)
+    for ax, lab in zip(axes, ("success rate [%]", "median duration of successes [s]",
+                              "median tortuousness of successes [rad/step]")):
+        ax.set_ylabel(lab)
+        ax.set_xlabel(param.rsplit(".", 1)[-1])
+        ax.grid(True, alpha=0.3)
+        if ticks is not None:
+            ax.set_xticks(xs, ticks, rotation=30)
+    axes[0].set_ylim(-5, 105)
+    axes[0].axhline(25, color="#d7191c", lw=0.8, ls=":")
+    if seen:
+        axes[0].legend(fontsize=8, loc="best")
+    fig.suptitle(f"{experiment}: difficulty against {param}", fontsize=11)
+    return png_bytes(fig)
+
+
+def indeterminism_figure(title: str, curves: dict[str, dict[str, Any]], *, dpi: int = 90) -> bytes:
+    """Fig. 10-11: mean max distance between repeated runs over time, one line per
+    configuration; panels for successful and unsuccessful runs. ``curves[config][group]``."""
+    fig = _figure(11.0, 3.6, dpi)
+    axes = fig.subplots(1, 2, sharey=True)
+    for ax, group, name in zip(axes, ("success", "failure"), ("successful runs", "unsuccessful runs")):
+        n = 0
+        for cfg, cs in curves.items():
+            c = cs.get(group)
+            if c is None:
+                continue
+            ax.plot(c.t, c.d, lw=1.5, label=f"{cfg} ({c.n_maps} map{'s' if c.n_maps != 1 else ''})")
+            n += 1
+        ax.set_title(f"{title}: {name}", fontsize=10)
+        ax.set_xlabel("time t [s]")
+        ax.grid(True, alpha=0.3)
+        if n:
+            ax.legend(fontsize=7)
+        else:
+            ax.text(0.5, 0.5, "no map with 2+ such runs", ha="center", va="center", transform=ax.transAxes,
+                    color="#777777")
+    axes[0].set_ylabel("max distance between runs [m]")
+    return png_bytes(fig)
+
+
+def fault_power_figure(level_powers: list[Any], *, dpi: int = 90) -> bytes:
+    """Fig. 12: runs with collisions per difficulty level, faulty navigator beside nominal."""
+    fig = _figure(7.5, 3.6, dpi)
+    ax = fig.subplots()
+    labels = [f"{p.level or 'no level'}\n{p.fault}" for p in level_powers]
+    x = np.arange(len(level_powers), dtype=float)
+    ax.bar(x - 0.2, [p.collisions for p in level_powers], 0.4, color="#d7191c", label="faulty: runs with collision")
+    ax.bar(x + 0.2, [p.nominal_collisions for p in level_powers], 0.4, color="#1a9641",
+           label="nominal: runs with collision")
+    for xi, p in zip(x, level_powers):
+        ax.text(xi - 0.2, p.collisions, f"{p.collisions}/{p.runs}", ha="center", va="bottom", fontsize=8)
+        ax.text(xi + 0.2, p.nominal_collisions, f"{p.nominal_collisions}/{p.nominal_runs}", ha="center",
+                va="bottom", fontsize=8)
+    ax.set_xticks(x, labels)
+    ax.set_ylabel("runs with a collision")
+    ax.set_title("Fault-revealing power per difficulty level", fontsize=10)
+    ax.legend(fontsize=8)
+    ax.grid(True, axis="y", alpha=0.3)
+    return png_bytes(fig)
+
+
+def world_runs_png_bytes(world: World, tracks: list[RunTrack], *, title: str | None = None, perceived: bool = False,
+                         dpi: int = 80) -> bytes:
+    """``world`` (hillshaded terrain, obstacles, start, goal) with ``tracks`` overlaid."""
+    from navstress.world.export.images import draw_world
+
+    fig = _figure(6.0, 5.6, dpi)
+    ax = fig.subplots()
+    draw_world(ax, world, legend=False)
+    draw_tracks(ax, tracks, perceived=perceived)
+    if tracks:
+        ax.legend(loc="upper left", fontsize=7, framealpha=0.85)
+    if title:
+        ax.set_title(title, fontsize=9, loc="left")
+    return png_bytes(fig)
+
+
+def perceived_map_png_bytes(world: World, grid: np.ndarray, origin_xy: tuple[float, float], cell_m: float,
+                            track: RunTrack | None = None, *, title: str | None = None, dpi: int = 80) -> bytes:
+    """The navigator's final perceived elevation map: known cells coloured by height, unknown
+    (NaN) cells in a flat pink so that a person can see why no arc was elected; the real
+    obstacles outlined and the run's real trajectory on top."""
+    from matplotlib.collections import PolyCollection
+    from matplotlib.colors import ListedColormap
+    from matplotlib.patches import Patch
+
+    fig = _figure(6.0, 5.6, dpi)
+    ax = fig.subplots()
+    g = np.asarray(grid, dtype=np.float64)
+    rows, cols = g.shape
+    extent = (origin_xy[0], origin_xy[0] + cols * cell_m, origin_xy[1], origin_xy[1] + rows * cell_m)
+    unknown = ~np.isfinite(g)
+    sx, sy = world.size_m
+    cx = origin_xy[0] + (np.arange(cols) + 0.5) * cell_m
+    cy = origin_xy[1] + (np.arange(rows) + 0.5) * cell_m
+    inside = ((cy >= 0) & (cy <= sy))[:, None] & ((cx >= 0) & (cx <= sx))[None, :]
+    share = float(unknown[inside].mean()) if inside.any() else 1.0
+    ax.imshow(np.where(unknown, 1.0, np.nan), origin="lower", extent=extent, cmap=ListedColormap(["#f4c2d7"]),
+              vmin=0, vmax=1, interpolation="nearest", zorder=0)
+    if (~unknown).any():
+        im = ax.imshow(np.where(unknown, np.nan, g), origin="lower", extent=extent, cmap="viridis",
+                       interpolation="nearest", zorder=1)
+        fig.colorbar(im, ax=ax, shrink=0.7, label="perceived height [m]")
+    if world.obstacles:
+        ax.add_collection(PolyCollection([o.corners() for o in world.obstacles], facecolors="none",
+                                         edgecolors="black", linewidths=0.6, zorder=3))
+    if track is not None:
+        draw_tracks(ax, [track], perceived=True)
+    m = world.mission
+    ax.plot([m.start[0]], [m.start[1]], "o", color="#1565c0", mec="white", ms=8, zorder=7)
+    ax.plot([m.goal[0]], [m.goal[1]], "*", color="#d62828", mec="white", ms=14, zorder=7)
+    ax.set_xlim(0, sx)
+    ax.set_ylim(0, sy)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    handles, _ = ax.get_legend_handles_labels()
+    handles.append(Patch(facecolor="#f4c2d7", label=f"unknown ({100 * share:.0f} % of the map)"))
+    ax.legend(handles=handles, loc="upper left", fontsize=7, framealpha=0.85)
+    if title:
+        ax.set_title(title, fontsize=9, loc="left")
+    return png_bytes(fig)

@@ -1,0 +1,117 @@
+"""``navstress analyze DIR`` and ``navstress report DIR -o report.html`` (mounted by navstress.cli).
+
+    from navstress.analysis.cli import register
+    register(app)   # adds the two commands to the root typer app
+
+User errors raise :class:`~navstress.errors.NavstressError` subclasses (the root CLI prints
+them on one line and exits 2).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from navstress.analysis.difficulty import DifficultyParams
+from navstress.errors import SpecError
+
+
+def _params(threshold: float, k: int, weights: str) -> DifficultyParams:
+    try:
+        w = tuple(float(v) for v in weights.split(","))
+    except ValueError:
+        raise SpecError("--weights", weights, "three comma-separated numbers, e.g. 0.5,0.25,0.25") from None
+    if len(w) != 3:
+        raise SpecError("--weights", weights, "three comma-separated numbers, e.g. 0.5,0.25,0.25")
+    return DifficultyParams(threshold=threshold, k=k, weights=(w[0], w[1], w[2]))
+
+
+Threshold = Annotated[float, typer.Option("--threshold", help="Success rate below which a configuration is very difficult.")]
+K = Annotated[int, typer.Option("--k", help="k-means clusters for the other configurations.")]
+Weights = Annotated[str, typer.Option("--weights", help="Weights of success rate, duration, tortuousness.")]
+Navigator = Annotated[str | None, typer.Option("--navigator", help="Navigator whose nominal runs define difficulty (default: the first).")]
+Dt = Annotated[float, typer.Option("--dt", help="Time step of the indeterminism curves [s].")]
+
+
+def analyze_cmd(
+    directory: Annotated[Path, typer.Argument(help="Campaign directory.")],
+    json_out: Annotated[Path | None, typer.Option("--json", help="Also write every number as JSON to this file.")] = None,
+    threshold: Threshold = 0.25, k: K = 2, weights: Weights = "0.5,0.25,0.25", navigator: Navigator = None,
+    dt: Dt = 1.0,
+) -> None:
+    """Print the campaign's difficulty levels, indeterminism and fault power."""
+    from rich.console import Console
+    from rich.table import Table
+
+    from navstress.analysis.analyze import analyze
+    from navstress.analysis.stats import dumps, params_text
+
+    if not dt > 0:
+        raise SpecError("--dt", dt, "a time step in seconds > 0")
+    a = analyze(directory, params=_params(threshold, k, weights), navigator=navigator, dt=dt)
+    con = Console(highlight=False)
+    con.print(f"campaign {a.name}: {a.done}/{a.planned} runs recorded; "
+              + ", ".join(f"{n} {o}" for o, n in a.outcome_counts.items()))
+    if not a.done:
+        con.print("no run recorded yet: nothing to analyse")
+    t = Table(title=f"Difficulty (nominal runs of {a.navigator})")
+    for c in ("class", "parameters", "runs", "success % [95% CI]", "med. duration s", "med. tortuousness", "level"):
+        t.add_column(c)
+    for s in a.nominal:
+        r = s.success_rate
+        t.add_row(s.experiment, params_text(s.params), f"{s.runs}/{s.planned}",
+                  "-" if r is None else f"{100 * r:.0f} [{100 * s.ci_low:.0f}, {100 * s.ci_high:.0f}]",
+                  "-" if s.median_duration_s is None else f"{s.median_duration_s:.1f}",
+                  "-" if s.median_tortuousness is None else f"{s.median_tortuousness:.4f}",
+                  a.level(s.experiment, s.config_key))
+    con.print(t)
+    for o in a.overlaps:
+        con.print(f"fuzzy threshold in {o.experiment}: {o.a} and {o.b} overlap over {o.lo:g}..{o.hi:g}")
+    if a.indeterminism:
+        ti = Table(title="Indeterminism: max distance between repeated runs (mean over maps)")
+        for c in ("class", "configuration", "runs", "maps", "peak m", "time-mean m", "final m"):
+            ti.add_column(c)
+        for (e, key), cs in a.indeterminism.items():
+            for g, c in cs.items():
+                ti.add_row(e, key, g, str(c.n_maps), f"{c.peak_m:.2f}", f"{c.mean_m:.2f}", f"{c.final_m:.2f}")
+        con.print(ti)
+    if a.power_levels:
+        tp = Table(title="Fault-revealing power per level")
+        for c in ("level", "fault", "runs", "with collision", "new failures", "nominal runs", "nominal with collision"):
+            tp.add_column(c)
+        for p in a.power_levels:
+            tp.add_row(p.level, p.fault, str(p.runs), str(p.collisions), str(p.new_failures), str(p.nominal_runs),
+                       str(p.nominal_collisions))
+        con.print(tp)
+    best = [c for c in a.correlations if c.rho_level is not None][:3]
+    for c in best:
+        con.print(f"descriptor {c.descriptor}: Spearman rho with level {c.rho_level:+.2f} over {c.n} configurations")
+    if json_out is not None:
+        json_out.parent.mkdir(parents=True, exist_ok=True)
+        json_out.write_text(dumps(a.to_json()), encoding="utf-8")
+        con.print(f"wrote {json_out}")
+
+
+def report_cmd(
+    directory: Annotated[Path, typer.Argument(help="Campaign directory (finished, running or empty).")],
+    out: Annotated[Path, typer.Option("--output", "-o", help="HTML file to write.")] = Path("report.html"),
+    threshold: Threshold = 0.25, k: K = 2, weights: Weights = "0.5,0.25,0.25", navigator: Navigator = None,
+    dt: Dt = 1.0,
+) -> None:
+    """Write one self-contained HTML report (figures embedded) of a campaign."""
+    from navstress.analysis.report import build_report
+
+    if not dt > 0:
+        raise SpecError("--dt", dt, "a time step in seconds > 0")
+    if out.exists() and out.is_dir():
+        raise SpecError("--output", str(out), "an HTML file path, not a directory")
+    path = build_report(directory, out, params=_params(threshold, k, weights), navigator=navigator, dt=dt)
+    typer.echo(f"report: {path.resolve()}")
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``analyze`` and ``report`` to the root ``navstress`` app."""
+    app.command("analyze")(analyze_cmd)
+    app.command("report")(report_cmd)

@@ -1,0 +1,368 @@
+"""``navstress report DIR -o report.html``: one self-contained HTML file for a person.
+
+Figures are embedded as base64 PNG data URIs; the page has no script and loads nothing from
+outside. Sections: summary (campaign, runs done/planned, outcome counts, what is missing),
+difficulty table (per configuration: parameters, runs, success % with its 95 % interval,
+median duration and tortuousness of successes, mean end distance to goal, level), level
+ranges per class (fuzzy thresholds), per-class figures, indeterminism, fault power,
+descriptor correlations, and one section per configuration (every map with all its runs
+colour-coded by outcome, one real-vs-perceived picture and the final perceived map).
+
+Every number a test may check carries stable attributes: summary values have ids
+(``runs-done``, ``runs-planned``, ``outcome-<outcome>``); table rows carry
+``data-experiment``, ``data-config``, ``data-navigator``, ``data-fault`` and cells
+``data-field="<name>"`` with the exact value in ``data-value`` (empty when undefined).
+Works on a partial or running campaign and on an empty one.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import math
+import os
+import re
+import time
+from pathlib import Path
+from typing import Any
+
+
+from navstress.analysis.analyze import Analysis, TrajectoryCache, analyze, trace_path
+from navstress.analysis.difficulty import NO_DATA, DifficultyParams
+from navstress.analysis.figures import (LEVEL_STYLE, OUTCOME_COLOURS, OUTCOME_LABELS, RunTrack, class_figure,
+                                        fault_power_figure, indeterminism_figure, perceived_map_png_bytes,
+                                        world_runs_png_bytes)
+from navstress.analysis.stats import NOMINAL, ConfigStats, config_key, fault_name, params_text
+from navstress.run.outcome import Outcome
+from navstress.run.record import RunRecord
+from navstress.run.trace import TOPIC_MAP, TOPIC_PERCEIVED, TOPIC_TRUTH, read_grid
+
+_CSS = """
+body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;margin:0 auto;max-width:1200px;padding:1em 2em;
+color:#222;line-height:1.4}
+h1{margin-bottom:.2em}h2{border-bottom:2px solid #ddd;padding-bottom:.2em;margin-top:2em}
+table{border-collapse:collapse;margin:.6em 0;font-size:.9em}
+th,td{border:1px solid #ccc;padding:.25em .55em;text-align:right}th{background:#f3f3f3}
+td.l,th.l{text-align:left}
+.level{font-weight:600;padding:.05em .4em;border-radius:3px;color:#fff}
+.note{color:#555;font-size:.9em}.warn{background:#fff4d6;border:1px solid #e8c46b;padding:.5em 1em;border-radius:4px}
+img.figure{max-width:100%;border:1px solid #eee;margin:.3em 0}
+.maps{display:flex;flex-wrap:wrap;gap:.6em}.maps figure{margin:0;flex:0 0 auto}
+.maps img{width:420px}figcaption{font-size:.85em;color:#444}
+nav a{margin-right:1em}
+"""
+
+
+def _e(x: Any) -> str:
+    return html.escape(str(x), quote=True)
+
+
+def _fmt(v: float | None, digits: int = 2) -> str:
+    return "\u2013" if v is None or (isinstance(v, float) and not math.isfinite(v)) else f"{v:.{digits}f}"
+
+
+def _dv(v: Any) -> str:
+    """The exact value for a data-value attribute ('' when undefined)."""
+    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+        return ""
+    return repr(float(v)) if isinstance(v, float) else str(v)
+
+
+def _cell(field: str, value: Any, text: str | None = None, cls: str = "") -> str:
+    c = f' class="{cls}"' if cls else ""
+    return f'<td{c} data-field="{field}" data-value="{_e(_dv(value))}">{_e(text if text is not None else value)}</td>'
+
+
+def _img(png: bytes, name: str, alt: str) -> str:
+    b64 = base64.b64encode(png).decode("ascii")
+    return f'<img class="figure" data-figure="{_e(name)}" alt="{_e(alt)}" src="data:image/png;base64,{b64}">'
+
+
+def _level_badge(level: str) -> str:
+    col = LEVEL_STYLE.get(level, ("o", "#888"))[1]
+    return f'<span class="level" style="background:{col}">{_e(level)}</span>'
+
+
+def _slug(*parts: str) -> str:
+    return "cfg-" + re.sub(r"[^A-Za-z0-9_-]+", "-", "--".join(parts)).strip("-")
+
+
+def _row_attrs(s: ConfigStats) -> str:
+    return (f'data-experiment="{_e(s.experiment)}" data-config="{_e(s.config_key)}" '
+            f'data-navigator="{_e(s.navigator)}" data-fault="{_e(s.fault)}"')
+
+
+# ---- sections ---------------------------------------------------------------------------------
+
+def _summary(a: Analysis) -> str:
+    out = [f'<h1>Campaign <span id="campaign-name">{_e(a.name)}</span></h1>',
+           f'<p class="note">Directory <code>{_e(a.root)}</code>; report written {_e(time.strftime("%Y-%m-%d %H:%M"))}; '
+           f'difficulty, indeterminism and correlations use the nominal runs of <b>{_e(a.navigator)}</b>.</p>',
+           '<h2 id="summary">Summary</h2>',
+           f'<p>Runs recorded: <b id="runs-done" data-value="{a.done}">{a.done}</b> of '
+           f'<b id="runs-planned" data-value="{a.planned}">{a.planned}</b> planned.</p>']
+    if a.done == 0:
+        out.append('<p class="warn" id="empty-campaign">This campaign has no recorded run yet: there is nothing to '
+                   'analyse. Run it with <code>navstress campaign run SPEC -o DIR</code> and rebuild the report.</p>')
+    elif a.done < a.planned:
+        miss = a.missing
+        items = "".join(f'<li data-experiment="{_e(e)}" data-config="{_e(k)}">{_e(e)} / {_e(k)}: '
+                        f'{d} of {p} runs</li>' for e, k, d, p in miss[:200])
+        more = f"<li>... and {len(miss) - 200} more</li>" if len(miss) > 200 else ""
+        out.append(f'<div class="warn" id="partial-campaign"><p>The campaign is not complete ({a.planned - a.done} '
+                   f'runs missing); figures show what is recorded so far. Incomplete configurations:</p>'
+                   f'<ul>{items}{more}</ul></div>')
+    rows = "".join(f'<tr><td class="l"><span style="color:{OUTCOME_COLOURS.get(o, "#000")}">&#9632;</span> '
+                   f'{_e(OUTCOME_LABELS.get(o, o))}</td><td id="outcome-{_e(o)}" data-value="{n}">{n}</td></tr>'
+                   for o, n in a.outcome_counts.items())
+    out.append(f'<table id="outcome-counts"><tr><th class="l">outcome</th><th>runs</th></tr>{rows}</table>')
+    exp_rows = "".join(
+        f'<tr data-experiment="{_e(e)}"><td class="l">{_e(e)}</td><td data-field="done" data-value="{d}">{d}</td>'
+        f'<td data-field="planned" data-value="{p}">{p}</td>'
+        + "".join(f'<td data-field="{_e(o)}" data-value="{n}">{n}</td>' for o, n in c.items()) + "</tr>"
+        for e, d, p, c in a.per_experiment)
+    heads = "".join(f"<th>{_e(OUTCOME_LABELS.get(o, o))}</th>" for o in a.outcome_counts)
+    out.append(f'<table id="per-experiment"><tr><th class="l">experiment class</th><th>done</th><th>planned</th>'
+               f'{heads}</tr>{exp_rows}</table>')
+    return "\n".join(out)
+
+
+def _difficulty(a: Analysis) -> str:
+    p = a.difficulty.params
+    out = ['<h2 id="difficulty">Difficulty levels (Q1)</h2>',
+           f'<p class="note">A configuration with a success rate below {100 * p.threshold:g} % is <i>very '
+           f'difficult</i>; the others are clustered by k-means (k = {p.k}) on min-max normalised success rate, '
+           f'median duration and median tortuousness of successful runs, weighted {", ".join(f"{w:g}" for w in p.weights)}. '
+           'The cluster holding the flat, obstacle-free configuration is <i>easy</i>, the other <i>challenging</i>. '
+           'Success intervals: 95 % Wilson score. Tortuousness: mean absolute heading change between positions '
+           'resampled every 0.5 m of travelled distance (moves under 0.1 m dropped), in radians per step.</p>']
+    for n in a.difficulty.notes:
+        out.append(f'<p class="note">Note: {_e(n)}</p>')
+    rows = []
+    for s in a.stats:
+        lev = a.level(s.experiment, s.config_key)
+        rate = s.success_rate
+        rows.append(
+            f'<tr {_row_attrs(s)}><td class="l">{_e(s.experiment)}</td><td class="l">{_e(params_text(s.params))}</td>'
+            f'<td class="l">{_e(s.navigator)}</td><td class="l">{_e(s.fault)}</td>'
+            + _cell("runs", s.runs, f"{s.runs}/{s.planned}" if s.planned else str(s.runs))
+            + _cell("successes", s.successes)
+            + _cell("success-rate", rate, _fmt(None if rate is None else 100 * rate, 1))
+            + _cell("ci-low", s.ci_low if s.runs else None, _fmt(100 * s.ci_low, 1) if s.runs else None)
+            + _cell("ci-high", s.ci_high if s.runs else None, _fmt(100 * s.ci_high, 1) if s.runs else None)
+            + _cell("median-duration", s.median_duration_s, _fmt(s.median_duration_s, 1))
+            + _cell("median-tortuousness", s.median_tortuousness, _fmt(s.median_tortuousness, 4))
+            + _cell("mean-goal-distance", s.mean_goal_distance_m, _fmt(s.mean_goal_distance_m, 2))
+            + "".join(_cell(f"n-{o}", n) for o, n in s.outcomes.items())
+            + f'<td class="l" data-field="level" data-value="{_e(lev)}">{_level_badge(lev)}</td>'
+            + f'<td class="l"><a href="#{_slug(s.experiment, s.config_key)}">maps</a></td></tr>')
+    heads = "".join(f"<th>{_e(OUTCOME_LABELS.get(o, o))}</th>" for o in (a.stats[0].outcomes if a.stats else {}))
+    out.append('<table id="difficulty-table"><tr><th class="l">class</th><th class="l">parameters</th>'
+               '<th class="l">navigator</th><th class="l">fault</th><th>runs</th><th>successes</th>'
+               '<th>success %</th><th>CI low %</th><th>CI high %</th><th>median duration [s]</th>'
+               f'<th>median tortuousness</th><th>mean end distance [m]</th>{heads}<th class="l">level</th><th></th></tr>'
+               + "".join(rows) + "</table>")
+    # level ranges and overlaps
+    rr = "".join(f'<tr data-experiment="{_e(r.experiment)}" data-level="{_e(r.level)}"><td class="l">{_e(r.experiment)}'
+                 f'</td><td class="l">{_level_badge(r.level)}</td><td class="l">{_e(", ".join(map(str, r.values)))}</td>'
+                 f'<td>{_fmt(r.lo, 3)} \u2013 {_fmt(r.hi, 3)}</td></tr>' for r in a.ranges)
+    out.append('<h3>Which parameter values got which level</h3>'
+               '<table id="level-ranges"><tr><th class="l">class</th><th class="l">level</th>'
+               f'<th class="l">values</th><th>range</th></tr>{rr}</table>')
+    if a.overlaps:
+        ov = "".join(f'<li data-experiment="{_e(o.experiment)}">{_e(o.experiment)}: {_e(o.a)} and {_e(o.b)} overlap '
+                     f'over {o.lo:g} \u2013 {o.hi:g} (fuzzy threshold)</li>' for o in a.overlaps)
+        out.append(f'<ul id="level-overlaps">{ov}</ul>')
+    else:
+        out.append('<p id="level-overlaps" class="note">No overlap between the levels\' ranges in any class.</p>')
+    return "\n".join(out)
+
+
+def _class_figures(a: Analysis) -> str:
+    out = ['<h2 id="classes">Per experiment class</h2>']
+    exps = list(dict.fromkeys(s.experiment for s in a.nominal))
+    levels = {s.key: a.level(*s.key) for s in a.nominal}
+    for e in exps:
+        if not any(s.runs for s in a.nominal if s.experiment == e):
+            out.append(f'<p class="note">{_e(e)}: no run recorded yet.</p>')
+            continue
+        out.append(f"<h3>{_e(e)}</h3>" + _img(class_figure(e, a.nominal, levels), f"class-{e}",
+                                               f"success rate, duration and tortuousness of {e}"))
+    return "\n".join(out)
+
+
+def _indeterminism(a: Analysis) -> str:
+    out = ['<h2 id="indeterminism">Indeterminism (Q2)</h2>',
+           f'<p class="note">For the repeated runs on one map, at each time t (step {a.dt:g} s) the maximum distance '
+           'between their real positions (a run that has ended keeps its last position), averaged over the maps of '
+           'a configuration, for all, successful and unsuccessful runs (a map counts with 2+ runs of the group).</p>']
+    if not a.indeterminism:
+        out.append('<p class="note" id="indeterminism-empty">No map has two or more recorded runs with a trace yet.</p>')
+        return "\n".join(out)
+    rows = []
+    for (e, k), cs in a.indeterminism.items():
+        for g, c in cs.items():
+            rows.append(f'<tr data-experiment="{_e(e)}" data-config="{_e(k)}" data-group="{_e(g)}">'
+                        f'<td class="l">{_e(e)}</td><td class="l">{_e(k)}</td><td class="l">{_e(g)}</td>'
+                        + _cell("n-maps", c.n_maps) + _cell("n-runs", c.n_runs)
+                        + _cell("peak", c.peak_m, _fmt(c.peak_m, 2)) + _cell("mean", c.mean_m, _fmt(c.mean_m, 2))
+                        + _cell("final", c.final_m, _fmt(c.final_m, 2)) + "</tr>")
+    out.append('<table id="indeterminism-table"><tr><th class="l">class</th><th class="l">configuration</th>'
+               '<th class="l">runs</th><th>maps</th><th>runs</th><th>peak [m]</th><th>time mean [m]</th>'
+               '<th>final [m]</th></tr>' + "".join(rows) + "</table>")
+    for e in dict.fromkeys(k[0] for k in a.indeterminism):
+        curves = {k: cs for (ee, k), cs in a.indeterminism.items() if ee == e}
+        out.append(_img(indeterminism_figure(e, curves), f"indeterminism-{e}", f"indeterminism curves of {e}"))
+    return "\n".join(out)
+
+
+def _fault_power(a: Analysis) -> str:
+    out = ['<h2 id="fault-power">Fault-revealing power (Q3)</h2>',
+           '<p class="note">Runs of each faulty navigator with a collision, and failures of a kind the nominal '
+           'navigator did not show on the same map ("new failures"), with the nominal figures beside them.</p>']
+    if not a.power:
+        out.append('<p class="note" id="fault-power-empty">No faulty run recorded.</p>')
+        return "\n".join(out)
+    rows = "".join(
+        f'<tr data-experiment="{_e(p.experiment)}" data-config="{_e(p.config_key)}" data-fault="{_e(p.fault)}">'
+        f'<td class="l">{_e(p.experiment)}</td><td class="l">{_e(p.config_key)}</td><td class="l">{_e(p.fault)}</td>'
+        f'<td class="l">{_level_badge(p.level or NO_DATA)}</td>' + _cell("runs", p.runs) + _cell("collisions", p.collisions)
+        + _cell("collision-share", p.collision_share, _fmt(None if p.collision_share is None else 100 * p.collision_share, 1))
+        + _cell("new-failures", p.new_failures) + _cell("nominal-runs", p.nominal_runs)
+        + _cell("nominal-collisions", p.nominal_collisions) + "</tr>" for p in a.power)
+    out.append('<table id="fault-power-table"><tr><th class="l">class</th><th class="l">configuration</th>'
+               '<th class="l">fault</th><th class="l">level</th><th>runs</th><th>with collision</th><th>%</th>'
+               '<th>new failures</th><th>nominal runs</th><th>nominal with collision</th></tr>' + rows + "</table>")
+    lrows = "".join(
+        f'<tr data-level="{_e(p.level)}" data-fault="{_e(p.fault)}"><td class="l">{_level_badge(p.level or NO_DATA)}</td>'
+        f'<td class="l">{_e(p.fault)}</td>' + _cell("configs", p.configs) + _cell("runs", p.runs)
+        + _cell("collisions", p.collisions) + _cell("new-failures", p.new_failures)
+        + _cell("nominal-runs", p.nominal_runs) + _cell("nominal-collisions", p.nominal_collisions) + "</tr>"
+        for p in a.power_levels)
+    out.append('<table id="fault-power-levels"><tr><th class="l">level</th><th class="l">fault</th><th>configs</th>'
+               '<th>runs</th><th>with collision</th><th>new failures</th><th>nominal runs</th>'
+               '<th>nominal with collision</th></tr>' + lrows + "</table>")
+    out.append(_img(fault_power_figure(a.power_levels), "fault-power", "collisions per difficulty level"))
+    return "\n".join(out)
+
+
+def _correlations(a: Analysis, top: int = 15) -> str:
+    out = ['<h2 id="descriptors">Which a-priori descriptor predicts difficulty</h2>',
+           '<p class="note">Spearman rank correlation across configurations between each world descriptor (mean over '
+           'the maps) and the level (easy 0, challenging 1, very difficult 2), and with the failure rate. Strongest '
+           'first.</p>']
+    cs = [c for c in a.correlations if c.rho_level is not None or c.rho_failure is not None][:top]
+    if not cs:
+        out.append('<p class="note" id="descriptors-empty">Too few configurations with a level (3 needed).</p>')
+        return "\n".join(out)
+    rows = "".join(f'<tr data-descriptor="{_e(c.descriptor)}"><td class="l">{_e(c.descriptor)}</td>'
+                   + _cell("n", c.n) + _cell("rho-level", c.rho_level, _fmt(c.rho_level, 2))
+                   + _cell("rho-failure", c.rho_failure, _fmt(c.rho_failure, 2)) + "</tr>" for c in cs)
+    out.append('<table id="descriptor-correlations"><tr><th class="l">descriptor</th><th>configs</th>'
+               '<th>&rho; with level</th><th>&rho; with failure rate</th></tr>' + rows + "</table>")
+    return "\n".join(out)
+
+
+def _track(rec: RunRecord, root: Path, cache: TrajectoryCache, max_points: int, perceived: bool = False) -> RunTrack | None:
+    tp = trace_path(root, rec)
+    truth = cache.get(tp, TOPIC_TRUTH)
+    if truth is None:
+        return None
+    per = cache.get(tp, TOPIC_PERCEIVED) if perceived else None
+    label = f"m{rec.map_index} r{rec.run_index} {fault_name(rec.fault)}"
+    return RunTrack(label, rec.outcome, cache.thin(truth, max_points),
+                    None if per is None else cache.thin(per, max_points))
+
+
+def _configs(a: Analysis, cache: TrajectoryCache, max_points: int) -> str:
+    from navstress.world.world import World
+
+    out = ['<h2 id="configurations">Configurations</h2>']
+    by_cfg: dict[tuple[str, str], list[RunRecord]] = {}
+    for r in a.records:
+        by_cfg.setdefault((r.experiment, config_key(r)), []).append(r)
+    keys = list(dict.fromkeys([s.key for s in a.stats]))
+    for key in keys:
+        e, k = key
+        recs = by_cfg.get(key, [])
+        lev = a.level(e, k)
+        out.append(f'<section id="{_slug(e, k)}" data-experiment="{_e(e)}" data-config="{_e(k)}">'
+                   f'<h3>{_e(e)} / {_e(k)} {_level_badge(lev)}</h3>')
+        if not recs:
+            out.append('<p class="note">No run recorded yet.</p></section>')
+            continue
+        worlds: dict[int, World] = {}
+        figs = []
+        for m, wdir in a.world_dirs.get(key, []):
+            mrecs = [r for r in recs if r.map_index == m]
+            if not mrecs:
+                continue
+            try:
+                worlds[m] = World.load(wdir)
+            except Exception as err:  # a world still being written, or removed
+                figs.append(f'<p class="note">map m{m}: world not readable ({_e(type(err).__name__)})</p>')
+                continue
+            tracks = [t for t in (_track(r, a.root, cache, max_points) for r in mrecs) if t is not None]
+            counts = ", ".join(f"{sum(r.outcome == o for r in mrecs)} {OUTCOME_LABELS[o]}"
+                               for o in OUTCOME_LABELS if any(r.outcome == o for r in mrecs))
+            png = world_runs_png_bytes(worlds[m], tracks, title=f"{e} / {k} / map m{m}: {len(mrecs)} runs")
+            figs.append(f'<figure>{_img(png, f"map-{e}-{k}-m{m}", f"runs on map m{m}")}'
+                        f'<figcaption>map m{m} (seed {mrecs[0].map_seed}): {_e(counts)}</figcaption></figure>')
+        # one run in detail: the first nominal failure if any, else the first run with a trace
+        nominal = [r for r in recs if fault_name(r.fault) == NOMINAL]
+        pick = next((r for r in nominal if r.outcome != Outcome.SUCCESS.value and r.map_index in worlds), None) or \
+            next((r for r in recs if r.map_index in worlds and trace_path(a.root, r) is not None), None)
+        if pick is not None:
+            tr = _track(pick, a.root, cache, max_points, perceived=True)
+            w = worlds[pick.map_index]
+            name = f"m{pick.map_index} r{pick.run_index} {fault_name(pick.fault)}"
+            if tr is not None:
+                png = world_runs_png_bytes(w, [tr], perceived=True, title=f"real vs perceived: {name}")
+                figs.append(f'<figure>{_img(png, f"perceived-{e}-{k}", "real vs perceived trajectory")}'
+                            f'<figcaption>{_e(name)}: {_e(OUTCOME_LABELS.get(pick.outcome, pick.outcome))} '
+                            f'\u2013 {_e(pick.reason)}</figcaption></figure>')
+            tp = trace_path(a.root, pick)
+            try:
+                grid = read_grid(tp, TOPIC_MAP) if tp is not None and tp.exists() else None
+            except Exception:
+                grid = None
+            if grid is not None:
+                png = perceived_map_png_bytes(w, grid[0], grid[1], grid[2], tr, title=f"final perceived map: {name}")
+                figs.append(f'<figure>{_img(png, f"navmap-{e}-{k}", "final perceived map")}'
+                            f'<figcaption>{_e(name)}: the navigator\'s map at the end (pink: never seen)'
+                            '</figcaption></figure>')
+        out.append('<div class="maps">' + "".join(figs) + "</div></section>")
+    return "\n".join(out)
+
+
+def render_report(a: Analysis, *, cache: TrajectoryCache | None = None, max_points: int = 600) -> str:
+    """The report's HTML text for an :class:`Analysis`."""
+    cache = cache or TrajectoryCache()
+    body = [_summary(a)]
+    if a.done:
+        body += [_difficulty(a), _class_figures(a), _indeterminism(a), _fault_power(a), _correlations(a),
+                 _configs(a, cache, max_points)]
+    nav = ("<nav>" + "".join(f'<a href="#{i}">{t}</a>' for i, t in (
+        ("summary", "Summary"), ("difficulty", "Difficulty"), ("classes", "Classes"), ("indeterminism", "Indeterminism"),
+        ("fault-power", "Fault power"), ("descriptors", "Descriptors"), ("configurations", "Configurations")))
+           + "</nav>") if a.done else ""
+    return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+            f"<title>navstress report: {_e(a.name)}</title><style>{_CSS}</style></head>"
+            f"<body data-campaign=\"{_e(a.name)}\">{nav}\n" + "\n".join(body) + "\n</body></html>\n")
+
+
+def build_report(directory: str | Path, out: str | Path, *, params: DifficultyParams | None = None,
+                 navigator: str | None = None, dt: float = 1.0, max_points: int = 600) -> Path:
+    """Analyse the campaign in ``directory`` and write the report to ``out`` atomically; returns ``out``."""
+    cache = TrajectoryCache()
+    a = analyze(directory, params=params, navigator=navigator, dt=dt, cache=cache)
+    text = render_report(a, cache=cache, max_points=max_points)
+    dest = Path(out)
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    tmp = dest.with_name(f".{dest.name}.partial")
+    tmp.write_text(text, encoding="utf-8")
+    os.replace(tmp, dest)
+    return dest
+
+
+__all__ = ["build_report", "render_report"]
