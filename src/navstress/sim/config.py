@@ -39,6 +39,8 @@ class SimConfig:
     yaw_kp: float = 1.0  # drive firmware yaw-rate loop (gyro feedback), per unit rate error
     yaw_ki: float = 4.0
     max_speed_mps: float = 20.0  # any body speed above this is physics instability
+    obstacle_pool: int = 32  # obstacle slots near the robot in MuJoCo (0: every obstacle, static)
+    obstacle_margin_m: float = 1.5  # an obstacle enters the pool this close to the robot's footprint circle
     # --- events ---
     flip_threshold_rad: float = math.radians(60.0)
     map_margin_m: float = 0.7  # the robot "left the map" when its centre is this close to an edge
@@ -74,7 +76,7 @@ class SimConfig:
         if self.timestep_s > 0.02:
             raise SpecError("sim.timestep_s", self.timestep_s, "at most 0.02 s for stable contacts",
                             "use the default 0.005")
-        nonneg = ("friction_floor", "wheel_hold_gain", "slip_eps_mps", "wheel_armature", "yaw_kp", "yaw_ki", "map_margin_m",
+        nonneg = ("friction_floor", "wheel_hold_gain", "slip_eps_mps", "wheel_armature", "obstacle_margin_m", "yaw_kp", "yaw_ki", "map_margin_m",
                   "collision_debounce_s", "command_latency_s", "command_latency_jitter_s", "rate_jitter",
                   "pose_pos_std_m", "pose_att_std_rad", "imu_att_std_rad", "imu_rate_std_rps",
                   "imu_yaw_drift_rps")
@@ -84,6 +86,8 @@ class SimConfig:
                 raise SpecError(f"sim.{name}", v, "a finite number >= 0")
         if self.rate_jitter >= 0.5:
             raise SpecError("sim.rate_jitter", self.rate_jitter, "a fraction in [0, 0.5)")
+        if not (isinstance(self.obstacle_pool, int) and 0 <= self.obstacle_pool <= 4096):
+            raise SpecError("sim.obstacle_pool", self.obstacle_pool, "an integer in [0, 4096] (0: no pool)")
         if self.solver_iterations < 1:
             raise SpecError("sim.solver_iterations", self.solver_iterations, "an integer >= 1")
 

@@ -7,7 +7,10 @@ stores hfield row 0 at -y, which is World's row 0 (y = 0), so rows map one to on
 ``elevation`` attribute lists rows from +y down, so :func:`world_to_mjcf` writes them flipped.
 Each cell is split along the (i, j)-(i+1, j+1) diagonal, as ``Terrain.height_at`` assumes.
 
-Obstacles are static boxes named ``obstacle_<index>`` (geom group 1, collision bit 2). The
+Obstacles are static boxes named ``obstacle_<index>`` (geom group 1, collision bit 2), or, with
+``obstacle_pool=K`` (what :class:`~navstress.sim.simulation.Simulation` uses), K mocap "slot"
+bodies ``obstacle_slot_<s>`` that :class:`ObstaclePool` fills with the obstacles near the robot:
+MuJoCo then computes a few boxes each step instead of every obstacle of the map. The
 robot (geom group 3) is an RMP 400 class skid steer: a chassis body with a belly box that
 touches the ground (bit 1), a massless bumper box of the full footprint that touches obstacles
 (bit 2), and four sphere wheels (bit 1: ground only) on velocity-servo hinges.
@@ -42,6 +45,7 @@ HFIELD_BASE_M = 1.0
 FLAT_ELEVATION_M = 1e-3
 CHASSIS_CLEARANCE_M = 0.12  # belly height above the ground
 WHEEL_MASS_FRACTION = 0.05  # of the total mass, each wheel
+PARK_Z_M = -1.0e4  # where unused obstacle slots wait (far below any terrain)
 
 
 def _f(x: float) -> str:
@@ -60,8 +64,9 @@ def _terrain_params(world: World) -> tuple[np.ndarray, float, float]:
     return (h - lo) / rng, lo, rng
 
 
-def _world_xml(world: World, *, inline: bool) -> tuple[str, str, np.ndarray]:
-    """(asset xml, worldbody xml, normalised heights)."""
+def _world_xml(world: World, *, inline: bool, pool: int = 0) -> tuple[str, str, np.ndarray]:
+    """(asset xml, worldbody xml, normalised heights); ``pool`` > 0: that many obstacle slots
+    (parked, collisions off) instead of one static box per obstacle."""
     sx, sy = world.terrain.size_m
     norm, base, elev = _terrain_params(world)
     rows, cols = norm.shape
@@ -72,7 +77,13 @@ def _world_xml(world: World, *, inline: bool) -> tuple[str, str, np.ndarray]:
              f'size="{_f(sx / 2)} {_f(sy / 2)} {_f(elev)} {_f(HFIELD_BASE_M)}"{elevation}/>')
     body = [f'<geom name="terrain" type="hfield" hfield="terrain" pos="{_f(sx / 2)} {_f(sy / 2)} {_f(base)}" '
             f'group="{TERRAIN_GROUP}" contype="{GROUND_BIT}" conaffinity="{GROUND_BIT}" rgba="0.5 0.45 0.35 1"/>']
-    for k, o in enumerate(world.obstacles):
+    # contype only: slots never collide with each other, only with the bumper; compiled with the
+    # bit set (MuJoCo's per-body broadphase filter body_contype), switched off while parked
+    for k in range(pool):
+        body.append(f'<body name="obstacle_slot_{k}" mocap="true" pos="0 0 {_f(PARK_Z_M - 10.0 * k)}">'
+                    f'<geom name="obstacle_slot_{k}" type="box" size="0.5 0.5 0.5" group="{OBSTACLE_GROUP}" '
+                    f'contype="{OBSTACLE_BIT}" conaffinity="0" rgba="0.3 0.5 0.3 1"/></body>')
+    for k, o in enumerate(world.obstacles if pool == 0 else ()):
         hx, hy, hz = (s / 2 for s in o.size)
         body.append(f'<geom name="obstacle_{k}" type="box" size="{_f(hx)} {_f(hy)} {_f(hz)}" '
                     f'pos="{_f(o.x)} {_f(o.y)} {_f(o.z + hz)}" euler="0 0 {_f(o.yaw)}" '
@@ -149,11 +160,18 @@ class RobotModel:
     bumper_geom: int
     lidar_site: int
     map_size: tuple[float, float]
+    slot_geoms: np.ndarray  # (K,) geom of each obstacle slot (empty: obstacles are static geoms)
+    slot_bodies: np.ndarray  # (K,) mocap body of each slot
 
 
 def build_model(world: World, robot: RobotSpec = RobotSpec(), cfg: SimConfig = SimConfig(),
-                start: tuple[float, float, float] | None = None) -> RobotModel:
-    """Compile world + robot; the robot starts at ``start`` (x, y, yaw), default the mission start."""
+                start: tuple[float, float, float] | None = None, *, obstacle_pool: int = 0) -> RobotModel:
+    """Compile world + robot; the robot starts at ``start`` (x, y, yaw), default the mission start.
+
+    ``obstacle_pool`` = 0: every obstacle is a static geom. K > 0: K empty obstacle slots instead,
+    to be filled by an :class:`ObstaclePool` (the obstacles near the robot)."""
+    if obstacle_pool < 0:
+        raise SimulationError(f"obstacle_pool={obstacle_pool} must be >= 0")
     sx, sy, syaw = start if start is not None else world.mission.start
     size = world.terrain.size_m
     if not (0.0 <= sx <= size[0] and 0.0 <= sy <= size[1]):
@@ -163,7 +181,7 @@ def build_model(world: World, robot: RobotSpec = RobotSpec(), cfg: SimConfig = S
     zg = max(world.terrain.height_at(sx + c * dx - s * dy, sy + s * dx + c * dy)
              for dx in (-robot.wheelbase_m / 2, 0.0, robot.wheelbase_m / 2)
              for dy in (-robot.track_m / 2, 0.0, robot.track_m / 2))
-    asset, wbody, norm = _world_xml(world, inline=False)
+    asset, wbody, norm = _world_xml(world, inline=False, pool=obstacle_pool)
     rbody, act = _robot_xml(robot, cfg, (sx, sy, zg, syaw))
     xml = (f'<mujoco model="navstress">\n<compiler angle="radian"/>\n'
            f'<option timestep="{_f(cfg.timestep_s)}" integrator="implicitfast" solver="Newton" '
@@ -183,17 +201,131 @@ def build_model(world: World, robot: RobotSpec = RobotSpec(), cfg: SimConfig = S
     obstacle_of_geom = -np.ones(m.ngeom, np.int64)
     for i, n in enumerate(names):
         wheel_of_geom[name(G, f"wheel_{n}")] = i
-    for k in range(len(world.obstacles)):
+    for k in range(len(world.obstacles) if obstacle_pool == 0 else 0):
         obstacle_of_geom[name(G, f"obstacle_{k}")] = k
     joints = [name(J, f"wheel_{n}") for n in names]
-    return RobotModel(
+    rm = RobotModel(
         model=m, chassis_body=name(B, "chassis"),
         wheel_bodies=np.array([name(B, f"wheel_{n}") for n in names], np.int64),
         wheel_dofs=np.array([m.jnt_dofadr[j] for j in joints], np.int64),
         wheel_qpos=np.array([m.jnt_qposadr[j] for j in joints], np.int64),
         wheel_of_geom=wheel_of_geom, obstacle_of_geom=obstacle_of_geom,
         bumper_geom=name(G, "bumper"), lidar_site=mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, "lidar"),
-        map_size=(float(size[0]), float(size[1])))
+        map_size=(float(size[0]), float(size[1])),
+        slot_geoms=np.array([name(G, f"obstacle_slot_{k}") for k in range(obstacle_pool)], np.int64),
+        slot_bodies=np.array([name(B, f"obstacle_slot_{k}") for k in range(obstacle_pool)], np.int64))
+    m.geom_contype[rm.slot_geoms] = 0  # parked
+    return rm
+
+
+class ObstaclePool:
+    """Keeps the obstacles near the robot in the model's obstacle slots.
+
+    :meth:`update` puts in a slot every obstacle whose footprint circle comes within ``margin_m``
+    of the robot's footprint circle (centre distance <= robot reach + obstacle reach + margin) and
+    empties the slots of the others (parked far below the map, collisions off). An obstacle keeps
+    its slot while it stays near. Exact as long as the robot moves less than ``margin_m`` between
+    updates (the simulation updates every 0.1 s; 1.2 m/s top speed). With more near obstacles than
+    slots, the nearest ones (by gap) are kept: the pool is then approximate, and ``overflows``
+    counts such updates.
+    """
+
+    def __init__(self, rm: RobotModel, world: World, robot: RobotSpec, margin_m: float) -> None:
+        m = rm.model
+        self.rm = rm
+        obs = world.obstacles
+        n = len(obs)
+        self.centre = np.array([[o.x, o.y, o.z + o.size[2] / 2] for o in obs], np.float64).reshape(n, 3)
+        self.half = np.array([[s / 2 for s in o.size] for o in obs], np.float64).reshape(n, 3)
+        self.quat = np.array([[math.cos(o.yaw / 2), 0.0, 0.0, math.sin(o.yaw / 2)] for o in obs],
+                             np.float64).reshape(n, 4)
+        self.reach = np.hypot(self.half[:, 0], self.half[:, 1]) + math.hypot(robot.length_m, robot.width_m) / 2 + margin_m
+        k = len(rm.slot_geoms)
+        self.slot_obstacle = -np.ones(k, np.int64)
+        self.mocap = np.array([m.body_mocapid[b] for b in rm.slot_bodies], np.int64)
+        self.bvh = np.array([m.body_bvhadr[b] for b in rm.slot_bodies], np.int64)
+        self._dist = np.zeros(n, np.float64)
+        self.overflows = 0
+
+    def update(self, data: mujoco.MjData) -> int:
+        """Refill the slots for the robot's current position; returns the number of filled slots."""
+        m, rm = self.rm.model, self.rm
+        nfill = fill_obstacle_slots(
+            float(data.qpos[0]), float(data.qpos[1]), self.centre, self.half, self.quat, self.reach, self._dist,
+            self.slot_obstacle, rm.slot_geoms, self.mocap, self.bvh, rm.obstacle_of_geom, data.mocap_pos,
+            data.mocap_quat, m.geom_size, m.geom_rbound, m.geom_aabb, m.bvh_aabb, m.geom_contype, PARK_Z_M, OBSTACLE_BIT)
+        if nfill < 0:
+            self.overflows += 1
+            nfill = -nfill
+        return nfill
+
+
+@numba.njit(cache=True)
+def fill_obstacle_slots(x: float, y: float, centre: np.ndarray, half: np.ndarray, quat: np.ndarray,
+                        reach: np.ndarray, dist: np.ndarray, slot_obstacle: np.ndarray, slot_geom: np.ndarray,
+                        slot_mocap: np.ndarray, slot_bvh: np.ndarray, obstacle_of_geom: np.ndarray,
+                        mocap_pos: np.ndarray, mocap_quat: np.ndarray, geom_size: np.ndarray,
+                        geom_rbound: np.ndarray, geom_aabb: np.ndarray, bvh_aabb: np.ndarray,
+                        geom_contype: np.ndarray, park_z: float, contype: int) -> int:  # pragma: no cover - compiled
+    """Numba core of :meth:`ObstaclePool.update`; returns minus the count when it overflowed."""
+    n = centre.shape[0]
+    k = slot_obstacle.shape[0]
+    near = 0
+    for i in range(n):
+        dx, dy = centre[i, 0] - x, centre[i, 1] - y
+        d = (dx * dx + dy * dy) ** 0.5 - reach[i]
+        dist[i] = d
+        if d <= 0.0:
+            near += 1
+    limit = np.inf
+    if near > k:  # keep the k nearest (by gap)
+        order = np.argsort(dist)
+        limit = dist[order[k - 1]]
+    want = np.zeros(n, np.bool_)
+    taken = 0
+    for i in range(n):
+        if dist[i] <= 0.0 and dist[i] <= limit and taken < k:
+            want[i] = True
+            taken += 1
+    # keep obstacles that stay near in their slot, free the others
+    for s in range(k):
+        o = slot_obstacle[s]
+        if o >= 0 and want[o]:
+            want[o] = False  # already placed
+        elif o >= 0:
+            slot_obstacle[s] = -1
+            g = slot_geom[s]
+            obstacle_of_geom[g] = -1
+            geom_contype[g] = 0
+            mocap_pos[slot_mocap[s], 0] = 0.0
+            mocap_pos[slot_mocap[s], 1] = 0.0
+            mocap_pos[slot_mocap[s], 2] = park_z - 10.0 * s
+    s = 0
+    for i in range(n):
+        if not want[i]:
+            continue
+        while slot_obstacle[s] >= 0:
+            s += 1
+        slot_obstacle[s] = i
+        g = slot_geom[s]
+        b = slot_mocap[s]
+        obstacle_of_geom[g] = i
+        geom_contype[g] = contype
+        for a in range(3):
+            mocap_pos[b, a] = centre[i, a]
+            geom_size[g, a] = half[i, a]
+            geom_aabb[g, a] = 0.0
+            geom_aabb[g, 3 + a] = half[i, a]
+            bvh_aabb[slot_bvh[s], a] = 0.0
+            bvh_aabb[slot_bvh[s], 3 + a] = half[i, a]
+        for a in range(4):
+            mocap_quat[b, a] = quat[i, a]
+        geom_rbound[g] = (half[i, 0] ** 2 + half[i, 1] ** 2 + half[i, 2] ** 2) ** 0.5
+    filled = 0
+    for s in range(k):
+        if slot_obstacle[s] >= 0:
+            filled += 1
+    return -filled if near > k else filled
 
 
 @numba.njit(cache=True)

@@ -25,7 +25,7 @@ from navstress.robot import RobotSpec
 from navstress.seeding import rng
 from navstress.sim.config import SimConfig
 from navstress.sim.lidar import Lidar, build_scene
-from navstress.sim.model import RobotModel, align_wheel_contacts, build_model, obstacle_contacts
+from navstress.sim.model import ObstaclePool, RobotModel, align_wheel_contacts, build_model, obstacle_contacts
 from navstress.sim.observer import Observer, StopEvent
 from navstress.sim.sensors import ImuSensor, PoseSensor, WheelOdometry, euler_from_mat
 from navstress.world.world import World
@@ -48,12 +48,17 @@ class Simulation:
         if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
             raise SpecError("seed", seed, "an integer >= 0")
         self.world, self.robot, self.config, self.seed = world, robot, config, seed
-        self.rm: RobotModel = build_model(world, robot, config, start)
+        self.rm: RobotModel = build_model(world, robot, config, start, obstacle_pool=config.obstacle_pool)
         self.model = self.rm.model
         self.data = mujoco.MjData(self.model)
-        mujoco.mj_forward(self.model, self.data)
         cfg = config
         self._dt = cfg.timestep_s
+        self._pool: ObstaclePool | None = None
+        self._pool_every = max(1, int(round(0.1 / self._dt)))
+        if config.obstacle_pool > 0:
+            self._pool = ObstaclePool(self.rm, world, robot, config.obstacle_margin_m)
+            self._pool.update(self.data)
+        mujoco.mj_forward(self.model, self.data)
         self._k = 0
         self._timing = {n: rng(seed, "sim", "timing", n) for n in _SENSORS}
         self._latency_gen = rng(seed, "sim", "latency")
@@ -176,6 +181,8 @@ class Simulation:
     def _step(self) -> None:
         m, d, rm, cfg = self.model, self.data, self.rm, self.config
         self._drive()
+        if self._pool is not None and self._k % self._pool_every == 0:
+            self._pool.update(d)
         mujoco.mj_fwdPosition(m, d)
         if d.ncon:
             c = d.contact
