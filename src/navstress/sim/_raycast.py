@@ -22,7 +22,7 @@ from numba import njit
 INF = np.inf
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _tri_height(h: np.ndarray, cx: int, cy: int, u: float, v: float) -> float:
     """Height at local (u, v) in cell (cx, cy) on the MuJoCo triangulation."""
     h00 = float(h[cy, cx])
@@ -34,7 +34,7 @@ def _tri_height(h: np.ndarray, cx: int, cy: int, u: float, v: float) -> float:
     return h00 + v * (h01 - h00) + u * (h11 - h01)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def height_at_cells(h: np.ndarray, x: float, y: float) -> float:
     """Height at (x, y) in cell units, clamped to the map."""
     ncx = h.shape[1] - 1
@@ -46,7 +46,7 @@ def height_at_cells(h: np.ndarray, x: float, y: float) -> float:
     return _tri_height(h, cx, cy, x - cx, y - cy)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _cell_hit(h: np.ndarray, cx: int, cy: int, ox: float, oy: float, oz: float,
               dx: float, dy: float, dz: float, ta: float, tb: float, sgn: float) -> float:
     """First t in [ta, tb] where the ray crosses the surface in cell (cx, cy) from side ``sgn``
@@ -68,14 +68,18 @@ def _cell_hit(h: np.ndarray, cx: int, cy: int, ox: float, oy: float, oz: float,
         td = ta + (tb - ta) * (wa / (wa - wb))
         n = 2
     p0 = ta
+    u0 = ua
+    v0 = va
     for k in range(n):
-        p1 = td if (n == 2 and k == 0) else tb
-        wm = 0.5 * ((ox + p0 * dx - cx) - (oy + p0 * dy - cy) + (ox + p1 * dx - cx) - (oy + p1 * dy - cy))
-        u0 = ox + p0 * dx - cx
-        v0 = oy + p0 * dy - cy
-        u1 = ox + p1 * dx - cx
-        v1 = oy + p1 * dy - cy
-        if wm >= 0.0:
+        if n == 2 and k == 0:
+            p1 = td
+            u1 = ox + td * dx - cx
+            v1 = oy + td * dy - cy
+        else:
+            p1 = tb
+            u1 = ub
+            v1 = vb
+        if (u0 - v0) + (u1 - v1) >= 0.0:  # the piece lies in the lower triangle (u >= v)
             g0 = h00 + u0 * (h10 - h00) + v0 * (h11 - h10)
             g1 = h00 + u1 * (h10 - h00) + v1 * (h11 - h10)
         else:
@@ -88,10 +92,12 @@ def _cell_hit(h: np.ndarray, cx: int, cy: int, ox: float, oy: float, oz: float,
         if f1 <= 0.0:
             return p0 + (p1 - p0) * (f0 / (f0 - f1))
         p0 = p1
+        u0 = u1
+        v0 = v1
     return INF
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def march_terrain(h: np.ndarray, mip: np.ndarray, moff: np.ndarray, mnx: np.ndarray,
                   ox: float, oy: float, oz: float, dx: float, dy: float, dz: float,
                   t0: float, t1: float, above: bool) -> tuple[float, float]:
@@ -229,7 +235,7 @@ def march_terrain(h: np.ndarray, mip: np.ndarray, moff: np.ndarray, mnx: np.ndar
     return INF, thi
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def ray_box(b: np.ndarray, i: int, ox: float, oy: float, oz: float,
             dx: float, dy: float, dz: float) -> float:
     """Distance along unit ray (world metres) to box i (two-sided slab test); inf if missed."""
@@ -279,7 +285,7 @@ def ray_box(b: np.ndarray, i: int, ox: float, oy: float, oz: float,
     return tf  # origin inside: the exit face
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def cast_rays_kernel(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarray, mnx: np.ndarray,
                      boxes: np.ndarray, origins: np.ndarray, dirs: np.ndarray, max_range: float,
                      out: np.ndarray) -> None:
@@ -301,7 +307,7 @@ def cast_rays_kernel(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarr
         out[r] = best if best <= max_range else INF
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarray, mnx: np.ndarray,
                 grad_max: float, boxes: np.ndarray, origin: np.ndarray, rot: np.ndarray,
                 cos_el: np.ndarray, sin_el: np.ndarray, cos_az: np.ndarray, sin_az: np.ndarray,
@@ -498,7 +504,7 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarray, m
             out[k, a] = r if (min_range <= r <= max_range) else INF
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def rotation_error(r: np.ndarray) -> float:
     """max |R^T R - I| (inf if det <= 0): cheap validity check of a rotation matrix."""
     e = 0.0
@@ -511,7 +517,7 @@ def rotation_error(r: np.ndarray) -> float:
     return e if det > 0.0 else INF
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def count_finite(r: np.ndarray) -> int:
     n = 0
     for v in r.ravel():
@@ -520,7 +526,7 @@ def count_finite(r: np.ndarray) -> int:
     return n
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def points_from_ranges(r: np.ndarray, dirs: np.ndarray, noise: np.ndarray, std: float,
                        pts: np.ndarray) -> None:
     """Hit points (sensor frame) of the finite ranges, channel-major; noise[n] * std added."""
