@@ -97,9 +97,14 @@ class Analysis:
 
     @property
     def missing(self) -> list[tuple[str, str, int, int]]:
-        """(experiment, config, recorded, planned) of every configuration not complete yet."""
-        return [(s.experiment, s.config_key, s.runs, s.planned) for s in self.stats
-                if s.planned and s.runs < s.planned]
+        """(experiment, config, recorded, planned) of every configuration not complete yet
+        (runs of every navigator and fault together)."""
+        acc: dict[tuple[str, str], list[int]] = {}
+        for s in self.stats:
+            v = acc.setdefault(s.key, [0, 0])
+            v[0] += s.runs
+            v[1] += s.planned
+        return [(e, k, d, p) for (e, k), (d, p) in acc.items() if p and d < p]
 
     def level(self, experiment: str, key: str) -> str:
         return self.difficulty.level(experiment, key)

@@ -1,0 +1,104 @@
+"""The HTML report in a real headless Chromium (Debian ``chromium`` driven by Playwright).
+
+Checks that the page renders, that every figure loads (decoded, non-zero size), that nothing
+is fetched from outside the file, and that the numbers shown match the store. Fails (does not
+skip) when chromium or playwright is missing under CI (``CI=true``)."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import sys
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "unit" / "analysis"))
+from analysis_synth import line, make_store, record, save_flat_worlds, write_trace  # noqa: E402
+
+from navstress.analysis.report import build_report  # noqa: E402
+from navstress.analysis.stats import wilson  # noqa: E402
+from navstress.campaign.store import Store  # noqa: E402
+
+CHROMIUM = os.environ.get("NAVSTRESS_CHROMIUM") or shutil.which("chromium") or "/usr/bin/chromium"
+
+
+def _need(ok: bool, why: str) -> None:
+    if ok:
+        return
+    if os.environ.get("CI", "").lower() in ("true", "1", "yes"):
+        pytest.fail(f"{why} (required under CI; `make test` installs chromium)")
+    pytest.skip(why)
+
+
+@pytest.fixture
+def page():  # type: ignore[no-untyped-def]
+    try:
+        from playwright.sync_api import sync_playwright
+    except ImportError:
+        _need(False, "playwright is not installed (pip install -e '.[test]')")
+    _need(Path(CHROMIUM).exists(), f"chromium not found at {CHROMIUM} (apt-get install chromium)")
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, args=["--no-sandbox", "--disable-gpu"])
+        try:
+            yield browser.new_page(viewport={"width": 1300, "height": 900})
+        finally:
+            browser.close()
+
+
+def _campaign(root: Path) -> Path:
+    with make_store(root, trees=[0, 4], defs=[], faults=[None, "small"]) as s:
+        save_flat_worlds(s, trees_per_map=2)
+        n = 0
+        for key, outcomes in (("tree=0", ["success"] * 4), ("tree=4", ["success", "fail-error", "fail-timeout"])):
+            for i, o in enumerate(outcomes):
+                m, r = divmod(i, 2)
+                t = write_trace(root / "traces" / f"{n}.mcap", line(20 + i, 5, 5, 15 - i, 15))
+                s.add(record("trees", key, m, r, o, duration=20.0 + i, tort=0.01 * (i + 1), goal=1.0 + i, trace=t))
+                n += 1
+        s.add(record("trees", "tree=4", 0, 0, "fail-collision", fault="small", collisions=1))
+    return root
+
+
+def test_report_renders_in_chromium(page, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    root = _campaign(tmp_path / "camp")
+    out = build_report(root, tmp_path / "report.html")
+    outside: list[str] = []
+    page.on("request", lambda req: outside.append(req.url) if not req.url.startswith(("file:", "data:")) else None)
+    page.goto(out.resolve().as_uri())
+    assert page.title() == "navstress report: synth"
+    # figures: every <img> decoded with a real size
+    n_img = page.evaluate("document.images.length")
+    assert n_img >= 6
+    broken = page.evaluate("Array.from(document.images).filter(i => !(i.complete && i.naturalWidth > 50)).length")
+    assert broken == 0
+    assert page.locator("img[data-figure='class-trees']").bounding_box()["width"] > 300  # laid out, visible
+    assert outside == []
+    # numbers against the store
+    with Store.open(root) as s:
+        done, planned = s.progress()
+        counts = s.outcome_counts()
+        recs = s.records()
+    assert page.inner_text("#runs-done") == str(done) and page.inner_text("#runs-planned") == str(planned)
+    for o, c in counts.items():
+        assert page.inner_text(f"#outcome-{o}") == str(c)
+    for key in ("tree=0", "tree=4"):
+        mine = [r for r in recs if r.run_id.startswith(f"trees/{key}/") and r.fault is None]
+        ok = sum(r.outcome == "success" for r in mine)
+        row = page.locator(f"#difficulty-table tr[data-config='{key}'][data-fault='nominal']")
+        assert row.locator("td[data-field='runs']").inner_text() == f"{len(mine)}/4"
+        assert row.locator("td[data-field='success-rate']").inner_text() == f"{100 * ok / len(mine):.1f}"
+        assert row.locator("td[data-field='ci-low']").inner_text() == f"{100 * wilson(ok, len(mine))[0]:.1f}"
+    assert page.locator("#difficulty-table tr[data-config='tree=0'][data-fault='nominal'] "
+                        "td[data-field='level']").inner_text() == "easy"
+    # the per-configuration sections link from the table and hold map pictures
+    assert page.locator("section#cfg-trees--tree-4 img").count() >= 3
+    assert page.locator("#partial-campaign").is_visible()
+
+
+def test_empty_campaign_renders(page, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    make_store(tmp_path / "e").close()
+    out = build_report(tmp_path / "e", tmp_path / "e.html")
+    page.goto(out.resolve().as_uri())
+    assert page.locator("#empty-campaign").is_visible()
+    assert page.inner_text("#runs-done") == "0"

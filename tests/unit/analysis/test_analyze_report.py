@@ -1,0 +1,138 @@
+"""analyze(DIR) and the HTML report on small synthetic stores (records, traces, worlds by hand)."""
+
+from __future__ import annotations
+
+import json
+from html.parser import HTMLParser
+from pathlib import Path
+
+import numpy as np
+import pytest
+from analysis_synth import line, make_store, record, save_flat_worlds, write_trace
+from scipy import stats as sst
+
+from navstress.analysis.analyze import analyze
+from navstress.analysis.descriptors_corr import correlations, flatten, spearman
+from navstress.analysis.report import build_report
+from navstress.analysis.stats import wilson
+from navstress.errors import StoreError
+
+
+def test_spearman_and_flatten() -> None:
+    x, y = [1.0, 2.0, 2.0, 5.0, 7.0], [3.0, 1.0, 4.0, 4.0, 9.0]
+    assert spearman(x, y) == pytest.approx(sst.spearmanr(x, y).statistic)
+    assert spearman([1, 1, 1], [1, 2, 3]) is None and spearman([1, 2], [1, 2]) is None
+    assert flatten({"a": 1, "b": {"c": 2.5, "d": True, "e": "x", "f": None}}) == {"a": 1.0, "b.c": 2.5, "b.d": 1.0}
+    desc = {("e", str(i)): {"good": float(i), "flat": 1.0, "anti": float(-i)} for i in range(4)}
+    rank = {("e", "0"): 0, ("e", "1"): 0, ("e", "2"): 1, ("e", "3"): 2}
+    cs = correlations(desc, rank, {k: 1 - v / 2 for k, v in rank.items()})
+    assert [c.descriptor for c in cs][-1] == "flat" and cs[-1].rho_level is None
+    assert {c.descriptor: round(c.rho_level or 0, 6) for c in cs[:2]} == {
+        "good": round(sst.spearmanr([0, 1, 2, 3], [0, 0, 1, 2]).statistic, 6),
+        "anti": -round(sst.spearmanr([0, 1, 2, 3], [0, 0, 1, 2]).statistic, 6)}
+
+
+@pytest.fixture
+def campaign(tmp_path: Path) -> Path:
+    """trees 0/4/8 x 2 maps x 2 runs (+ a fault on trees), smooth d=0.5; partially recorded, with traces."""
+    root = tmp_path / "c"
+    with make_store(root, faults=[None, "small"]) as s:
+        save_flat_worlds(s, trees_per_map=1)
+        tdir = root / "traces"
+        def tr(name: str, xyt: np.ndarray) -> str:
+            return write_trace(tdir / f"{name}.mcap", xyt)
+        # tree=0: 4/4 successes; map 0 runs end apart by 1 m at t=10
+        s.add(record("trees", "tree=0", 0, 0, duration=10.0, tort=0.01, trace=tr("a", line(10, 0, 0, 10, 0))))
+        s.add(record("trees", "tree=0", 0, 1, duration=11.0, tort=0.02, trace=tr("b", line(10, 0, 0, 10, 1))))
+        s.add(record("trees", "tree=0", 1, 0, duration=11.0, tort=0.01))
+        s.add(record("trees", "tree=0", 1, 1, duration=12.0, tort=0.03))
+        # tree=4: 2 of 4
+        s.add(record("trees", "tree=4", 0, 0, duration=20.0, tort=0.2))
+        s.add(record("trees", "tree=4", 0, 1, "fail-error", duration=5.0, goal=8.0))
+        s.add(record("trees", "tree=4", 1, 0, duration=30.0, tort=0.3))
+        s.add(record("trees", "tree=4", 1, 1, "fail-timeout", duration=100.0, goal=6.0))
+        # tree=8: all failures on an all-failure map; map 1 not run yet (partial)
+        s.add(record("trees", "tree=8", 0, 0, "fail-error", goal=15.0))
+        s.add(record("trees", "tree=8", 0, 1, "fail-error", goal=17.0))
+        # faulty runs on tree=4
+        s.add(record("trees", "tree=4", 0, 0, "fail-collision", fault="small", collisions=1, goal=9.0))
+        s.add(record("trees", "tree=4", 0, 1, "fail-error", fault="small", goal=9.0))
+        # smooth: nothing recorded (an empty configuration)
+    return root
+
+
+def test_analyze_synthetic_campaign(campaign: Path) -> None:
+    a = analyze(campaign)
+    assert (a.done, a.planned) == (12, 2 * 3 * 4 + 4)
+    nom = {s.config_key: s for s in a.nominal}
+    assert (nom["tree=0"].successes, nom["tree=0"].median_duration_s) == (4, 11.0)
+    assert nom["tree=4"].median_tortuousness == pytest.approx(0.25)
+    assert nom["deformation=0.5"].runs == 0
+    assert a.level("trees", "tree=8") == "very difficult"
+    assert a.level("smooth", "deformation=0.5") == "no data"
+    assert a.level("trees", "tree=0") == "easy" and a.level("trees", "tree=4") == "challenging"
+    curves = a.indeterminism[("trees", "tree=0")]
+    np.testing.assert_allclose(curves["success"].d, np.arange(11) / 10)  # the two traced runs drift 0.1 m/s
+    assert curves["success"].n_maps == 1
+    (p,) = a.power
+    assert (p.config_key, p.runs, p.collisions, p.new_failures, p.nominal_runs) == ("tree=4", 2, 1, 1, 2)
+    miss = {(e, k): (d, n) for e, k, d, n in a.missing}
+    assert miss[("trees", "tree=8")] == (2, 8) and miss[("trees", "tree=4")] == (6, 8) and miss[("smooth", "deformation=0.5")] == (0, 4)
+    assert miss[("trees", "tree=0")] == (4, 8)  # its faulty runs are still missing
+    json.dumps(a.to_json())  # serialisable
+
+
+class _Cells(HTMLParser):
+    """Collects data-field/data-value per table row and every img src."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.rows: list[dict[str, str]] = []
+        self.imgs: list[str] = []
+        self.ids: dict[str, str] = {}
+        self.srcs: list[str] = []
+
+    def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
+        d = {k: v or "" for k, v in attrs}
+        if tag == "tr" and "data-config" in d:
+            self.rows.append(dict(d))
+        if tag == "td" and "data-field" in d and self.rows:
+            self.rows[-1]["f:" + d["data-field"]] = d.get("data-value", "")
+        if tag == "img":
+            self.imgs.append(d.get("src", ""))
+        if "id" in d and "data-value" in d:
+            self.ids[d["id"]] = d["data-value"]
+        for k in ("src", "href"):
+            if k in d:
+                self.srcs.append(d[k])
+
+
+def test_report_numbers_match_the_store(campaign: Path, tmp_path: Path) -> None:
+    out = build_report(campaign, tmp_path / "r" / "report.html")
+    text = out.read_text()
+    p = _Cells()
+    p.feed(text)
+    assert p.ids["runs-done"] == "12" and p.ids["runs-planned"] == "28"
+    assert p.ids["outcome-success"] == "6" and p.ids["outcome-fail-error"] == "4"
+    rows = {(r["data-config"], r["data-fault"]): r for r in p.rows if "f:success-rate" in r}
+    r4 = rows[("tree=4", "nominal")]
+    assert float(r4["f:success-rate"]) == 0.5 and float(r4["f:ci-low"]) == pytest.approx(wilson(2, 4)[0])
+    assert float(r4["f:median-duration"]) == 25.0 and r4["f:level"] == "challenging"
+    assert rows[("tree=8", "nominal")]["f:median-duration"] == ""  # undefined, not 0
+    assert rows[("deformation=0.5", "nominal")]["f:runs"] == "0"
+    assert "partial-campaign" in text and "figure" in text
+    assert all(s.startswith("data:image/png;base64,") for s in p.imgs) and len(p.imgs) >= 5
+    assert not any(s.startswith(("http:", "https:", "//")) for s in p.srcs)  # self-contained
+
+
+def test_empty_campaign_report_says_so(tmp_path: Path) -> None:
+    make_store(tmp_path / "e").close()
+    text = build_report(tmp_path / "e", tmp_path / "e.html").read_text()
+    assert 'id="empty-campaign"' in text and 'data-value="0"' in text
+    a = analyze(tmp_path / "e")
+    assert a.done == 0 and set(a.difficulty.levels.values()) == {"no data"} and a.indeterminism == {}
+
+
+def test_not_a_campaign_is_a_clear_error(tmp_path: Path) -> None:
+    with pytest.raises(StoreError, match="not a campaign directory"):
+        analyze(tmp_path)
