@@ -20,6 +20,21 @@ import numpy as np
 from numba import njit
 
 INF = np.inf
+TWO_PI = 2.0 * math.pi
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _first_at_least(a: np.ndarray, v: float) -> int:
+    """First index i with a[i] >= v in ascending ``a`` (len(a) if none): binary search."""
+    lo = 0
+    hi = a.shape[0]
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if a[mid] < v:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -317,10 +332,12 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarray, m
     Per azimuth column, all channels lie in one plane through the sensor's z axis. Boxes come
     from world-heading sector bins (built per scan), each tested only on the contiguous channel
     range whose world slope can reach it. The terrain is marched once per column, lowest
-    channel first: channel k+1 starts where channel k hit or was proven clear. This is exact
-    when the column plane is steep enough that the terrain section is a graph in it
-    (tan(inclination) > max terrain gradient) and the sensor is inside the map above the
-    ground; otherwise each channel is marched from the sensor (still exact, slower).
+    channel first: channel k+1 starts where channel k hit or was proven clear (in the plane
+    coordinate p along the plane's horizontal line L). This is exact when the terrain section is
+    a graph over p in the column plane, which holds when tan(plane inclination) > the steepest
+    terrain triangle's gradient, the sensor is inside the map above the ground, its z axis
+    points up and every channel advances along L; otherwise that column's channels are each
+    marched from the sensor (still exact, slower). Boxes are never part of the shortcut.
     """
     nch = cos_el.shape[0]
     naz = cos_az.shape[0]
@@ -442,7 +459,12 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarray, m
                 if lx * awx + ly * awy < 0.0:
                     lx = -lx
                     ly = -ly
-                use_plane = True
+                # every channel must advance along L (p > 0), and the sensor's z axis point up so
+                # that elevation order is the in-plane angle order
+                use_plane = uwz > 0.0
+                for k in range(nch):
+                    if dirs[k, 0] * lx + dirs[k, 1] * ly <= 1e-9:
+                        use_plane = False
         p_clear = 0.0
         reach = 0.0
         for k in range(nch):
@@ -451,7 +473,7 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarray, m
             rz = dirs[k, 2]
             if use_plane:
                 rl = rx * lx + ry * ly
-                tstart = p_clear / rl * (1.0 - 1e-12) if rl > 0.0 else INF
+                tstart = p_clear / rl * (1.0 - 1e-12)
             else:
                 rl = 0.0
                 tstart = 0.0
@@ -466,14 +488,26 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarray, m
                 if use_plane:
                     p_clear = max(p_clear, min(th, tc) * rl)
             reach = max(reach, min(best[k], max_range) * hxy[k])
-        # boxes: candidates from the sectors spanned by the column's headings, nearest first
-        th0 = math.atan2(dirs[0, 1], dirs[0, 0])
-        th1 = math.atan2(dirs[nch - 1, 1], dirs[nch - 1, 0])
-        d = (th1 - th0 + math.pi) % (2.0 * math.pi) - math.pi
-        lo = min(th0, th0 + d) - 1e-9
-        hi = max(th0, th0 + d) + 1e-9
-        q0 = int(math.floor(lo / sec_w))
-        q1 = int(math.floor(hi / sec_w))
+        # boxes: candidates from the sectors spanned by the column's headings, nearest first.
+        # Headings vary monotonically with elevation (while no ray is vertical); slopes do for
+        # moderate tilts: checked, else every sector and channel is a candidate (still exact).
+        ordered = hxy[0] > 1e-9
+        for k in range(1, nch):
+            if slope[k] < slope[k - 1] or hxy[k] <= 1e-9:
+                ordered = False
+        if ordered:
+            th0 = math.atan2(dirs[0, 1], dirs[0, 0])
+            th1 = math.atan2(dirs[nch - 1, 1], dirs[nch - 1, 0])
+            d = (th1 - th0 + math.pi) % TWO_PI - math.pi
+            lo = min(th0, th0 + d) - 1e-9
+            hi = max(th0, th0 + d) + 1e-9
+            q0 = int(math.floor(lo / sec_w))
+            q1 = int(math.floor(hi / sec_w))
+        else:
+            lo = -math.pi
+            hi = 3.0 * math.pi
+            q0 = 0
+            q1 = nsec - 1
         for q in range(q0, q1 + 1):
             qq = q % nsec
             for e in range(counts[qq], counts[qq + 1]):
@@ -484,15 +518,22 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarray, m
                     continue
                 stamp[i] = a
                 # heading overlap of the box's interval with the column's
-                w0 = lo + (alo[i] - lo) % (2.0 * math.pi)
-                if w0 > hi and w0 + (ahi[i] - alo[i]) < lo + 2.0 * math.pi:
+                w0 = alo[i] - lo  # the box's heading interval, shifted to start in [lo, lo + 2 pi)
+                if w0 < 0.0:
+                    w0 += TWO_PI
+                    if w0 < 0.0:
+                        w0 += TWO_PI
+                elif w0 >= TWO_PI:
+                    w0 -= TWO_PI
+                if w0 > hi - lo and w0 + (ahi[i] - alo[i]) < TWO_PI:
                     continue
-                k0 = 0
-                while k0 < nch and slope[k0] < mlo[i]:
-                    k0 += 1
-                k1 = nch - 1
-                while k1 >= k0 and slope[k1] > mhi[i]:
-                    k1 -= 1
+                # channels whose world slope lies in [mlo, mhi] (slopes ascend with k)
+                if ordered:
+                    k0 = _first_at_least(slope, mlo[i])
+                    k1 = _first_at_least(slope, math.nextafter(mhi[i], INF)) - 1
+                else:
+                    k0 = 0
+                    k1 = nch - 1
                 for k in range(k0, k1 + 1):
                     if dmin[i] > best[k] * hxy[k]:
                         continue
