@@ -459,3 +459,17 @@ def test_scan_extreme_orientations_equal_per_ray(rot: np.ndarray) -> None:
     sc = LidarScene(h.astype(np.float32), 0.4, boxes)
     origin = np.array([6.0, 6.0, Terrain(sc.heights, 0.4).height_at(6.0, 6.0) + 1.5])
     scan_vs_per_ray(sc, LidarConfig(azimuth_steps=72, max_range_m=20.0), origin, rot)
+
+
+def test_scan_from_outside_the_map_sees_the_side_walls() -> None:
+    """A sensor off the map edge, below the edge profile: rays hit the hfield's side wall."""
+    h = np.full((20, 20), 2.0, np.float32)
+    sc = LidarScene(h, 0.5, np.zeros((0, 7)))
+    origin = np.array([-3.0, 4.75, 1.8])  # 3 m west of the x=0 edge, 0.2 m below the plateau
+    cfg = LidarConfig(azimuth_steps=36, max_range_m=20.0)
+    scan_vs_per_ray(sc, cfg, origin, np.eye(3))
+    r = Lidar(sc, cfg).ranges(origin, np.eye(3))
+    el = cfg.elevations_rad
+    below = np.tan(el) * 3.0 < 0.2  # reaches x=0 under z=2: the wall at 3 / cos(el)
+    assert np.allclose(r[below, 0], 3.0 / np.cos(el[below]), rtol=1e-6)
+    assert (~below).sum() >= 3 and np.isinf(r[~below, 0]).all()  # rising over the plateau
