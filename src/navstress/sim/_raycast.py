@@ -388,15 +388,13 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarray, m
             ahi[i] = 4.0 * math.pi
         else:
             th = math.atan2(-py, -px)
-            dl = math.asin(min(1.0, rad / rc)) + 1e-9
+            dl = min(rad / math.sqrt(rc * rc - rad * rad), math.pi) + 1e-9  # tan(asin) >= asin
             alo[i] = th - dl
             ahi[i] = th + dl
-    order = np.argsort(dmin)
     counts = np.zeros(nsec + 1, np.int64)
-    for e in range(nb):
-        i = order[e]
+    for i in range(nb):
         if dmin[i] > max_range:
-            break
+            continue
         q0 = int(math.floor(alo[i] / sec_w))
         q1 = min(int(math.floor(ahi[i] / sec_w)), q0 + nsec - 1)
         for q in range(q0, q1 + 1):
@@ -405,16 +403,23 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarray, m
         counts[q + 1] += counts[q]
     fill = counts[:nsec].copy()
     bins = np.empty(counts[nsec], np.int64)
-    for e in range(nb):
-        i = order[e]
+    for i in range(nb):
         if dmin[i] > max_range:
-            break
+            continue
         q0 = int(math.floor(alo[i] / sec_w))
         q1 = min(int(math.floor(ahi[i] / sec_w)), q0 + nsec - 1)
         for q in range(q0, q1 + 1):
             qq = q % nsec
-            bins[fill[qq]] = i  # each bin sorted by dmin
+            bins[fill[qq]] = i
             fill[qq] += 1
+    for q in range(nsec):  # sort each bin by dmin (insertion sort: bins are short)
+        for e in range(counts[q] + 1, counts[q + 1]):
+            i = bins[e]
+            f = e - 1
+            while f >= counts[q] and dmin[bins[f]] > dmin[i]:
+                bins[f + 1] = bins[f]
+                f -= 1
+            bins[f + 1] = i
     # ---- columns ----------------------------------------------------------------------
     stamp = np.full(nb, -1, np.int64)
     gmax = mip[moff[moff.shape[0] - 1]]
