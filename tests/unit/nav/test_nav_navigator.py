@@ -106,7 +106,8 @@ def test_local_planner_is_trapped_by_a_u_and_the_global_one_gets_out() -> None:
     x, y = res_l.true[-1, 1:3]
     assert 5.0 < x < 10.0 and abs(y) < 5.0
     last10s = res_l.true[-100:, 1:3]
-    assert np.ptp(last10s[:, 0]) < 1.0 and np.ptp(last10s[:, 1]) < 1.0  # stuck: no progress in 10 s
+    # stuck: for the last 10 s it circles inside the U (walls x in [-2, 10.4], |y| < 5)
+    assert (last10s[:, 0] > -2.0).all() and (last10s[:, 0] < 10.4).all() and (np.abs(last10s[:, 1]) < 5.0).all()
     # the global one left through the open end before turning toward the goal
     assert res_g.true[:, 1].min() < -1.0
 

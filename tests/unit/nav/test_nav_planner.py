@@ -143,13 +143,13 @@ def test_finite_unknown_cost_lets_arcs_through_at_a_price() -> None:
 
 def test_smaller_believed_footprint_squeezes_through_a_gap_the_nominal_refuses() -> None:
     # two walls leave a 0.75 m gap, cells [0, 0.75) in y (cell 0.25): the real robot is 0.67 wide,
-    # with the 0.1 m margin the nominal belief needs 0.87 m; the faulty belief (0.45 + 0.2) fits.
+    # with a 0.1 m hard margin the nominal belief needs 0.87 m; the faulty belief (0.45 + 0.2) fits.
     walls = ((1.5, -3.0, 0.0, 3.0, -0.01, 2.0), (1.5, 0.76, 0.0, 3.0, 3.0, 2.0))
     m = _known_map(Scene(boxes=walls), cell=0.25)
     y0 = 0.375
     results = {}
     for name, robot in (("nominal", RobotSpec()), ("fault", RobotSpec.footprint_fault())):
-        p = ArcPlanner(ReferenceConfig(), robot)
+        p = ArcPlanner(ReferenceConfig(footprint_margin_m=0.1), robot)
         ev = p.evaluate(m, -0.5, y0, 0.0, 1)
         straight = int(np.flatnonzero(ev.curvatures == 0.0)[0])
         idx = p.elect(ev, _goal_terms(p, ev, (10.0, y0), (-0.5, y0)))

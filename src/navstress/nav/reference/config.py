@@ -65,7 +65,11 @@ class ReferenceConfig(BaseModel):
     election_threshold: float = Field(12.0, gt=0.0, description="an arc whose summed node cost exceeds this is not electable")
     unknown_cell_cost: float = Field(math.inf, description="cost of a node whose footprint touches a never-seen cell (infinite: the paper's P3D)")
     obstacle_height_m: float = Field(0.3, gt=0.0, description="a cell is an obstacle when it rises this much (plus the max-slope allowance) above its 3x3 neighbourhood's ground")
-    footprint_margin_m: float = Field(0.1, ge=0.0, le=2.0, description="added on every side of the believed RobotSpec footprint")
+    exempt_current_footprint: bool = Field(True, description="cells under the robot's current (margined) footprint are not checked at the nodes: an obstacle cell dilated into the margin does not forbid driving away from it")
+    footprint_margin_m: float = Field(0.0, ge=0.0, le=2.0, description="added on every side of the believed RobotSpec footprint (hard: a node whose margined footprint touches an obstacle is infinite)")
+    clearance_margin_m: float = Field(0.3, ge=0.0, le=5.0, description="soft clearance: a node whose footprint grown by this much (beyond the hard margin) touches an obstacle cell costs clearance_cost more")
+    clearance_cost: float = Field(0.2, ge=0.0, description="extra node cost when an obstacle lies within the clearance margin")
+    arrival_fraction: float = Field(0.5, gt=0.0, le=1.0, description="arrived when the perceived distance to the goal is below this fraction of the mission's tolerance (aims well inside it, so pose error does not lose a success)")
     # --- speed ---
     max_speed_mps: float = Field(1.0, gt=0.0, description="top linear speed (capped by the RobotSpec's max_speed_mps)")
     slowdown_per_cost: float = Field(1.0, ge=0.0, description="speed = max * (1 - min(0.7, slowdown * mean node cost))")

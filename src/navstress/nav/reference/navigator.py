@@ -4,7 +4,7 @@ Each ``step``: POM fuses the cycle's odometry, IMU and pose readings; DTM integr
 scan with the pose estimate at the scan's time and marks the ground under the robot as known
 (the robot stands on it; the lidar cannot see there); then either the initial scan manoeuvre
 (turn on the spot, then drive a few meters straight) or P3D's arc election runs. Status
-``arrived`` when the perceived position is within the mission's goal tolerance;
+``arrived`` when the perceived position is within ``arrival_fraction`` (0.5) x the mission's goal tolerance (aiming well inside it);
 ``Status("error", "no arc elected")`` when no arc is electable. Both are latched: later steps
 repeat them.
 
@@ -65,7 +65,7 @@ class ReferenceNavigator:
         self.terrain = TerrainMap.covering([mission.start[:2], mission.goal], cfg.map_margin_m, cfg.cell_m,
                                            step, cfg.max_range_m)
         self._base_height = cfg.base_height_m if cfg.base_height_m is not None else robot.wheel_radius_m
-        self.phase = "scan_turn" if cfg.scan_turn_deg > 0 else ("scan_forward" if cfg.scan_forward_m > 0 else "navigate")
+        self.phase = "scan_turn" if cfg.scan_turn_deg > 0 else ("scan_align" if cfg.scan_forward_m > 0 else "navigate")
         self._turned = 0.0
         self._driven = 0.0
         self._prev_odom: tuple[float, float, float] | None = None
@@ -74,6 +74,7 @@ class ReferenceNavigator:
         self._latched: Status | None = None
         self.last_evaluation: ArcEvaluation | None = None
         self.last_elected: int = -1
+        self._spin_latch = 0
         self.messages: list[tuple[float, str]] = []
         self._ready = True
 
@@ -91,21 +92,27 @@ class ReferenceNavigator:
         dt = obs.t - self._last_t if self._last_t is not None else self.config.control_period_s
         self._last_t = obs.t
         gx, gy = self.mission.goal
-        if math.hypot(pose.x - gx, pose.y - gy) <= self.mission.goal_tolerance_m:
+        if math.hypot(pose.x - gx, pose.y - gy) <= self.config.arrival_fraction * self.mission.goal_tolerance_m:
             return self._latch(obs.t, Status("arrived"))
         if self.phase == "scan_turn":
             v, w = 0.0, min(self.config.scan_yaw_rate_rps, self.robot.max_yaw_rate_rps)
+        elif self.phase == "scan_align":
+            w = min(self.config.scan_yaw_rate_rps, self.robot.max_yaw_rate_rps)
+            v, w = 0.0, math.copysign(w, self._goal_bearing_error())
         elif self.phase == "scan_forward":
             v, w = min(self.config.scan_speed_mps, self.planner.max_speed), 0.0
         else:
             self._on_cycle(obs.t, pose)
-            ev = self.planner.evaluate(self.terrain, pose.x, pose.y, pose.yaw, self._spin_direction(pose))
+            # once turning on the spot, keep the direction until a forward arc is elected (no dithering)
+            spin = self._spin_latch if self._spin_latch != 0 else self._spin_direction(pose)
+            ev = self.planner.evaluate(self.terrain, pose.x, pose.y, pose.yaw, spin)
             goal = self._goal_terms(ev, pose)
             jit = self._rng.uniform(0.0, self.config.cost_jitter, len(goal)) if self.config.cost_jitter > 0 else None
             idx = self.planner.elect(ev, goal, jit)
             self.last_evaluation, self.last_elected = ev, idx
             if idx < 0:
                 return self._latch(obs.t, Status("error", NO_ARC))
+            self._spin_latch = ev.spin_dir if bool(ev.is_spin[idx]) else 0
             v, w = self.planner.command(ev, idx)
         return self._limit(v, w, max(dt, 1e-6))
 
@@ -128,11 +135,11 @@ class ReferenceNavigator:
         """Called once per navigation cycle before the arc election."""
 
     def _goal_terms(self, ev: ArcEvaluation, pose: Pose) -> np.ndarray:
-        """goal_weight x straight-line distance from each arc's end to the goal (turn in place:
-        from the current position, plus its penalty)."""
+        """goal_weight x the smallest straight-line distance from an arc's nodes to the goal
+        (its end's unless the arc passes the goal; turn in place: from the current position, plus
+        its penalty)."""
         gx, gy = self.mission.goal
-        ends = ev.nodes[:, -1, :2]
-        d = np.hypot(ends[:, 0] - gx, ends[:, 1] - gy)
+        d = np.hypot(ev.nodes[:, :, 0] - gx, ev.nodes[:, :, 1] - gy).min(axis=1)
         d = np.where(ev.is_spin, math.hypot(pose.x - gx, pose.y - gy) + self.config.turn_in_place_penalty_m, d)
         return self.config.goal_weight * d
 
@@ -159,18 +166,29 @@ class ReferenceNavigator:
                                       pose.z - self._base_height)
 
     def _progress_manoeuvre(self, obs: Observation) -> None:
+        """Advance the scan manoeuvre: the turn is measured on the perceived (gyro-fused) heading,
+        then the robot turns on toward the goal (within 10 deg) before driving straight, so the
+        forward part heads toward the goal, never toward the map edge behind the start."""
         od = obs.odom
+        yaw = self.pom.yaw
         if self._prev_odom is not None and self.phase != "navigate":
             px, py, pyaw = self._prev_odom
             if self.phase == "scan_turn":
-                self._turned += abs(wrap_angle(od.yaw - pyaw))
+                self._turned += abs(wrap_angle(yaw - pyaw))
                 if self._turned >= math.radians(self.config.scan_turn_deg):
-                    self.phase = "scan_forward" if self.config.scan_forward_m > 0 else "navigate"
+                    self.phase = "scan_align" if self.config.scan_forward_m > 0 else "navigate"
+            if self.phase == "scan_align" and abs(self._goal_bearing_error()) < math.radians(10.0):
+                self.phase = "scan_forward"
             elif self.phase == "scan_forward":
                 self._driven += math.hypot(od.x - px, od.y - py)
                 if self._driven >= self.config.scan_forward_m or self._blocked_ahead():
                     self.phase = "navigate"
-        self._prev_odom = (od.x, od.y, od.yaw)
+        self._prev_odom = (od.x, od.y, yaw)
+
+    def _goal_bearing_error(self) -> float:
+        p = self.pom.current
+        gx, gy = self.mission.goal
+        return wrap_angle(math.atan2(gy - p.y, gx - p.x) - p.yaw)
 
     def _blocked_ahead(self) -> bool:
         """Known obstacle (or too steep) under the footprint 0.5 m ahead; unknown cells allowed."""

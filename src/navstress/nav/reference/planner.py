@@ -34,6 +34,7 @@ from navstress.robot import RobotSpec
 __all__ = ["ArcEvaluation", "ArcPlanner", "arc_nodes", "footprint_cells", "footprint_slope_roughness", "node_cost"]
 
 _MAX_FP_CELLS = 4096
+_NO_EXEMPT = np.zeros((1, 1), dtype=np.bool_)
 
 
 @nb.njit(cache=True)
@@ -80,8 +81,10 @@ def _footprint_cells(cx: float, cy: float, yaw: float, hl: float, hw: float, ox:
 def _node_cost(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: np.ndarray,
                ox: float, oy: float, cell: float, step: float, x: float, y: float, yaw: float,
                hl: float, hw: float, max_slope_tan: float, max_rough: float, w_s: float, w_r: float,
-               unknown_cost: float, buf_i: np.ndarray, buf_j: np.ndarray, buf_z: np.ndarray) -> tuple[float, float, float]:
-    """(cost, slope tangent, roughness) of the footprint at (x, y, yaw); cost inf if blocked."""
+               unknown_cost: float, buf_i: np.ndarray, buf_j: np.ndarray, buf_z: np.ndarray,
+               exempt: np.ndarray) -> tuple[float, float, float]:
+    """(cost, slope tangent, roughness) of the footprint at (x, y, yaw); cost inf if blocked.
+    Cells flagged in ``exempt`` (same shape as the map, or (1, 1) for none) are ignored."""
     nr, nc = zmin.shape
     n = _footprint_cells(x, y, yaw, hl, hw, ox, oy, cell, nr, nc, buf_i, buf_j)
     if n < 0:
@@ -91,9 +94,12 @@ def _node_cost(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: np.n
     sx = 0.0
     sy = 0.0
     sz = 0.0
+    use_exempt = exempt.shape[0] == nr and exempt.shape[1] == nc
     for k in range(n):
         i = buf_i[k]
         j = buf_j[k]
+        if use_exempt and exempt[i, j]:
+            continue
         if count[i, j] == 0:
             if math.isinf(unknown_cost):
                 return math.inf, math.nan, math.nan
@@ -148,10 +154,30 @@ def _node_cost(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: np.n
 
 
 @nb.njit(cache=True)
+def _near_obstacle(zmin: np.ndarray, zmax: np.ndarray, count: np.ndarray, ox: float, oy: float,
+                   cell: float, step: float, x: float, y: float, yaw: float, hl: float, hw: float,
+                   buf_i: np.ndarray, buf_j: np.ndarray, exempt: np.ndarray) -> bool:
+    """True if a known obstacle cell (not exempt) overlaps the rectangle (the clearance ring)."""
+    nr, nc = zmin.shape
+    n = _footprint_cells(x, y, yaw, hl, hw, ox, oy, cell, nr, nc, buf_i, buf_j)
+    if n < 0:
+        return False
+    use_exempt = exempt.shape[0] == nr and exempt.shape[1] == nc
+    for k in range(n):
+        i = buf_i[k]
+        j = buf_j[k]
+        if use_exempt and exempt[i, j]:
+            continue
+        if count[i, j] > 0 and cell_is_obstacle(zmin, zmax, count, i, j, step):
+            return True
+    return False
+
+
+@nb.njit(cache=True)
 def _evaluate(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: np.ndarray,
               ox: float, oy: float, cell: float, step: float, nodes: np.ndarray, hl: float, hw: float,
               max_slope_tan: float, max_rough: float, w_s: float, w_r: float, unknown_cost: float,
-              out_node: np.ndarray) -> np.ndarray:
+              out_node: np.ndarray, exempt: np.ndarray, clear_m: float, clear_cost: float) -> np.ndarray:
     n_arcs = nodes.shape[0]
     n_nodes = nodes.shape[1]
     out = np.zeros(n_arcs)
@@ -163,7 +189,11 @@ def _evaluate(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: np.nd
         for k in range(n_nodes):
             cst, _, _ = _node_cost(zmin, zmax, zsum, count, ox, oy, cell, step, nodes[a, k, 0],
                                    nodes[a, k, 1], nodes[a, k, 2], hl, hw, max_slope_tan, max_rough,
-                                   w_s, w_r, unknown_cost, buf_i, buf_j, buf_z)
+                                   w_s, w_r, unknown_cost, buf_i, buf_j, buf_z, exempt)
+            if clear_m > 0.0 and clear_cost > 0.0 and not math.isinf(cst):
+                if _near_obstacle(zmin, zmax, count, ox, oy, cell, step, nodes[a, k, 0], nodes[a, k, 1],
+                                  nodes[a, k, 2], hl + clear_m, hw + clear_m, buf_i, buf_j, exempt):
+                    cst += clear_cost
             out_node[a, k] = cst
             total += cst
             if math.isinf(total):
@@ -192,7 +222,7 @@ def footprint_slope_roughness(terrain: TerrainMap, x: float, y: float, yaw: floa
     buf = np.empty(_MAX_FP_CELLS, dtype=np.int64), np.empty(_MAX_FP_CELLS, dtype=np.int64), np.empty(_MAX_FP_CELLS)
     _, st, r = _node_cost(terrain.zmin, terrain.zmax, terrain.zsum, terrain.count, terrain.origin[0],
                           terrain.origin[1], terrain.cell_m, terrain.step_m, x, y, yaw, half_length,
-                          half_width, 1e9, 1e9, 1.0, 1.0, math.inf, *buf)
+                          half_width, 1e9, 1e9, 1.0, 1.0, math.inf, *buf, _NO_EXEMPT)
     return math.degrees(math.atan(st)) if math.isfinite(st) else math.nan, r
 
 
@@ -205,7 +235,7 @@ def node_cost(planner: "ArcPlanner", terrain: TerrainMap, x: float, y: float, ya
     c, _, _ = _node_cost(terrain.zmin, terrain.zmax, terrain.zsum, terrain.count, terrain.origin[0],
                          terrain.origin[1], terrain.cell_m, terrain.step_m, x, y, yaw, planner.half_length,
                          planner.half_width, math.tan(math.radians(cfg.max_slope_deg)), cfg.max_roughness_m,
-                         cfg.slope_weight, cfg.roughness_weight, uc, *buf)
+                         cfg.slope_weight, cfg.roughness_weight, uc, *buf, _NO_EXEMPT)
     return float(c)
 
 
@@ -254,9 +284,13 @@ class ArcPlanner:
         self.curvatures = np.linspace(-kmax, kmax, config.forward_arcs)
         self.curvatures[config.forward_arcs // 2] = 0.0
         self.max_speed = min(config.max_speed_mps, robot.max_speed_mps)
+        self._exempt = np.zeros((1, 1), dtype=np.bool_)
 
     def evaluate(self, terrain: TerrainMap, x: float, y: float, yaw: float, spin_dir: int) -> ArcEvaluation:
-        """Node poses and terrain costs of the fan at (x, y, yaw)."""
+        """Node poses and terrain costs of the fan at (x, y, yaw). With
+        ``exempt_current_footprint`` the cells under the current (margined) footprint are not
+        checked: the robot already stands there, so an obstacle cell dilated into its margin does
+        not forbid driving away; every cell a node newly covers is still checked."""
         cfg = self.config
         nodes = arc_nodes(x, y, yaw, self.curvatures, cfg.arc_length_m, cfg.nodes_per_arc)
         curv = self.curvatures
@@ -270,11 +304,23 @@ class ArcPlanner:
         else:
             spin_dir = 0
         node_cost = np.empty(nodes.shape[:2])
+        exempt = _NO_EXEMPT
+        here = None
+        if cfg.exempt_current_footprint:
+            here = footprint_cells(x, y, yaw, self.half_length, self.half_width, terrain)
+            if here is not None:
+                if self._exempt.shape != terrain.shape:
+                    self._exempt = np.zeros(terrain.shape, dtype=np.bool_)
+                exempt = self._exempt
+                exempt[here] = True
         cost = _evaluate(terrain.zmin, terrain.zmax, terrain.zsum, terrain.count, terrain.origin[0],
                          terrain.origin[1], terrain.cell_m, terrain.step_m, np.ascontiguousarray(nodes),
                          self.half_length, self.half_width, math.tan(math.radians(cfg.max_slope_deg)),
                          cfg.max_roughness_m, cfg.slope_weight, cfg.roughness_weight,
-                         float(cfg.unknown_cell_cost), node_cost)
+                         float(cfg.unknown_cell_cost), node_cost, exempt, cfg.clearance_margin_m,
+                         cfg.clearance_cost)
+        if here is not None and exempt is self._exempt:
+            exempt[here] = False
         return ArcEvaluation(nodes, curv, spin_dir, cost, node_cost)
 
     def elect(self, ev: ArcEvaluation, goal_terms: np.ndarray, jitter: np.ndarray | None = None) -> int:

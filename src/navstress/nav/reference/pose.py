@@ -93,6 +93,7 @@ class PoseEstimator:
         self._tau_yaw = tau_yaw_s
         self._history_s = history_s
         self._last_odom: Odometry | None = None
+        self._last_imu: Imu | None = None
         self._last_pose_t: float | None = None
         self._hist: list[tuple[float, float, float, float, float, float, float]] = []
         self._all: list[tuple[float, float, float, float, float, float, float]] = []
@@ -111,12 +112,17 @@ class PoseEstimator:
             fwd, left = c * dxo + s * dyo, -s * dxo + c * dyo  # increment in the robot frame
             # the odometry displacement is rigidly re-expressed at the estimated heading
             dyaw = wrap_angle(odom.yaw - lo.yaw)
+            if imu is not None and self._last_imu is not None and math.isfinite(imu.yaw) and imu.t > self._last_imu.t:
+                # the gyro's heading increment: skid steering makes the odometry's heading unreliable
+                dyaw = wrap_angle(imu.yaw - self._last_imu.yaw)
             h = self.yaw
             c2, s2 = math.cos(h), math.sin(h)
             self.x += c2 * fwd - s2 * left
             self.y += s2 * fwd + c2 * left
             self.yaw = wrap_angle(self.yaw + dyaw)
         self._last_odom = odom
+        if imu is not None and math.isfinite(imu.yaw):
+            self._last_imu = imu
         if pose is not None and all(math.isfinite(v) for v in (pose.x, pose.y, pose.z, pose.yaw)):
             # time since the previous reading (since the first cycle for the first reading)
             ref = self._last_pose_t if self._last_pose_t is not None else (self._hist[0][0] if self._hist else pose.t)
