@@ -17,7 +17,7 @@ touches the ground (bit 1), a massless bumper box of the full footprint that tou
 
 Skid steer friction: every wheel-ground contact frame is turned so that its first tangent is
 the wheel's rolling direction and the pyramidal friction limits are split between rolling and
-lateral directions in proportion to the slip direction (:func:`align_wheel_contacts`): the
+lateral directions in proportion to the slip direction (``navstress.sim._step``): the
 friction force then opposes the slip as in Coulomb's law, which isotropic soft MuJoCo contacts
 do not do for a four-wheel skid steer (it barely turns). See docs/simulation.md.
 """
@@ -326,83 +326,3 @@ def fill_obstacle_slots(x: float, y: float, centre: np.ndarray, half: np.ndarray
         if slot_obstacle[s] >= 0:
             filled += 1
     return -filled if near > k else filled
-
-
-@numba.njit(cache=True)
-def align_wheel_contacts(frame: np.ndarray, friction: np.ndarray, pos: np.ndarray, geom: np.ndarray,
-                         wheel_of_geom: np.ndarray, qvel: np.ndarray, cmat: np.ndarray, cpos: np.ndarray,
-                         wpos: np.ndarray, wdof: np.ndarray, mu: float, floor: float,
-                         eps: float) -> int:  # pragma: no cover - compiled
-    """Turn wheel contact frames to (normal, rolling, lateral) and split ``mu`` by slip direction.
-
-    The pyramidal limits become ``mu*|s_roll|/|s|`` and ``mu*|s_lat|/|s|`` (at least ``floor*mu``;
-    full ``mu`` both ways when ``|s| << eps``), with ``s`` the wheel's slip velocity at the contact
-    at the start of the step: Coulomb friction opposing the slip, one step late. Returns the
-    number of contacts changed.
-    """
-    n = frame.shape[0]
-    k = 0
-    ax, ay, az = cmat[0, 1], cmat[1, 1], cmat[2, 1]
-    wx = cmat[0, 0] * qvel[3] + cmat[0, 1] * qvel[4] + cmat[0, 2] * qvel[5]
-    wy = cmat[1, 0] * qvel[3] + cmat[1, 1] * qvel[4] + cmat[1, 2] * qvel[5]
-    wz = cmat[2, 0] * qvel[3] + cmat[2, 1] * qvel[4] + cmat[2, 2] * qvel[5]
-    for i in range(n):
-        w = wheel_of_geom[geom[i, 0]]
-        if w < 0:
-            w = wheel_of_geom[geom[i, 1]]
-        if w < 0:
-            continue
-        nx, ny, nz = frame[i, 0], frame[i, 1], frame[i, 2]
-        tx = ay * nz - az * ny
-        ty = az * nx - ax * nz
-        tz = ax * ny - ay * nx
-        s = (tx * tx + ty * ty + tz * tz) ** 0.5
-        if s < 1e-6:
-            continue
-        tx /= s
-        ty /= s
-        tz /= s
-        ux = ny * tz - nz * ty
-        uy = nz * tx - nx * tz
-        uz = nx * ty - ny * tx
-        frame[i, 3] = tx
-        frame[i, 4] = ty
-        frame[i, 5] = tz
-        frame[i, 6] = ux
-        frame[i, 7] = uy
-        frame[i, 8] = uz
-        spin = qvel[wdof[w]]
-        rx, ry, rz = pos[i, 0] - cpos[0], pos[i, 1] - cpos[1], pos[i, 2] - cpos[2]
-        vx = qvel[0] + wy * rz - wz * ry
-        vy = qvel[1] + wz * rx - wx * rz
-        vz = qvel[2] + wx * ry - wy * rx
-        qx, qy, qz = pos[i, 0] - wpos[w, 0], pos[i, 1] - wpos[w, 1], pos[i, 2] - wpos[w, 2]
-        vx += spin * (ay * qz - az * qy)
-        vy += spin * (az * qx - ax * qz)
-        vz += spin * (ax * qy - ay * qx)
-        sl = vx * tx + vy * ty + vz * tz
-        st = vx * ux + vy * uy + vz * uz
-        mag = (sl * sl + st * st + eps * eps) ** 0.5
-        e = eps / mag
-        friction[i, 0] = mu * max(abs(sl) / mag, e, floor)
-        friction[i, 1] = mu * max(abs(st) / mag, e, floor)
-        k += 1
-    return k
-
-
-@numba.njit(cache=True)
-def obstacle_contacts(geom: np.ndarray, obstacle_of_geom: np.ndarray, bumper: int,
-                      out: np.ndarray) -> int:  # pragma: no cover - compiled
-    """Write the obstacle indices touched by the bumper into ``out``; return how many."""
-    k = 0
-    for i in range(geom.shape[0]):
-        g0, g1 = geom[i, 0], geom[i, 1]
-        o = -1
-        if g0 == bumper:
-            o = obstacle_of_geom[g1]
-        elif g1 == bumper:
-            o = obstacle_of_geom[g0]
-        if o >= 0 and k < out.shape[0]:
-            out[k] = o
-            k += 1
-    return k

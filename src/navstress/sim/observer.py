@@ -57,6 +57,14 @@ class Observer:
         self._poses[self._n] = row
         self._n += 1
 
+    def record_poses(self, rows: np.ndarray) -> None:
+        """Append (n, 7) rows (t, x, y, z, yaw, pitch, roll)."""
+        n = rows.shape[0]
+        while self._n + n > self._poses.shape[0]:
+            self._poses = np.concatenate([self._poses, np.zeros_like(self._poses)])
+        self._poses[self._n: self._n + n] = rows
+        self._n += n
+
     @property
     def poses(self) -> np.ndarray:
         """(n, 7) array of (t, x, y, z, yaw, pitch, roll), a read-only view."""
@@ -74,6 +82,12 @@ class Observer:
         for o in obstacles:
             self._last_touch[o] = t
         self._touching = obstacles
+
+    def hold(self, t: float) -> None:
+        """The obstacles touched at the last :meth:`contacts` call stayed touched until ``t``
+        (equivalent to calling :meth:`contacts` again with the same set at every step up to ``t``)."""
+        for o in self._touching:
+            self._last_touch[o] = max(self._last_touch[o], t)
 
     def stopped(self, ev: StopEvent) -> None:
         if self.stop is None:

@@ -64,6 +64,12 @@ class WheelOdometry:
         self.last = Odometry(t, self.x, self.y, self.yaw, v, om)
         return self.last
 
+    def update_many(self, samples: np.ndarray) -> Odometry:
+        """:meth:`update` for each row (t, FL, RL, FR, RR angles) in order; the last reading."""
+        for row in samples:
+            self.update(row[1:5], float(row[0]))
+        return self.last
+
 
 class PoseSensor:
     """The paper's "Pose": true position and attitude plus independent Gaussian noise."""
@@ -102,3 +108,24 @@ class ImuSensor:
         a = self.att_std
         return Imu(t, roll + a * e[1], pitch + a * e[2], wrap(yaw + self.bias + a * e[3]),
                    (w[0] + self.rate_std * e[4], w[1] + self.rate_std * e[5], w[2] + self.rate_std * e[6]))
+
+    def read_many(self, samples: np.ndarray) -> Imu:
+        """:meth:`read` for each row (t, yaw, pitch, roll, wx, wy, wz) in order (the same draws,
+        one batch); returns the last reading."""
+        n = samples.shape[0]
+        if n == 0:
+            raise ValueError("read_many needs at least one sample")
+        if not self.noise:
+            r = samples[-1]
+            self.t = float(r[0])
+            return self.read(self.t, float(r[1]), float(r[2]), float(r[3]), r[4:7])
+        e = self.gen.standard_normal((n, 7))
+        for i in range(n):  # the bias random walk over every sample
+            t = float(samples[i, 0])
+            self.bias += self.drift * math.sqrt(max(t - self.t, 0.0)) * float(e[i, 0])
+            self.t = t
+        r, z = samples[-1], e[-1]
+        a, rs = self.att_std, self.rate_std
+        return Imu(self.t, float(r[3]) + a * float(z[1]), float(r[2]) + a * float(z[2]),
+                   wrap(float(r[1]) + self.bias + a * float(z[3])),
+                   (float(r[4]) + rs * float(z[4]), float(r[5]) + rs * float(z[5]), float(r[6]) + rs * float(z[6])))

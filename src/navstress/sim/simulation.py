@@ -25,12 +25,15 @@ from navstress.robot import RobotSpec
 from navstress.seeding import rng
 from navstress.sim.config import SimConfig
 from navstress.sim.lidar import Lidar, build_scene
-from navstress.sim.model import ObstaclePool, RobotModel, align_wheel_contacts, build_model, obstacle_contacts
+from navstress.sim import _step as K
+from navstress.sim.model import OBSTACLE_BIT, PARK_Z_M, ObstaclePool, RobotModel, build_model
 from navstress.sim.observer import Observer, StopEvent
-from navstress.sim.sensors import ImuSensor, PoseSensor, WheelOdometry, euler_from_mat
+from navstress.sim.sensors import ImuSensor, PoseSensor, WheelOdometry
 from navstress.world.world import World
 
-_SENSORS = ("odom", "imu", "pose", "lidar", "observer")
+_SENSORS = ("odom", "imu", "pose", "lidar", "observer")  # the order of the _step sensor rows
+_JITTER_BATCH = 64  # rate-jitter uniforms drawn at a time from each sensor's timing generator
+_SAMPLES = 64  # raw sensor samples buffered in the compiled loop between flushes
 _BAD_WARNINGS = (mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL,
                  mujoco.mjtWarning.mjWARN_BADQACC)
 
@@ -41,63 +44,97 @@ class Simulation:
     ``seed`` is the run seed: sensor noise, sensor rate jitter and command latency jitter each
     draw from their own generator derived from it (``navstress.seeding.rng(seed, "sim", ...)``).
     ``start`` overrides the mission start (x, y, yaw).
+
+    The steps run in one compiled loop (``navstress.sim._step.run_steps``) that returns to Python
+    only for lidar scans, commands, collisions, stop events and to flush its sensor samples.
     """
 
     def __init__(self, world: World, robot: RobotSpec = RobotSpec(), config: SimConfig = SimConfig(), *,
                  seed: int, start: tuple[float, float, float] | None = None) -> None:
         if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
             raise SpecError("seed", seed, "an integer >= 0")
+        K.check_layout()
         self.world, self.robot, self.config, self.seed = world, robot, config, seed
         self.rm: RobotModel = build_model(world, robot, config, start, obstacle_pool=config.obstacle_pool)
         self.model = self.rm.model
         self.data = mujoco.MjData(self.model)
-        cfg = config
+        cfg, m, d, rm = config, self.model, self.data, self.rm
         self._dt = cfg.timestep_s
         self._pool: ObstaclePool | None = None
-        self._pool_every = max(1, int(round(0.1 / self._dt)))
         if config.obstacle_pool > 0:
-            self._pool = ObstaclePool(self.rm, world, robot, config.obstacle_margin_m)
-            self._pool.update(self.data)
-        mujoco.mj_forward(self.model, self.data)
-        self._k = 0
-        self._timing = {n: rng(seed, "sim", "timing", n) for n in _SENSORS}
+            self._pool = ObstaclePool(rm, world, robot, config.obstacle_margin_m)
+            self._pool.update(d)
+        mujoco.mj_forward(m, d)
+        self._timing = [rng(seed, "sim", "timing", n) for n in _SENSORS]
         self._latency_gen = rng(seed, "sim", "latency")
-        # drive state: commanded target, ramped command, yaw-rate integrator
         self._queue: list[tuple[int, Command]] = []
-        self._target = (0.0, 0.0)
-        self._v = self._w = self._yaw_i = 0.0
-        self._half_track = robot.track_m / 2
-        self._wheel_ref = [float(self.data.qpos[q]) for q in self.rm.wheel_qpos]
         # sensors
-        d = self.data
         self.odometry = WheelOdometry(robot.wheel_radius_m, robot.track_m * cfg.skid_factor,
-                                      d.qpos[self.rm.wheel_qpos], 0.0)
+                                      d.qpos[rm.wheel_qpos], 0.0)
         self.pose_sensor = PoseSensor(rng(seed, "sim", "noise", "pose"), cfg.pose_pos_std_m,
                                       cfg.pose_att_std_rad, cfg.noise)
         self.imu_sensor = ImuSensor(rng(seed, "sim", "noise", "imu"), cfg.imu_att_std_rad, cfg.imu_rate_std_rps,
                                     cfg.imu_yaw_drift_rps, cfg.noise, 0.0)
         self._lidar: Lidar | None = None
         self._lidar_gen = rng(seed, "sim", "noise", "lidar")
-        rates = {"odom": cfg.odom_rate_hz, "imu": cfg.imu_rate_hz, "pose": cfg.pose_rate_hz,
-                 "observer": cfg.observer_rate_hz}
+        rates = [cfg.odom_rate_hz, cfg.imu_rate_hz, cfg.pose_rate_hz, 0.0, cfg.observer_rate_hz]
+        self._next = np.zeros(K.NSENSORS, np.int64)
         if cfg.lidar_enabled:
-            lcfg = cfg.lidar
-            self._lidar = Lidar(build_scene(world), lcfg)
-            rates["lidar"] = float(lcfg.rate_hz)
-        self._period = {n: 1.0 / r for n, r in rates.items()}
-        self._next: dict[str, int] = {n: 0 for n in rates}
+            self._lidar = Lidar(build_scene(world), cfg.lidar)
+            rates[K.SCAN] = float(cfg.lidar.rate_hz)
+        else:
+            self._next[K.SCAN] = np.iinfo(np.int64).max  # never due
+        self._period = np.array([1.0 / r if r > 0 else 1.0 for r in rates])
+        self._jit = np.zeros((K.NSENSORS, _JITTER_BATCH))
+        self._jit_idx = np.full(K.NSENSORS, _JITTER_BATCH, np.int64)  # drawn on first use
+        self._samples = np.zeros((K.NSENSORS, _SAMPLES, 7))
+        self._nsamp = np.zeros(K.NSENSORS, np.int64)
         self.observer = Observer(cfg.collision_debounce_s)
         self._contact_buf = np.zeros(64, np.int64)
-        self._rot9 = np.zeros(9)
+        # compiled-loop state: ints, floats (drive firmware + constants), fixed argument tuple
+        r = robot
+        self._I = np.zeros(8, np.int64)
+        self._I[K.I_JITTER] = int(cfg.jitter)
+        F = self._F = np.zeros(K.NF)
+        F[K.F_REF:K.F_REF + 4] = d.qpos[rm.wheel_qpos]
+        F[K.F_DT], F[K.F_DV], F[K.F_DW] = self._dt, r.max_accel_mps2 * self._dt, r.max_yaw_accel_rps2 * self._dt
+        F[K.F_SKID], F[K.F_KP], F[K.F_KI] = cfg.skid_factor, cfg.yaw_kp, cfg.yaw_ki
+        F[K.F_HALFTRACK], F[K.F_RADIUS], F[K.F_HOLD] = r.track_m / 2, r.wheel_radius_m, cfg.wheel_hold_gain
+        F[K.F_MU], F[K.F_FLOOR], F[K.F_EPS] = cfg.friction, cfg.friction_floor, cfg.slip_eps_mps
+        F[K.F_MAXSPEED], (F[K.F_SX], F[K.F_SY]) = cfg.max_speed_mps, rm.map_size
+        F[K.F_MARGIN], F[K.F_COSFLIP], F[K.F_RATEJIT] = cfg.map_margin_m, math.cos(cfg.flip_threshold_rad), \
+            cfg.rate_jitter
+        warn = d.warning.number
+        bad = np.array([int(w) for w in _BAD_WARNINGS], np.int64)
+        self._I[K.I_WARN0] = int(sum(int(warn[w]) for w in bad))
+        pool = self._pool
+        if pool is not None:
+            pargs: tuple[object, ...] = (pool.centre, pool.half, pool.quat, pool.reach, pool._dist,
+                                         pool.slot_obstacle, rm.slot_geoms, pool.mocap, pool.bvh)
+        else:
+            e2, e1, ei = np.zeros((0, 3)), np.zeros(0), np.zeros(0, np.int64)
+            pargs = (e2, e2, np.zeros((0, 4)), e1, e1.copy(), ei, ei, ei, ei)
+        self._args_a = (m._address, d._address, K.ncon_address(d), K.contact_field_address(d))
+        self._args_b = (
+            self._I, F, d.qpos, d.qvel, d.ctrl, d.xpos, d.xmat, warn, bad,
+            np.array([rm.chassis_body, rm.bumper_geom, *rm.wheel_bodies], np.int64), rm.wheel_qpos, rm.wheel_dofs,
+            rm.wheel_of_geom, rm.obstacle_of_geom, self._contact_buf, np.zeros(64, np.int64),
+            max(1, int(round(0.1 / self._dt))) if pool is not None else 0, *pargs,
+            d.mocap_pos, d.mocap_quat, m.geom_size, m.geom_rbound, m.geom_aabb, m.bvh_aabb, m.geom_contype,
+            OBSTACLE_BIT, PARK_Z_M, self._next, self._period, self._jit, self._jit_idx, self._samples,
+            self._nsamp)
         # readings since the last observe()
         self._scans: list[LidarScan] = []
         self._pose: PoseReading | None = None
         self._odom: Odometry = self.odometry.last
         self._imu: Imu | None = None
-        self._warn0 = self._warnings()
-        self._fire_due()
+        self._run(0)
 
     # ---- public API -------------------------------------------------------------------
+    @property
+    def _k(self) -> int:
+        return int(self._I[K.I_K])
+
     @property
     def t(self) -> float:
         """Simulated time in seconds (an exact multiple of the time step)."""
@@ -129,11 +166,7 @@ class Simulation:
         """
         if not (math.isfinite(dt) and dt >= 0):
             raise SpecError("dt", dt, "a finite duration >= 0 s")
-        n = int(round(dt / self._dt))
-        for _ in range(n):
-            if self.observer.stop is not None:
-                return
-            self._step()
+        self._run(self._k + int(round(dt / self._dt)))
 
     def observe(self) -> Observation:
         """Sensor readings since the previous call: all scans, the latest pose (or None),
@@ -148,114 +181,79 @@ class Simulation:
     def _warnings(self) -> int:
         return sum(int(self.data.warning[w].number) for w in _BAD_WARNINGS)
 
-    def _drive(self) -> None:
-        """Robot firmware: clamp, ramp to the acceleration limits, yaw-rate PI, wheel speeds."""
-        r, cfg, dt = self.robot, self.config, self._dt
-        while self._queue and self._queue[0][0] <= self._k:
-            c = self._queue.pop(0)[1]
-            self._target = (min(max(c.v, -r.max_speed_mps), r.max_speed_mps),
-                            min(max(c.omega, -r.max_yaw_rate_rps), r.max_yaw_rate_rps))
-        tv, tw = self._target
-        dv, dw = r.max_accel_mps2 * dt, r.max_yaw_accel_rps2 * dt
-        self._v += min(max(tv - self._v, -dv), dv)
-        self._w += min(max(tw - self._w, -dw), dw)
-        gyro = float(self.data.qvel[5])  # free joint: body-frame angular velocity
-        err = self._w - gyro
-        self._yaw_i = min(max(self._yaw_i + err * dt, -0.5), 0.5)
-        dw_cmd = cfg.skid_factor * self._w + cfg.yaw_kp * err + cfg.yaw_ki * self._yaw_i
-        rad = r.wheel_radius_m
-        left = (self._v - dw_cmd * self._half_track) / rad
-        right = (self._v + dw_cmd * self._half_track) / rad
-        # wheel-angle hold: each wheel tracks the integral of its speed command (bounded lag),
-        # so a stopped robot holds on a slope instead of creeping at torque / kv
-        qp, ref, lim, kp = self.data.qpos, self._wheel_ref, 0.5, cfg.wheel_hold_gain
-        ctrl = self.data.ctrl
-        for i, wq in enumerate(self.rm.wheel_qpos):
-            cmd = left if i < 2 else right
-            a = float(qp[wq])
-            e = ref[i] + cmd * dt - a
-            e = min(max(e, -lim), lim)
-            ref[i] = a + e
-            ctrl[i] = cmd + kp * e
+    def _run(self, k_end: int) -> None:
+        """Step until step ``k_end`` (or a stop), handling what the compiled loop hands back."""
+        r, I, q, F = self.robot, self._I, self._queue, self._F
+        a, b = self._args_a, self._args_b
+        while True:
+            k = int(I[K.I_K])
+            while q and q[0][0] <= k:  # commands take effect at the start of their step
+                c = q.pop(0)[1]
+                F[K.F_TV] = min(max(c.v, -r.max_speed_mps), r.max_speed_mps)
+                F[K.F_TW] = min(max(c.omega, -r.max_yaw_rate_rps), r.max_yaw_rate_rps)
+            stopped = self.observer.stop is not None
+            st = K.run_steps(*a, k if stopped else min(k_end, q[0][0] if q else k_end), *b)
+            if st == K.DONE:
+                if stopped or int(I[K.I_K]) >= k_end:
+                    break
+                continue
+            if st & K.UNSTABLE:
+                self._flush()
+                self._unstable()
+            if st & (K.CONTACT | K.LEFT_MAP | K.FLIPPED):
+                self._events(st)
+            if st & K.FLUSH:
+                self._flush()
+                for s in range(K.NSENSORS):
+                    if self._jit_idx[s] >= _JITTER_BATCH:
+                        self._jit[s] = self._timing[s].random(_JITTER_BATCH)
+                        self._jit_idx[s] = 0
+            if st & K.LIDAR:
+                self._scan()
+        self._flush()
 
-    def _step(self) -> None:
-        m, d, rm, cfg = self.model, self.data, self.rm, self.config
-        self._drive()
-        if self._pool is not None and self._k % self._pool_every == 0:
-            self._pool.update(d)
-        mujoco.mj_fwdPosition(m, d)
-        if d.ncon:
-            c = d.contact
-            if align_wheel_contacts(c.frame, c.friction, c.pos, c.geom, rm.wheel_of_geom, d.qvel,
-                                    d.xmat[rm.chassis_body].reshape(3, 3), d.xpos[rm.chassis_body],
-                                    d.xpos[rm.wheel_bodies], rm.wheel_dofs, cfg.friction, cfg.friction_floor,
-                                    cfg.slip_eps_mps):
-                mujoco.mj_makeConstraint(m, d)
-                mujoco.mj_projectConstraint(m, d)
-        mujoco.mj_fwdVelocity(m, d)
-        mujoco.mj_step2(m, d)
-        self._k += 1
-        qv = d.qvel
-        sp = abs(qv[0]) + abs(qv[1]) + abs(qv[2])
-        if not sp < cfg.max_speed_mps or (self._k % 50 == 0 and self._warnings() != self._warn0):
-            self._unstable()
-        qp = d.qpos
-        x, y = float(qp[0]), float(qp[1])
-        if d.ncon:
-            nk = obstacle_contacts(d.contact.geom, rm.obstacle_of_geom, rm.bumper_geom, self._contact_buf)
-            if nk or self.observer._touching:
-                self.observer.contacts(self.t, x, y, set(self._contact_buf[:nk].tolist()))
-        elif self.observer._touching:
-            self.observer.contacts(self.t, x, y, set())
-        sx, sy = rm.map_size
-        mg = cfg.map_margin_m
-        if not (mg <= x <= sx - mg and mg <= y <= sy - mg):
-            self.observer.stopped(StopEvent(self.t, x, y, "left_map",
-                                            f"robot left the map at ({x:.2f}, {y:.2f})"))
-        qw, qx, qy, qz = float(qp[3]), float(qp[4]), float(qp[5]), float(qp[6])
-        up_z = 1.0 - 2.0 * (qx * qx + qy * qy) / (qw * qw + qx * qx + qy * qy + qz * qz)
-        if up_z < math.cos(cfg.flip_threshold_rad):
-            self.observer.stopped(StopEvent(self.t, x, y, "flipped",
-                                            f"robot tipped over (up-vector z={up_z:.2f})"))
-        if self._k >= self._next_min:
-            self._fire_due()
+    def _events(self, st: int) -> None:
+        t, x, y = self.t, float(self.data.qpos[0]), float(self.data.qpos[1])
+        ob = self.observer
+        if st & K.CONTACT:  # the touching set changed at this step; it was unchanged until the previous one
+            ob.hold(t - self._dt)
+            ob.contacts(t, x, y, set(self._contact_buf[: int(self._I[K.I_NCONTACT])].tolist()))
+        if st & K.LEFT_MAP:
+            ob.stopped(StopEvent(t, x, y, "left_map", f"robot left the map at ({x:.2f}, {y:.2f})"))
+        if st & K.FLIPPED:
+            up_z = float(self._F[K.F_UPZ])
+            ob.stopped(StopEvent(t, x, y, "flipped", f"robot tipped over (up-vector z={up_z:.2f})"))
+
+    def _flush(self) -> None:
+        """Turn the raw samples of the compiled loop into readings, in order."""
+        n, smp = self._nsamp, self._samples
+        if n[K.ODOM]:
+            self._odom = self.odometry.update_many(smp[K.ODOM, : n[K.ODOM]])
+        if n[K.IMU]:
+            self._imu = self.imu_sensor.read_many(smp[K.IMU, : n[K.IMU]])
+        for row in smp[K.POSE, : n[K.POSE]]:
+            self._pose = self.pose_sensor.read(float(row[0]), row[4:7], float(row[1]), float(row[2]), float(row[3]))
+        if n[K.OBSERVER]:
+            rows = smp[K.OBSERVER, : n[K.OBSERVER]]
+            self.observer.record_poses(rows[:, [0, 4, 5, 6, 1, 2, 3]])
+        n[:] = 0
+
+    def _scan(self) -> None:
+        assert self._lidar is not None
+        d, lm = self.data, self.robot.lidar
+        rot9 = np.zeros(9)
+        mujoco.mju_quat2Mat(rot9, d.qpos[3:7])
+        rot = rot9.reshape(3, 3)
+        origin = d.qpos[0:3] + rot @ np.array([lm.x_m, lm.y_m, lm.z_m])
+        pts = self._lidar.scan(origin, rot, self._lidar_gen if self.config.noise else None)
+        self._scans.append(LidarScan(self.t, pts, (lm.x_m, lm.y_m, lm.z_m)))
 
     def _unstable(self) -> None:
         d = self.data
         if not np.all(np.isfinite(d.qpos)) or not np.all(np.isfinite(d.qvel)):
             why = "NaN in the state"
-        elif self._warnings() != self._warn0:
+        elif self._warnings() != int(self._I[K.I_WARN0]):
             why = "MuJoCo reported a bad position/velocity/acceleration (it would reset the state)"
         else:
             why = f"body speed {float(np.abs(d.qvel[:3]).sum()):.1f} m/s above {self.config.max_speed_mps} m/s"
         raise SimulationError(f"physics became unstable at t={self.t:.3f} s: {why}")
-
-    def _fire_due(self) -> None:
-        d, rm, cfg, k, t = self.data, self.rm, self.config, self._k, self.t
-        pos = d.qpos[0:3].copy()  # free joint: chassis position and orientation at the new time
-        mujoco.mju_quat2Mat(self._rot9, d.qpos[3:7])
-        rot = self._rot9.reshape(3, 3)
-        yaw, pitch, roll = euler_from_mat(rot)
-        for name, nk in self._next.items():
-            if nk > k:
-                continue
-            if name == "odom":
-                self._odom = self.odometry.update(d.qpos[rm.wheel_qpos], t)
-            elif name == "imu":
-                self._imu = self.imu_sensor.read(t, yaw, pitch, roll, d.qvel[3:6])
-            elif name == "pose":
-                self._pose = self.pose_sensor.read(t, pos, yaw, pitch, roll)
-            elif name == "lidar":
-                lm = self.robot.lidar
-                origin = pos + rot @ np.array([lm.x_m, lm.y_m, lm.z_m])
-                srot = rot.copy()
-                assert self._lidar is not None
-                pts = self._lidar.scan(origin, srot, self._lidar_gen if cfg.noise else None)
-                self._scans.append(LidarScan(t, pts, (lm.x_m, lm.y_m, lm.z_m)))
-            else:
-                self.observer.record_pose((t, float(pos[0]), float(pos[1]), float(pos[2]), yaw, pitch, roll))
-            period = self._period[name]
-            if cfg.jitter and cfg.rate_jitter > 0 and name != "observer":
-                period *= 1.0 + cfg.rate_jitter * (2.0 * float(self._timing[name].random()) - 1.0)
-            self._next[name] = k + max(1, int(round(period / self._dt)))
-        self._next_min = min(self._next.values())
