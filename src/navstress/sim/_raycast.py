@@ -120,8 +120,9 @@ def march_terrain(h: np.ndarray, mip: np.ndarray, moff: np.ndarray, mnx: np.ndar
 
     ``t_clear``: the ray is known free of terrain on [t0, t_clear) (t1, or where it leaves the
     map). ``above=True`` asserts the ray is above the surface at t0 (plane marching): a start
-    at or below the surface (rounding) is then a hit at t0. Max-height mipmap levels skip
-    blocks the ray passes over.
+    at or below the surface (rounding) is then a hit at t0. ``mip[0]`` holds max-height
+    mipmap levels (blocks the ray passes over are skipped), ``mip[1]`` the min heights (a block
+    whose min equals its max is a flat plane: the hit is solved directly).
     """
     ncx = h.shape[1] - 1
     ncy = h.shape[0] - 1
@@ -153,8 +154,13 @@ def march_terrain(h: np.ndarray, mip: np.ndarray, moff: np.ndarray, mnx: np.ndar
     if tlo > thi:
         return INF, t1
     nlev = moff.shape[0]
-    if oz + dz * (tlo if dz >= 0.0 else thi) > mip[moff[nlev - 1]]:
+    gtop = mip[0, moff[nlev - 1]]
+    if oz + dz * (tlo if dz >= 0.0 else thi) > gtop:
         return INF, thi  # passes over the highest point of the map
+    if mip[1, moff[nlev - 1]] == gtop and (above or tlo > t0 or oz + tlo * dz >= gtop):
+        # a flat map, ray above it at tlo (or entering through the wall): solve z = gtop
+        ts = tlo if dz >= 0.0 else max(tlo, (gtop - oz) / dz)
+        return ts, ts  # ts <= thi: the ray is at or below gtop by thi (test above)
     x = ox + tlo * dx
     y = oy + tlo * dy
     sgn = 1.0
@@ -202,8 +208,18 @@ def march_terrain(h: np.ndarray, mip: np.ndarray, moff: np.ndarray, mnx: np.ndar
         te = min(tx, ty, thi)
         if sgn > 0.0:
             zmin = oz + dz * (t if dz >= 0.0 else te)
-            if zmin > mip[moff[lev] + by * mnx[lev] + bx]:
+            mi = moff[lev] + by * mnx[lev] + bx
+            top = mip[0, mi]
+            if zmin > top:
                 skip = True
+            elif mip[1, mi] == top:  # flat block: the surface is the plane z = top
+                ts = t if dz >= 0.0 else max(t, (top - oz) / dz)
+                if ts <= te:
+                    return ts, ts
+                skip = False
+                if lev > 0:
+                    lev -= 1
+                    continue
             elif lev > 0:
                 lev -= 1
                 continue
@@ -422,7 +438,7 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarray, m
             bins[f + 1] = i
     # ---- columns ----------------------------------------------------------------------
     stamp = np.full(nb, -1, np.int64)
-    gmax = mip[moff[moff.shape[0] - 1]]
+    gmax = mip[0, moff[moff.shape[0] - 1]]
     icell = 1.0 / cell
     dirs = np.empty((nch, 3))
     slope = np.empty(nch)

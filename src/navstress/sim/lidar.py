@@ -142,20 +142,28 @@ class LidarScene:
         object.__setattr__(self, "heights", h)
         object.__setattr__(self, "cell_m", float(self.cell_m))
         object.__setattr__(self, "boxes", b)
-        # max-height mipmap: level 0 = per-cell max of its 4 vertices, then 2x2 max pooling
+        # max- and min-height mipmaps: level 0 = per-cell max/min of its 4 vertices, then 2x2
+        # pooling (padding -inf / +inf); stored as mip[0] (max) and mip[1] (min), levels flat
         h64 = h.astype(np.float64)
-        lev = np.maximum(np.maximum(h64[:-1, :-1], h64[:-1, 1:]), np.maximum(h64[1:, :-1], h64[1:, 1:]))
-        levels = [lev]
-        while lev.shape[0] > 1 or lev.shape[1] > 1:
-            r, c = lev.shape
-            p = np.full((r + r % 2, c + c % 2), -np.inf)
-            p[:r, :c] = lev
-            lev = np.maximum(np.maximum(p[0::2, 0::2], p[0::2, 1::2]), np.maximum(p[1::2, 0::2], p[1::2, 1::2]))
-            levels.append(lev)
-        sizes = [lv.size for lv in levels]
-        object.__setattr__(self, "mip", np.concatenate([lv.ravel() for lv in levels]))
+        c4 = (h64[:-1, :-1], h64[:-1, 1:], h64[1:, :-1], h64[1:, 1:])
+        hi = np.maximum(np.maximum(c4[0], c4[1]), np.maximum(c4[2], c4[3]))
+        lo = np.minimum(np.minimum(c4[0], c4[1]), np.minimum(c4[2], c4[3]))
+        his, los = [hi], [lo]
+        while hi.shape[0] > 1 or hi.shape[1] > 1:
+            r, c = hi.shape
+            ph = np.full((r + r % 2, c + c % 2), -np.inf)
+            pl = np.full((r + r % 2, c + c % 2), np.inf)
+            ph[:r, :c] = hi
+            pl[:r, :c] = lo
+            hi = np.maximum(np.maximum(ph[0::2, 0::2], ph[0::2, 1::2]), np.maximum(ph[1::2, 0::2], ph[1::2, 1::2]))
+            lo = np.minimum(np.minimum(pl[0::2, 0::2], pl[0::2, 1::2]), np.minimum(pl[1::2, 0::2], pl[1::2, 1::2]))
+            his.append(hi)
+            los.append(lo)
+        sizes = [lv.size for lv in his]
+        mip = np.stack([np.concatenate([lv.ravel() for lv in his]), np.concatenate([lv.ravel() for lv in los])])
+        object.__setattr__(self, "mip", np.ascontiguousarray(mip))
         object.__setattr__(self, "mip_offsets", np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64))
-        object.__setattr__(self, "mip_widths", np.array([lv.shape[1] for lv in levels], np.int64))
+        object.__setattr__(self, "mip_widths", np.array([lv.shape[1] for lv in his], np.int64))
         # steepest triangle (m/m): bounds how tilted a column plane may be for plane marching
         d_lo_u = h64[:-1, 1:] - h64[:-1, :-1]   # lower triangle (u >= v): dh/du, dh/dv
         d_lo_v = h64[1:, 1:] - h64[:-1, 1:]
