@@ -20,6 +20,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Annotated, Any
 
+import numpy as np
 import typer
 from typer import _click as click
 from typer.core import TyperGroup
@@ -467,6 +468,42 @@ def demo(
     con.print(f"wrote {len(DEMO_WORLDS)} worlds into {output}/")
 
 
+@world_app.command("drive")
+def world_drive(
+    world_dir: Annotated[Path, typer.Argument(metavar="DIR", help="A world directory.")],
+    output: Annotated[Path | None, typer.Option("--output", "-o", metavar="FILE", help=(
+        "Picture of the real path and the odometry path over the world (default DIR/drive.png)."))] = None,
+    course: Annotated[str | None, typer.Option(metavar="SEGMENTS", help=(
+        "Open-loop course from the mission start: 'v,omega,seconds; ...' (m/s, rad/s, s). Default: 20 m "
+        "straight, quarter turn on the spot, 12 m straight, a right curve, 15 m straight."))] = None,
+    seed: Annotated[str, typer.Option(metavar="N", help="Run seed (sensor noise, jitter), an integer >= 0. Default 0.")] = "0",
+) -> None:
+    """Drive a scripted course in the simulation and draw where the robot really went."""
+    from navstress.run.drive import DEFAULT_COURSE, drive, drive_picture, parse_course
+    from navstress.world.world import World
+
+    world = World.load(world_dir)
+    segs = parse_course(course) if course is not None else DEFAULT_COURSE
+    seed_v = _integer("--seed", seed, "an integer >= 0")
+    if seed_v < 0:
+        raise SpecError("--seed", seed, "an integer >= 0")
+    dest = output if output is not None else world_dir / "drive.png"
+    if dest.exists() and dest.is_dir():
+        raise SpecError("--output", str(dest), "a PNG file path, not a directory")
+    res = drive(world, segs, seed=seed_v)
+    t = res.truth
+    dist = float(np.sum(np.hypot(np.diff(t[:, 1]), np.diff(t[:, 2])))) if len(t) > 1 else 0.0
+    odo_err = (math.hypot(res.odometry[-1, 0] - t[-1, 1], res.odometry[-1, 1] - t[-1, 2])
+               if len(res.odometry) and len(t) else 0.0)
+    con = _console()
+    con.print(f"drove {dist:.1f} m in {res.sim_s:.1f} s simulated ({res.real_time_factor:.0f}x real time); "
+              f"odometry off by {odo_err:.2f} m at the end; collisions: {len(res.collisions)}"
+              + (f"; stopped: {res.stopped}" if res.stopped else ""))
+    pic = drive_picture(world, res, dest, f"scripted drive on {world_dir.name}: {dist:.0f} m, "
+                        f"{len(res.collisions)} collision(s)")
+    con.print(f"picture: {pic}")
+
+
 # ---- runs ------------------------------------------------------------------------------------
 
 def _navigator_config(path: Path | None) -> dict[str, Any]:
@@ -605,6 +642,10 @@ def _mount_campaigns() -> None:
 
     app.add_typer(campaign_app, name="campaign")
     app.command("replay")(replay)
+
+    from navstress.analysis.cli import register as register_analysis
+
+    register_analysis(app)
 
 
 _mount_campaigns()
