@@ -89,7 +89,7 @@ def failure_record(task: RunTask, reason: str, wall_s: float = 0.0) -> RunRecord
         run_id=task.run_id, experiment=task.experiment, config=dict(task.config), map_index=task.map_index,
         run_index=task.run_index, map_seed=task.map_seed, run_seed=task.run_seed, navigator=task.navigator,
         fault=task.fault, outcome="fail-other", reason=reason, duration_s=0.0, wall_s=wall_s,
-        goal_distance_m=-1.0, path_length_m=0.0, tortuousness=0.0, collisions=0, first_collision_s=None,
+        goal_distance_m=math.nan, path_length_m=0.0, tortuousness=0.0, collisions=0, first_collision_s=None,
         errors=[reason], trace=None)
 
 

@@ -262,6 +262,6 @@ def execute(task: RunTask) -> RunRecord:
         run_index=task.run_index, map_seed=task.map_seed, run_seed=task.run_seed, navigator=task.navigator,
         fault=task.fault, outcome=res.classification.outcome.value, reason=res.classification.reason,
         duration_s=res.duration_s, wall_s=time.perf_counter() - wall0,
-        goal_distance_m=f.goal_distance_m if math.isfinite(f.goal_distance_m) else -1.0,
+        goal_distance_m=f.goal_distance_m if math.isfinite(f.goal_distance_m) else math.nan,  # NaN = unknown
         path_length_m=res.path_length_m, tortuousness=res.tortuousness, collisions=f.collisions,
         first_collision_s=f.first_collision_s, errors=errors, trace=os.fspath(trace_path))

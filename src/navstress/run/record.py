@@ -58,7 +58,7 @@ class RunRecord:
     reason: str
     duration_s: float  # simulated seconds
     wall_s: float
-    goal_distance_m: float
+    goal_distance_m: float  # final real position to goal; NaN when unknown (the run never simulated)
     path_length_m: float
     tortuousness: float
     collisions: int
