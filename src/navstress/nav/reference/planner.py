@@ -99,13 +99,15 @@ def _node_cost(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: np.n
         i = buf_i[k]
         j = buf_j[k]
         if use_exempt and exempt[i, j]:
-            continue
-        if count[i, j] == 0:
+            # already under the robot: not a reason to refuse, but known ground still shapes the plane
+            if count[i, j] == 0 or cell_is_obstacle(zmin, zmax, count, i, j, step):
+                continue
+        elif count[i, j] == 0:
             if math.isinf(unknown_cost):
                 return math.inf, math.nan, math.nan
             extra += unknown_cost
             continue
-        if cell_is_obstacle(zmin, zmax, count, i, j, step):
+        elif cell_is_obstacle(zmin, zmax, count, i, j, step):
             return math.inf, math.nan, math.nan
         buf_i[m] = i
         buf_j[m] = j

@@ -1,0 +1,97 @@
+"""Full mission loop speed at the default fidelity, one core.
+
+The simulated-time / wall-time ratio of ``run_mission`` (MuJoCo simulation + lidar 32 x 360 at
+10 Hz + reference-v1 at 10 Hz) on the DESIGN benchmark worlds (100 m x 100 m, the paper's
+mission; flat with 6 % trees, and s=4 d=2; fixed seeds), for ``--seconds`` of simulated time;
+in the same run, the baseline: the simulation alone driven by a scripted controller; and a
+breakdown from timers wrapped around the hot calls (physics+sensors = Simulation.advance minus
+the lidar; lidar = Lidar.scan; map integration = TerrainMap.integrate; planning =
+ArcPlanner.evaluate; the rest of the navigator = step minus those two).
+
+    .venv/bin/python benchmarks/bench_loop.py [--seconds 60]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from collections import defaultdict
+from collections.abc import Callable
+from typing import Any
+
+from navstress.nav.api import Command
+from navstress.nav.reference.navigator import ReferenceNavigator
+from navstress.nav.reference.planner import ArcPlanner
+from navstress.nav.reference.terrain_map import TerrainMap
+from navstress.run.mission import run_mission
+from navstress.sim import Simulation
+from navstress.sim.lidar import Lidar
+from navstress.world.generate import generate
+from navstress.world.spec import parse_spec
+
+TIMES: dict[str, float] = defaultdict(float)
+
+
+def timed(cls: type, name: str, key: str) -> Callable[[], None]:
+    """Wrap ``cls.name`` with a wall-clock accumulator under ``key``; returns the undo."""
+    orig = getattr(cls, name)
+
+    def wrapper(*a: Any, **k: Any) -> Any:
+        t0 = time.perf_counter()
+        try:
+            return orig(*a, **k)
+        finally:
+            TIMES[key] += time.perf_counter() - t0
+
+    setattr(cls, name, wrapper)
+    return lambda: setattr(cls, name, orig)
+
+
+def scripted(sim: Simulation, seconds: float) -> float:
+    """Drive a scripted course (straight, gentle turns) for ``seconds``; returns the wall time."""
+    t0 = time.perf_counter()
+    while sim.t < seconds and sim.stopped is None:
+        sim.observe()
+        k = int(sim.t // 10.0) % 4
+        sim.command(Command(0.8, 0.0 if k in (0, 2) else (0.3 if k == 1 else -0.3)))
+        sim.advance(0.1)
+    return time.perf_counter() - t0
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seconds", type=float, default=60.0)
+    args = ap.parse_args()
+    worlds = {
+        "flat, 6% trees (seed 1)": generate(parse_spec({"size_m": [100, 100], "obstacles": {"obstruction": {"tree": 6}}}), 1),
+        "s=4 d=2 (seed 1)": generate(parse_spec({"size_m": [100, 100], "ground": {"subdivisions": 4, "deformation": 2.0}}), 1),
+    }
+    # warm up the numba caches outside the timing
+    run_mission(worlds["s=4 d=2 (seed 1)"], ReferenceNavigator(), run_seed=0, timeout_s=2.0)
+    for name, world in worlds.items():
+        sim = Simulation(world, seed=3)
+        base_wall = scripted(sim, args.seconds)
+        base_ratio = sim.t / base_wall
+        TIMES.clear()
+        undo = [timed(Simulation, "advance", "sim"), timed(Lidar, "scan", "lidar"),
+                timed(ReferenceNavigator, "step", "nav"), timed(TerrainMap, "integrate", "map"),
+                timed(ArcPlanner, "evaluate", "plan")]
+        t0 = time.perf_counter()
+        r = run_mission(world, ReferenceNavigator(), run_seed=3, timeout_s=args.seconds)
+        wall = time.perf_counter() - t0
+        for u in undo:
+            u()
+        print(f"== {name}: {r.duration_s:.0f} s simulated, outcome {r.classification.outcome.value} "
+              f"({r.classification.reason})")
+        print(f"  full loop      : {r.duration_s / wall:6.1f} x real time  ({wall:.2f} s wall)")
+        print(f"  baseline (sim + lidar, scripted): {base_ratio:6.1f} x real time")
+        parts = {"physics+sensors": TIMES["sim"] - TIMES["lidar"], "lidar": TIMES["lidar"],
+                 "map integration": TIMES["map"], "planning (P3D)": TIMES["plan"],
+                 "navigator other (POM, fill, election)": TIMES["nav"] - TIMES["map"] - TIMES["plan"]}
+        parts["loop/other"] = wall - sum(parts.values())
+        for k, v in parts.items():
+            print(f"    {k:40s} {v:7.3f} s  {100 * v / wall:5.1f} %")
+
+
+if __name__ == "__main__":
+    main()
