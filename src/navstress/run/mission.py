@@ -21,7 +21,6 @@ from __future__ import annotations
 import math
 import os
 import time
-import traceback
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -77,6 +76,19 @@ def control_rate_hz(nav: Navigator) -> float:
         rate = getattr(cfg, "control_rate_hz", None)
     rate = float(rate) if rate is not None else DEFAULT_CONTROL_RATE_HZ
     return rate if math.isfinite(rate) and rate > 0 else DEFAULT_CONTROL_RATE_HZ
+
+
+def _true_pose(sim: Any) -> tuple[float, float, float, float, float, float, float]:
+    """The chassis pose now, from the free joint's qpos (what the observer records)."""
+    import mujoco
+
+    from navstress.sim.sensors import euler_from_mat
+
+    q = sim.data.qpos
+    rot = np.zeros(9)
+    mujoco.mju_quat2Mat(rot, q[3:7])
+    yaw, pitch, roll = euler_from_mat(rot.reshape(3, 3))
+    return (sim.t, float(q[0]), float(q[1]), float(q[2]), yaw, pitch, roll)
 
 
 def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: RobotSpec | None = None,
@@ -163,16 +175,12 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
         goal_d = float("inf")
         collisions, first_col = 0, None
     else:
-        d = sim.data
-        cb = sim.rm.chassis_body
+        final = _true_pose(sim)
         obs_poses = sim.observer.poses
-        last = obs_poses[-1] if len(obs_poses) else None
-        p = d.xpos[cb]
-        if last is None or sim.t > last[0] + 1e-9:
-            from navstress.sim.sensors import euler_from_mat
-            yaw, pitch, roll = euler_from_mat(d.xmat[cb].reshape(3, 3))
-            sim.observer.record_pose((sim.t, float(p[0]), float(p[1]), float(p[2]), yaw, pitch, roll))
-        truth = np.array(sim.observer.poses)
+        truth = np.array(obs_poses)
+        if not len(truth) or sim.t > truth[-1, 0] + 1e-9:
+            truth = np.vstack([truth.reshape(-1, 7), np.array(final)[None, :]])
+        p = final[1:4]
         duration = sim.t
         goal_d = math.hypot(float(p[0]) - world.mission.goal[0], float(p[1]) - world.mission.goal[1])
         collisions = len(sim.observer.collisions)
