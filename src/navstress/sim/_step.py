@@ -38,7 +38,7 @@ if _LIBS:
     llvm.load_library_permanently(_LIBS[0])
 
 # mjContact layout (bytes): size, pos, frame, friction, geom[2]
-CON_SIZE, CON_POS, CON_FRAME, CON_FRICTION, CON_GEOM = 608, 8, 32, 112, 564
+CON_SIZE, CON_POS, CON_FRAME, CON_FRICTION, CON_GEOM, CON_EXCLUDE, CON_EFC = 608, 8, 32, 112, 564, 596, 600
 _CF, _CI = CON_SIZE // 8, CON_SIZE // 4  # contact stride in float64 / int32 units
 
 # status bits returned by run_steps
@@ -76,6 +76,20 @@ mj_makeConstraint = _void_mj("mj_makeConstraint")
 mj_projectConstraint = _void_mj("mj_projectConstraint")
 mj_fwdVelocity = _void_mj("mj_fwdVelocity")
 mj_step2 = _void_mj("mj_step2")
+
+
+@intrinsic
+def mj_addContact(typingctx: Any, m: Any, d: Any, con: Any) -> Any:  # pragma: no cover - compile time
+    """``int mj_addContact(const mjModel*, mjData*, const mjContact*)`` with three addresses."""
+
+    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+        ptr = ir.IntType(8).as_pointer()
+        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(ir.IntType(32), [ptr, ptr, ptr]),
+                                            "mj_addContact")
+        r = builder.call(fn, [builder.inttoptr(a, ptr) for a in args])
+        return builder.sext(r, ir.IntType(64))
+
+    return types.int64(types.int64, types.int64, types.int64), codegen
 
 
 def _ptr(dtype: Any) -> Any:
@@ -169,6 +183,60 @@ def check_layout() -> None:
     _LAYOUT_OK.append(True)
 
 
+def contact_template(m: mujoco.MjModel, d0: mujoco.MjData, wheel_geoms: np.ndarray, chassis_qpos: int) -> np.ndarray:
+    """The raw bytes (as 76 float64) of a wheel-ground contact as MuJoCo's collision makes it
+    (solref, solimp, friction mixing, dim ...): the chassis of a scratch copy of ``d0`` is lowered
+    until a wheel touches the ground."""
+    d = mujoco.MjData(m)
+    d.qpos[:] = d0.qpos
+    d.mocap_pos[:] = d0.mocap_pos
+    wheels = set(int(g) for g in wheel_geoms)
+    for drop in np.arange(0.0, 2.0, 0.01):
+        d.qpos[chassis_qpos + 2] = d0.qpos[chassis_qpos + 2] - drop
+        mujoco.mj_forward(m, d)
+        for i in range(d.ncon):
+            if int(d.contact.geom[i, 0]) in wheels or int(d.contact.geom[i, 1]) in wheels:
+                base = _read_ptr(contact_field_address(d)) + i * CON_SIZE
+                return np.ctypeslib.as_array((ctypes.c_double * _CF).from_address(base)).copy()
+    raise SimulationError("no wheel-ground contact found to copy contact parameters from")
+
+
+@numba.njit(cache=True)
+def _add_wheel_contacts(maddr: int, daddr: int, xpos: np.ndarray, wbody: np.ndarray, wgeom: np.ndarray,
+                        terrain: int, hf: np.ndarray, grid: np.ndarray, tmpl: np.ndarray,
+                        cbuf: np.ndarray) -> int:  # pragma: no cover - compiled
+    """Add every wheel's sphere-terrain contacts (:func:`sphere_terrain_contacts`) to MuJoCo's
+    contact list, copying ``tmpl`` (a MuJoCo wheel-ground contact) for the other fields."""
+    ti = tmpl.view(np.int32)
+    added = 0
+    for w in range(wgeom.shape[0]):  # no wheel geoms given: MuJoCo's collision makes the contacts
+        b = wbody[w]
+        nc = sphere_terrain_contacts(xpos[b, 0], xpos[b, 1], xpos[b, 2], grid[4], hf, grid[0], grid[1], grid[2],
+                                     grid[3], cbuf)
+        for k in range(nc):
+            nx, ny, nz = cbuf[k, 4], cbuf[k, 5], cbuf[k, 6]
+            tmpl[0] = cbuf[k, 0]
+            tmpl[1], tmpl[2], tmpl[3] = cbuf[k, 1], cbuf[k, 2], cbuf[k, 3]
+            # frame: normal, then any orthonormal tangents (the skid-steer rewrite turns them)
+            if abs(nz) < 0.9:
+                tx, ty, tz = ny, -nx, 0.0
+            else:
+                tx, ty, tz = 0.0, nz, -ny
+            ln = (tx * tx + ty * ty + tz * tz) ** 0.5
+            tx, ty, tz = tx / ln, ty / ln, tz / ln
+            f = CON_FRAME // 8
+            tmpl[f], tmpl[f + 1], tmpl[f + 2] = nx, ny, nz
+            tmpl[f + 3], tmpl[f + 4], tmpl[f + 5] = tx, ty, tz
+            tmpl[f + 6], tmpl[f + 7], tmpl[f + 8] = ny * tz - nz * ty, nz * tx - nx * tz, nx * ty - ny * tx
+            g = CON_GEOM // 4
+            ti[g - 2], ti[g - 1], ti[g], ti[g + 1] = terrain, wgeom[w], terrain, wgeom[w]
+            ti[CON_EFC // 4] = -1
+            ti[CON_EXCLUDE // 4] = 0
+            if mj_addContact(maddr, daddr, tmpl.ctypes.data) == 0:
+                added += 1
+    return added
+
+
 @numba.njit(cache=True)
 def _align_wheel_contacts(cf: np.ndarray, ci: np.ndarray, n: int, wheel_of_geom: np.ndarray, qvel: np.ndarray,
                           cm: np.ndarray, cpos: np.ndarray, xpos: np.ndarray, wbody: np.ndarray,
@@ -232,6 +300,138 @@ def _align_wheel_contacts(cf: np.ndarray, ci: np.ndarray, n: int, wheel_of_geom:
         cf[i * _CF + ri + 1] = mu * max(abs(st) / mag, e, floor)
         k += 1
     return k
+
+
+@numba.njit(cache=True)
+def _closest_on_triangle(px: float, py: float, pz: float, a: np.ndarray, b: np.ndarray,
+                         c: np.ndarray) -> tuple[float, float, float, bool]:  # pragma: no cover - compiled
+    """Closest point of triangle abc to p (Ericson, Real-Time Collision Detection 5.1.5) and
+    whether it lies in the triangle's interior (a face contact) rather than on an edge/vertex."""
+    abx, aby, abz = b[0] - a[0], b[1] - a[1], b[2] - a[2]
+    acx, acy, acz = c[0] - a[0], c[1] - a[1], c[2] - a[2]
+    apx, apy, apz = px - a[0], py - a[1], pz - a[2]
+    d1 = abx * apx + aby * apy + abz * apz
+    d2 = acx * apx + acy * apy + acz * apz
+    if d1 <= 0.0 and d2 <= 0.0:
+        return a[0], a[1], a[2], False
+    bpx, bpy, bpz = px - b[0], py - b[1], pz - b[2]
+    d3 = abx * bpx + aby * bpy + abz * bpz
+    d4 = acx * bpx + acy * bpy + acz * bpz
+    if d3 >= 0.0 and d4 <= d3:
+        return b[0], b[1], b[2], False
+    vc = d1 * d4 - d3 * d2
+    if vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
+        v = d1 / (d1 - d3)
+        return a[0] + v * abx, a[1] + v * aby, a[2] + v * abz, False
+    cpx, cpy, cpz = px - c[0], py - c[1], pz - c[2]
+    d5 = abx * cpx + aby * cpy + abz * cpz
+    d6 = acx * cpx + acy * cpy + acz * cpz
+    if d6 >= 0.0 and d5 <= d6:
+        return c[0], c[1], c[2], False
+    vb = d5 * d2 - d1 * d6
+    if vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
+        w = d2 / (d2 - d6)
+        return a[0] + w * acx, a[1] + w * acy, a[2] + w * acz, False
+    va = d3 * d6 - d5 * d4
+    if va <= 0.0 and (d4 - d3) >= 0.0 and (d5 - d6) >= 0.0:
+        w = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+        return b[0] + w * (c[0] - b[0]), b[1] + w * (c[1] - b[1]), b[2] + w * (c[2] - b[2]), False
+    den = 1.0 / (va + vb + vc)
+    v = vb * den
+    w = vc * den
+    return a[0] + abx * v + acx * w, a[1] + aby * v + acy * w, a[2] + abz * v + acz * w, True
+
+
+@numba.njit(cache=True)
+def sphere_terrain_contacts(cx: float, cy: float, cz: float, r: float, hf: np.ndarray, x0: float, y0: float,
+                            dx: float, dy: float, out: np.ndarray) -> int:  # pragma: no cover - compiled
+    """Contacts of a sphere (centre c, radius r) with the triangulated heightfield ``hf[i, j]`` at
+    (x0 + j*dx, y0 + i*dy), cells split along the (i, j)-(i+1, j+1) diagonal (MuJoCo's hfield).
+
+    Writes rows (dist < 0, pos x3 on the midway surface, normal x3 from the ground to the sphere)
+    into ``out`` and returns how many (at most ``out.shape[0]``). Exact sphere-mesh geometry: every
+    triangle whose interior holds the closest point to the centre is a face contact (a valley
+    gives two) and, when the deepest point of the whole surface lies on an edge or vertex (a
+    ridge), that point with the normal towards the centre; other edge points (e.g. the borders of
+    coplanar neighbours) are not contacts. Coincident face points count once; with more than
+    ``out.shape[0]`` contacts the deepest are kept.
+    """
+    rows, cols = hf.shape
+    j0 = max(int(np.floor((cx - r - x0) / dx)), 0)
+    j1 = min(int(np.floor((cx + r - x0) / dx)), cols - 2)
+    i0 = max(int(np.floor((cy - r - y0) / dy)), 0)
+    i1 = min(int(np.floor((cy + r - y0) / dy)), rows - 2)
+    a, b, c = np.empty(3), np.empty(3), np.empty(3)
+    nface = 0
+    best = 0.0  # deepest penetration over all triangles
+    best_is_edge = False
+    ex = ey = ez = 0.0
+    cap = out.shape[0]
+    for i in range(i0, i1 + 1):
+        for j in range(j0, j1 + 1):
+            h00, h01, h10, h11 = hf[i, j], hf[i, j + 1], hf[i + 1, j], hf[i + 1, j + 1]
+            if cz - r >= max(max(h00, h01), max(h10, h11)):
+                continue
+            xa, xb, ya, yb = x0 + j * dx, x0 + (j + 1) * dx, y0 + i * dy, y0 + (i + 1) * dy
+            for tri in range(2):
+                a[0], a[1], a[2] = xa, ya, h00
+                c[0], c[1], c[2] = xb, yb, h11
+                if tri == 0:  # (i,j) (i,j+1) (i+1,j+1)
+                    b[0], b[1], b[2] = xb, ya, h01
+                else:  # (i,j) (i+1,j+1) (i+1,j)
+                    b[0], b[1], b[2] = c[0], c[1], c[2]
+                    c[0], c[1], c[2] = xa, yb, h10
+                qx, qy, qz, inside = _closest_on_triangle(cx, cy, cz, a, b, c)
+                if not inside:  # edge/vertex point: a candidate only as the deepest point of all
+                    ddx, ddy, ddz = cx - qx, cy - qy, cz - qz
+                    pen = r - (ddx * ddx + ddy * ddy + ddz * ddz) ** 0.5
+                    if pen > best:
+                        best, best_is_edge = pen, True
+                        ex, ey, ez = qx, qy, qz
+                    continue
+                # face point: upward face normal, penetration along it
+                nx = (b[1] - a[1]) * (c[2] - a[2]) - (b[2] - a[2]) * (c[1] - a[1])
+                ny = (b[2] - a[2]) * (c[0] - a[0]) - (b[0] - a[0]) * (c[2] - a[2])
+                nz = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+                ln = (nx * nx + ny * ny + nz * nz) ** 0.5
+                nx, ny, nz = nx / ln, ny / ln, nz / ln
+                dist = (cx - qx) * nx + (cy - qy) * ny + (cz - qz) * nz - r
+                if dist >= 0.0:
+                    continue
+                if -dist >= best:
+                    best, best_is_edge = -dist, False
+                dup = False
+                for k in range(nface):
+                    dup = dup or (abs(out[k, 1] - qx) + abs(out[k, 2] - qy) < 1e-6 and
+                                  abs(out[k, 4] - nx) + abs(out[k, 5] - ny) < 1e-6)
+                if dup:
+                    continue
+                k = nface
+                if nface == cap:  # full: replace the shallowest if this one is deeper
+                    k = 0
+                    for kk in range(1, cap):
+                        if out[kk, 0] > out[k, 0]:
+                            k = kk
+                    if out[k, 0] <= dist:
+                        continue
+                else:
+                    nface += 1
+                out[k, 0] = dist
+                out[k, 1], out[k, 2], out[k, 3] = qx, qy, qz
+                out[k, 4], out[k, 5], out[k, 6] = nx, ny, nz
+    if best_is_edge:  # the deepest point is on an edge or vertex (a ridge): it is a contact too
+        ddx, ddy, ddz = cx - ex, cy - ey, cz - ez
+        ln = (ddx * ddx + ddy * ddy + ddz * ddz) ** 0.5
+        if ln > 1e-9:
+            k = nface if nface < cap else cap - 1
+            out[k, 0] = -best
+            out[k, 1], out[k, 2], out[k, 3] = ex, ey, ez
+            out[k, 4], out[k, 5], out[k, 6] = ddx / ln, ddy / ln, ddz / ln
+            nface = k + 1
+    for k in range(nface):  # MuJoCo's contact position: midway between the two surfaces
+        for a_ in range(3):
+            out[k, 1 + a_] += 0.5 * out[k, 0] * out[k, 4 + a_]
+    return nface
 
 
 @numba.njit(cache=True)
@@ -318,7 +518,8 @@ def run_steps(maddr: int, daddr: int, ncon_addr: int, con_field: int, k_stop: in
               slot_bvh: np.ndarray, mocap_pos: np.ndarray, mocap_quat: np.ndarray, geom_size: np.ndarray,
               geom_rbound: np.ndarray, geom_aabb: np.ndarray, bvh_aabb: np.ndarray, geom_contype: np.ndarray,
               contype: int, park_z: float, next_k: np.ndarray, period: np.ndarray, jit: np.ndarray,
-              jit_idx: np.ndarray, samples: np.ndarray, nsamp: np.ndarray) -> int:  # pragma: no cover
+              jit_idx: np.ndarray, samples: np.ndarray, nsamp: np.ndarray, wgeom: np.ndarray, terrain: int,
+              hf: np.ndarray, grid: np.ndarray, tmpl: np.ndarray, cbuf: np.ndarray) -> int:  # pragma: no cover
     """Fire the sensors due at the current step, then step until ``k_stop`` (or an event).
 
     ``bodies`` = (chassis, bumper geom, wheel bodies x4). Returns the status bits; the step count
@@ -340,12 +541,13 @@ def run_steps(maddr: int, daddr: int, ncon_addr: int, con_field: int, k_stop: in
                                 slot_bvh, obstacle_of_geom, mocap_pos, mocap_quat, geom_size, geom_rbound,
                                 geom_aabb, bvh_aabb, geom_contype, park_z, contype)
         mj_fwdPosition(maddr, daddr)
+        added = _add_wheel_contacts(maddr, daddr, xpos, wbody, wgeom, terrain, hf, grid, tmpl, cbuf)
         n = _read_ncon(ncon_addr)
         con_addr = _read_ptr(con_field)
         cf = numba.carray(_f64ptr(con_addr), (n * _CF,))
         ci = numba.carray(_i32ptr(con_addr), (n * _CI,))
-        if n > 0 and _align_wheel_contacts(cf, ci, n, wheel_of_geom, qvel, xmat[chassis], xpos[chassis], xpos,
-                                           wbody, wdof, F[F_MU], F[F_FLOOR], F[F_EPS]) > 0:
+        if n > 0 and (_align_wheel_contacts(cf, ci, n, wheel_of_geom, qvel, xmat[chassis], xpos[chassis], xpos,
+                                            wbody, wdof, F[F_MU], F[F_FLOOR], F[F_EPS]) > 0 or added > 0):
             mj_makeConstraint(maddr, daddr)
             mj_projectConstraint(maddr, daddr)
         mj_fwdVelocity(maddr, daddr)

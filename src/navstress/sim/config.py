@@ -35,10 +35,11 @@ class SimConfig:
     wheel_kv: float = 100.0  # wheel velocity-servo gain, N m per rad/s
     wheel_hold_gain: float = 5.0  # wheel-angle hold of the drive firmware, (rad/s) per rad of lag
     wheel_armature: float = 0.1  # reflected rotor inertia of the geared wheel motor, kg m^2
-    skid_factor: float = 3.0  # effective-track expansion of the skid steer (calibrated on flat ground)
+    skid_factor: float = 3.4  # effective-track expansion of the skid steer (calibrated on flat ground)
     yaw_kp: float = 1.0  # drive firmware yaw-rate loop (gyro feedback), per unit rate error
     yaw_ki: float = 4.0
     max_speed_mps: float = 20.0  # any body speed above this is physics instability
+    analytic_wheel_contacts: bool = False  # exact sphere-mesh wheel contacts instead of MuJoCo's hfield collision
     obstacle_pool: int = 32  # obstacle slots near the robot in MuJoCo (0: every obstacle, static)
     obstacle_margin_m: float = 1.5  # an obstacle enters the pool this close to the robot's footprint circle
     # --- events ---

@@ -64,6 +64,23 @@ class Simulation:
         if config.obstacle_pool > 0:
             self._pool = ObstaclePool(rm, world, robot, config.obstacle_margin_m)
             self._pool.update(d)
+        # wheel-ground contacts come from _step.sphere_terrain_contacts, not MuJoCo's hfield collision
+        wgeoms = np.flatnonzero(rm.wheel_of_geom >= 0)[np.argsort(rm.wheel_of_geom[rm.wheel_of_geom >= 0])]
+        tmpl = K.contact_template(m, d, wgeoms, 0)
+        # the contacts are rewritten (and added) after mj_fwdPosition, which computes constraint
+        # islands from the contacts; the robot is one kinematic tree: one island, none needed
+        m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_ISLAND)
+        if cfg.analytic_wheel_contacts:
+            m.geom_contype[wgeoms] = 0
+            m.geom_conaffinity[wgeoms] = 0
+        terrain = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "terrain")
+        hsz = m.hfield_size[0]
+        nrow, ncol = int(m.hfield_nrow[0]), int(m.hfield_ncol[0])
+        hf = m.geom_pos[terrain][2] + hsz[2] * m.hfield_data.astype(np.float64).reshape(nrow, ncol)
+        grid = np.array([m.geom_pos[terrain][0] - hsz[0], m.geom_pos[terrain][1] - hsz[1], 2 * hsz[0] / (ncol - 1),
+                         2 * hsz[1] / (nrow - 1), robot.wheel_radius_m])
+        self._wheel_args = (wgeoms.astype(np.int64) if cfg.analytic_wheel_contacts else np.zeros(0, np.int64),
+                            terrain, hf, grid, tmpl, np.zeros((4, 7)))
         mujoco.mj_forward(m, d)
         self._timing = [rng(seed, "sim", "timing", n) for n in _SENSORS]
         self._latency_gen = rng(seed, "sim", "latency")
@@ -122,7 +139,7 @@ class Simulation:
             max(1, int(round(0.1 / self._dt))) if pool is not None else 0, *pargs,
             d.mocap_pos, d.mocap_quat, m.geom_size, m.geom_rbound, m.geom_aabb, m.bvh_aabb, m.geom_contype,
             OBSTACLE_BIT, PARK_Z_M, self._next, self._period, self._jit, self._jit_idx, self._samples,
-            self._nsamp)
+            self._nsamp, *self._wheel_args)
         # readings since the last observe()
         self._scans: list[LidarScan] = []
         self._pose: PoseReading | None = None
