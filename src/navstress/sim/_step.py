@@ -2,9 +2,10 @@
 
 One numba call (:func:`run_steps`) runs physics steps until something needs Python: a lidar scan,
 a collision or stop event, instability, full sample buffers, or the requested step. Each step is
-the drive firmware, the obstacle pool refill (every ``pool_every`` steps), MuJoCo's
-``mj_fwdPosition``, the skid-steer contact rewrite (:func:`_align_wheel_contacts`) with
-``mj_makeConstraint`` + ``mj_projectConstraint`` again when contacts changed, ``mj_fwdVelocity``,
+the drive firmware, the obstacle pool refill (every ``pool_every`` steps), the stages of MuJoCo's
+``mj_fwdPosition`` up to ``mj_collision``, the skid-steer contact rewrite
+(:func:`_align_wheel_contacts`; optionally analytic wheel contacts first), the remaining stages
+(``mj_makeConstraint``, ``mj_transmission``, ``mj_projectConstraint``), ``mj_fwdVelocity``,
 ``mj_step2``, then the event checks; odometry, IMU, pose and observer samples are recorded raw
 (Python turns them into readings, with noise, in order, see ``Simulation._flush``).
 
@@ -71,7 +72,17 @@ def _void_mj(name: str) -> Any:
     return call
 
 
-mj_fwdPosition = _void_mj("mj_fwdPosition")
+# mj_fwdPosition's stages, so that the contacts can be changed between collision and constraints
+# (the composition is bit-identical to mj_fwdPosition in MuJoCo 4.0; checked by a test)
+mj_kinematics = _void_mj("mj_kinematics")
+mj_comPos = _void_mj("mj_comPos")
+mj_camlight = _void_mj("mj_camlight")
+mj_flex = _void_mj("mj_flex")
+mj_tendon = _void_mj("mj_tendon")
+mj_crb = _void_mj("mj_crb")
+mj_factorM = _void_mj("mj_factorM")
+mj_collision = _void_mj("mj_collision")
+mj_transmission = _void_mj("mj_transmission")
 mj_makeConstraint = _void_mj("mj_makeConstraint")
 mj_projectConstraint = _void_mj("mj_projectConstraint")
 mj_fwdVelocity = _void_mj("mj_fwdVelocity")
@@ -540,16 +551,25 @@ def run_steps(maddr: int, daddr: int, ncon_addr: int, con_field: int, k_stop: in
             fill_obstacle_slots(qpos[0], qpos[1], pc, ph, pq, preach, pdist, slot_obstacle, slot_geom, slot_mocap,
                                 slot_bvh, obstacle_of_geom, mocap_pos, mocap_quat, geom_size, geom_rbound,
                                 geom_aabb, bvh_aabb, geom_contype, park_z, contype)
-        mj_fwdPosition(maddr, daddr)
-        added = _add_wheel_contacts(maddr, daddr, xpos, wbody, wgeom, terrain, hf, grid, tmpl, cbuf)
+        mj_kinematics(maddr, daddr)
+        mj_comPos(maddr, daddr)
+        mj_camlight(maddr, daddr)
+        mj_flex(maddr, daddr)
+        mj_tendon(maddr, daddr)
+        mj_crb(maddr, daddr)
+        mj_factorM(maddr, daddr)
+        mj_collision(maddr, daddr)
+        _add_wheel_contacts(maddr, daddr, xpos, wbody, wgeom, terrain, hf, grid, tmpl, cbuf)
         n = _read_ncon(ncon_addr)
         con_addr = _read_ptr(con_field)
         cf = numba.carray(_f64ptr(con_addr), (n * _CF,))
         ci = numba.carray(_i32ptr(con_addr), (n * _CI,))
-        if n > 0 and (_align_wheel_contacts(cf, ci, n, wheel_of_geom, qvel, xmat[chassis], xpos[chassis], xpos,
-                                            wbody, wdof, F[F_MU], F[F_FLOOR], F[F_EPS]) > 0 or added > 0):
-            mj_makeConstraint(maddr, daddr)
-            mj_projectConstraint(maddr, daddr)
+        if n > 0:
+            _align_wheel_contacts(cf, ci, n, wheel_of_geom, qvel, xmat[chassis], xpos[chassis], xpos, wbody, wdof,
+                                  F[F_MU], F[F_FLOOR], F[F_EPS])
+        mj_makeConstraint(maddr, daddr)
+        mj_transmission(maddr, daddr)
+        mj_projectConstraint(maddr, daddr)
         mj_fwdVelocity(maddr, daddr)
         mj_step2(maddr, daddr)
         k += 1
