@@ -420,52 +420,51 @@ def world_export(
 
 # ---- demo ---------------------------------------------------------------------------------
 
-DEMO_WORLDS: dict[str, dict[str, Any]] = {
-    "flat-empty": {},
-    "trees-6pct": {"obstacles": {"obstruction": {"tree": 6}}},
-    "buildings-20pct": {"obstacles": {"obstruction": {"building": 20}}},
-    "bumpy-s4-d2": {"ground": {"subdivisions": 4, "deformation": 2.0}},
-    "fractal": {"ground": {"model": "fractal", "amplitude_m": 1.0}},
-}
-
 
 @app.command("demo")
 def demo(
     output: Annotated[Path, typer.Option("--output", "-o", metavar="DIR", help=(
-        "Folder to write the demo worlds into (created; must be new, empty, or a previous demo)."))] = Path("demo-out"),
-    seed: Annotated[str, typer.Option(metavar="N", help="Seed of every demo world, an integer >= 0.")] = "1",
+        "Folder for the demo (DIR/demo.yaml, the campaign in DIR/campaign, DIR/report.html). "
+        "Run again to resume an interrupted demo."))] = Path("demo-out"),
+    workers: Annotated[str | None, typer.Option("--workers", "-j", metavar="N", help=(
+        "Parallel runs, an integer >= 1 (default: all cores)."))] = None,
 ) -> None:
-    """Generate a handful of contrasting worlds with previews (a quick tour of navstress)."""
-    from navstress.world.generate import generate
-    from navstress.world.spec import parse_spec
-    from navstress.world.world import is_world_dir
+    """Run the demo campaign (worlds, missions, faults) and write its HTML report."""
+    from navstress.analysis.report import build_report
+    from navstress.campaign.executors import run_campaign
+    from navstress.campaign.presets import preset_yaml
+    from navstress.campaign.progress import CampaignProgress, format_counts
 
-    seed_v = _integer("--seed", seed, "an integer >= 0")
-    if seed_v < 0:
-        raise SpecError("--seed", seed, "an integer >= 0")
-    if output.exists():
-        ok = output.is_dir() and all(p.name in DEMO_WORLDS and is_world_dir(p) for p in output.iterdir()
-                                     if not p.name.startswith("."))
-        if not ok:
-            raise WorldFileError(f"--output={str(output)!r} is invalid: expected a new or empty folder or a "
-                                 "previous demo output; choose another path or remove it")
-    output.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{output.name}.", dir=output.parent))
+    n_workers = None
+    if workers is not None:
+        n_workers = _integer("--workers", workers, "an integer >= 1")
+        if n_workers < 1:
+            raise SpecError("--workers", workers, "an integer >= 1")
+    if output.exists() and not output.is_dir():
+        raise WorldFileError(f"--output={str(output)!r} is invalid: expected a folder; choose another path")
+    if output.is_dir():
+        ours = {"demo.yaml", "campaign", "report.html"}
+        others = [p.name for p in output.iterdir() if p.name not in ours and not p.name.startswith(".")]
+        if others:
+            raise WorldFileError(f"--output={str(output)!r} is invalid: expected a new folder or a previous demo "
+                                 f"(it holds {others[0]!r}); choose another path or remove it")
+    output.mkdir(parents=True, exist_ok=True)
+    spec_path = output / "demo.yaml"
+    text = preset_yaml("demo")
+    if not spec_path.exists() or spec_path.read_text(encoding="utf-8") != text:
+        tmp = spec_path.with_name(".demo.yaml.tmp")
+        tmp.write_text(text, encoding="utf-8")
+        tmp.replace(spec_path)
     con = _console()
-    try:
-        for name, data in DEMO_WORLDS.items():
-            world = generate(parse_spec(data), seed_v)
-            _save_with_preview(world, tmp / name)
-            from navstress.world.export.images import obstruction_pct
-
-            con.print(f"  {name:<16} obstruction {obstruction_pct(world):5.1f} %   -> {output / name / PREVIEW}")
-        if output.exists():
-            shutil.rmtree(output)
-        tmp.rename(output)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-    con.print(f"wrote {len(DEMO_WORLDS)} worlds into {output}/")
+    con.print(f"demo campaign: {spec_path} -> {output / 'campaign'}")
+    with CampaignProgress() as bar:
+        res = run_campaign(spec_path, output / "campaign", workers=n_workers, on_start=bar.on_start,
+                           on_record=bar.on_record)
+    con.print(f"{res.already_done + res.recorded}/{res.planned} runs recorded in {res.wall_s:.0f} s with "
+              f"{res.workers} workers: " + format_counts(res.counts, markup=False))
+    con.print("writing the report ...")
+    report = build_report(output / "campaign", output / "report.html")
+    con.print(f"report: {report.resolve()}")
 
 
 @world_app.command("drive")

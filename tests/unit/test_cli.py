@@ -12,7 +12,7 @@ from typer.testing import CliRunner
 
 from conftest import small_world
 from navstress import __version__
-from navstress.cli import DEMO_WORLDS, app
+from navstress.cli import app
 from navstress.world import World, parse_spec
 from navstress.world.export.images import read_heightmap_png
 from navstress.world.generate import generate
@@ -185,21 +185,6 @@ def test_export_mjcf_uses_the_simulator_model_builder(tmp_path: Path) -> None:
     code, _, err = run("world", "export", str(tmp_path / "w"), "--format", "mjcf", "-o", str(tmp_path / "w.xml"))
     assert code == 0, err
     assert (tmp_path / "w.xml").read_text() == model.world_to_mjcf(World.load(tmp_path / "w"))
-
-
-def test_demo_writes_contrasting_worlds_with_previews(tmp_path: Path) -> None:
-    code, out, err = run("demo", "-o", str(tmp_path / "demo"))
-    assert code == 0, err
-    names = sorted(p.name for p in (tmp_path / "demo").iterdir())
-    assert names == sorted(DEMO_WORLDS)
-    worlds = {n: World.load(tmp_path / "demo" / n) for n in names}
-    assert all((tmp_path / "demo" / n / "preview.png").is_file() for n in names)
-    assert worlds["flat-empty"].obstacles == () and not worlds["flat-empty"].terrain.heights.any()
-    assert {o.kind for o in worlds["trees-6pct"].obstacles} == {"tree"}
-    assert worlds["bumpy-s4-d2"].terrain.heights.std() > 0.1
-    assert str(tmp_path / "demo") in out
-    code, _, err = run("demo", "-o", str(tmp_path / "demo"))  # a previous demo may be replaced
-    assert code == 0, err
 
 
 def _commands() -> list[list[str]]:
