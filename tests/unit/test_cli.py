@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from conftest import small_world
+from world_fixtures import small_world
 from navstress import __version__
 from navstress.cli import app
 from navstress.world import World, parse_spec

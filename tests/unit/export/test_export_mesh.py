@@ -10,7 +10,7 @@ import trimesh
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from conftest import small_world
+from world_fixtures import small_world
 from navstress.world.export.mesh import MESH_FORMATS, Z_UP_TO_Y_UP, terrain_faces, write_mesh
 
 W = small_world(7)

@@ -1,0 +1,26 @@
+"""Small hand-made worlds for tests (no generator needed), fast to build."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from navstress.world import Mission, Obstacle, Terrain, World, WorldSpec
+
+
+def small_world(seed: int = 0, *, bumpy: bool = True, size: float = 20.0, cell: float = 0.5) -> World:
+    """A size x size m world with random smooth-ish terrain and three non-overlapping boxes."""
+    spec = WorldSpec(size_m=(size, size), cell_m=cell,
+                     obstacles={"obstruction": {"tree": 1.0, "building": 10.0}})
+    rows, cols = spec.grid_shape
+    g = np.random.default_rng(seed)
+    heights = g.normal(0.0, 0.6, (rows, cols)).cumsum(axis=0).cumsum(axis=1) / 10 if bumpy \
+        else np.zeros((rows, cols))
+    obstacles = (
+        Obstacle("tree", 5.0, 12.0, 0.3, (1.0, 1.0, 5.0), z=0.2),
+        Obstacle("building", 12.0, 6.0, math.radians(30), (4.0, 3.0, 8.0), z=-0.4),
+        Obstacle("tree", 15.5, 15.0, 0.0, (1.0, 1.2, 4.0), z=1.0),
+    )
+    return World(spec=spec, seed=seed, terrain=Terrain(heights.astype(np.float32), cell),
+                 obstacles=obstacles, mission=Mission((2.0, 2.0, math.pi / 4), (18.0, 18.0), 1.5))
