@@ -314,6 +314,27 @@ def _align_wheel_contacts(cf: np.ndarray, ci: np.ndarray, n: int, wheel_of_geom:
 
 
 @numba.njit(cache=True)
+def fwd_position_collision(maddr: int, daddr: int) -> None:  # pragma: no cover - compiled
+    """First part of ``mj_fwdPosition``: kinematics, inertia, factorisation, collision."""
+    mj_kinematics(maddr, daddr)
+    mj_comPos(maddr, daddr)
+    mj_camlight(maddr, daddr)
+    mj_flex(maddr, daddr)
+    mj_tendon(maddr, daddr)
+    mj_crb(maddr, daddr)
+    mj_factorM(maddr, daddr)
+    mj_collision(maddr, daddr)
+
+
+@numba.njit(cache=True)
+def fwd_position_constraints(maddr: int, daddr: int) -> None:  # pragma: no cover - compiled
+    """Rest of ``mj_fwdPosition`` (without constraint islands: the model disables them)."""
+    mj_makeConstraint(maddr, daddr)
+    mj_transmission(maddr, daddr)
+    mj_projectConstraint(maddr, daddr)
+
+
+@numba.njit(cache=True)
 def _closest_on_triangle(px: float, py: float, pz: float, a: np.ndarray, b: np.ndarray,
                          c: np.ndarray) -> tuple[float, float, float, bool]:  # pragma: no cover - compiled
     """Closest point of triangle abc to p (Ericson, Real-Time Collision Detection 5.1.5) and
@@ -551,14 +572,7 @@ def run_steps(maddr: int, daddr: int, ncon_addr: int, con_field: int, k_stop: in
             fill_obstacle_slots(qpos[0], qpos[1], pc, ph, pq, preach, pdist, slot_obstacle, slot_geom, slot_mocap,
                                 slot_bvh, obstacle_of_geom, mocap_pos, mocap_quat, geom_size, geom_rbound,
                                 geom_aabb, bvh_aabb, geom_contype, park_z, contype)
-        mj_kinematics(maddr, daddr)
-        mj_comPos(maddr, daddr)
-        mj_camlight(maddr, daddr)
-        mj_flex(maddr, daddr)
-        mj_tendon(maddr, daddr)
-        mj_crb(maddr, daddr)
-        mj_factorM(maddr, daddr)
-        mj_collision(maddr, daddr)
+        fwd_position_collision(maddr, daddr)
         _add_wheel_contacts(maddr, daddr, xpos, wbody, wgeom, terrain, hf, grid, tmpl, cbuf)
         n = _read_ncon(ncon_addr)
         con_addr = _read_ptr(con_field)
@@ -567,9 +581,7 @@ def run_steps(maddr: int, daddr: int, ncon_addr: int, con_field: int, k_stop: in
         if n > 0:
             _align_wheel_contacts(cf, ci, n, wheel_of_geom, qvel, xmat[chassis], xpos[chassis], xpos, wbody, wdof,
                                   F[F_MU], F[F_FLOOR], F[F_EPS])
-        mj_makeConstraint(maddr, daddr)
-        mj_transmission(maddr, daddr)
-        mj_projectConstraint(maddr, daddr)
+        fwd_position_constraints(maddr, daddr)
         mj_fwdVelocity(maddr, daddr)
         mj_step2(maddr, daddr)
         k += 1

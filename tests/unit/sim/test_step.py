@@ -1,0 +1,218 @@
+"""The compiled step loop and what it relies on: MuJoCo stage composition, raw contact reads,
+the obstacle pool, deferred sensor/contact bookkeeping, analytic wheel contacts."""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from navstress.errors import SpecError
+from navstress.nav.api import Command
+from navstress.robot import RobotSpec
+from navstress.sim import SimConfig, Simulation
+from navstress.sim import _step as K
+from navstress.sim.model import ObstaclePool, build_model
+from navstress.sim.observer import Observer
+from navstress.sim.sensors import ImuSensor, WheelOdometry
+from navstress.world.world import Obstacle
+
+from sim_worlds import bumpy, flat, rough
+
+NOLIDAR = SimConfig(lidar_enabled=False)
+
+
+def test_composed_fwd_position_is_bit_identical_to_mj_step() -> None:
+    rm = build_model(bumpy(), start=(10.0, 10.0, 0.5))
+    m = rm.model
+    m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_ISLAND)
+    da, db = mujoco.MjData(m), mujoco.MjData(m)
+    ncon = []
+    for k in range(300):
+        u = [0.5 * math.sin(k / 40), 0.4, -0.3, -0.3 * math.cos(k / 25)]
+        da.ctrl[:] = u
+        db.ctrl[:] = u
+        mujoco.mj_step(m, da)
+        K.fwd_position_collision(m._address, db._address)
+        K.fwd_position_constraints(m._address, db._address)
+        mujoco.mj_fwdVelocity(m, db)
+        mujoco.mj_step2(m, db)
+        ncon.append(db.ncon)
+    assert max(ncon) >= 3  # the wheels were on the ground
+    assert np.array_equal(da.qpos, db.qpos) and np.array_equal(da.qvel, db.qvel)
+
+
+def test_raw_contact_reads_match_the_bindings() -> None:
+    K.check_layout()
+    sim = Simulation(bumpy(), config=NOLIDAR, seed=0, start=(10.0, 10.0, 0.5))
+    sim.advance(1.0)
+    d = sim.data
+    assert d.ncon >= 3
+    assert K._read_ncon(K.ncon_address(d)) == d.ncon
+    pos, frame, fr, geom = K._read_contacts(K._read_ptr(K.contact_field_address(d)), d.ncon)
+    c = d.contact
+    assert np.array_equal(pos, c.pos) and np.array_equal(frame, c.frame)
+    assert np.array_equal(fr, c.friction) and np.array_equal(geom, c.geom)
+
+
+def _pool_world(seed: int, n: int) -> tuple[list[Obstacle], np.ndarray]:
+    g = np.random.default_rng(seed)
+    obs = [Obstacle("tree", float(x), float(y), float(yaw), (float(a), float(b), 4.0), 0.0)
+           for x, y, yaw, a, b in zip(g.uniform(1, 39, n), g.uniform(1, 39, n), g.uniform(-3, 3, n),
+                                      g.uniform(0.3, 3.0, n), g.uniform(0.3, 3.0, n))]
+    return obs, g.uniform(2, 38, (6, 2))
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 2**31), n=st.integers(0, 120), margin=st.floats(0.0, 3.0))
+def test_pool_holds_exactly_the_obstacles_near_the_robot(seed: int, n: int, margin: float) -> None:
+    """Brute force: after each update the filled slots hold exactly the obstacles within reach,
+    each with its pose and size; empty slots collide with nothing; an obstacle keeps its slot."""
+    obs, spots = _pool_world(seed, n)
+    w = flat(obstacles=tuple(obs))
+    r = RobotSpec()
+    rm = build_model(w, r, start=(20.0, 20.0, 0.0), obstacle_pool=64)
+    m, d = rm.model, mujoco.MjData(rm.model)
+    pool = ObstaclePool(rm, w, r, margin)
+    robot_reach = math.hypot(r.length_m, r.width_m) / 2
+    prev: dict[int, int] = {}
+    for x, y in spots:
+        d.qpos[0:2] = (x, y)
+        pool.update(d)
+        want = {k for k, o in enumerate(obs)
+                if math.hypot(o.x - x, o.y - y) <= math.hypot(o.size[0], o.size[1]) / 2 + robot_reach + margin}
+        slots = {int(o): s for s, o in enumerate(pool.slot_obstacle) if o >= 0}
+        assert set(slots) == want and pool.overflows == 0
+        for k, s in slots.items():
+            g, b = rm.slot_geoms[s], m.body_mocapid[rm.slot_bodies[s]]
+            o = obs[k]
+            assert rm.obstacle_of_geom[g] == k and m.geom_contype[g] != 0
+            np.testing.assert_allclose(d.mocap_pos[b], (o.x, o.y, o.z + o.size[2] / 2))
+            np.testing.assert_allclose(m.geom_size[g], np.array(o.size) / 2)
+            assert abs(d.mocap_quat[b][3] - math.sin(o.yaw / 2)) < 1e-12
+            if k in prev:
+                assert prev[k] == s  # stayed in its slot
+        for s in range(64):
+            if pool.slot_obstacle[s] < 0:
+                assert m.geom_contype[rm.slot_geoms[s]] == 0 and rm.obstacle_of_geom[rm.slot_geoms[s]] == -1
+        prev = slots
+
+
+def test_pool_overflow_keeps_the_nearest() -> None:
+    obs = [Obstacle("tree", 20.0 + 0.3 * k, 20.0, 0.0, (0.2, 0.2, 2.0)) for k in range(10)]
+    w = flat(obstacles=tuple(obs))
+    rm = build_model(w, start=(5.0, 5.0, 0.0), obstacle_pool=4)
+    d = mujoco.MjData(rm.model)
+    pool = ObstaclePool(rm, w, RobotSpec(), 1.5)
+    d.qpos[0:2] = (19.0, 20.0)
+    pool.update(d)
+    assert sorted(pool.slot_obstacle.tolist()) == [0, 1, 2, 3] and pool.overflows == 1
+
+
+def test_pool_and_static_obstacles_give_the_same_run() -> None:
+    """Driving through a cluster of trees with the pool or with every obstacle static in MuJoCo:
+    the same collision events and the same trajectory (to solver round-off)."""
+    obs, _ = _pool_world(7, 60)
+    obs += [Obstacle("tree", 12.0 + 2.0 * k, 20.5 - 0.3 * k, 0.2 * k, (0.8, 0.8, 5.0)) for k in range(6)]
+    runs = []
+    for pool in (0, 32):
+        cfg = SimConfig(lidar_enabled=False, obstacle_pool=pool, noise=False, jitter=False)
+        sim = Simulation(flat(obstacles=tuple(obs)), config=cfg, seed=0, start=(5.0, 20.0, 0.0))
+        for k in range(120):
+            sim.command(Command(1.2, 0.3 * math.sin(k / 15)))
+            sim.advance(0.1)
+        runs.append((sim.observer.poses.copy(), [(e.t, e.obstacle) for e in sim.observer.collisions]))
+    (pa, ea), (pb, eb) = runs
+    assert ea and ea == eb
+    assert np.abs(pa - pb).max() < 1e-3
+
+
+def test_bad_pool_size() -> None:
+    with pytest.raises(SpecError, match=r"sim.obstacle_pool=-1 is invalid"):
+        SimConfig(obstacle_pool=-1)
+
+
+@settings(max_examples=20, deadline=None)
+@given(seq=st.lists(st.sets(st.integers(0, 4), max_size=3), min_size=1, max_size=40))
+def test_observer_hold_equals_reporting_every_step(seq: list[set[int]]) -> None:
+    """Reporting only the steps where the touching set changes (with hold) gives the same events
+    and debounce state as reporting every step (what the compiled loop relies on)."""
+    dt = 0.13  # > debounce / 4: some re-touches are new events, some are not
+    a, b = Observer(0.5), Observer(0.5)
+    last: set[int] = set()
+    for k, s in enumerate(seq):
+        a.contacts(k * dt, 0.0, 0.0, set(s))
+        if s != last:
+            b.hold((k - 1) * dt)
+            b.contacts(k * dt, 0.0, 0.0, set(s))
+            last = s
+    assert a.collisions == b.collisions and a.contact_starts == b.contact_starts
+
+
+def test_batched_sensor_updates_equal_one_by_one() -> None:
+    g = np.random.default_rng(3)
+    angles = np.cumsum(g.normal(0, 0.1, (12, 4)), axis=0)
+    t = np.arange(1, 13) * 0.02
+    od_a, od_b = WheelOdometry(0.26, 1.8, np.zeros(4), 0.0), WheelOdometry(0.26, 1.8, np.zeros(4), 0.0)
+    for k in range(12):
+        last = od_a.update(angles[k], float(t[k]))
+    assert od_b.update_many(np.column_stack([t, angles])) == last
+    rows = np.column_stack([t, g.normal(0, 1, (12, 6))])
+    for noise in (True, False):
+        ia = ImuSensor(np.random.default_rng(5), 0.002, 0.005, 0.01, noise, 0.0)
+        ib = ImuSensor(np.random.default_rng(5), 0.002, 0.005, 0.01, noise, 0.0)
+        for r in rows:
+            la = ia.read(float(r[0]), float(r[1]), float(r[2]), float(r[3]), r[4:7])
+        lb = ib.read_many(rows)
+        assert la == lb and ia.bias == ib.bias
+
+
+@settings(max_examples=6, deadline=None)
+@given(seed=st.integers(0, 2**31))
+def test_sphere_terrain_contacts_find_the_surface_distance(seed: int) -> None:
+    """Brute force: the deepest analytic contact is the sphere radius minus the distance from the
+    centre to the triangulated surface, sampled densely with Terrain.height_at (within 3 mm)."""
+    w = rough(seed, size=12.0, amp=0.3)
+    rm = build_model(w, start=(6.0, 6.0, 0.0))
+    m = rm.model
+    tg = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "terrain")
+    hs = m.hfield_size[0]
+    nr, nc = int(m.hfield_nrow[0]), int(m.hfield_ncol[0])
+    hf = m.geom_pos[tg][2] + hs[2] * m.hfield_data.astype(np.float64).reshape(nr, nc)
+    x0, y0, dx, dy = m.geom_pos[tg][0] - hs[0], m.geom_pos[tg][1] - hs[1], 2 * hs[0] / (nc - 1), 2 * hs[1] / (nr - 1)
+    g = np.random.default_rng(seed)
+    out = np.zeros((4, 7))
+    r = 0.265
+    for _ in range(5):
+        cx, cy = g.uniform(2.0, 10.0, 2)
+        cz = w.terrain.height_at(cx, cy) + r - g.uniform(0.0, 0.08)
+        n = K.sphere_terrain_contacts(cx, cy, cz, r, hf, x0, y0, dx, dy, out)
+        xs = np.arange(cx - r, cx + r, 0.003)
+        ys = np.arange(cy - r, cy + r, 0.003)
+        X, Y = np.meshgrid(xs, ys)
+        Z = np.vectorize(w.terrain.height_at)(X, Y)
+        dist = np.sqrt((X - cx) ** 2 + (Y - cy) ** 2 + (Z - cz) ** 2).min()
+        if dist >= r:
+            assert n == 0 or out[:n, 0].min() > -0.003
+            continue
+        assert n >= 1
+        assert -out[:n, 0].min() == pytest.approx(r - dist, abs=3e-3)
+        normals = out[:n, 4:7]
+        np.testing.assert_allclose(np.linalg.norm(normals, axis=1), 1.0, atol=1e-9)
+        assert np.all(normals[:, 2] > 0.0)  # from the ground up to the wheel
+
+
+def test_analytic_wheel_contacts_rest_and_drive() -> None:
+    cfg = SimConfig(lidar_enabled=False, analytic_wheel_contacts=True)
+    sim = Simulation(flat(), config=cfg, seed=0, start=(10.0, 20.0, 0.0))
+    sim.advance(1.0)
+    p0 = sim.data.qpos[:3].copy()
+    sim.advance(5.0)
+    assert np.abs(sim.data.qpos[:3] - p0).max() < 1e-3
+    assert sim.data.qpos[2] == pytest.approx(RobotSpec().wheel_radius_m, abs=2e-3)
+    sim.command(Command(1.0, 0.0))
+    sim.advance(6.0)
+    assert sim.data.qpos[0] - p0[0] == pytest.approx(5.0 + 1.0 - 0.5 - 0.05, abs=0.5)
