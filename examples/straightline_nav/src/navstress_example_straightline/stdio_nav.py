@@ -61,7 +61,7 @@ class StraightLine:
         x, y, yaw = fx + c * dx - s * dy, fy + s * dx + c * dy, wrap(fyaw + (o["yaw"] - oyaw))
         gx, gy = self.goal
         dist = math.hypot(gx - x, gy - y)
-        if dist <= self.tol:
+        if dist <= 0.5 * self.tol:  # aim well inside: the estimate is noisy
             return {"type": "status", "kind": "arrived", "message": "%.2f m from the goal" % dist}
         err = wrap(math.atan2(gy - y, gx - x) - yaw)
         wmax = self.robot["max_yaw_rate_rps"]
