@@ -540,6 +540,8 @@ def run_cmd(
     seed: Annotated[str, typer.Option(metavar="N", help="Root seed of the run seeds, an integer >= 0. Default 0.")] = "0",
     timeout: Annotated[str, typer.Option(metavar="S", help="Simulated-time limit of a run in seconds, > 0. Default 400.")] = "400",
     goal_tolerance: Annotated[str, typer.Option(metavar="M", help="Success radius around the goal in meters, > 0. Default 2.")] = "2",
+    lidar: Annotated[bool, typer.Option("--lidar", help=(
+        "Also record lidar point clouds in the traces (one full scan per simulated second, map frame).")) ] = False,
 ) -> None:
     """Run the navigator on a world's mission, classify each run, write traces and a picture."""
     from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
@@ -566,7 +568,7 @@ def run_cmd(
         raise WorldFileError(f"--output={str(output)!r} is invalid: expected a new or empty folder; "
                              "choose another path or remove it")
     tasks = plan_batch(world_dir, output, navigator=navigator, navigator_config=cfg, fault=fault, runs=n,
-                       seed=seed_v, timeout_s=timeout_v, goal_tolerance_m=tol)
+                       seed=seed_v, timeout_s=timeout_v, goal_tolerance_m=tol, record_lidar=lidar)
     con = _console()
     counts: dict[str, int] = {}
     with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),

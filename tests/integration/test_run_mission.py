@@ -115,3 +115,21 @@ def test_collision_stops_in_front_of_the_wall() -> None:
     assert r.facts.first_collision_s is not None
     # the chassis centre stays in front of the wall face (x = 11) by about half the robot length
     assert r.truth[:, 1].max() < 11.0 - 0.4
+
+
+def test_lidar_clouds_in_the_trace_land_on_the_obstacles(tmp_path: Path) -> None:
+    from navstress.run.trace import TOPIC_LIDAR, TraceWriter, _messages
+
+    w = wall_world()
+    tw = TraceWriter(tmp_path / "l.mcap")
+    r = run_mission(w, GivesUp(), run_seed=1, timeout_s=5.0, trace=tw, record_lidar=True)
+    tw.close()
+    assert r.classification.outcome.value == "fail-error"
+    clouds = [m for _t, _lt, m in _messages(tmp_path / "l.mcap", [TOPIC_LIDAR])]
+    assert len(clouds) == 1  # the run ended at its first control cycle: one scan
+    pts = np.frombuffer(clouds[0].data, dtype="<f4").reshape(-1, 3)
+    # in the map frame: ground hits at z ~ 0, wall-face hits at x ~ 11 (the box spans x 11..13, y 1..9)
+    ground = pts[np.abs(pts[:, 2]) < 0.1]
+    face = pts[(pts[:, 2] > 0.3) & (pts[:, 1] > 2) & (pts[:, 1] < 8)]
+    assert len(ground) > 1000 and len(face) > 20
+    assert np.allclose(face[:, 0], 11.0, atol=0.15)

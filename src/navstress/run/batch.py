@@ -20,11 +20,13 @@ from navstress.seeding import derive_seed
 
 
 def plan_batch(world_dir: Path, out: Path, *, navigator: str, navigator_config: dict[str, Any], fault: str | None,
-               runs: int, seed: int, timeout_s: float, goal_tolerance_m: float) -> list[RunTask]:
+               runs: int, seed: int, timeout_s: float, goal_tolerance_m: float,
+               record_lidar: bool = False) -> list[RunTask]:
     return [RunTask(run_id=f"run-{i:03d}", world_dir=str(world_dir), run_seed=derive_seed(seed, "run", i),
                     trace_path=str(out / f"run-{i:03d}.mcap"), navigator=navigator,
                     navigator_config=navigator_config, fault=fault, timeout_s=timeout_s,
-                    goal_tolerance_m=goal_tolerance_m, run_index=i, experiment="single")
+                    goal_tolerance_m=goal_tolerance_m, run_index=i, experiment="single",
+                    record_lidar=record_lidar)
             for i in range(runs)]
 
 

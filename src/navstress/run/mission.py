@@ -37,7 +37,8 @@ from navstress.seeding import derive_seed, rng
 from navstress.world.world import World
 
 DEFAULT_CONTROL_RATE_HZ = 10.0
-CONTROL_JITTER = 0.05  # each control period is scaled by 1 + U(-j, j), drawn from the run seed
+CONTROL_JITTER = 0.05
+LIDAR_TRACE_PERIOD_S = 1.0  # with record_lidar, one full scan per simulated second goes into the trace  # each control period is scaled by 1 + U(-j, j), drawn from the run seed
 
 
 @dataclass
@@ -110,6 +111,7 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
     cfg = sim_config if sim_config is not None else SimConfig()
     wall0 = time.perf_counter()
     events: list[tuple[float, str, str]] = []
+    clouds: list[tuple[float, np.ndarray, tuple[float, float, float]]] = []
     error: str | None = None
     nav_failure = False
     arrived = timed_out = False
@@ -124,8 +126,14 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
             navigator.reset(mission, robot, seed=derive_seed(run_seed, "navigator"))
         except Exception as err:  # the stack under test failed; record, don't crash
             error, nav_failure = f"navigator reset raised {type(err).__name__}: {err}", True
+        next_cloud_t = 0.0
         while error is None:
             obs = sim.observe()
+            if record_lidar:
+                for scan in obs.scans:
+                    if scan.t >= next_cloud_t - 1e-9 and len(scan.points):
+                        clouds.append((scan.t, np.array(scan.points, dtype=np.float32), scan.mount))
+                        next_cloud_t = scan.t + LIDAR_TRACE_PERIOD_S
             try:
                 out = navigator.step(obs)
             except Exception as err:
@@ -214,7 +222,28 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
                        path_length_m=path_length(xy), tortuousness=tortuousness(truth[:, 1:3]) if len(truth) else 0.0)
     if trace is not None:
         _write_trace(trace, world, result)
+        for t, pts, mount in clouds:
+            trace.points(t, _to_map_frame(pts, mount, truth, t))
     return result
+
+
+def _to_map_frame(pts: np.ndarray, mount: tuple[float, float, float], truth: np.ndarray, t: float) -> np.ndarray:
+    """Sensor-frame points into the map frame with the TRUE pose at ``t`` (interpolated between
+    observer samples, 10 Hz: a few cm off while turning; for visualisation only)."""
+    from scipy.spatial.transform import Rotation, Slerp
+
+    ts = truth[:, 0]
+    k = int(np.clip(np.searchsorted(ts, t), 1, len(ts) - 1)) if len(ts) > 1 else 0
+    if len(ts) > 1:
+        a, b = truth[k - 1], truth[k]
+        w = 0.0 if b[0] == a[0] else float(np.clip((t - a[0]) / (b[0] - a[0]), 0.0, 1.0))
+        pos = a[1:4] + w * (b[1:4] - a[1:4])
+        rots = Rotation.from_euler("ZYX", [a[4:7], b[4:7]])
+        rot = Slerp([0.0, 1.0], rots)([w])[0]
+    else:
+        pos, rot = truth[0, 1:4], Rotation.from_euler("ZYX", truth[0, 4:7])
+    local = np.asarray(pts, dtype=np.float64) + np.asarray(mount)
+    return (rot.apply(local) + pos).astype(np.float32)
 
 
 def _write_trace(tw: TraceWriter, world: World, r: RunResult) -> None:
