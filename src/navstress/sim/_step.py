@@ -48,12 +48,13 @@ DONE, LIDAR, CONTACT, LEFT_MAP, FLIPPED, UNSTABLE, FLUSH = 0, 1, 2, 4, 8, 16, 32
 ODOM, IMU, POSE, SCAN, OBSERVER = 0, 1, 2, 3, 4
 NSENSORS = 5
 # int state I[...]
-I_K, I_TOUCHING, I_NCONTACT, I_WARN0, I_JITTER = 0, 1, 2, 3, 4  # I_TOUCHING: size of the touching set
+I_K, I_TOUCHING, I_NCONTACT, I_WARN0, I_JITTER, I_STARTS, I_NEVENT = 0, 1, 2, 3, 4, 5, 6  # I_TOUCHING: size of the touching set
+NI = 8
 # float state F[...] (drive firmware state and the constants of a run)
 (F_TV, F_TW, F_V, F_W, F_YAWI, F_REF, F_DT, F_DV, F_DW, F_SKID, F_KP, F_KI, F_HALFTRACK, F_RADIUS, F_HOLD,
- F_MU, F_FLOOR, F_EPS, F_MAXSPEED, F_SX, F_SY, F_MARGIN, F_COSFLIP, F_RATEJIT, F_UPZ) = (
-    0, 1, 2, 3, 4, 5, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 27)
-NF = 28
+ F_MU, F_FLOOR, F_EPS, F_MAXSPEED, F_SX, F_SY, F_MARGIN, F_COSFLIP, F_RATEJIT, F_UPZ, F_DEBOUNCE) = (
+    0, 1, 2, 3, 4, 5, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28)
+NF = 29
 
 
 def _void_mj(name: str) -> Any:
@@ -540,11 +541,39 @@ def _fire(k: int, I: np.ndarray, F: np.ndarray, qpos: np.ndarray, qvel: np.ndarr
 
 
 @numba.njit(cache=True)
+def contact_events(t: float, x: float, y: float, cur: np.ndarray, ncur: int, prev: np.ndarray, I: np.ndarray,
+                   last_touch: np.ndarray, debounce: float, events: np.ndarray) -> bool:  # pragma: no cover
+    """:meth:`Observer.contacts` on arrays: ``cur[:ncur]`` (distinct obstacle indices) is the
+    touching set after the step at ``t``, ``prev[:I[I_TOUCHING]]`` the previous one. A newly
+    touched obstacle counts a start (``I[I_STARTS]``) and, when last touched more than
+    ``debounce`` ago (``last_touch``, -inf: never), appends a collision event (t, x, y, obstacle)
+    to ``events`` (``I[I_NEVENT]`` rows). Returns False when ``events`` is now full."""
+    for i in range(ncur):
+        o = cur[i]
+        new = True
+        for j in range(I[I_TOUCHING]):
+            if prev[j] == o:
+                new = False
+                break
+        if new:
+            I[I_STARTS] += 1
+            if t - last_touch[o] > debounce:
+                e = I[I_NEVENT]
+                events[e, 0], events[e, 1], events[e, 2], events[e, 3] = t, x, y, o
+                I[I_NEVENT] = e + 1
+        last_touch[o] = t
+    for i in range(ncur):
+        prev[i] = cur[i]
+    I[I_TOUCHING] = ncur
+    return I[I_NEVENT] + ncur < events.shape[0]
+
+
+@numba.njit(cache=True)
 def run_steps(maddr: int, daddr: int, ncon_addr: int, con_field: int, k_stop: int, I: np.ndarray, F: np.ndarray,
               qpos: np.ndarray, qvel: np.ndarray, ctrl: np.ndarray, xpos: np.ndarray, xmat: np.ndarray,
               warn: np.ndarray, bad_warn: np.ndarray, bodies: np.ndarray, wqpos: np.ndarray, wdof: np.ndarray,
               wheel_of_geom: np.ndarray, obstacle_of_geom: np.ndarray, contact_out: np.ndarray,
-              contact_prev: np.ndarray,
+              contact_prev: np.ndarray, last_touch: np.ndarray, events: np.ndarray,
               pool_every: int, pc: np.ndarray, ph: np.ndarray, pq: np.ndarray, preach: np.ndarray,
               pdist: np.ndarray, slot_obstacle: np.ndarray, slot_geom: np.ndarray, slot_mocap: np.ndarray,
               slot_bvh: np.ndarray, mocap_pos: np.ndarray, mocap_quat: np.ndarray, geom_size: np.ndarray,
@@ -555,9 +584,9 @@ def run_steps(maddr: int, daddr: int, ncon_addr: int, con_field: int, k_stop: in
     """Fire the sensors due at the current step, then step until ``k_stop`` (or an event).
 
     ``bodies`` = (chassis, bumper geom, wheel bodies x4). Returns the status bits; the step count
-    is ``I[I_K]``. CONTACT: the set of obstacles touched by the bumper changed; it is now
-    ``contact_out[:I[I_NCONTACT]]`` (distinct indices; ``I[I_TOUCHING]`` its size, ``contact_prev``
-    a copy). The up-vector z is in ``F[F_UPZ]``.
+    is ``I[I_K]``. Bumper contacts go through :func:`contact_events` (collision events in
+    ``events[:I[I_NEVENT]]``, contact starts counted in ``I[I_STARTS]``); FLUSH also when the event
+    buffer is full. The up-vector z is in ``F[F_UPZ]``.
     """
     chassis, bumper = bodies[0], bodies[1]
     wbody = bodies[2:6]
@@ -618,19 +647,10 @@ def run_steps(maddr: int, daddr: int, ncon_addr: int, con_field: int, k_stop: in
                     contact_out[nk] = o
                     nk += 1
         I[I_NCONTACT] = nk
-        changed = nk != I[I_TOUCHING]
-        for i in range(nk):
-            if changed:
-                break
-            found = False
-            for j in range(nk):
-                found = found or contact_prev[j] == contact_out[i]
-            changed = not found
-        if changed:  # Python sees only changes of the touching set (see Observer.hold)
-            for i in range(nk):
-                contact_prev[i] = contact_out[i]
-            I[I_TOUCHING] = nk
-            status |= CONTACT
+        if nk > 0 or I[I_TOUCHING] > 0:
+            if not contact_events(k * F[F_DT], qpos[0], qpos[1], contact_out, nk, contact_prev, I, last_touch,
+                                  F[F_DEBOUNCE], events):
+                status |= FLUSH  # event buffer full: Python empties it before the next step
         x, y = qpos[0], qpos[1]
         mg = F[F_MARGIN]
         if not (mg <= x <= F[F_SX] - mg and mg <= y <= F[F_SY] - mg):

@@ -83,12 +83,6 @@ class Observer:
             self._last_touch[o] = t
         self._touching = obstacles
 
-    def hold(self, t: float) -> None:
-        """The obstacles touched at the last :meth:`contacts` call stayed touched until ``t``
-        (equivalent to calling :meth:`contacts` again with the same set at every step up to ``t``)."""
-        for o in self._touching:
-            self._last_touch[o] = max(self._last_touch[o], t)
-
     def stopped(self, ev: StopEvent) -> None:
         if self.stop is None:
             self.stop = ev

@@ -27,7 +27,7 @@ from navstress.sim.config import SimConfig
 from navstress.sim.lidar import Lidar, build_scene
 from navstress.sim import _step as K
 from navstress.sim.model import OBSTACLE_BIT, PARK_Z_M, ObstaclePool, RobotModel, build_model
-from navstress.sim.observer import Observer, StopEvent
+from navstress.sim.observer import CollisionEvent, Observer, StopEvent
 from navstress.sim.sensors import ImuSensor, PoseSensor, WheelOdometry
 from navstress.world.world import World
 
@@ -108,9 +108,12 @@ class Simulation:
         self._nsamp = np.zeros(K.NSENSORS, np.int64)
         self.observer = Observer(cfg.collision_debounce_s)
         self._contact_buf = np.zeros(64, np.int64)
+        self._contact_prev = np.zeros(64, np.int64)
+        self._last_touch = np.full(max(1, len(world.obstacles)), -np.inf)  # per obstacle, for the debounce
+        self._event_buf = np.zeros((128, 4))
         # compiled-loop state: ints, floats (drive firmware + constants), fixed argument tuple
         r = robot
-        self._I = np.zeros(8, np.int64)
+        self._I = np.zeros(K.NI, np.int64)
         self._I[K.I_JITTER] = int(cfg.jitter)
         F = self._F = np.zeros(K.NF)
         F[K.F_REF:K.F_REF + 4] = d.qpos[rm.wheel_qpos]
@@ -121,6 +124,7 @@ class Simulation:
         F[K.F_MAXSPEED], (F[K.F_SX], F[K.F_SY]) = cfg.max_speed_mps, rm.map_size
         F[K.F_MARGIN], F[K.F_COSFLIP], F[K.F_RATEJIT] = cfg.map_margin_m, math.cos(cfg.flip_threshold_rad), \
             cfg.rate_jitter
+        F[K.F_DEBOUNCE] = cfg.collision_debounce_s
         warn = d.warning.number
         bad = np.array([int(w) for w in _BAD_WARNINGS], np.int64)
         self._I[K.I_WARN0] = int(sum(int(warn[w]) for w in bad))
@@ -135,7 +139,7 @@ class Simulation:
         self._args_b = (
             self._I, F, d.qpos, d.qvel, d.ctrl, d.xpos, d.xmat, warn, bad,
             np.array([rm.chassis_body, rm.bumper_geom, *rm.wheel_bodies], np.int64), rm.wheel_qpos, rm.wheel_dofs,
-            rm.wheel_of_geom, rm.obstacle_of_geom, self._contact_buf, np.zeros(64, np.int64),
+            rm.wheel_of_geom, rm.obstacle_of_geom, self._contact_buf, self._contact_prev, self._last_touch, self._event_buf,
             max(1, int(round(0.1 / self._dt))) if pool is not None else 0, *pargs,
             d.mocap_pos, d.mocap_quat, m.geom_size, m.geom_rbound, m.geom_aabb, m.bvh_aabb, m.geom_contype,
             OBSTACLE_BIT, PARK_Z_M, self._next, self._period, self._jit, self._jit_idx, self._samples,
@@ -217,7 +221,8 @@ class Simulation:
             if st & K.UNSTABLE:
                 self._flush()
                 self._unstable()
-            if st & (K.CONTACT | K.LEFT_MAP | K.FLIPPED):
+            if st & (K.LEFT_MAP | K.FLIPPED):
+                self._flush()  # collisions of this step first
                 self._events(st)
             if st & K.FLUSH:
                 self._flush()
@@ -232,9 +237,6 @@ class Simulation:
     def _events(self, st: int) -> None:
         t, x, y = self.t, float(self.data.qpos[0]), float(self.data.qpos[1])
         ob = self.observer
-        if st & K.CONTACT:  # the touching set changed at this step; it was unchanged until the previous one
-            ob.hold(t - self._dt)
-            ob.contacts(t, x, y, set(self._contact_buf[: int(self._I[K.I_NCONTACT])].tolist()))
         if st & K.LEFT_MAP:
             ob.stopped(StopEvent(t, x, y, "left_map", f"robot left the map at ({x:.2f}, {y:.2f})"))
         if st & K.FLIPPED:
@@ -254,6 +256,14 @@ class Simulation:
             rows = smp[K.OBSERVER, : n[K.OBSERVER]]
             self.observer.record_poses(rows[:, [0, 4, 5, 6, 1, 2, 3]])
         n[:] = 0
+        I, ob = self._I, self.observer
+        ne = int(I[K.I_NEVENT])
+        if ne or I[K.I_STARTS]:
+            ob.collisions.extend(CollisionEvent(float(e[0]), float(e[1]), float(e[2]), int(e[3]))
+                                 for e in self._event_buf[:ne])
+            ob.contact_starts += int(I[K.I_STARTS])
+            I[K.I_NEVENT] = I[K.I_STARTS] = 0
+        ob._touching = set(self._contact_prev[: int(I[K.I_TOUCHING])].tolist())
 
     def _scan(self) -> None:
         assert self._lidar is not None

@@ -1,5 +1,5 @@
 """The compiled step loop and what it relies on: MuJoCo stage composition, raw contact reads,
-the obstacle pool, deferred sensor/contact bookkeeping, analytic wheel contacts."""
+the obstacle pool, compiled collision bookkeeping, batched sensors, analytic wheel contacts."""
 
 from __future__ import annotations
 
@@ -135,21 +135,26 @@ def test_bad_pool_size() -> None:
         SimConfig(obstacle_pool=-1)
 
 
-@settings(max_examples=20, deadline=None)
-@given(seq=st.lists(st.sets(st.integers(0, 4), max_size=3), min_size=1, max_size=40))
-def test_observer_hold_equals_reporting_every_step(seq: list[set[int]]) -> None:
-    """Reporting only the steps where the touching set changes (with hold) gives the same events
-    and debounce state as reporting every step (what the compiled loop relies on)."""
-    dt = 0.13  # > debounce / 4: some re-touches are new events, some are not
-    a, b = Observer(0.5), Observer(0.5)
-    last: set[int] = set()
-    for k, s in enumerate(seq):
-        a.contacts(k * dt, 0.0, 0.0, set(s))
-        if s != last:
-            b.hold((k - 1) * dt)
-            b.contacts(k * dt, 0.0, 0.0, set(s))
-            last = s
-    assert a.collisions == b.collisions and a.contact_starts == b.contact_starts
+@settings(max_examples=30, deadline=None)
+@given(seq=st.lists(st.sets(st.integers(0, 4), max_size=3), min_size=1, max_size=40),
+       dt=st.sampled_from([0.01, 0.13, 0.3]))
+def test_compiled_contact_events_equal_the_observer(seq: list[set[int]], dt: float) -> None:
+    """The compiled loop's collision bookkeeping equals Observer.contacts (the reference) fed the
+    same touching set after every step: same events, same contact starts."""
+    ref = Observer(0.5)
+    I = np.zeros(K.NI, np.int64)
+    prev, cur = np.zeros(8, np.int64), np.zeros(8, np.int64)
+    last = np.full(5, -np.inf)
+    events = np.zeros((64, 4))
+    for k, s_ in enumerate(seq):
+        t, x, y = k * dt, 0.1 * k, -0.2 * k
+        ref.contacts(t, x, y, set(s_))
+        cur[: len(s_)] = sorted(s_)
+        assert K.contact_events(t, x, y, cur, len(s_), prev, I, last, 0.5, events)
+    got = [(float(e[0]), float(e[1]), float(e[2]), int(e[3])) for e in events[: I[K.I_NEVENT]]]
+    assert got == [(e.t, e.x, e.y, e.obstacle) for e in ref.collisions]
+    assert I[K.I_STARTS] == ref.contact_starts
+    assert set(prev[: I[K.I_TOUCHING]].tolist()) == ref._touching
 
 
 def test_batched_sensor_updates_equal_one_by_one() -> None:
