@@ -18,6 +18,7 @@ and the ``mjContact`` array are read in place: their layout (MuJoCo 4.0: ``ncon`
 from __future__ import annotations
 
 import ctypes
+import math
 import glob
 import os
 from typing import Any
@@ -54,7 +55,9 @@ NI = 8
 (F_TV, F_TW, F_V, F_W, F_YAWI, F_REF, F_DT, F_DV, F_DW, F_SKID, F_KP, F_KI, F_HALFTRACK, F_RADIUS, F_HOLD,
  F_MU, F_FLOOR, F_EPS, F_MAXSPEED, F_SX, F_SY, F_MARGIN, F_COSFLIP, F_RATEJIT, F_UPZ, F_DEBOUNCE) = (
     0, 1, 2, 3, 4, 5, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28)
-NF = 29
+# wheel odometry state: x, y, yaw, previous angles (4), previous t, v, omega, wheel radius, track
+F_OX, F_OY, F_OYAW, F_OA, F_OT, F_OV, F_OW, F_OR, F_OTRACK = 29, 30, 31, 32, 36, 37, 38, 39, 40
+NF = 41
 
 
 def _void_mj(name: str) -> Any:
@@ -491,6 +494,32 @@ def _drive(F: np.ndarray, qpos: np.ndarray, qvel: np.ndarray, ctrl: np.ndarray,
 
 
 @numba.njit(cache=True)
+def odom_update(F: np.ndarray, a0: float, a1: float, a2: float, a3: float, t: float) -> None:  # pragma: no cover
+    """:meth:`navstress.sim.sensors.WheelOdometry.update` on the state in ``F`` (same arithmetic):
+    wheel angles FL, RL, FR, RR at time ``t``; exact-arc integration."""
+    d0, d1, d2, d3 = a0 - F[F_OA], a1 - F[F_OA + 1], a2 - F[F_OA + 2], a3 - F[F_OA + 3]
+    F[F_OA], F[F_OA + 1], F[F_OA + 2], F[F_OA + 3] = a0, a1, a2, a3
+    r = F[F_OR]
+    dl = r * 0.5 * (d0 + d1)
+    dr = r * 0.5 * (d2 + d3)
+    ds = 0.5 * (dl + dr)
+    dth = (dr - dl) / F[F_OTRACK]
+    yaw = F[F_OYAW]
+    if abs(dth) > 1e-9:
+        k = ds / dth
+        F[F_OX] += k * (math.sin(yaw + dth) - math.sin(yaw))
+        F[F_OY] += k * (math.cos(yaw) - math.cos(yaw + dth))
+    else:
+        F[F_OX] += ds * math.cos(yaw)
+        F[F_OY] += ds * math.sin(yaw)
+    F[F_OYAW] = (yaw + dth + math.pi) % (2 * math.pi) - math.pi
+    dt = t - F[F_OT]
+    F[F_OT] = t
+    if dt > 0:
+        F[F_OV], F[F_OW] = ds / dt, dth / dt
+
+
+@numba.njit(cache=True)
 def _euler(qpos: np.ndarray) -> tuple[float, float, float]:  # pragma: no cover - compiled
     """(yaw, pitch, roll), Z-Y-X, of the chassis quaternion qpos[3:7] (as ``euler_from_mat``)."""
     w, x, y, z = qpos[3], qpos[4], qpos[5], qpos[6]
@@ -521,9 +550,9 @@ def _fire(k: int, I: np.ndarray, F: np.ndarray, qpos: np.ndarray, qvel: np.ndarr
         else:
             row = samples[s, nsamp[s]]
             row[0] = t
-            if s == ODOM:
-                for i in range(4):
-                    row[1 + i] = qpos[wqpos[i]]
+            if s == ODOM:  # integrated here; the row is the reading (t, x, y, yaw, v, omega)
+                odom_update(F, qpos[wqpos[0]], qpos[wqpos[1]], qpos[wqpos[2]], qpos[wqpos[3]], t)
+                row[1], row[2], row[3], row[4], row[5] = F[F_OX], F[F_OY], F[F_OYAW], F[F_OV], F[F_OW]
             else:
                 yaw, pitch, roll = _euler(qpos)
                 row[1], row[2], row[3] = yaw, pitch, roll

@@ -32,6 +32,7 @@ class WheelOdometry:
     the heading change uses the calibrated effective track (``track_m``, the skid steer's
     geometric track times its skid factor, as a real platform's odometry is calibrated). Wheel
     slip and skid therefore show up as odometry drift. Each update integrates the exact arc.
+    The simulation runs the same arithmetic compiled (``navstress.sim._step.odom_update``).
     """
 
     def __init__(self, wheel_radius_m: float, track_m: float, wheel_angles: np.ndarray, t: float) -> None:
@@ -62,12 +63,6 @@ class WheelOdometry:
         self.t = t
         v, om = (ds / dt, dth / dt) if dt > 0 else (self.last.v, self.last.omega)
         self.last = Odometry(t, self.x, self.y, self.yaw, v, om)
-        return self.last
-
-    def update_many(self, samples: np.ndarray) -> Odometry:
-        """:meth:`update` for each row (t, FL, RL, FR, RR angles) in order; the last reading."""
-        for row in samples:
-            self.update(row[1:5], float(row[0]))
         return self.last
 
 

@@ -28,7 +28,7 @@ from navstress.sim.lidar import Lidar, build_scene
 from navstress.sim import _step as K
 from navstress.sim.model import OBSTACLE_BIT, PARK_Z_M, ObstaclePool, RobotModel, build_model
 from navstress.sim.observer import CollisionEvent, Observer, StopEvent
-from navstress.sim.sensors import ImuSensor, PoseSensor, WheelOdometry
+from navstress.sim.sensors import ImuSensor, PoseSensor
 from navstress.world.world import World
 
 _SENSORS = ("odom", "imu", "pose", "lidar", "observer")  # the order of the _step sensor rows
@@ -86,8 +86,6 @@ class Simulation:
         self._latency_gen = rng(seed, "sim", "latency")
         self._queue: list[tuple[int, Command]] = []
         # sensors
-        self.odometry = WheelOdometry(robot.wheel_radius_m, robot.track_m * cfg.skid_factor,
-                                      d.qpos[rm.wheel_qpos], 0.0)
         self.pose_sensor = PoseSensor(rng(seed, "sim", "noise", "pose"), cfg.pose_pos_std_m,
                                       cfg.pose_att_std_rad, cfg.noise)
         self.imu_sensor = ImuSensor(rng(seed, "sim", "noise", "imu"), cfg.imu_att_std_rad, cfg.imu_rate_std_rps,
@@ -125,6 +123,8 @@ class Simulation:
         F[K.F_MARGIN], F[K.F_COSFLIP], F[K.F_RATEJIT] = cfg.map_margin_m, math.cos(cfg.flip_threshold_rad), \
             cfg.rate_jitter
         F[K.F_DEBOUNCE] = cfg.collision_debounce_s
+        F[K.F_OA:K.F_OA + 4] = d.qpos[rm.wheel_qpos]
+        F[K.F_OR], F[K.F_OTRACK] = r.wheel_radius_m, r.track_m * cfg.skid_factor
         warn = d.warning.number
         bad = np.array([int(w) for w in _BAD_WARNINGS], np.int64)
         self._I[K.I_WARN0] = int(sum(int(warn[w]) for w in bad))
@@ -147,7 +147,7 @@ class Simulation:
         # readings since the last observe()
         self._scans: list[LidarScan] = []
         self._pose: PoseReading | None = None
-        self._odom: Odometry = self.odometry.last
+        self._odom = Odometry(0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
         self._imu: Imu | None = None
         self._run(0)
 
@@ -246,8 +246,9 @@ class Simulation:
     def _flush(self) -> None:
         """Turn the raw samples of the compiled loop into readings, in order."""
         n, smp = self._nsamp, self._samples
-        if n[K.ODOM]:
-            self._odom = self.odometry.update_many(smp[K.ODOM, : n[K.ODOM]])
+        if n[K.ODOM]:  # integrated in the loop (_step.odom_update): the last row is the reading
+            r = smp[K.ODOM, n[K.ODOM] - 1]
+            self._odom = Odometry(float(r[0]), float(r[1]), float(r[2]), float(r[3]), float(r[4]), float(r[5]))
         if n[K.IMU]:
             self._imu = self.imu_sensor.read_many(smp[K.IMU, : n[K.IMU]])
         for row in smp[K.POSE, : n[K.POSE]]:

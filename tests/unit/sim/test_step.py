@@ -157,14 +157,18 @@ def test_compiled_contact_events_equal_the_observer(seq: list[set[int]], dt: flo
     assert set(prev[: I[K.I_TOUCHING]].tolist()) == ref._touching
 
 
-def test_batched_sensor_updates_equal_one_by_one() -> None:
+def test_compiled_odometry_and_batched_imu_equal_the_reference() -> None:
     g = np.random.default_rng(3)
     angles = np.cumsum(g.normal(0, 0.1, (12, 4)), axis=0)
     t = np.arange(1, 13) * 0.02
-    od_a, od_b = WheelOdometry(0.26, 1.8, np.zeros(4), 0.0), WheelOdometry(0.26, 1.8, np.zeros(4), 0.0)
+    od = WheelOdometry(0.26, 1.8, np.zeros(4), 0.0)
+    F = np.zeros(K.NF)
+    F[K.F_OR], F[K.F_OTRACK] = 0.26, 1.8
     for k in range(12):
-        last = od_a.update(angles[k], float(t[k]))
-    assert od_b.update_many(np.column_stack([t, angles])) == last
+        ref = od.update(angles[k], float(t[k]))
+        K.odom_update(F, *angles[k], float(t[k]))
+        got = (F[K.F_OX], F[K.F_OY], F[K.F_OYAW], F[K.F_OV], F[K.F_OW])
+        np.testing.assert_allclose(got, (ref.x, ref.y, ref.yaw, ref.v, ref.omega), rtol=1e-12, atol=1e-12)
     rows = np.column_stack([t, g.normal(0, 1, (12, 6))])
     for noise in (True, False):
         ia = ImuSensor(np.random.default_rng(5), 0.002, 0.005, 0.01, noise, 0.0)
