@@ -28,7 +28,7 @@ import llvmlite.ir as ir
 import mujoco
 import numba
 import numpy as np
-from numba import types
+from numba import carray, types  # type: ignore[attr-defined]
 from numba.core import cgutils
 from numba.extending import intrinsic
 
@@ -49,7 +49,8 @@ DONE, LIDAR, CONTACT, LEFT_MAP, FLIPPED, UNSTABLE, FLUSH = 0, 1, 2, 4, 8, 16, 32
 ODOM, IMU, POSE, SCAN, OBSERVER = 0, 1, 2, 3, 4
 NSENSORS = 5
 # int state I[...]
-I_K, I_TOUCHING, I_NCONTACT, I_WARN0, I_JITTER, I_STARTS, I_NEVENT = 0, 1, 2, 3, 4, 5, 6  # I_TOUCHING: size of the touching set
+# I_TOUCHING: size of the touching set; I_STARTS/I_NEVENT: contact starts / events not yet flushed
+I_K, I_TOUCHING, I_NCONTACT, I_WARN0, I_JITTER, I_STARTS, I_NEVENT = 0, 1, 2, 3, 4, 5, 6
 NI = 8
 # float state F[...] (drive firmware state and the constants of a run)
 (F_TV, F_TW, F_V, F_W, F_YAWI, F_REF, F_DT, F_DV, F_DW, F_SKID, F_KP, F_KI, F_HALFTRACK, F_RADIUS, F_HOLD,
@@ -67,7 +68,8 @@ def _void_mj(name: str) -> Any:
     def call(typingctx: Any, m: Any, d: Any) -> Any:  # pragma: no cover - compile time
         def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
             ptr = ir.IntType(8).as_pointer()
-            fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(ir.VoidType(), [ptr, ptr]), name)
+            fn = cgutils.get_or_insert_function(  # type: ignore[no-untyped-call]
+                builder.module, ir.FunctionType(ir.VoidType(), [ptr, ptr]), name)
             builder.call(fn, [builder.inttoptr(args[0], ptr), builder.inttoptr(args[1], ptr)])
             return context.get_dummy_value()
 
@@ -93,27 +95,30 @@ mj_fwdVelocity = _void_mj("mj_fwdVelocity")
 mj_step2 = _void_mj("mj_step2")
 
 
-@intrinsic
-def mj_addContact(typingctx: Any, m: Any, d: Any, con: Any) -> Any:  # pragma: no cover - compile time
+def _add_contact(typingctx: Any, m: Any, d: Any, con: Any) -> Any:  # pragma: no cover - compile time
     """``int mj_addContact(const mjModel*, mjData*, const mjContact*)`` with three addresses."""
 
     def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
         ptr = ir.IntType(8).as_pointer()
-        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(ir.IntType(32), [ptr, ptr, ptr]),
-                                            "mj_addContact")
+        fn = cgutils.get_or_insert_function(  # type: ignore[no-untyped-call]
+            builder.module, ir.FunctionType(ir.IntType(32), [ptr, ptr, ptr]), "mj_addContact")
         r = builder.call(fn, [builder.inttoptr(a, ptr) for a in args])
         return builder.sext(r, ir.IntType(64))
 
     return types.int64(types.int64, types.int64, types.int64), codegen
 
 
+mj_addContact: Any = intrinsic(_add_contact)
+
+
 def _ptr(dtype: Any) -> Any:
     @intrinsic
     def cast(typingctx: Any, addr: Any) -> Any:  # pragma: no cover - compile time
         def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
-            return builder.inttoptr(args[0], context.get_value_type(types.CPointer(dtype)))
+            ty = context.get_value_type(types.CPointer(dtype))  # type: ignore[no-untyped-call]
+            return builder.inttoptr(args[0], ty)
 
-        return types.CPointer(dtype)(types.int64), codegen
+        return types.CPointer(dtype)(types.int64), codegen  # type: ignore[no-untyped-call]
 
     return cast
 
@@ -125,7 +130,7 @@ _i64ptr = _ptr(types.int64)
 
 @numba.njit(cache=True)
 def _read_ptr(addr: int) -> int:  # pragma: no cover - compiled
-    return int(numba.carray(_i64ptr(addr), (1,))[0])
+    return int(carray(_i64ptr(addr), (1,))[0])
 
 
 def ncon_address(d: mujoco.MjData) -> int:
@@ -151,13 +156,13 @@ def contact_field_address(d: mujoco.MjData) -> int:
 
 @numba.njit(cache=True)
 def _read_ncon(addr: int) -> int:  # pragma: no cover - compiled
-    return int(numba.carray(_i32ptr(addr), (1,))[0])
+    return int(carray(_i32ptr(addr), (1,))[0])
 
 
 @numba.njit(cache=True)
 def _read_contacts(addr: int, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover
-    cf = numba.carray(_f64ptr(addr), (n * _CF,))
-    ci = numba.carray(_i32ptr(addr), (n * _CI,))
+    cf = carray(_f64ptr(addr), (n * _CF,))
+    ci = carray(_i32ptr(addr), (n * _CI,))
     pos, frame, fr, geom = np.zeros((n, 3)), np.zeros((n, 9)), np.zeros((n, 5)), np.zeros((n, 2), np.int64)
     for i in range(n):
         for a in range(3):
@@ -594,7 +599,7 @@ def contact_events(t: float, x: float, y: float, cur: np.ndarray, ncur: int, pre
     for i in range(ncur):
         prev[i] = cur[i]
     I[I_TOUCHING] = ncur
-    return I[I_NEVENT] + ncur < events.shape[0]
+    return bool(I[I_NEVENT] + ncur < events.shape[0])
 
 
 @numba.njit(cache=True)
@@ -634,8 +639,8 @@ def run_steps(maddr: int, daddr: int, ncon_addr: int, con_field: int, k_stop: in
         _add_wheel_contacts(maddr, daddr, xpos, wbody, wgeom, terrain, hf, grid, tmpl, cbuf)
         n = _read_ncon(ncon_addr)
         con_addr = _read_ptr(con_field)
-        cf = numba.carray(_f64ptr(con_addr), (n * _CF,))
-        ci = numba.carray(_i32ptr(con_addr), (n * _CI,))
+        cf = carray(_f64ptr(con_addr), (n * _CF,))
+        ci = carray(_i32ptr(con_addr), (n * _CI,))
         if n > 0:
             _align_wheel_contacts(cf, ci, n, wheel_of_geom, qvel, xmat[chassis], xpos[chassis], xpos, wbody, wdof,
                                   F[F_MU], F[F_FLOOR], F[F_EPS])
@@ -657,7 +662,7 @@ def run_steps(maddr: int, daddr: int, ncon_addr: int, con_field: int, k_stop: in
         status = DONE
         n = _read_ncon(ncon_addr)
         con_addr = _read_ptr(con_field)
-        ci = numba.carray(_i32ptr(con_addr), (n * _CI,))
+        ci = carray(_i32ptr(con_addr), (n * _CI,))
         nk = 0
         gi = CON_GEOM // 4
         for i in range(n):

@@ -76,8 +76,9 @@ class SimConfig:
                 raise SpecError(f"sim.{name}", v, "a finite number > 0")
         if self.timestep_s > 0.02:
             raise SpecError("sim.timestep_s", self.timestep_s, "at most 0.02 s for stable contacts",
-                            "use the default 0.005")
-        nonneg = ("friction_floor", "wheel_hold_gain", "slip_eps_mps", "wheel_armature", "obstacle_margin_m", "yaw_kp", "yaw_ki", "map_margin_m",
+                            "use the default 0.01")
+        nonneg = ("friction_floor", "wheel_hold_gain", "slip_eps_mps", "wheel_armature", "obstacle_margin_m",
+                  "yaw_kp", "yaw_ki", "map_margin_m",
                   "collision_debounce_s", "command_latency_s", "command_latency_jitter_s", "rate_jitter",
                   "pose_pos_std_m", "pose_att_std_rad", "imu_att_std_rad", "imu_rate_std_rps",
                   "imu_yaw_drift_rps")

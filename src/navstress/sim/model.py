@@ -194,7 +194,9 @@ def build_model(world: World, robot: RobotSpec = RobotSpec(), cfg: SimConfig = S
     except ValueError as err:
         raise SimulationError(f"MuJoCo rejected the model: {err}") from None
     m.hfield_data[:] = norm.astype(np.float32).ravel()  # row 0 = -y = World row 0
-    name = lambda t, n: mujoco.mj_name2id(m, t, n)  # noqa: E731
+    def name(t: mujoco.mjtObj, n: str) -> int:
+        return int(mujoco.mj_name2id(m, t, n))
+
     G, B, J = mujoco.mjtObj.mjOBJ_GEOM, mujoco.mjtObj.mjOBJ_BODY, mujoco.mjtObj.mjOBJ_JOINT
     names = ("front_left", "rear_left", "front_right", "rear_right")
     wheel_of_geom = -np.ones(m.ngeom, np.int64)
@@ -239,7 +241,8 @@ class ObstaclePool:
         self.half = np.array([[s / 2 for s in o.size] for o in obs], np.float64).reshape(n, 3)
         self.quat = np.array([[math.cos(o.yaw / 2), 0.0, 0.0, math.sin(o.yaw / 2)] for o in obs],
                              np.float64).reshape(n, 4)
-        self.reach = np.hypot(self.half[:, 0], self.half[:, 1]) + math.hypot(robot.length_m, robot.width_m) / 2 + margin_m
+        robot_reach = math.hypot(robot.length_m, robot.width_m) / 2
+        self.reach = np.hypot(self.half[:, 0], self.half[:, 1]) + robot_reach + margin_m
         k = len(rm.slot_geoms)
         self.slot_obstacle = -np.ones(k, np.int64)
         self.mocap = np.array([m.body_mocapid[b] for b in rm.slot_bodies], np.int64)
@@ -253,7 +256,8 @@ class ObstaclePool:
         nfill = fill_obstacle_slots(
             float(data.qpos[0]), float(data.qpos[1]), self.centre, self.half, self.quat, self.reach, self._dist,
             self.slot_obstacle, rm.slot_geoms, self.mocap, self.bvh, rm.obstacle_of_geom, data.mocap_pos,
-            data.mocap_quat, m.geom_size, m.geom_rbound, m.geom_aabb, m.bvh_aabb, m.geom_contype, PARK_Z_M, OBSTACLE_BIT)
+            data.mocap_quat, m.geom_size, m.geom_rbound, m.geom_aabb, m.bvh_aabb, m.geom_contype, PARK_Z_M,
+            OBSTACLE_BIT)
         if nfill < 0:
             self.overflows += 1
             nfill = -nfill

@@ -139,7 +139,8 @@ class Simulation:
         self._args_b = (
             self._I, F, d.qpos, d.qvel, d.ctrl, d.xpos, d.xmat, warn, bad,
             np.array([rm.chassis_body, rm.bumper_geom, *rm.wheel_bodies], np.int64), rm.wheel_qpos, rm.wheel_dofs,
-            rm.wheel_of_geom, rm.obstacle_of_geom, self._contact_buf, self._contact_prev, self._last_touch, self._event_buf,
+            rm.wheel_of_geom, rm.obstacle_of_geom, self._contact_buf, self._contact_prev, self._last_touch,
+            self._event_buf,
             max(1, int(round(0.1 / self._dt))) if pool is not None else 0, *pargs,
             d.mocap_pos, d.mocap_quat, m.geom_size, m.geom_rbound, m.geom_aabb, m.bvh_aabb, m.geom_contype,
             OBSTACLE_BIT, PARK_Z_M, self._next, self._period, self._jit, self._jit_idx, self._samples,
