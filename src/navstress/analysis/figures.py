@@ -76,15 +76,20 @@ def trajectories_png(world: World, tracks: list[RunTrack], path: str | Path, *, 
         ax.legend(loc="upper left", fontsize=8, framealpha=0.85)
         if title:
             ax.set_title(title, fontsize=10, loc="left")
-        fig.tight_layout()
-        out = Path(path)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        tmp = out.with_name(f".{out.name}.partial")
-        fig.savefig(tmp, format="png")
-        tmp.replace(out)
-        return out
+        return save_png(fig, path)
     finally:
         plt.close(fig)
+
+
+def save_png(fig: "object", path: str | Path) -> Path:
+    """Lay out and write ``fig`` as a PNG atomically (a partial file never takes the name)."""
+    fig.tight_layout()  # type: ignore[attr-defined]
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_name(f".{out.name}.partial")
+    fig.savefig(tmp, format="png")  # type: ignore[attr-defined]
+    tmp.replace(out)
+    return out
 
 
 # ---- analysis pictures (PNG bytes, for the HTML report) --------------------------------------

@@ -95,6 +95,7 @@ def drive_picture(world: World, res: DriveResult, path: str | Path, title: str) 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from navstress.analysis.figures import save_png
     from navstress.world.export.images import draw_world
 
     fig, ax = plt.subplots(figsize=(8.2, 7.2), dpi=110)
@@ -109,11 +110,6 @@ def drive_picture(world: World, res: DriveResult, path: str | Path, title: str) 
             ax.plot(x, y, "X", color="black", ms=11, zorder=8, label="collision" if k == 0 else None)
         ax.legend(loc="upper left", fontsize=8, framealpha=0.85)
         ax.set_title(title, fontsize=10, loc="left")
-        fig.tight_layout()
-        out = Path(path)
-        tmp = out.with_name(f".{out.name}.partial")
-        fig.savefig(tmp, format="png")
-        tmp.replace(out)
-        return out
+        return save_png(fig, path)
     finally:
         plt.close(fig)
