@@ -66,7 +66,7 @@ class Simulation:
             self._pool.update(d)
         # wheel-ground contacts come from _step.sphere_terrain_contacts, not MuJoCo's hfield collision
         wgeoms = np.flatnonzero(rm.wheel_of_geom >= 0)[np.argsort(rm.wheel_of_geom[rm.wheel_of_geom >= 0])]
-        tmpl = K.contact_template(m, d, wgeoms, 0)
+        tmpl = K.contact_template(m, d, wgeoms, 0) if cfg.analytic_wheel_contacts else np.zeros(K.CON_SIZE // 8)
         # the contacts are rewritten (and added) after mj_fwdPosition, which computes constraint
         # islands from the contacts; the robot is one kinematic tree: one island, none needed
         m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_ISLAND)
