@@ -1,18 +1,32 @@
-"""Lidar speed at default fidelity: ms per scan and rays/s, plane marching vs per-ray baselines.
+"""Lidar speed at default fidelity: ms per scan and rays/s, against a baseline kernel in the same run.
 
 Worlds: (a) flat 100 m x 100 m, 0.4 m cells, 6 % trees; (b) subdivide s=4, d=2 (no obstacles),
 both from ``navstress.world.generate`` with fixed seeds. Sensor poses: 50 poses along the paper
-mission's diagonal, 0.9 m above the ground, tilted to the local terrain normal. One core.
+mission's diagonal, 0.9 m above the ground, tilted to the local terrain normal. One core: run it
+pinned (``taskset -c 1``). Times are process CPU time per ``Lidar.scan`` (noise on), best of the
+passes; the current kernel and the baseline alternate pass by pass, so load changes hit both.
 
-    .venv/bin/python benchmarks/bench_lidar.py [--quick]
+Baselines: ``--baseline REV`` (default e6a6917, the kernel before the per-ray-setup work) loads
+``src/navstress/sim/_raycast.py`` of that git revision into a temporary module and scans through
+it exactly as that revision's ``Lidar.scan`` did (its results are checked equal to the current
+ones); ``plane_march=False`` (per-ray march) and ``cast_rays`` (naive) are also timed.
+
+    taskset -c 1 .venv/bin/python benchmarks/bench_lidar.py [--quick] [--baseline REV] [--no-naive]
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
+import importlib.util
 import math
 import platform
+import subprocess
+import tempfile
 import time
+from collections.abc import Callable
+from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 
@@ -22,9 +36,11 @@ from navstress.world.spec import WorldSpec
 from navstress.world.world import World
 
 MOUNT_M = 0.9
+REPO = Path(__file__).resolve().parents[1]
+Pose = tuple[np.ndarray, np.ndarray]
 
 
-def poses(world: World, n: int) -> list[tuple[np.ndarray, np.ndarray]]:
+def poses(world: World, n: int) -> list[Pose]:
     """Sensor poses along the mission line, yaw toward the goal, tilted to the terrain normal."""
     (sx, sy, _), (gx, gy) = world.mission.start, world.mission.goal
     yaw = math.atan2(gy - sy, gx - sx)
@@ -44,20 +60,77 @@ def poses(world: World, n: int) -> list[tuple[np.ndarray, np.ndarray]]:
     return out
 
 
-def time_scans(lidar: Lidar, ps: list[tuple[np.ndarray, np.ndarray]], repeat: int) -> float:
-    """Best-of-``repeat`` mean seconds per scan over the poses."""
+def load_baseline(rev: str) -> ModuleType:
+    """``_raycast.py`` of git revision ``rev`` as a module (file kept in the temp dir so that
+    numba's cache survives between runs)."""
+    src = subprocess.run(["git", "show", f"{rev}:src/navstress/sim/_raycast.py"], cwd=REPO,
+                         capture_output=True, text=True, check=True).stdout
+    d = Path(tempfile.gettempdir()) / f"navstress_bench_lidar_{hashlib.sha1(src.encode()).hexdigest()[:12]}"
+    d.mkdir(exist_ok=True)
+    p = d / "_raycast_baseline.py"
+    if not p.exists() or p.read_text() != src:
+        p.write_text(src)
+    spec = importlib.util.spec_from_file_location(f"_raycast_baseline_{d.name}", p)
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+class BaselineLidar:
+    """``Lidar.scan`` as of revision e6a6917 (same kernel signature), on a baseline module."""
+
+    def __init__(self, mod: ModuleType, scene: LidarScene, config: LidarConfig) -> None:
+        self.mod, self.scene, self.config = mod, scene, config
+        el, az = config.elevations_rad, config.azimuths_rad
+        self._cos_el, self._sin_el, self._cos_az, self._sin_az = np.cos(el), np.sin(el), np.cos(az), np.sin(az)
+        self._dirs = config.directions()
+        self._out = np.empty((config.channels, config.azimuth_steps), np.float64)
+
+    def ranges(self, origin: np.ndarray, rotation: np.ndarray) -> np.ndarray:
+        o = np.ascontiguousarray(origin, dtype=np.float64)
+        r = np.ascontiguousarray(rotation, dtype=np.float64)
+        assert self.mod.rotation_error(r) <= 1e-6
+        s, c = self.scene, self.config
+        self.mod.scan_kernel(s.heights, s.cell_m, s.mip, s.mip_offsets, s.mip_widths, s.grad_max, s.boxes,
+                             o, r, self._cos_el, self._sin_el, self._cos_az, self._sin_az,
+                             float(c.max_range_m), float(c.min_range_m), True, self._out)
+        return self._out
+
+    def scan(self, origin: np.ndarray, rotation: np.ndarray, rng: np.random.Generator | None = None) -> np.ndarray:
+        r = self.ranges(origin, rotation)
+        n = self.mod.count_finite(r)
+        std = self.config.range_noise_std_m
+        noise = rng.standard_normal(n, dtype=np.float32) if (rng is not None and std > 0) else \
+            np.empty(0, np.float32)
+        pts = np.empty((n, 3), np.float32)
+        self.mod.points_from_ranges(r, self._dirs, noise, float(std), pts)
+        return pts
+
+
+ScanFn = Callable[[np.ndarray, np.ndarray, np.random.Generator], np.ndarray]
+
+
+def time_pass(scan: ScanFn, ps: list[Pose]) -> float:
     rng = np.random.default_rng(0)
-    lidar.scan(*ps[0], rng)  # compile / warm
-    best = math.inf
+    t0 = time.process_time()
+    for o, r in ps:
+        scan(o, r, rng)
+    return (time.process_time() - t0) / len(ps)
+
+
+def time_alternating(fns: list[ScanFn], ps: list[Pose], repeat: int) -> list[float]:
+    """Best-of-``repeat`` mean seconds per scan of each function, passes interleaved."""
+    for f in fns:
+        f(*ps[0], np.random.default_rng(0))  # compile / warm
+    best = [math.inf] * len(fns)
     for _ in range(repeat):
-        t0 = time.process_time()
-        for o, r in ps:
-            lidar.scan(o, r, rng)
-        best = min(best, (time.process_time() - t0) / len(ps))
+        for i, f in enumerate(fns):
+            best[i] = min(best[i], time_pass(f, ps))
     return best
 
 
-def time_naive(scene: LidarScene, cfg: LidarConfig, ps: list[tuple[np.ndarray, np.ndarray]]) -> float:
+def time_naive(scene: LidarScene, cfg: LidarConfig, ps: list[Pose]) -> float:
     """Per-ray baseline: ``cast_rays`` (terrain march from the sensor, every box tested)."""
     dirs = cfg.directions().reshape(-1, 3)
     cast_rays(scene, ps[0][0][None, :], dirs[:1], cfg.max_range_m)
@@ -70,27 +143,38 @@ def time_naive(scene: LidarScene, cfg: LidarConfig, ps: list[tuple[np.ndarray, n
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--quick", action="store_true", help="fewer poses and repeats")
+    ap.add_argument("--baseline", default="e6a6917", help="git revision of the baseline kernel")
+    ap.add_argument("--no-naive", action="store_true", help="skip the per-ray and naive baselines")
     a = ap.parse_args()
-    n, rep = (10, 2) if a.quick else (50, 5)
+    n, rep = (10, 3) if a.quick else (50, 7)
+    base = load_baseline(a.baseline)
     worlds = {
         "flat, 6% trees": generate(WorldSpec.model_validate({"obstacles": {"obstruction": {"tree": 6}}}), seed=1),
         "s=4 d=2": generate(WorldSpec.model_validate({"ground": {"subdivisions": 4, "deformation": 2.0}}), seed=1),
     }
     print(f"# lidar benchmark  ({platform.processor() or platform.machine()}, numba, 1 core, "
-          f"{n} poses, best of {rep})")
-    print(f"{'world':16s} {'rays':>10s} {'ms/scan':>8s} {'Mrays/s':>8s} | {'per-ray ms':>10s} {'x':>5s}"
-          f" | {'naive ms':>9s} {'x':>5s}")
+          f"{n} poses, best of {rep}; baseline {a.baseline})")
+    print(f"{'world':16s} {'rays':>8s} {'ms/scan':>8s} {'Mrays/s':>8s} | {'baseline':>8s} {'speedup':>7s}"
+          f" | {'per-ray ms':>10s} {'x':>5s} | {'naive ms':>9s} {'x':>5s}")
     for name, w in worlds.items():
         scene = build_scene(w)
         ps = poses(w, n)
         for az in (360, 1024):
             cfg = LidarConfig(azimuth_steps=az)
             nr = cfg.channels * az
-            fast = time_scans(Lidar(scene, cfg), ps, rep)
-            per_ray = time_scans(Lidar(scene, cfg, plane_march=False), ps, max(1, rep // 2))
-            naive = time_naive(scene, cfg, ps[: max(3, n // 5)])
-            print(f"{name:16s} {f'32x{az}':>10s} {fast * 1e3:8.3f} {nr / fast / 1e6:8.1f} | "
-                  f"{per_ray * 1e3:10.3f} {per_ray / fast:5.1f} | {naive * 1e3:9.2f} {naive / fast:5.1f}")
+            new, old = Lidar(scene, cfg), BaselineLidar(base, scene, cfg)
+            for o, r in ps:
+                a_, b_ = new.ranges(o, r), old.ranges(o, r).astype(np.float32)
+                assert np.array_equal(np.isinf(a_), np.isinf(b_)) and np.allclose(
+                    a_[np.isfinite(a_)], b_[np.isfinite(b_)], rtol=1e-6, atol=1e-6), "baseline disagrees"
+            fast, slow = time_alternating([new.scan, old.scan], ps, rep)
+            line = (f"{name:16s} {f'32x{az}':>8s} {fast * 1e3:8.3f} {nr / fast / 1e6:8.1f} | "
+                    f"{slow * 1e3:8.3f} {slow / fast:6.2f}x")
+            if not a.no_naive:
+                (per_ray,) = time_alternating([Lidar(scene, cfg, plane_march=False).scan], ps, max(1, rep // 3))
+                naive = time_naive(scene, cfg, ps[: max(3, n // 5)])
+                line += f" | {per_ray * 1e3:10.3f} {per_ray / fast:5.1f} | {naive * 1e3:9.2f} {naive / fast:5.1f}"
+            print(line, flush=True)
         print(f"  ({len(w.obstacles)} boxes, grid {w.terrain.heights.shape}, "
               f"relief {float(np.ptp(w.terrain.heights)):.2f} m, max slope {scene.grad_max:.2f})")
 
