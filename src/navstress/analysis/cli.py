@@ -74,8 +74,8 @@ def analyze_cmd(
         for c in ("class", "configuration", "runs", "maps", "peak m", "time-mean m", "final m"):
             ti.add_column(c)
         for (e, key), cs in a.indeterminism.items():
-            for g, c in cs.items():
-                ti.add_row(e, key, g, str(c.n_maps), f"{c.peak_m:.2f}", f"{c.mean_m:.2f}", f"{c.final_m:.2f}")
+            for g, cv in cs.items():
+                ti.add_row(e, key, g, str(cv.n_maps), f"{cv.peak_m:.2f}", f"{cv.mean_m:.2f}", f"{cv.final_m:.2f}")
         con.print(ti)
     if a.power_levels:
         tp = Table(title="Fault-revealing power per level")
@@ -85,9 +85,9 @@ def analyze_cmd(
             tp.add_row(p.level, p.fault, str(p.runs), str(p.collisions), str(p.new_failures), str(p.nominal_runs),
                        str(p.nominal_collisions))
         con.print(tp)
-    best = [c for c in a.correlations if c.rho_level is not None][:3]
-    for c in best:
-        con.print(f"descriptor {c.descriptor}: Spearman rho with level {c.rho_level:+.2f} over {c.n} configurations")
+    best = [cr for cr in a.correlations if cr.rho_level is not None][:3]
+    for cr in best:
+        con.print(f"descriptor {cr.descriptor}: Spearman rho with level {cr.rho_level:+.2f} over {cr.n} configurations")
     if json_out is not None:
         json_out.parent.mkdir(parents=True, exist_ok=True)
         json_out.write_text(dumps(a.to_json()), encoding="utf-8")

@@ -135,7 +135,7 @@ class CampaignSpec(BaseModel):
     maps_per_config: int = Field(5, ge=1, le=10_000)
     runs_per_map: int = Field(5, ge=1, le=10_000)
     navigators: list[NavigatorSpec] = Field(default_factory=lambda: [NavigatorSpec()], min_length=1)
-    faults: list[str | None] = Field(default_factory=lambda: [None], min_length=1)
+    faults: list[str | None] = Field(default_factory=lambda: list[str | None]([None]), min_length=1)
     timeout_s: float = Field(400.0, gt=0.0, le=86_400.0)
     goal_tolerance_m: float = Field(2.0, gt=0.0)
     record_lidar: bool = False

@@ -14,6 +14,8 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from navstress.run.mission import execute
 from navstress.run.record import RunRecord, RunTask
 from navstress.seeding import derive_seed
@@ -59,7 +61,7 @@ def batch_picture(world_dir: Path, records: list[RunRecord], path: Path, title: 
         perceived = read_poses(r.trace, TOPIC_PERCEIVED) if len(records) == 1 else None
         col = None
         if r.first_collision_s is not None and len(truth):
-            k = int(min(range(len(truth)), key=lambda i: abs(truth[i, 0] - r.first_collision_s)))  # type: ignore[operator]
+            k = int(np.argmin(np.abs(truth[:, 0] - r.first_collision_s)))
             col = (float(truth[k, 1]), float(truth[k, 2]))
         tracks.append(RunTrack(r.run_id, r.outcome, truth, perceived, col))
     return trajectories_png(world, tracks, path, title=title, perceived=len(records) == 1)

@@ -243,7 +243,8 @@ def _to_map_frame(pts: np.ndarray, mount: tuple[float, float, float], truth: np.
     else:
         pos, rot = truth[0, 1:4], Rotation.from_euler("ZYX", truth[0, 4:7])
     local = np.asarray(pts, dtype=np.float64) + np.asarray(mount)
-    return (rot.apply(local) + pos).astype(np.float32)
+    out: np.ndarray = (rot.apply(local) + pos).astype(np.float32)
+    return out
 
 
 def _write_trace(tw: TraceWriter, world: World, r: RunResult) -> None:
@@ -279,9 +280,10 @@ def execute(task: RunTask) -> RunRecord:
     if task.sim_overrides:
         from navstress.sim.config import SimConfig
         sim_cfg = SimConfig(**task.sim_overrides)
-    meta = {"run_id": task.run_id, "run_seed": task.run_seed, "map_seed": task.map_seed,
-            "world_seed": world.seed, "navigator": task.navigator, "fault": task.fault or "",
-            "timeout_s": task.timeout_s, "goal_tolerance_m": task.goal_tolerance_m}
+    meta = {k: str(v) for k, v in {
+        "run_id": task.run_id, "run_seed": task.run_seed, "map_seed": task.map_seed, "world_seed": world.seed,
+        "navigator": task.navigator, "fault": task.fault or "", "timeout_s": task.timeout_s,
+        "goal_tolerance_m": task.goal_tolerance_m}.items()}
     trace_path = Path(task.trace_path)
     tw = TraceWriter(trace_path, meta)
     try:

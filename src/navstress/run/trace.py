@@ -154,7 +154,7 @@ class TraceWriter:
     # -- lifecycle ---------------------------------------------------------------------
     def close(self) -> Path:
         """Finish the file and move it into place atomically; returns the final path."""
-        self._w.finish()
+        self._w.finish()  # type: ignore[no-untyped-call]
         self._f.flush()
         os.fsync(self._f.fileno())
         self._f.close()

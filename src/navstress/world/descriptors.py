@@ -106,7 +106,9 @@ def obstacle_distance(shape: tuple[int, int], cell_m: float, obstacles: tuple[Ob
     """Distance (m) from each vertex of a grid to the nearest footprint, ``inf`` beyond ``reach``."""
     if not obstacles:
         return np.full(shape, np.inf)
-    return _box_distance(shape[0], shape[1], float(cell_m), *_box_arrays(obstacles), float(reach))
+    out: np.ndarray = _box_distance(shape[0], shape[1], float(cell_m), *_box_arrays(obstacles),  # type: ignore[call-arg, arg-type]
+                                    float(reach))
+    return out
 
 
 @numba.njit(cache=True)
@@ -218,7 +220,7 @@ def shortest_path_length(terrain: Terrain, ok: np.ndarray, start: tuple[float, f
         r2, c2 = -(-rows // stride), -(-cols // stride)
         pad = np.zeros((r2 * stride, c2 * stride), bool)
         pad[:rows, :cols] = ~ok
-        ok = ~pad.reshape(r2, stride, c2, stride).any(axis=(1, 3))
+        ok = np.asarray(~pad.reshape(r2, stride, c2, stride).any(axis=(1, 3)))
         h = h[::stride, ::stride]
         cell = cell * stride
         rows, cols = ok.shape

@@ -117,7 +117,8 @@ def free_centres(occ: np.ndarray, kx: int, ky: int) -> np.ndarray:
     wy, wx = 2 * ky + 1, 2 * kx + 1
     win = s[wy:, wx:] - s[:-wy, wx:] - s[wy:, :-wx] + s[:-wy, :-wx]
     bb, aa = np.nonzero(win == 0)
-    return (bb + ky) * nx + (aa + kx)
+    out: np.ndarray = (bb + ky) * nx + (aa + kx)
+    return out
 
 
 @numba.njit(cache=True)

@@ -97,7 +97,8 @@ def subdivide_heights(subdivisions: int, deformation: float, shape: tuple[int, i
 
 
 def _fade(t: np.ndarray) -> np.ndarray:
-    return t * t * t * (t * (t * 6 - 15) + 10)
+    out: np.ndarray = t * t * t * (t * (t * 6 - 15) + 10)
+    return out
 
 
 def gradient_noise(xs: np.ndarray, ys: np.ndarray, wavelength: float, gen: np.random.Generator) -> np.ndarray:
@@ -115,12 +116,14 @@ def gradient_noise(xs: np.ndarray, ys: np.ndarray, wavelength: float, gen: np.ra
     I0, J0 = i0[:, None], j0[None, :]
 
     def corner(di: int, dj: int) -> np.ndarray:
-        return gx[I0 + di, J0 + dj] * (fu - dj) + gy[I0 + di, J0 + dj] * (fv - di)
+        c: np.ndarray = gx[I0 + di, J0 + dj] * (fu - dj) + gy[I0 + di, J0 + dj] * (fv - di)
+        return c
 
     su, sv = _fade(fu), _fade(fv)
     top = corner(0, 0) + su * (corner(0, 1) - corner(0, 0))
     bot = corner(1, 0) + su * (corner(1, 1) - corner(1, 0))
-    return np.sqrt(2.0) * (top + sv * (bot - top))
+    out: np.ndarray = np.sqrt(2.0) * (top + sv * (bot - top))
+    return out
 
 
 def fractal_heights(octaves: int, persistence: float, wavelength_m: float, amplitude_m: float,
@@ -143,4 +146,5 @@ def fractal_heights(octaves: int, persistence: float, wavelength_m: float, ampli
 def slope_deg(heights: np.ndarray, cell_m: float) -> np.ndarray:
     """Slope angle in degrees at every vertex (central differences, one-sided at borders)."""
     gy, gx = np.gradient(np.asarray(heights, dtype=np.float64), cell_m)
-    return np.degrees(np.arctan(np.hypot(gx, gy)))
+    out: np.ndarray = np.degrees(np.arctan(np.hypot(gx, gy)))
+    return out

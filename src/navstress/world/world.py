@@ -53,7 +53,8 @@ class Obstacle:
         hx, hy = self.size[0] / 2, self.size[1] / 2
         local = np.array([[hx, hy], [-hx, hy], [-hx, -hy], [hx, -hy]])
         rot = np.array([[c, -s], [s, c]])
-        return local @ rot.T + np.array([self.x, self.y])
+        out: np.ndarray = local @ rot.T + np.array([self.x, self.y])
+        return out
 
     @property
     def area(self) -> float:
@@ -123,8 +124,8 @@ class Terrain:
         (i+1, j+1), the triangulation the simulator uses (see ``navstress.sim``).
         """
         rows, cols = self.heights.shape
-        fx = min(max(x / self.cell_m, 0.0), cols - 1.000001)
-        fy = min(max(y / self.cell_m, 0.0), rows - 1.000001)
+        fx = float(min(max(x / self.cell_m, 0.0), cols - 1.000001))
+        fy = float(min(max(y / self.cell_m, 0.0), rows - 1.000001))
         j, i = int(fx), int(fy)
         u, v = fx - j, fy - i
         h = self.heights

@@ -105,14 +105,14 @@ def mesh_bytes(world: World, fmt: str) -> bytes:
         import trimesh
 
         merged = trimesh.util.concatenate(list(world_meshes(world).values()))
-        data = merged.export(file_type="obj", include_color=True, include_normals=False)
+        data = merged.export(file_type="obj", include_color=True, include_normals=False)  # type: ignore[no-untyped-call, call-arg]
         return data.encode("utf-8") if isinstance(data, str) else bytes(data)
     scene = world_scene(world, y_up=True)
     if fmt == "glb":
         return bytes(scene.export(file_type="glb"))
     from trimesh.exchange.gltf import export_gltf
 
-    files = export_gltf(scene, embed_buffers=True)
+    files = export_gltf(scene, embed_buffers=True)  # type: ignore[no-untyped-call]
     return bytes(files["model.gltf"])
 
 
