@@ -32,9 +32,13 @@ class CampaignProgress:
     """Use as ``on_start`` / ``on_record`` callbacks of :func:`run_campaign` inside a ``with``."""
 
     def __init__(self, console: Console | None = None, enabled: bool = True) -> None:
-        self.console = console or Console(stderr=True)
+        if console is None:
+            console = Console(stderr=True)
+            if not console.is_terminal:  # a log file or pipe: no 80-column default truncating the counts
+                console = Console(stderr=True, width=140)
+        self.console = console
         self.counts = {o: 0 for o in OUTCOMES}
-        self._progress = Progress(TextColumn("[bold]campaign"), BarColumn(), MofNCompleteColumn(),
+        self._progress = Progress(TextColumn("[bold]campaign"), BarColumn(bar_width=24), MofNCompleteColumn(),
                                   TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
                                   TextColumn("{task.fields[counts]}"), console=self.console,
                                   disable=not enabled, transient=False)
