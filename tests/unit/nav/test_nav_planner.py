@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from nav_scenes import Scene, grid_points
 
 from navstress.nav.reference.config import ReferenceConfig
-from navstress.nav.reference.planner import ArcPlanner, arc_nodes, footprint_cells
+from navstress.nav.reference.planner import ArcPlanner, arc_nodes, footprint_cells, node_cost
 from navstress.nav.reference.pose import Pose
 from navstress.nav.reference.terrain_map import TerrainMap, step_threshold
 from navstress.robot import RobotSpec
@@ -167,3 +167,70 @@ def test_steep_slope_is_untraversable_and_moderate_slope_costs_more() -> None:
     assert not np.isfinite(steep.terrain_cost).any()
     # 12 deg over 15 nodes: 15 * 12/25 = 7.2 with the default weights
     assert mid.terrain_cost[9] == pytest.approx(15 * 12 / 25, abs=0.6)
+
+
+def _posts_map(posts: np.ndarray, half: float = 5.0) -> TerrainMap:
+    """Flat known ground with thin vertical posts (columns of points up to 1.6 m) at ``posts``."""
+    ground = grid_points(Scene(), -half, half, -half, half, step=0.1)
+    cols = [np.column_stack([np.full(8, px), np.full(8, py), np.linspace(0.2, 1.6, 8)]) for px, py in posts]
+    m = TerrainMap((-half, -half), (int(2 * half / 0.3) + 1,) * 2, 0.3, step_threshold(0.3, 25.0, 0.3), 100.0)
+    m.integrate(np.vstack([ground, *cols]), (0.0, 0.0, 0.0), Pose(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+    return m
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.floats(-2.0, 2.0), st.floats(-2.0, 2.0), st.floats(-math.pi, math.pi),
+       st.booleans())
+def test_node_is_blocked_exactly_when_a_fine_obstacle_cell_overlaps_the_footprint(
+        seed: int, x: float, y: float, yaw: float, faulty: bool) -> None:
+    posts = np.random.default_rng(seed).uniform(-2.8, 2.8, (8, 2))
+    m = _posts_map(posts)
+    p = ArcPlanner(ReferenceConfig(), RobotSpec.footprint_fault() if faulty else RobotSpec())
+    cost = node_cost(p, m, x, y, yaw)
+    fine = m.fine_obstacles()
+    f = m.fine_cell_m
+    c, s = math.cos(yaw), math.sin(yaw)
+    hl, hw = p.half_length, p.half_width
+    rect = np.array([[x + a * c - b * s, y + a * s + b * c] for a, b in ((hl, hw), (-hl, hw), (-hl, -hw), (hl, -hw))])
+    areas = [_clip_area(rect, m.origin[0] + fj * f, m.origin[1] + fi * f, f) for fi, fj in zip(*np.nonzero(fine))]
+    post_cells = {(int((py - m.origin[1]) // f), int((px - m.origin[0]) // f)) for px, py in posts}
+    assert set(zip(*np.nonzero(fine))) == post_cells  # the posts' fine cells, and only them
+    if max(areas) > 1e-9:
+        assert math.isinf(cost)
+    if max(areas) == 0.0:
+        assert math.isfinite(cost) and cost < 0.1  # flat ground; post cells are left out of the plane fit
+
+
+def test_clearance_ring_costs_extra_only_near_a_fine_obstacle() -> None:
+    # a post 0.15 m beside the straight arc's footprint (inside the 0.3 m ring), another 0.5 m beside
+    p = ArcPlanner(ReferenceConfig(), RobotSpec())
+    straight = int(np.flatnonzero(p.curvatures == 0.0)[0])
+    near = p.evaluate(_posts_map(np.array([[1.5, p.half_width + 0.15]])), 0.0, 0.0, 0.0, 1)
+    far = p.evaluate(_posts_map(np.array([[1.5, p.half_width + 0.5]])), 0.0, 0.0, 0.0, 1)
+    extra = near.node_cost[straight] - far.node_cost[straight]
+    assert np.isfinite(near.terrain_cost[straight])
+    assert np.allclose(extra[extra > 1e-9], 0.2) and 5 <= int((extra > 1e-9).sum()) <= 15
+    assert np.all(far.node_cost[straight] < 0.1)
+
+
+def test_evaluate_matches_one_node_at_a_time() -> None:
+    # the one-call fan (window, flags, fine list) gives each node the same cost as a lone evaluation
+    m = _posts_map(np.array([[1.2, 0.9], [2.0, -0.4], [-1.0, 1.5]]))
+    p = ArcPlanner(ReferenceConfig(clearance_cost=0.0, exempt_current_footprint=False), RobotSpec.footprint_fault())
+    ev = p.evaluate(m, 0.1, -0.2, 0.4, 1)
+    for a in range(ev.nodes.shape[0]):
+        for k in range(ev.nodes.shape[1]):
+            one = node_cost(p, m, *ev.nodes[a, k])
+            if math.isinf(ev.node_cost[a, k]) and k > 0 and math.isinf(ev.node_cost[a, k - 1]):
+                continue  # after the first blocked node the rest of the arc is not evaluated
+            assert ev.node_cost[a, k] == pytest.approx(one) or (math.isinf(one) and math.isinf(ev.node_cost[a, k]))
+
+
+def test_quadratic_curvature_spacing_is_denser_near_straight() -> None:
+    lin = ArcPlanner(ReferenceConfig(), RobotSpec()).curvatures
+    quad = ArcPlanner(ReferenceConfig(curvature_spacing="quadratic", max_curvature_per_m=0.8), RobotSpec()).curvatures
+    assert np.allclose(np.diff(lin), 2.0 / 18)
+    assert quad[9] == 0.0 and quad[0] == pytest.approx(-0.8) and quad[-1] == pytest.approx(0.8)
+    assert np.allclose(quad, -quad[::-1])
+    gaps = np.diff(quad[9:])
+    assert np.all(np.diff(gaps) > 0) and gaps[0] == pytest.approx(0.8 / 81)

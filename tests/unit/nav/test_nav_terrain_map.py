@@ -133,3 +133,46 @@ def test_fill_unknown_uses_the_surrounding_ground_plane() -> None:
     empty = _map()
     empty.fill_unknown(np.array([i]), np.array([j]), (0.0, 0.0), 3.0, fallback_z=-1.5)
     assert empty.elevation()[i, j] == -1.5
+
+
+# ---------------------------------------------------------------- fine obstacle layer
+def test_fine_layer_places_a_wall_face_within_a_fine_cell_where_the_coarse_cell_dilates_it() -> None:
+    # face at x = 5.05: the coarse cell holding it starts at 4.8 (0.25 m early), the fine one at 5.0
+    wall = (5.05, -3.0, 0.0, 5.45, 3.0, 2.0)
+    m = _map()
+    pose = Pose(0.0, 0.0, 0.0, BASE_H, 0.0, 0.0, 0.0)
+    m.integrate(scan_points(Scene(boxes=(wall,)), 0.0, 0.0, BASE_H, 0.0), MOUNT, pose)
+    fine, coarse = m.fine_obstacles(), m.obstacles()
+    assert fine.shape == (600, 600) and m.fine_cell_m == pytest.approx(0.1)
+    fi, fj = np.nonzero(fine)
+    fx = m.origin[0] + (fj + 0.5) * m.fine_cell_m
+    fy = m.origin[1] + (fi + 0.5) * m.fine_cell_m
+    assert fx.min() > 5.0 and fx.max() < 5.2  # only the face's fine column (range noise-free scan)
+    assert np.abs(fy).max() < 3.1
+    ci, cj = np.nonzero(coarse)
+    assert (m.origin[0] + cj * m.cell_m).min() < 4.85  # the coarse layer starts 0.25 m before the face
+    # every fine obstacle lies in a coarse obstacle cell
+    assert coarse[fi // m.sub, fj // m.sub].all()
+
+
+def test_fine_layer_keeps_each_cells_latest_scan_and_forgets_a_ghost() -> None:
+    # the same wall seen once with a pose 0.2 m off (a ghost 0.2 m nearer), then with the right pose
+    wall = (5.05, -3.0, 0.0, 5.45, 3.0, 2.0)
+    pts = scan_points(Scene(boxes=(wall,)), 0.0, 0.0, BASE_H, 0.0)
+    m = _map()
+    m.integrate(pts, MOUNT, Pose(0.0, -0.2, 0.0, BASE_H, 0.0, 0.0, 0.0))
+    ghost = m.fine_obstacles()
+    gx = m.origin[0] + (np.nonzero(ghost)[1].min() + 0.5) * m.fine_cell_m
+    assert 4.8 < gx < 4.9
+    m.integrate(pts, MOUNT, Pose(0.1, 0.0, 0.0, BASE_H, 0.0, 0.0, 0.0))
+    fine = m.fine_obstacles()
+    fx = m.origin[0] + (np.nonzero(fine)[1] + 0.5) * m.fine_cell_m
+    assert fx.min() > 5.0 and fx.max() < 5.2
+    # the coarse statistics keep every hit: the ghost stays a coarse obstacle
+    i, j = m.cell_of(4.85, 0.0)
+    assert m.obstacles()[i, j]
+
+
+def test_bad_obstacle_subcells_is_refused() -> None:
+    with pytest.raises(ValueError, match="obstacle_subcells=0"):
+        TerrainMap((0.0, 0.0), (10, 10), 0.3, obstacle_subcells=0)

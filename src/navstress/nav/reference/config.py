@@ -22,7 +22,7 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
@@ -53,6 +53,7 @@ class ReferenceConfig(BaseModel):
     nodes_per_arc: int = Field(15, ge=2, le=100, description="nodes (footprint placements) along each arc")
     arc_length_m: float = Field(3.0, gt=0.0, le=20.0, description="length of every forward arc")
     max_curvature_per_m: float = Field(1.0, gt=0.0, le=10.0, description="the sharpest arcs' curvature; forward arcs are evenly spaced in [-max, +max], straight included")
+    curvature_spacing: Literal["linear", "quadratic"] = Field("linear", description="how forward-arc curvatures are spread over [-max, +max]: evenly, or k = max * u|u| for u evenly spread (denser near straight, so the fan can aim through narrow gaps)")
     turn_in_place: bool = Field(True, description="one of the n_arcs paths is a turn on the spot toward the goal side")
     turn_in_place_angle_deg: float = Field(90.0, gt=0.0, le=180.0, description="rotation covered by the turn-in-place path's nodes")
     turn_in_place_penalty_m: float = Field(1.0, ge=0.0, description="extra goal-distance charged to turning on the spot (it makes no progress)")

@@ -7,11 +7,18 @@ the goal side). At each of the ``nodes_per_arc`` nodes the believed footprint (R
 width plus margin, oriented along the arc) is laid on the map; the cells it overlaps (exactly:
 positive-area overlap of the oriented rectangle with the cell square) give the node's cost:
 
-* infinite if any cell is an obstacle, or never seen (with the default ``unknown_cell_cost``),
-  or outside the map;
+* infinite if a *fine* obstacle cell (the DTM's 0.1 m obstacle layer) overlaps the footprint,
+  if a coarse cell is never seen (with the default ``unknown_cell_cost``), or if the footprint
+  leaves the map;
 * otherwise ``w_s * slope / max_slope + w_r * roughness / max_roughness``, where a plane is fitted
-  (least squares) to the cells' mean heights: slope = its tilt, roughness = the largest absolute
-  residual; infinite above either maximum.
+  (least squares) to the mean heights of the known coarse cells that are not obstacle cells:
+  slope = its tilt, roughness = the largest absolute residual; infinite above either maximum;
+* plus ``clearance_cost`` when a fine obstacle cell overlaps the footprint grown by
+  ``clearance_margin_m``.
+
+A whole cycle (node poses, a window of coarse obstacle flags and the fine obstacle cells in it,
+all node costs) is one compiled call (:func:`_evaluate_fan`): the obstacle test is done once per
+window cell, not once per footprint cell.
 
 An arc's terrain cost is the sum of its node costs (infinite as soon as one node is). The
 navigator adds a goal term per arc and elects the cheapest arc whose terrain cost is at most the
@@ -28,13 +35,13 @@ import numba as nb
 import numpy as np
 
 from navstress.nav.reference.config import ReferenceConfig
-from navstress.nav.reference.terrain_map import TerrainMap, cell_is_obstacle
+from navstress.nav.reference.terrain_map import TerrainMap, cell_ground, fine_is_obstacle
 from navstress.robot import RobotSpec
 
 __all__ = ["ArcEvaluation", "ArcPlanner", "arc_nodes", "footprint_cells", "footprint_slope_roughness", "node_cost"]
 
 _MAX_FP_CELLS = 4096
-_NO_EXEMPT = np.zeros((1, 1), dtype=np.bool_)
+_EPS = 1e-9  # touching within this (rounding) is not a positive-area overlap
 
 
 @nb.njit(cache=True)
@@ -57,17 +64,17 @@ def _footprint_cells(cx: float, cy: float, yaw: float, hl: float, hw: float, ox:
     n = 0
     for i in range(i0, i1 + 1):
         y0 = oy + i * cell
-        if not (cy - ey < y0 + cell and cy + ey > y0):
+        if not (cy - ey < y0 + cell - _EPS and cy + ey > y0 + _EPS):
             continue
         for j in range(j0, j1 + 1):
             x0 = ox + j * cell
-            if not (cx - ex < x0 + cell and cx + ex > x0):
+            if not (cx - ex < x0 + cell - _EPS and cx + ex > x0 + _EPS):
                 continue
             dx = x0 + half - cx
             dy = y0 + half - cy
-            if abs(dx * c + dy * s) >= hl + proj:
+            if abs(dx * c + dy * s) >= hl + proj - _EPS:
                 continue
-            if abs(-dx * s + dy * c) >= hw + proj:
+            if abs(-dx * s + dy * c) >= hw + proj - _EPS:
                 continue
             if i < 0 or j < 0 or i >= nr or j >= nc or n >= out_i.shape[0]:
                 return -1
@@ -78,132 +85,260 @@ def _footprint_cells(cx: float, cy: float, yaw: float, hl: float, hw: float, ox:
 
 
 @nb.njit(cache=True)
-def _node_cost(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: np.ndarray,
-               ox: float, oy: float, cell: float, step: float, x: float, y: float, yaw: float,
-               hl: float, hw: float, max_slope_tan: float, max_rough: float, w_s: float, w_r: float,
-               unknown_cost: float, buf_i: np.ndarray, buf_j: np.ndarray, buf_z: np.ndarray,
-               exempt: np.ndarray) -> tuple[float, float, float]:
-    """(cost, slope tangent, roughness) of the footprint at (x, y, yaw); cost inf if blocked.
-    Cells flagged in ``exempt`` (same shape as the map, or (1, 1) for none) are ignored."""
-    nr, nc = zmin.shape
-    n = _footprint_cells(x, y, yaw, hl, hw, ox, oy, cell, nr, nc, buf_i, buf_j)
-    if n < 0:
-        return math.inf, math.nan, math.nan
-    extra = 0.0
-    m = 0
-    sx = 0.0
-    sy = 0.0
-    sz = 0.0
-    use_exempt = exempt.shape[0] == nr and exempt.shape[1] == nc
-    for k in range(n):
-        i = buf_i[k]
-        j = buf_j[k]
-        if use_exempt and exempt[i, j]:
-            # already under the robot: not a reason to refuse, but known ground still shapes the plane
-            if count[i, j] == 0 or cell_is_obstacle(zmin, zmax, count, i, j, step):
-                continue
-        elif count[i, j] == 0:
-            if math.isinf(unknown_cost):
-                return math.inf, math.nan, math.nan
-            extra += unknown_cost
-            continue
-        elif cell_is_obstacle(zmin, zmax, count, i, j, step):
-            return math.inf, math.nan, math.nan
-        buf_i[m] = i
-        buf_j[m] = j
-        buf_z[m] = zsum[i, j] / count[i, j]
-        sx += ox + (j + 0.5) * cell
-        sy += oy + (i + 0.5) * cell
-        sz += buf_z[m]
-        m += 1
-    if m == 0:
-        return extra, 0.0, 0.0
-    mx = sx / m
-    my = sy / m
-    mz = sz / m
-    cxx = 0.0
-    cxy = 0.0
-    cyy = 0.0
-    cxz = 0.0
-    cyz = 0.0
-    for k in range(m):
-        dx = ox + (buf_j[k] + 0.5) * cell - mx
-        dy = oy + (buf_i[k] + 0.5) * cell - my
-        dz = buf_z[k] - mz
-        cxx += dx * dx
-        cxy += dx * dy
-        cyy += dy * dy
-        cxz += dx * dz
-        cyz += dy * dz
-    det = cxx * cyy - cxy * cxy
-    gb = 0.0
-    gc = 0.0
-    if det > 1e-12 * (cxx + cyy + 1e-12) ** 2:
-        gb = (cxz * cyy - cyz * cxy) / det
-        gc = (cyz * cxx - cxz * cxy) / det
-    rough = 0.0
-    for k in range(m):
-        dx = ox + (buf_j[k] + 0.5) * cell - mx
-        dy = oy + (buf_i[k] + 0.5) * cell - my
-        r = abs(buf_z[k] - mz - gb * dx - gc * dy)
-        if r > rough:
-            rough = r
-    slope_tan = math.sqrt(gb * gb + gc * gc)
-    if slope_tan > max_slope_tan or rough > max_rough:
-        return math.inf, slope_tan, rough
-    cost = w_s * math.atan(slope_tan) / math.atan(max_slope_tan) + w_r * rough / max_rough + extra
-    return cost, slope_tan, rough
+def _fan_nodes(x: float, y: float, yaw: float, curv: np.ndarray, length: float, n_nodes: int,
+               spin_dir: int, spin_angle: float, out: np.ndarray) -> None:
+    """Fill ``out`` (A, N, 3) with the fan's node poses: the arcs of ``curv`` (as :func:`arc_nodes`),
+    then, when ``spin_dir != 0``, the turn on the spot (``spin_angle`` covered by its N nodes)."""
+    cy0 = math.cos(yaw)
+    sy0 = math.sin(yaw)
+    for a in range(curv.shape[0]):
+        k = curv[a]
+        for n in range(n_nodes):
+            s = length * (n + 1) / n_nodes
+            th = yaw + k * s
+            if abs(k) < 1e-9:
+                out[a, n, 0] = x + s * cy0
+                out[a, n, 1] = y + s * sy0
+            else:
+                out[a, n, 0] = x + (math.sin(th) - sy0) / k
+                out[a, n, 1] = y - (math.cos(th) - cy0) / k
+            out[a, n, 2] = th
+    if spin_dir != 0:
+        a = curv.shape[0]
+        for n in range(n_nodes):
+            out[a, n, 0] = x
+            out[a, n, 1] = y
+            out[a, n, 2] = yaw + spin_dir * spin_angle * (n + 1) / n_nodes
 
 
-@nb.njit(cache=True)
-def _near_obstacle(zmin: np.ndarray, zmax: np.ndarray, count: np.ndarray, ox: float, oy: float,
-                   cell: float, step: float, x: float, y: float, yaw: float, hl: float, hw: float,
-                   buf_i: np.ndarray, buf_j: np.ndarray, exempt: np.ndarray) -> bool:
-    """True if a known obstacle cell (not exempt) overlaps the rectangle (the clearance ring)."""
-    nr, nc = zmin.shape
-    n = _footprint_cells(x, y, yaw, hl, hw, ox, oy, cell, nr, nc, buf_i, buf_j)
-    if n < 0:
+@nb.njit(cache=True, inline="always")
+def _rect_hits_square(dx: float, dy: float, c: float, s: float, hl: float, hw: float, ex: float, ey: float,
+                      h: float) -> bool:
+    """Separating-axis test: the rectangle (half sizes hl x hw, axis (c, s), AABB half extents
+    ex, ey) and the axis-aligned square of half side ``h`` whose centre is (dx, dy) from the
+    rectangle's overlap with positive area."""
+    if abs(dx) >= ex + h - _EPS or abs(dy) >= ey + h - _EPS:
         return False
-    use_exempt = exempt.shape[0] == nr and exempt.shape[1] == nc
-    for k in range(n):
-        i = buf_i[k]
-        j = buf_j[k]
-        if use_exempt and exempt[i, j]:
-            continue
-        if count[i, j] > 0 and cell_is_obstacle(zmin, zmax, count, i, j, step):
-            return True
-    return False
+    pad = h * (abs(c) + abs(s))
+    return abs(dx * c + dy * s) < hl + pad - _EPS and abs(-dx * s + dy * c) < hw + pad - _EPS
 
 
 @nb.njit(cache=True)
-def _evaluate(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: np.ndarray,
-              ox: float, oy: float, cell: float, step: float, nodes: np.ndarray, hl: float, hw: float,
-              max_slope_tan: float, max_rough: float, w_s: float, w_r: float, unknown_cost: float,
-              out_node: np.ndarray, exempt: np.ndarray, clear_m: float, clear_cost: float) -> np.ndarray:
+def _evaluate_fan(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: np.ndarray,
+                  fzmax: np.ndarray, fstamp: np.ndarray, cstamp: np.ndarray, sub: int, ox: float, oy: float, cell: float, step: float,
+                  nodes: np.ndarray, hl: float, hw: float, rx: float, ry: float, ryaw: float,
+                  exempt_on: bool, max_slope_tan: float, max_rough: float, w_s: float, w_r: float,
+                  unknown_cost: float, clear_m: float, clear_cost: float, out_node: np.ndarray,
+                  out_slope: np.ndarray, out_rough: np.ndarray, out_cost: np.ndarray) -> int:
+    """One planning cycle's terrain costs, in one call (module doc). Returns the number of fine
+    obstacle cells considered.
+
+    1. A window of coarse cells covering every node's (clearance-grown) footprint: coarse
+       obstacle flags and ground estimates computed once; the fine obstacle cells inside the
+       coarse obstacle cells collected as a list of squares.
+    2. With ``exempt_on``: the coarse cells and the fine obstacle cells under the footprint at
+       (rx, ry, ryaw) are not checked (the robot already stands there).
+    3. Per node: coarse footprint cells -> unknown / outside check and the plane fit (coarse
+       obstacle cells left out of the fit); fine obstacle squares -> collision (inf) with the
+       footprint, or ``clear_cost`` when one overlaps the footprint grown by ``clear_m``.
+    """
+    nr, nc = zmin.shape
     n_arcs = nodes.shape[0]
     n_nodes = nodes.shape[1]
-    out = np.zeros(n_arcs)
+    reach = math.hypot(hl + clear_m, hw + clear_m) + cell
+    xlo = rx
+    xhi = rx
+    ylo = ry
+    yhi = ry
+    for a in range(n_arcs):
+        for k in range(n_nodes):
+            xlo = min(xlo, nodes[a, k, 0])
+            xhi = max(xhi, nodes[a, k, 0])
+            ylo = min(ylo, nodes[a, k, 1])
+            yhi = max(yhi, nodes[a, k, 1])
+    i0 = max(0, int(math.floor((ylo - reach - oy) / cell)))
+    i1 = min(nr - 1, int(math.floor((yhi + reach - oy) / cell)))
+    j0 = max(0, int(math.floor((xlo - reach - ox) / cell)))
+    j1 = min(nc - 1, int(math.floor((xhi + reach - ox) / cell)))
+    wi = max(0, i1 - i0 + 1)
+    wj = max(0, j1 - j0 + 1)
+    obst = np.zeros((wi, wj), dtype=np.bool_)
+    exempt = np.zeros((wi, wj), dtype=np.bool_)
+    ground = np.empty((wi, wj))
+    n_obst = 0
+    for li in range(wi):
+        for lj in range(wj):
+            i = i0 + li
+            j = j0 + lj
+            if count[i, j] > 0:
+                g = cell_ground(zmin, count, i, j)
+                ground[li, lj] = g
+                if zmax[i, j] - g > step:
+                    obst[li, lj] = True
+                    n_obst += 1
+    # fine obstacle squares (centres), from the coarse obstacle cells only (fine ones lie inside)
+    fcell = cell / sub
+    h = 0.5 * fcell
+    pts = np.empty((n_obst * sub * sub, 2))
+    n_pts = 0
+    cr = math.cos(ryaw)
+    sr = math.sin(ryaw)
+    rex = hl * abs(cr) + hw * abs(sr)
+    rey = hl * abs(sr) + hw * abs(cr)
+    for li in range(wi):
+        for lj in range(wj):
+            if not obst[li, lj]:
+                continue
+            g = ground[li, lj]
+            stamp = cstamp[i0 + li, j0 + lj]
+            for u in range(sub):
+                fi = (i0 + li) * sub + u
+                for v in range(sub):
+                    fj = (j0 + lj) * sub + v
+                    if fine_is_obstacle(fzmax, fstamp, stamp, fi, fj, g, step):
+                        px = ox + (fj + 0.5) * fcell
+                        py = oy + (fi + 0.5) * fcell
+                        if exempt_on and _rect_hits_square(px - rx, py - ry, cr, sr, hl, hw, rex, rey, h):
+                            continue
+                        pts[n_pts, 0] = px
+                        pts[n_pts, 1] = py
+                        n_pts += 1
     buf_i = np.empty(_MAX_FP_CELLS, dtype=np.int64)
     buf_j = np.empty(_MAX_FP_CELLS, dtype=np.int64)
     buf_z = np.empty(_MAX_FP_CELLS, dtype=np.float64)
+    if exempt_on:
+        n = _footprint_cells(rx, ry, ryaw, hl, hw, ox, oy, cell, nr, nc, buf_i, buf_j)
+        for k in range(max(n, 0)):
+            exempt[buf_i[k] - i0, buf_j[k] - j0] = True
+    r_hit = math.hypot(hl, hw) + h * math.sqrt(2.0)
+    r_clear = math.hypot(hl + clear_m, hw + clear_m) + h * math.sqrt(2.0)
+    use_clear = clear_m > 0.0 and clear_cost > 0.0
     for a in range(n_arcs):
         total = 0.0
         for k in range(n_nodes):
-            cst, _, _ = _node_cost(zmin, zmax, zsum, count, ox, oy, cell, step, nodes[a, k, 0],
-                                   nodes[a, k, 1], nodes[a, k, 2], hl, hw, max_slope_tan, max_rough,
-                                   w_s, w_r, unknown_cost, buf_i, buf_j, buf_z, exempt)
-            if clear_m > 0.0 and clear_cost > 0.0 and not math.isinf(cst):
-                if _near_obstacle(zmin, zmax, count, ox, oy, cell, step, nodes[a, k, 0], nodes[a, k, 1],
-                                  nodes[a, k, 2], hl + clear_m, hw + clear_m, buf_i, buf_j, exempt):
+            x = nodes[a, k, 0]
+            y = nodes[a, k, 1]
+            th = nodes[a, k, 2]
+            cst = 0.0
+            slope_tan = math.nan
+            rough = math.nan
+            n = _footprint_cells(x, y, th, hl, hw, ox, oy, cell, nr, nc, buf_i, buf_j)
+            if n < 0:
+                cst = math.inf
+            else:
+                # coarse layer: unknown cells and the plane fit
+                extra = 0.0
+                m = 0
+                sx = 0.0
+                sy = 0.0
+                sz = 0.0
+                for q in range(n):
+                    i = buf_i[q]
+                    j = buf_j[q]
+                    li = i - i0
+                    lj = j - j0
+                    if count[i, j] == 0:
+                        if exempt[li, lj]:
+                            continue
+                        if math.isinf(unknown_cost):
+                            cst = math.inf
+                            break
+                        extra += unknown_cost
+                        continue
+                    if obst[li, lj]:
+                        continue  # its obstacle part is the fine layer's business; its heights are not ground
+                    buf_i[m] = i
+                    buf_j[m] = j
+                    buf_z[m] = zsum[i, j] / count[i, j]
+                    sx += ox + (j + 0.5) * cell
+                    sy += oy + (i + 0.5) * cell
+                    sz += buf_z[m]
+                    m += 1
+                if not math.isinf(cst):
+                    slope_tan = 0.0
+                    rough = 0.0
+                    if m > 0:
+                        mx = sx / m
+                        my = sy / m
+                        mz = sz / m
+                        cxx = 0.0
+                        cxy = 0.0
+                        cyy = 0.0
+                        cxz = 0.0
+                        cyz = 0.0
+                        for q in range(m):
+                            dx = ox + (buf_j[q] + 0.5) * cell - mx
+                            dy = oy + (buf_i[q] + 0.5) * cell - my
+                            dz = buf_z[q] - mz
+                            cxx += dx * dx
+                            cxy += dx * dy
+                            cyy += dy * dy
+                            cxz += dx * dz
+                            cyz += dy * dz
+                        det = cxx * cyy - cxy * cxy
+                        gb = 0.0
+                        gc = 0.0
+                        if det > 1e-12 * (cxx + cyy + 1e-12) ** 2:
+                            gb = (cxz * cyy - cyz * cxy) / det
+                            gc = (cyz * cxx - cxz * cxy) / det
+                        for q in range(m):
+                            dx = ox + (buf_j[q] + 0.5) * cell - mx
+                            dy = oy + (buf_i[q] + 0.5) * cell - my
+                            r = abs(buf_z[q] - mz - gb * dx - gc * dy)
+                            if r > rough:
+                                rough = r
+                        slope_tan = math.sqrt(gb * gb + gc * gc)
+                    if slope_tan > max_slope_tan or rough > max_rough:
+                        cst = math.inf
+                    else:
+                        cst = w_s * math.atan(slope_tan) / math.atan(max_slope_tan) + w_r * rough / max_rough + extra
+            if not math.isinf(cst) and n_pts > 0:
+                # fine layer: obstacle squares against the footprint and its clearance ring
+                c = math.cos(th)
+                s = math.sin(th)
+                ex = hl * abs(c) + hw * abs(s)
+                ey = hl * abs(s) + hw * abs(c)
+                exc = (hl + clear_m) * abs(c) + (hw + clear_m) * abs(s)
+                eyc = (hl + clear_m) * abs(s) + (hw + clear_m) * abs(c)
+                near = False
+                for q in range(n_pts):
+                    dx = pts[q, 0] - x
+                    dy = pts[q, 1] - y
+                    d2 = dx * dx + dy * dy
+                    if d2 < r_hit * r_hit and _rect_hits_square(dx, dy, c, s, hl, hw, ex, ey, h):
+                        cst = math.inf
+                        slope_tan = math.nan
+                        rough = math.nan
+                        break
+                    if use_clear and not near and d2 < r_clear * r_clear:
+                        near = _rect_hits_square(dx, dy, c, s, hl + clear_m, hw + clear_m, exc, eyc, h)
+                if near and not math.isinf(cst):
                     cst += clear_cost
             out_node[a, k] = cst
+            out_slope[a, k] = slope_tan
+            out_rough[a, k] = rough
             total += cst
             if math.isinf(total):
                 for r in range(k + 1, n_nodes):
                     out_node[a, r] = math.inf
+                    out_slope[a, r] = math.nan
+                    out_rough[a, r] = math.nan
                 break
-        out[a] = total
-    return out
+        out_cost[a] = total
+    return n_pts
+
+
+def _single(terrain: TerrainMap, x: float, y: float, yaw: float, hl: float, hw: float, max_slope_tan: float,
+            max_rough: float, w_s: float, w_r: float, unknown_cost: float) -> tuple[float, float, float]:
+    """(cost, slope tangent, roughness) of one footprint, no exemption, no clearance."""
+    nodes = np.array([[[x, y, yaw]]], dtype=np.float64)
+    on, os_, or_ = np.empty((1, 1)), np.empty((1, 1)), np.empty((1, 1))
+    oc = np.empty(1)
+    _evaluate_fan(terrain.zmin, terrain.zmax, terrain.zsum, terrain.count, terrain.fzmax, terrain.fstamp, terrain.cstamp, terrain.sub,
+                  terrain.origin[0], terrain.origin[1], terrain.cell_m, terrain.step_m, nodes, hl, hw,
+                  x, y, yaw, False, max_slope_tan, max_rough, w_s, w_r, unknown_cost, 0.0, 0.0, on, os_,
+                  or_, oc)
+    return float(on[0, 0]), float(os_[0, 0]), float(or_[0, 0])
 
 
 def footprint_cells(x: float, y: float, yaw: float, half_length: float, half_width: float,
@@ -221,10 +356,7 @@ def footprint_cells(x: float, y: float, yaw: float, half_length: float, half_wid
 def footprint_slope_roughness(terrain: TerrainMap, x: float, y: float, yaw: float, half_length: float,
                               half_width: float) -> tuple[float, float]:
     """(slope in degrees, roughness in meters) of the plane fitted under a footprint (NaN if blocked)."""
-    buf = np.empty(_MAX_FP_CELLS, dtype=np.int64), np.empty(_MAX_FP_CELLS, dtype=np.int64), np.empty(_MAX_FP_CELLS)
-    _, st, r = _node_cost(terrain.zmin, terrain.zmax, terrain.zsum, terrain.count, terrain.origin[0],
-                          terrain.origin[1], terrain.cell_m, terrain.step_m, x, y, yaw, half_length,
-                          half_width, 1e9, 1e9, 1.0, 1.0, math.inf, *buf, _NO_EXEMPT)
+    _, st, r = _single(terrain, x, y, yaw, half_length, half_width, 1e9, 1e9, 1.0, 1.0, math.inf)
     return math.degrees(math.atan(st)) if math.isfinite(st) else math.nan, r
 
 
@@ -233,12 +365,10 @@ def node_cost(planner: "ArcPlanner", terrain: TerrainMap, x: float, y: float, ya
     """Cost of the planner's footprint at one pose (inf if blocked); ``unknown_cost`` overrides the config's."""
     cfg = planner.config
     uc = float(cfg.unknown_cell_cost if unknown_cost is None else unknown_cost)
-    buf = np.empty(_MAX_FP_CELLS, dtype=np.int64), np.empty(_MAX_FP_CELLS, dtype=np.int64), np.empty(_MAX_FP_CELLS)
-    c, _, _ = _node_cost(terrain.zmin, terrain.zmax, terrain.zsum, terrain.count, terrain.origin[0],
-                         terrain.origin[1], terrain.cell_m, terrain.step_m, x, y, yaw, planner.half_length,
-                         planner.half_width, math.tan(math.radians(cfg.max_slope_deg)), cfg.max_roughness_m,
-                         cfg.slope_weight, cfg.roughness_weight, uc, *buf, _NO_EXEMPT)
-    return float(c)
+    c, _, _ = _single(terrain, x, y, yaw, planner.half_length, planner.half_width,
+                      math.tan(math.radians(cfg.max_slope_deg)), cfg.max_roughness_m, cfg.slope_weight,
+                      cfg.roughness_weight, uc)
+    return c
 
 
 def arc_nodes(x: float, y: float, yaw: float, curvatures: np.ndarray, length: float, n_nodes: int) -> np.ndarray:
@@ -283,47 +413,37 @@ class ArcPlanner:
         self.half_length = 0.5 * robot.length_m + config.footprint_margin_m
         self.half_width = 0.5 * robot.width_m + config.footprint_margin_m
         kmax = config.max_curvature_per_m
-        self.curvatures = np.linspace(-kmax, kmax, config.forward_arcs)
+        u = np.linspace(-1.0, 1.0, config.forward_arcs)
+        self.curvatures = kmax * (u * np.abs(u) if config.curvature_spacing == "quadratic" else u)
         self.curvatures[config.forward_arcs // 2] = 0.0
         self.max_speed = min(config.max_speed_mps, robot.max_speed_mps)
-        self._exempt = np.zeros((1, 1), dtype=np.bool_)
+        self._max_slope_tan = math.tan(math.radians(config.max_slope_deg))
+        self._fan_curvatures = (np.concatenate([self.curvatures, [math.nan]]) if config.turn_in_place
+                                else self.curvatures.copy())
 
     def evaluate(self, terrain: TerrainMap, x: float, y: float, yaw: float, spin_dir: int) -> ArcEvaluation:
-        """Node poses and terrain costs of the fan at (x, y, yaw). With
-        ``exempt_current_footprint`` the cells under the current (margined) footprint are not
-        checked: the robot already stands there, so an obstacle cell dilated into its margin does
-        not forbid driving away; every cell a node newly covers is still checked."""
+        """Node poses and terrain costs of the fan at (x, y, yaw), in one compiled call. With
+        ``exempt_current_footprint`` the coarse cells and fine obstacle cells under the current
+        (margined) footprint are not checked: the robot already stands there; every cell a node
+        newly covers is still checked."""
         cfg = self.config
-        nodes = arc_nodes(x, y, yaw, self.curvatures, cfg.arc_length_m, cfg.nodes_per_arc)
-        curv = self.curvatures
-        if cfg.turn_in_place:
-            d = 1 if spin_dir >= 0 else -1
-            ang = yaw + d * math.radians(cfg.turn_in_place_angle_deg) * np.arange(1, cfg.nodes_per_arc + 1) / cfg.nodes_per_arc
-            spin = np.stack([np.full_like(ang, x), np.full_like(ang, y), ang], axis=-1)[None]
-            nodes = np.concatenate([nodes, spin], axis=0)
-            curv = np.concatenate([curv, [math.nan]])
-            spin_dir = d
-        else:
-            spin_dir = 0
-        node_cost = np.empty(nodes.shape[:2])
-        exempt = _NO_EXEMPT
-        here = None
-        if cfg.exempt_current_footprint:
-            here = footprint_cells(x, y, yaw, self.half_length, self.half_width, terrain)
-            if here is not None:
-                if self._exempt.shape != terrain.shape:
-                    self._exempt = np.zeros(terrain.shape, dtype=np.bool_)
-                exempt = self._exempt
-                exempt[here] = True
-        cost = _evaluate(terrain.zmin, terrain.zmax, terrain.zsum, terrain.count, terrain.origin[0],
-                         terrain.origin[1], terrain.cell_m, terrain.step_m, np.ascontiguousarray(nodes),
-                         self.half_length, self.half_width, math.tan(math.radians(cfg.max_slope_deg)),
-                         cfg.max_roughness_m, cfg.slope_weight, cfg.roughness_weight,
-                         float(cfg.unknown_cell_cost), node_cost, exempt, cfg.clearance_margin_m,
-                         cfg.clearance_cost)
-        if here is not None and exempt is self._exempt:
-            exempt[here] = False
-        return ArcEvaluation(nodes, curv, spin_dir, cost, node_cost)
+        na = cfg.forward_arcs + (1 if cfg.turn_in_place else 0)
+        n = cfg.nodes_per_arc
+        d = (1 if spin_dir >= 0 else -1) if cfg.turn_in_place else 0
+        nodes = np.empty((na, n, 3))
+        _fan_nodes(x, y, yaw, self.curvatures, cfg.arc_length_m, n, d, math.radians(cfg.turn_in_place_angle_deg),
+                   nodes)
+        node_cost = np.empty((na, n))
+        slope = np.empty((na, n))
+        rough = np.empty((na, n))
+        cost = np.empty(na)
+        _evaluate_fan(terrain.zmin, terrain.zmax, terrain.zsum, terrain.count, terrain.fzmax, terrain.fstamp, terrain.cstamp, terrain.sub,
+                      terrain.origin[0], terrain.origin[1], terrain.cell_m, terrain.step_m, nodes,
+                      self.half_length, self.half_width, x, y, yaw, cfg.exempt_current_footprint,
+                      self._max_slope_tan, cfg.max_roughness_m, cfg.slope_weight, cfg.roughness_weight,
+                      float(cfg.unknown_cell_cost), cfg.clearance_margin_m, cfg.clearance_cost, node_cost,
+                      slope, rough, cost)
+        return ArcEvaluation(nodes, self._fan_curvatures, d, cost, node_cost)
 
     def elect(self, ev: ArcEvaluation, goal_terms: np.ndarray, jitter: np.ndarray | None = None) -> int:
         """Index of the elected arc, or -1 when no arc's terrain cost is finite and within the
