@@ -22,6 +22,7 @@ import importlib.util
 import math
 import platform
 import subprocess
+import sys
 import tempfile
 import time
 from collections.abc import Callable
@@ -73,6 +74,7 @@ def load_baseline(rev: str) -> ModuleType:
     spec = importlib.util.spec_from_file_location(f"_raycast_baseline_{d.name}", p)
     assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod  # numba's cache re-imports the module by name
     spec.loader.exec_module(mod)
     return mod
 

@@ -23,7 +23,7 @@ INF = np.inf
 TWO_PI = 2.0 * math.pi
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _first_at_least(a: np.ndarray, v: float) -> int:
     """First index i with a[i] >= v in ascending ``a`` (len(a) if none): binary search."""
     lo = 0
@@ -37,7 +37,7 @@ def _first_at_least(a: np.ndarray, v: float) -> int:
     return lo
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _tri_height(h: np.ndarray, cx: int, cy: int, u: float, v: float) -> float:
     """Height at local (u, v) in cell (cx, cy) on the MuJoCo triangulation."""
     h00 = float(h[cy, cx])
@@ -49,7 +49,7 @@ def _tri_height(h: np.ndarray, cx: int, cy: int, u: float, v: float) -> float:
     return h00 + v * (h01 - h00) + u * (h11 - h01)
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def height_at_cells(h: np.ndarray, x: float, y: float) -> float:
     """Height at (x, y) in cell units, clamped to the map."""
     ncx = h.shape[1] - 1
@@ -61,15 +61,13 @@ def height_at_cells(h: np.ndarray, x: float, y: float) -> float:
     return _tri_height(h, cx, cy, x - cx, y - cy)
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def _cell_hit(h: np.ndarray, cx: int, cy: int, ox: float, oy: float, oz: float,
-              dx: float, dy: float, dz: float, ta: float, tb: float, sgn: float) -> float:
-    """First t in [ta, tb] where the ray crosses the surface in cell (cx, cy) from side ``sgn``
-    (+1: from above, -1: from below); inf if none. Exact: F = z - h is linear on each triangle."""
-    h00 = float(h[cy, cx])
-    h10 = float(h[cy, cx + 1])
-    h01 = float(h[cy + 1, cx])
-    h11 = float(h[cy + 1, cx + 1])
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _cell_hit(h00: float, h10: float, h01: float, h11: float, cx: int, cy: int, ox: float, oy: float,
+              oz: float, dx: float, dy: float, dz: float, ta: float, tb: float, sgn: float) -> float:
+    """First t in [ta, tb] where the ray crosses the surface in cell (cx, cy) (corner heights
+    h00 = h[cy, cx], h10 = h[cy, cx+1], h01 = h[cy+1, cx], h11 = h[cy+1, cx+1]) from side ``sgn``
+    (+1: from above, -1: from below); inf if none. Exact: F = z - h is linear on each triangle.
+    Scalars only, so that inlining it adds no array reference counting to the caller's loop."""
     ua = ox + ta * dx - cx
     va = oy + ta * dy - cy
     ub = ox + tb * dx - cx
@@ -228,7 +226,8 @@ def march_terrain(h: np.ndarray, mip: np.ndarray, moff: np.ndarray, mnx: np.ndar
         else:
             skip = False
         if not skip:
-            th = _cell_hit(h, cx, cy, ox, oy, oz, dx, dy, dz, t, te, sgn)
+            th = _cell_hit(float(h[cy, cx]), float(h[cy, cx + 1]), float(h[cy + 1, cx]),
+                           float(h[cy + 1, cx + 1]), cx, cy, ox, oy, oz, dx, dy, dz, t, te, sgn)
             if th <= te:
                 return th, th
         if te >= thi:
@@ -266,20 +265,17 @@ def march_terrain(h: np.ndarray, mip: np.ndarray, moff: np.ndarray, mnx: np.ndar
     return INF, thi
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def ray_box(b: np.ndarray, i: int, ox: float, oy: float, oz: float,
-            dx: float, dy: float, dz: float) -> float:
-    """Distance along unit ray (world metres) to box i (two-sided slab test); inf if missed."""
-    c = b[i, 7]
-    s = b[i, 8]
-    px = ox - b[i, 0]
-    py = oy - b[i, 1]
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _ray_box(bx: float, by: float, c: float, s: float, hx: float, hy: float, zb: float, zt: float,
+             ox: float, oy: float, oz: float, dx: float, dy: float, dz: float) -> float:
+    """Distance along unit ray (world metres) to the box centred (bx, by), yaw cos/sin (c, s),
+    half sides hx, hy, from zb to zt (two-sided slab test); inf if missed. Scalars only."""
+    px = ox - bx
+    py = oy - by
     lx = c * px + s * py
     ly = -s * px + c * py
     ldx = c * dx + s * dy
     ldy = -s * dx + c * dy
-    hx = b[i, 3]
-    hy = b[i, 4]
     tn = -INF
     tf = INF
     if ldx != 0.0:
@@ -301,19 +297,27 @@ def ray_box(b: np.ndarray, i: int, ox: float, oy: float, oz: float,
     elif ly < -hy or ly > hy:
         return INF
     if dz != 0.0:
-        a = (b[i, 5] - oz) / dz
-        bb = (b[i, 6] - oz) / dz
+        a = (zb - oz) / dz
+        bb = (zt - oz) / dz
         if a > bb:
             a, bb = bb, a
         tn = max(tn, a)
         tf = min(tf, bb)
-    elif oz < b[i, 5] or oz > b[i, 6]:
+    elif oz < zb or oz > zt:
         return INF
     if tn > tf or tf < 0.0:
         return INF
     if tn >= 0.0:
         return tn
     return tf  # origin inside: the exit face
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def ray_box(b: np.ndarray, i: int, ox: float, oy: float, oz: float,
+            dx: float, dy: float, dz: float) -> float:
+    """Distance along unit ray (world metres) to box row i of ``b`` (see :func:`_ray_box`)."""
+    return _ray_box(b[i, 0], b[i, 1], b[i, 7], b[i, 8], b[i, 3], b[i, 4], b[i, 5], b[i, 6],
+                    ox, oy, oz, dx, dy, dz)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -339,7 +343,7 @@ def cast_rays_kernel(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarr
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarray, mnx: np.ndarray,
+def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray, moff: np.ndarray, mnx: np.ndarray,
                 grad_max: float, boxes: np.ndarray, origin: np.ndarray, rot: np.ndarray,
                 cos_el: np.ndarray, sin_el: np.ndarray, cos_az: np.ndarray, sin_az: np.ndarray,
                 max_range: float, min_range: float, plane_march: bool, out: np.ndarray) -> None:
@@ -360,7 +364,8 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarray, m
     ox, oy, oz = origin[0], origin[1], origin[2]
     ncx = h.shape[1] - 1
     ncy = h.shape[0] - 1
-    inside = 0.0 <= ox / cell <= ncx and 0.0 <= oy / cell <= ncy
+    icell = 1.0 / cell
+    inside = 0.0 <= ox * icell <= ncx and 0.0 <= oy * icell <= ncy  # (_march_plane relies on it)
     mono = plane_march and inside and (oz - height_at_cells(h, ox / cell, oy / cell) > 0.0)
     # ---- per-scan box preparation: distances, reachable slopes, heading intervals, bins --
     nb = boxes.shape[0]
@@ -439,11 +444,22 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarray, m
     # ---- columns ----------------------------------------------------------------------
     stamp = np.full(nb, -1, np.int64)
     gmax = mip[0, moff[moff.shape[0] - 1]]
-    icell = 1.0 / cell
     dirs = np.empty((nch, 3))
     slope = np.empty(nch)
     hxy = np.empty(nch)
     best = np.empty(nch)
+    flat_map = mip[1, moff[moff.shape[0] - 1]] == gmax
+    nlev = moff.shape[0]
+    oxc = ox * icell
+    oyc = oy * icell
+    wc = float(ncx)
+    hc = float(ncy)
+    cdx = np.empty(nch)
+    cdy = np.empty(nch)
+    cix = np.empty(nch)
+    ciy = np.empty(nch)
+    cthi = np.empty(nch)
+    crl = np.empty(nch)
     uwx, uwy, uwz = rot[0, 2], rot[1, 2], rot[2, 2]
     for a in range(naz):
         ca = cos_az[a]
@@ -488,27 +504,145 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarray, m
                         use_plane = False
         p_clear = 0.0
         reach = 0.0
-        for k in range(nch):
-            rx = dirs[k, 0]
-            ry = dirs[k, 1]
-            rz = dirs[k, 2]
-            if use_plane:
-                rl = rx * lx + ry * ly
+        if use_plane:
+            for k in range(nch):  # per-channel march set-up, branch-free (vectorisable)
+                dxk = dirs[k, 0] * icell
+                dyk = dirs[k, 1] * icell
+                ix = 1.0 / dxk if dxk != 0.0 else 0.0
+                iy = 1.0 / dyk if dyk != 0.0 else 0.0
+                ex = max(-oxc * ix, (wc - oxc) * ix)
+                ey = max(-oyc * iy, (hc - oyc) * iy)
+                cdx[k] = dxk
+                cdy[k] = dyk
+                cix[k] = ix
+                ciy[k] = iy
+                cthi[k] = min(max_range, ex if dxk != 0.0 else INF, ey if dyk != 0.0 else INF)
+                crl[k] = dirs[k, 0] * lx + dirs[k, 1] * ly
+            for k in range(nch):
+                rz = dirs[k, 2]
+                rl = crl[k]
                 tstart = p_clear / rl * (1.0 - 1e-12)
-            else:
-                rl = 0.0
-                tstart = 0.0
-            if rz >= 0.0 and oz + rz * tstart > gmax:
-                best[k] = INF  # climbing above the highest terrain point: clear to max range
-                if use_plane:
+                if rz >= 0.0 and oz + rz * tstart > gmax:
+                    best[k] = INF  # climbing above the highest terrain point: clear to max range
                     p_clear = max(p_clear, max_range * rl)
-            elif tstart < max_range:
-                th, tc = march_terrain(h, mip, moff, mnx, ox * icell, oy * icell, oz,
-                                       rx * icell, ry * icell, rz, tstart, max_range, use_plane)
-                best[k] = th
-                if use_plane:
+                elif tstart < max_range:
+                    th, tc = INF, INF
+                    dx = cdx[k]
+                    dy = cdy[k]
+                    dz = rz
+                    idx = cix[k]
+                    idy = ciy[k]
+                    thi = cthi[k]
+                    # march_terrain(..., above=True) for a ray from inside the map, written out
+                    # here (a call would add array reference counting per ray); same arithmetic
+                    if tstart > thi:
+                        tc = max_range
+                    elif oz + dz * (tstart if dz >= 0.0 else thi) > gmax:
+                        tc = thi  # passes over the highest point of the map
+                    elif flat_map:
+                        th = tstart if dz >= 0.0 else max(tstart, (gmax - oz) / dz)
+                        tc = th
+                    else:
+                        tc = thi
+                        x = oxc + tstart * dx
+                        y = oyc + tstart * dy
+                        cx = int(math.ceil(x)) - 1 if dx < 0.0 else int(math.floor(x))
+                        cy = int(math.ceil(y)) - 1 if dy < 0.0 else int(math.floor(y))
+                        cx = min(max(cx, 0), ncx - 1)
+                        cy = min(max(cy, 0), ncy - 1)
+                        lev = 0
+                        t = tstart
+                        while True:
+                            bx = cx >> lev
+                            by = cy >> lev
+                            if dx > 0.0:
+                                tx = (min((bx + 1) << lev, ncx) - oxc) * idx
+                            elif dx < 0.0:
+                                tx = ((bx << lev) - oxc) * idx
+                            else:
+                                tx = INF
+                            if dy > 0.0:
+                                ty = (min((by + 1) << lev, ncy) - oyc) * idy
+                            elif dy < 0.0:
+                                ty = ((by << lev) - oyc) * idy
+                            else:
+                                ty = INF
+                            te = min(tx, ty, thi)
+                            zmin = oz + dz * (t if dz >= 0.0 else te)
+                            if lev == 0:  # a cell: its max/min from the corners (fewer cache lines)
+                                h00 = float(h[cy, cx])
+                                h10 = float(h[cy, cx + 1])
+                                h01 = float(h[cy + 1, cx])
+                                h11 = float(h[cy + 1, cx + 1])
+                                top = max(max(h00, h10), max(h01, h11))
+                                bot = min(min(h00, h10), min(h01, h11))
+                            else:
+                                mi = moff[lev] + by * mnx[lev] + bx
+                                top = float(mipf[mi, 0])
+                                bot = float(mipf[mi, 1])
+                            if zmin > top:
+                                skip = True
+                            elif bot == top:  # flat block: the plane z = top
+                                ts = t if dz >= 0.0 else max(t, (top - oz) / dz)
+                                if ts <= te:
+                                    th = ts
+                                    tc = ts
+                                    break
+                                skip = False
+                                if lev > 0:
+                                    lev -= 1
+                                    continue
+                            elif lev > 0:
+                                lev -= 1
+                                continue
+                            else:
+                                skip = False
+                            if not skip:
+                                tcell = _cell_hit(h00, h10, h01, h11, cx, cy, oxc, oyc, oz, dx, dy, dz, t, te, 1.0)
+                                if tcell <= te:
+                                    th = tcell
+                                    tc = tcell
+                                    break
+                            if te >= thi:
+                                break
+                            if tx <= ty:
+                                cx = (bx + 1) << lev if dx > 0.0 else (bx << lev) - 1
+                            if ty <= tx:
+                                cy = (by + 1) << lev if dy > 0.0 else (by << lev) - 1
+                            if tx < ty:
+                                yy = oyc + te * dy
+                                ylo = by << lev
+                                yhi = min(((by + 1) << lev) - 1, ncy - 1)
+                                cy = min(max(int(math.ceil(yy)) - 1 if dy < 0.0 else int(math.floor(yy)), ylo), yhi)
+                            elif ty < tx:
+                                xx = oxc + te * dx
+                                xlo = bx << lev
+                                xhi = min(((bx + 1) << lev) - 1, ncx - 1)
+                                cx = min(max(int(math.ceil(xx)) - 1 if dx < 0.0 else int(math.floor(xx)), xlo), xhi)
+                            if cx < 0 or cx >= ncx or cy < 0 or cy >= ncy:
+                                break
+                            t = te
+                            if skip and lev + 1 < nlev:  # climb at the parent block's near edge
+                                if tx <= ty:
+                                    if ((cx >> lev) & 1) == (0 if dx > 0.0 else 1):
+                                        lev += 1
+                                elif ((cy >> lev) & 1) == (0 if dy > 0.0 else 1):
+                                    lev += 1
+                    best[k] = th
                     p_clear = max(p_clear, min(th, tc) * rl)
-            reach = max(reach, min(best[k], max_range) * hxy[k])
+                reach = max(reach, min(best[k], max_range) * hxy[k])
+        else:
+            for k in range(nch):
+                rx = dirs[k, 0]
+                ry = dirs[k, 1]
+                rz = dirs[k, 2]
+                if rz >= 0.0 and oz > gmax:
+                    best[k] = INF
+                else:
+                    th, tc = march_terrain(h, mip, moff, mnx, oxc, oyc, oz,
+                                           rx * icell, ry * icell, rz, 0.0, max_range, False)
+                    best[k] = th
+                reach = max(reach, min(best[k], max_range) * hxy[k])
         # boxes: candidates from the sectors spanned by the column's headings, nearest first.
         # Headings vary monotonically with elevation (while no ray is vertical); slopes do for
         # moderate tilts: checked, else every sector and channel is a candidate (still exact).
@@ -549,16 +683,35 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarray, m
                 if w0 > hi - lo and w0 + (ahi[i] - alo[i]) < TWO_PI:
                     continue
                 # channels whose world slope lies in [mlo, mhi] (slopes ascend with k)
-                if ordered:
-                    k0 = _first_at_least(slope, mlo[i])
-                    k1 = _first_at_least(slope, math.nextafter(mhi[i], INF)) - 1
+                if ordered:  # binary searches (written out: no array passed to a helper in the loop)
+                    v = mlo[i]
+                    lo_ = 0
+                    hi_ = nch
+                    while lo_ < hi_:
+                        mid = (lo_ + hi_) >> 1
+                        if slope[mid] < v:
+                            lo_ = mid + 1
+                        else:
+                            hi_ = mid
+                    k0 = lo_
+                    v = math.nextafter(mhi[i], INF)
+                    hi_ = nch
+                    while lo_ < hi_:
+                        mid = (lo_ + hi_) >> 1
+                        if slope[mid] < v:
+                            lo_ = mid + 1
+                        else:
+                            hi_ = mid
+                    k1 = lo_ - 1
                 else:
                     k0 = 0
                     k1 = nch - 1
+                b0, b1, b3, b4 = boxes[i, 0], boxes[i, 1], boxes[i, 3], boxes[i, 4]
+                b5, b6, b7, b8 = boxes[i, 5], boxes[i, 6], boxes[i, 7], boxes[i, 8]
                 for k in range(k0, k1 + 1):
                     if dmin[i] > best[k] * hxy[k]:
                         continue
-                    tb = ray_box(boxes, i, ox, oy, oz, dirs[k, 0], dirs[k, 1], dirs[k, 2])
+                    tb = _ray_box(b0, b1, b7, b8, b3, b4, b5, b6, ox, oy, oz, dirs[k, 0], dirs[k, 1], dirs[k, 2])
                     if tb < best[k]:
                         best[k] = tb
         for k in range(nch):

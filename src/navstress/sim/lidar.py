@@ -118,6 +118,7 @@ class LidarScene:
     cell_m: float
     boxes: np.ndarray
     mip: np.ndarray = field(init=False, repr=False)
+    mipf: np.ndarray = field(init=False, repr=False)
     mip_offsets: np.ndarray = field(init=False, repr=False)
     mip_widths: np.ndarray = field(init=False, repr=False)
     grad_max: float = field(init=False)
@@ -162,6 +163,7 @@ class LidarScene:
         sizes = [lv.size for lv in his]
         mip = np.stack([np.concatenate([lv.ravel() for lv in his]), np.concatenate([lv.ravel() for lv in los])])
         object.__setattr__(self, "mip", np.ascontiguousarray(mip))
+        object.__setattr__(self, "mipf", np.ascontiguousarray(mip.T.astype(np.float32)))
         object.__setattr__(self, "mip_offsets", np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64))
         object.__setattr__(self, "mip_widths", np.array([lv.shape[1] for lv in his], np.int64))
         # steepest triangle (m/m): bounds how tilted a column plane may be for plane marching
@@ -246,7 +248,7 @@ class Lidar:
     def _ranges(self, origin: np.ndarray, rotation: np.ndarray) -> np.ndarray:
         o, r = _check_pose(origin, rotation)
         s, c = self.scene, self.config
-        _raycast.scan_kernel(s.heights, s.cell_m, s.mip, s.mip_offsets, s.mip_widths, s.grad_max, s.boxes,
+        _raycast.scan_kernel(s.heights, s.cell_m, s.mip, s.mipf, s.mip_offsets, s.mip_widths, s.grad_max, s.boxes,
                              o, r, self._cos_el, self._sin_el, self._cos_az, self._sin_az,
                              float(c.max_range_m), float(c.min_range_m), self.plane_march, self._out)
         return self._out
