@@ -8,8 +8,13 @@ the triangulation MuJoCo uses for an hfield (checked against ``mujoco.mj_ray``).
 The terrain is the solid {(x, y) in the map, z <= h(x, y)}: top triangles plus vertical side
 walls under the map edge (extending down without a base). Faces are two-sided, as in MuJoCo.
 Boxes are rows ``[x, y, yaw, hx, hy, zb, zt, cos(yaw), sin(yaw)]`` (centre, yaw, half sides,
-bottom, top), also
-two-sided (a ray starting inside a box hits where it leaves it, as ``mj_ray`` does).
+bottom, top), also two-sided (a ray starting inside a box hits where it leaves it, as ``mj_ray`` does).
+
+Speed notes (measured, see docs/performance.md): a call to another ``@njit`` function that takes
+arrays costs atomic reference-count updates per call, even when inlined by numba; in the hot
+loops of :func:`scan_kernel` the plane march is therefore written out and the helpers it uses
+(:func:`_cell_hit`, :func:`_ray_box`) take scalars only. Level 0 of the mipmap is read from the
+four corner heights (which the cell test needs anyway) rather than from the mipmap array.
 """
 
 from __future__ import annotations
@@ -21,20 +26,6 @@ from numba import njit
 
 INF = np.inf
 TWO_PI = 2.0 * math.pi
-
-
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _first_at_least(a: np.ndarray, v: float) -> int:
-    """First index i with a[i] >= v in ascending ``a`` (len(a) if none): binary search."""
-    lo = 0
-    hi = a.shape[0]
-    while lo < hi:
-        mid = (lo + hi) >> 1
-        if a[mid] < v:
-            lo = mid + 1
-        else:
-            hi = mid
-    return lo
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")

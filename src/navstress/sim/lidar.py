@@ -112,7 +112,9 @@ class LidarScene:
     """What the lidar sees: terrain heights (float32, ``Terrain`` convention), ``cell_m``, and
     boxes as rows ``[x, y, yaw, half_sx, half_sy, z_bottom, z_top]`` (stored with cos(yaw), sin(yaw)
     appended as columns 7 and 8). Derived acceleration data
-    (max-height mipmap, terrain gradient bound) is computed on construction."""
+    (max/min-height mipmaps: ``mip`` float64 (2, n) for the per-ray path, ``mipf`` the same values
+    as float32 (n, 2) max/min pairs for scans, exact since they are maxima/minima of float32
+    heights; terrain gradient bound) is computed on construction."""
 
     heights: np.ndarray
     cell_m: float

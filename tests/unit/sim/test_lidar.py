@@ -238,6 +238,28 @@ def test_scan_on_generated_hilly_world_equals_per_ray() -> None:
         scan_vs_per_ray(sc, LidarConfig(azimuth_steps=120), origin, rot)
 
 
+def test_scan_at_default_fidelity_equals_per_ray() -> None:
+    """The benchmark setting (100 m map, 0.4 m cells, trees on s=4 d=2 ground, 32 x 360 scan,
+    sensor tilted to the ground) against casting every ray on its own."""
+    from navstress.world.generate import generate
+
+    spec = WorldSpec.model_validate({"ground": {"subdivisions": 4, "deformation": 2.0},
+                                     "obstacles": {"obstruction": {"tree": 6}}})
+    w = generate(spec, seed=1)
+    sc = build_scene(w)
+    for x, y, yaw, pitch, roll in [(30.0, 40.0, 0.8, 0.12, -0.07), (70.0, 55.0, -2.5, -0.2, 0.15)]:
+        origin = np.array([x, y, w.terrain.height_at(x, y) + 0.9])
+        scan_vs_per_ray(sc, LidarConfig(), origin, rot_zyx(yaw, pitch, roll))
+
+
+def test_float32_mipmap_is_exact() -> None:
+    """The scan's float32 mipmap holds exactly the float64 one's values (max/min of float32)."""
+    g = np.random.default_rng(4)
+    sc = LidarScene((g.normal(0, 3, (37, 23)) * 1.37).astype(np.float32), 0.4, np.zeros((0, 7)))
+    assert sc.mipf.dtype == np.float32 and sc.mipf.shape == sc.mip.T.shape
+    assert np.array_equal(sc.mipf.astype(np.float64), sc.mip.T)
+
+
 def test_scan_matches_mujoco_multiray_on_generated_world() -> None:
     """A whole (coarse) scan on a hilly world with trees and buildings against mj_multiRay."""
     from navstress.world.generate import generate
