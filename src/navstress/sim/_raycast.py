@@ -413,6 +413,7 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray, m
             counts[(q % nsec) + 1] += 1
     for q in range(nsec):
         counts[q + 1] += counts[q]
+    nbinned = counts[nsec]
     fill = counts[:nsec].copy()
     bins = np.empty(counts[nsec], np.int64)
     for i in range(nb):
@@ -637,74 +638,75 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray, m
         # boxes: candidates from the sectors spanned by the column's headings, nearest first.
         # Headings vary monotonically with elevation (while no ray is vertical); slopes do for
         # moderate tilts: checked, else every sector and channel is a candidate (still exact).
-        ordered = hxy[0] > 1e-9
-        for k in range(1, nch):
-            if slope[k] < slope[k - 1] or hxy[k] <= 1e-9:
-                ordered = False
-        if ordered:
-            th0 = math.atan2(dirs[0, 1], dirs[0, 0])
-            th1 = math.atan2(dirs[nch - 1, 1], dirs[nch - 1, 0])
-            d = (th1 - th0 + math.pi) % TWO_PI - math.pi
-            lo = min(th0, th0 + d) - 1e-9
-            hi = max(th0, th0 + d) + 1e-9
-            q0 = int(math.floor(lo / sec_w))
-            q1 = int(math.floor(hi / sec_w))
-        else:
-            lo = -math.pi
-            hi = 3.0 * math.pi
-            q0 = 0
-            q1 = nsec - 1
-        for q in range(q0, q1 + 1):
-            qq = q % nsec
-            for e in range(counts[qq], counts[qq + 1]):
-                i = bins[e]
-                if dmin[i] > reach:
-                    break
-                if stamp[i] == a:
-                    continue
-                stamp[i] = a
-                # heading overlap of the box's interval with the column's
-                w0 = alo[i] - lo  # the box's heading interval, shifted to start in [lo, lo + 2 pi)
-                if w0 < 0.0:
-                    w0 += TWO_PI
+        if nbinned > 0:  # (no box within range: nothing to do)
+            ordered = hxy[0] > 1e-9
+            for k in range(1, nch):
+                if slope[k] < slope[k - 1] or hxy[k] <= 1e-9:
+                    ordered = False
+            if ordered:
+                th0 = math.atan2(dirs[0, 1], dirs[0, 0])
+                th1 = math.atan2(dirs[nch - 1, 1], dirs[nch - 1, 0])
+                d = (th1 - th0 + math.pi) % TWO_PI - math.pi
+                lo = min(th0, th0 + d) - 1e-9
+                hi = max(th0, th0 + d) + 1e-9
+                q0 = int(math.floor(lo / sec_w))
+                q1 = int(math.floor(hi / sec_w))
+            else:
+                lo = -math.pi
+                hi = 3.0 * math.pi
+                q0 = 0
+                q1 = nsec - 1
+            for q in range(q0, q1 + 1):
+                qq = q % nsec
+                for e in range(counts[qq], counts[qq + 1]):
+                    i = bins[e]
+                    if dmin[i] > reach:
+                        break
+                    if stamp[i] == a:
+                        continue
+                    stamp[i] = a
+                    # heading overlap of the box's interval with the column's
+                    w0 = alo[i] - lo  # the box's heading interval, shifted to start in [lo, lo + 2 pi)
                     if w0 < 0.0:
                         w0 += TWO_PI
-                elif w0 >= TWO_PI:
-                    w0 -= TWO_PI
-                if w0 > hi - lo and w0 + (ahi[i] - alo[i]) < TWO_PI:
-                    continue
-                # channels whose world slope lies in [mlo, mhi] (slopes ascend with k)
-                if ordered:  # binary searches (written out: no array passed to a helper in the loop)
-                    v = mlo[i]
-                    lo_ = 0
-                    hi_ = nch
-                    while lo_ < hi_:
-                        mid = (lo_ + hi_) >> 1
-                        if slope[mid] < v:
-                            lo_ = mid + 1
-                        else:
-                            hi_ = mid
-                    k0 = lo_
-                    v = math.nextafter(mhi[i], INF)
-                    hi_ = nch
-                    while lo_ < hi_:
-                        mid = (lo_ + hi_) >> 1
-                        if slope[mid] < v:
-                            lo_ = mid + 1
-                        else:
-                            hi_ = mid
-                    k1 = lo_ - 1
-                else:
-                    k0 = 0
-                    k1 = nch - 1
-                b0, b1, b3, b4 = boxes[i, 0], boxes[i, 1], boxes[i, 3], boxes[i, 4]
-                b5, b6, b7, b8 = boxes[i, 5], boxes[i, 6], boxes[i, 7], boxes[i, 8]
-                for k in range(k0, k1 + 1):
-                    if dmin[i] > best[k] * hxy[k]:
+                        if w0 < 0.0:
+                            w0 += TWO_PI
+                    elif w0 >= TWO_PI:
+                        w0 -= TWO_PI
+                    if w0 > hi - lo and w0 + (ahi[i] - alo[i]) < TWO_PI:
                         continue
-                    tb = _ray_box(b0, b1, b7, b8, b3, b4, b5, b6, ox, oy, oz, dirs[k, 0], dirs[k, 1], dirs[k, 2])
-                    if tb < best[k]:
-                        best[k] = tb
+                    # channels whose world slope lies in [mlo, mhi] (slopes ascend with k)
+                    if ordered:  # binary searches (written out: no array passed to a helper in the loop)
+                        v = mlo[i]
+                        lo_ = 0
+                        hi_ = nch
+                        while lo_ < hi_:
+                            mid = (lo_ + hi_) >> 1
+                            if slope[mid] < v:
+                                lo_ = mid + 1
+                            else:
+                                hi_ = mid
+                        k0 = lo_
+                        v = math.nextafter(mhi[i], INF)
+                        hi_ = nch
+                        while lo_ < hi_:
+                            mid = (lo_ + hi_) >> 1
+                            if slope[mid] < v:
+                                lo_ = mid + 1
+                            else:
+                                hi_ = mid
+                        k1 = lo_ - 1
+                    else:
+                        k0 = 0
+                        k1 = nch - 1
+                    b0, b1, b3, b4 = boxes[i, 0], boxes[i, 1], boxes[i, 3], boxes[i, 4]
+                    b5, b6, b7, b8 = boxes[i, 5], boxes[i, 6], boxes[i, 7], boxes[i, 8]
+                    for k in range(k0, k1 + 1):
+                        if dmin[i] > best[k] * hxy[k]:
+                            continue
+                        tb = _ray_box(b0, b1, b7, b8, b3, b4, b5, b6, ox, oy, oz, dirs[k, 0], dirs[k, 1], dirs[k, 2])
+                        if tb < best[k]:
+                            best[k] = tb
         for k in range(nch):
             r = best[k]
             out[k, a] = r if (min_range <= r <= max_range) else INF
