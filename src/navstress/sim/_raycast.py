@@ -544,7 +544,78 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray, m
                         cy = min(max(cy, 0), ncy - 1)
                         lev = 0
                         t = tstart
+                        known = False
                         while True:
+                            if lev == 0:  # a cell (most iterations): the general step below, simplified
+                                if dx > 0.0:
+                                    tx = (cx + 1 - oxc) * idx
+                                elif dx < 0.0:
+                                    tx = (cx - oxc) * idx
+                                else:
+                                    tx = INF
+                                if dy > 0.0:
+                                    ty = (cy + 1 - oyc) * idy
+                                elif dy < 0.0:
+                                    ty = (cy - oyc) * idy
+                                else:
+                                    ty = INF
+                                te = min(tx, ty, thi)
+                                zmin = oz + dz * (t if dz >= 0.0 else te)
+                                h00 = float(h[cy, cx])
+                                h10 = float(h[cy, cx + 1])
+                                h01 = float(h[cy + 1, cx])
+                                h11 = float(h[cy + 1, cx + 1])
+                                skip = zmin > max(max(h00, h10), max(h01, h11))
+                                if not skip:
+                                    if min(min(h00, h10), min(h01, h11)) == max(max(h00, h10), max(h01, h11)):
+                                        ts = t if dz >= 0.0 else max(t, (h00 - oz) / dz)  # flat cell
+                                        if ts <= te:
+                                            th = ts
+                                            tc = ts
+                                            break
+                                    tcell = _cell_hit(h00, h10, h01, h11, cx, cy, oxc, oyc, oz, dx, dy, dz, t, te, 1.0)
+                                    if tcell <= te:
+                                        th = tcell
+                                        tc = tcell
+                                        break
+                                if te >= thi:
+                                    break
+                                if tx <= ty:
+                                    cx = cx + 1 if dx > 0.0 else cx - 1
+                                if ty <= tx:
+                                    cy = cy + 1 if dy > 0.0 else cy - 1
+                                if cx < 0 or cx >= ncx or cy < 0 or cy >= ncy:
+                                    break
+                                t = te
+                                if skip and nlev > 1:  # climb at the parent block's near edge...
+                                    if tx <= ty:
+                                        up = (cx & 1) == (0 if dx > 0.0 else 1)
+                                    else:
+                                        up = (cy & 1) == (0 if dy > 0.0 else 1)
+                                    if up:  # ... if the ray passes over it (tested here: no wasted descent)
+                                        pbx = cx >> 1
+                                        pby = cy >> 1
+                                        if dx > 0.0:
+                                            ptx = (min((pbx + 1) << 1, ncx) - oxc) * idx
+                                        elif dx < 0.0:
+                                            ptx = ((pbx << 1) - oxc) * idx
+                                        else:
+                                            ptx = INF
+                                        if dy > 0.0:
+                                            pty = (min((pby + 1) << 1, ncy) - oyc) * idy
+                                        elif dy < 0.0:
+                                            pty = ((pby << 1) - oyc) * idy
+                                        else:
+                                            pty = INF
+                                        pz = oz + dz * (t if dz >= 0.0 else min(ptx, pty, thi))
+                                        mi = moff[1] + pby * mnx[1] + pbx
+                                        ptop = float(mipf[mi, 0])
+                                        if pz > ptop:
+                                            lev = 1
+                                            known = True
+                                        elif float(mipf[mi, 1]) == ptop:
+                                            lev = 1  # a flat parent: solved on the block path below
+                                continue
                             bx = cx >> lev
                             by = cy >> lev
                             if dx > 0.0:
@@ -560,41 +631,21 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray, m
                             else:
                                 ty = INF
                             te = min(tx, ty, thi)
-                            zmin = oz + dz * (t if dz >= 0.0 else te)
-                            if lev == 0:  # a cell: its max/min from the corners (fewer cache lines)
-                                h00 = float(h[cy, cx])
-                                h10 = float(h[cy, cx + 1])
-                                h01 = float(h[cy + 1, cx])
-                                h11 = float(h[cy + 1, cx + 1])
-                                top = max(max(h00, h10), max(h01, h11))
-                                bot = min(min(h00, h10), min(h01, h11))
+                            # a block of level >= 1: pass over it, or solve it as a plane, or descend
+                            mi = moff[lev] + by * mnx[lev] + bx
+                            if known:  # tested when climbing: the ray passes over this block
+                                known = False
                             else:
-                                mi = moff[lev] + by * mnx[lev] + bx
                                 top = float(mipf[mi, 0])
-                                bot = float(mipf[mi, 1])
-                            if zmin > top:
-                                skip = True
-                            elif bot == top:  # flat block: the plane z = top
-                                ts = t if dz >= 0.0 else max(t, (top - oz) / dz)
-                                if ts <= te:
-                                    th = ts
-                                    tc = ts
-                                    break
-                                skip = False
-                                if lev > 0:
+                                if not oz + dz * (t if dz >= 0.0 else te) > top:
+                                    if float(mipf[mi, 1]) == top:  # flat block: the plane z = top
+                                        ts = t if dz >= 0.0 else max(t, (top - oz) / dz)
+                                        if ts <= te:
+                                            th = ts
+                                            tc = ts
+                                            break
                                     lev -= 1
                                     continue
-                            elif lev > 0:
-                                lev -= 1
-                                continue
-                            else:
-                                skip = False
-                            if not skip:
-                                tcell = _cell_hit(h00, h10, h01, h11, cx, cy, oxc, oyc, oz, dx, dy, dz, t, te, 1.0)
-                                if tcell <= te:
-                                    th = tcell
-                                    tc = tcell
-                                    break
                             if te >= thi:
                                 break
                             if tx <= ty:
@@ -614,7 +665,7 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray, m
                             if cx < 0 or cx >= ncx or cy < 0 or cy >= ncy:
                                 break
                             t = te
-                            if skip and lev + 1 < nlev:  # climb at the parent block's near edge
+                            if lev + 1 < nlev:  # climb at the parent block's near edge
                                 if tx <= ty:
                                     if ((cx >> lev) & 1) == (0 if dx > 0.0 else 1):
                                         lev += 1
