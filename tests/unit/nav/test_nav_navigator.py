@@ -165,3 +165,33 @@ def test_believed_footprint_comes_from_reset() -> None:
     assert nav.planner.half_width == pytest.approx(0.45 / 2 + nav.config.footprint_margin_m)
     nav.reset(U_MISSION, RobotSpec(), seed=0)
     assert nav.planner.half_width == pytest.approx(0.67 / 2 + nav.config.footprint_margin_m)
+
+
+def _bowl_step(spin_min_bearing_deg: float, deg: float = 18.0) -> tuple[Command | Status, ReferenceNavigator]:
+    """One planning cycle at the bottom of a conical pit (flat within 0.8 m, ``deg`` walls), goal ahead."""
+    from navstress.nav.reference.pose import Pose
+    nav = ReferenceNavigator(ReferenceConfig(scan_turn_deg=0.0, scan_forward_m=0.0,
+                                             spin_min_bearing_deg=spin_min_bearing_deg))
+    nav.reset(NavMission((0.0, 0.0, 0.0), (30.0, 1.0), 2.0), RobotSpec(), seed=0)
+    xs, ys = np.meshgrid(np.arange(-12, 12, 0.05), np.arange(-12, 12, 0.05))
+    zs = math.tan(math.radians(deg)) * np.maximum(0.0, np.hypot(xs, ys) - 0.8)
+    nav.terrain.integrate(np.column_stack([xs.ravel(), ys.ravel(), zs.ravel()]), (0.0, 0.0, 0.0),
+                          Pose(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+    return nav.step(_obs(0.0)), nav
+
+
+def test_no_turn_on_the_spot_while_the_goal_is_ahead_and_a_forward_arc_is_electable() -> None:
+    # every forward arc climbs the pit's wall (cost ~10 of 12); turning on the spot costs ~0.6 +
+    # 1 m. Allowed at any bearing, the spin wins (and, latched, turns full circles on slopes).
+    out, nav = _bowl_step(60.0)
+    ev = nav.last_evaluation
+    assert ev is not None and isinstance(out, Command)
+    assert not ev.is_spin[nav.last_elected] and out.v > 0.0
+    assert ev.terrain_cost[nav.last_elected] > 9.0  # a costly climb, still electable
+    old, nav0 = _bowl_step(0.0)
+    assert isinstance(old, Command) and nav0.last_evaluation is not None
+    assert nav0.last_evaluation.is_spin[nav0.last_elected] and old.v == 0.0
+    # walls too steep for any forward arc: the spin is still elected (not "no arc elected")
+    steep, nav2 = _bowl_step(60.0, deg=24.0)
+    assert isinstance(steep, Command) and nav2.last_evaluation is not None
+    assert nav2.last_evaluation.is_spin[nav2.last_elected]

@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from navstress.nav.api import Odometry, PoseReading
+from navstress.nav.api import Imu, Odometry, PoseReading
 from navstress.nav.reference.pose import Pose, PoseEstimator, map_to_sensor, rotation_matrix, sensor_to_map, wrap_angle
 
 angles = st.floats(-math.pi, math.pi)
@@ -116,3 +116,20 @@ def test_wrap_angle_range(a: float) -> None:
     w = wrap_angle(a)
     assert -math.pi <= w < math.pi
     assert math.isclose(math.cos(w), math.cos(a), abs_tol=1e-9) and math.isclose(math.sin(w), math.sin(a), abs_tol=1e-9)
+
+
+def test_z_follows_odometry_along_the_pitch_and_is_pulled_to_the_pose_sensor() -> None:
+    # climbing a 10 deg ramp (pitch -10 deg in Z-Y-X: nose up) for 2 m with no pose reading
+    pitch = -math.radians(10.0)
+    est = PoseEstimator((0.0, 0.0, 0.0), 0.5, 0.5)
+    est.update(0.0, Odometry(0.0, 0, 0, 0, 0, 0), Imu(0.0, 0.0, pitch, 0.0, (0, 0, 0)),
+               PoseReading(0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0))
+    assert est.current.z == 1.0  # the first reading sets z
+    for k in range(1, 21):
+        t = 0.1 * k
+        est.update(t, Odometry(t, 0.1 * k, 0, 0, 1.0, 0), Imu(t, 0.0, pitch, 0.0, (0, 0, 0)), None)
+    assert est.current.z == pytest.approx(1.0 + 2.0 * math.sin(math.radians(10.0)), abs=1e-9)
+    # a reading 0.3 m lower pulls z by 1 - exp(-dt / tau) of the gap
+    z0 = est.current.z
+    est.update(2.1, Odometry(2.1, 2.0, 0, 0, 0, 0), None, PoseReading(2.1, 2.0, 0.0, z0 - 0.3, 0.0, 0.0, 0.0))
+    assert est.current.z == pytest.approx(z0 - 0.3 * (1 - math.exp(-2.1 / 0.5)), abs=1e-9)

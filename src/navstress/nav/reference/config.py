@@ -56,6 +56,7 @@ class ReferenceConfig(BaseModel):
     curvature_spacing: Literal["linear", "quadratic"] = Field("linear", description="how forward-arc curvatures are spread over [-max, +max]: evenly, or k = max * u|u| for u evenly spread (denser near straight, so the fan can aim through narrow gaps)")
     turn_in_place: bool = Field(True, description="one of the n_arcs paths is a turn on the spot toward the goal side")
     turn_in_place_angle_deg: float = Field(90.0, gt=0.0, le=180.0, description="rotation covered by the turn-in-place path's nodes")
+    spin_min_bearing_deg: float = Field(60.0, ge=0.0, le=180.0, description="the turn on the spot is electable only when the goal (global navigator: its carrot) lies more than this off the heading, or when no forward arc is electable: it makes no progress, and on slopes it used to beat the costlier forward arcs and turn full circles")
     turn_in_place_penalty_m: float = Field(1.0, ge=0.0, description="extra goal-distance charged to turning on the spot (it makes no progress)")
     # --- costs ---
     max_slope_deg: float = Field(25.0, gt=0.0, lt=90.0, description="footprint plane tilt above which a node is untraversable")
@@ -81,7 +82,7 @@ class ReferenceConfig(BaseModel):
     base_height_m: float | None = Field(None, description="height of the robot frame origin above the ground, used only to seed cells under the robot when nothing around is known; None = the RobotSpec's wheel radius")
     fill_radius_m: float = Field(3.0, gt=0.0, description="known cells within this radius give the ground plane used to fill never-seen cells under the robot")
     # --- POM ---
-    pose_tau_xy_s: float = Field(2.0, gt=0.0, description="time constant pulling the odometry-propagated position toward the pose sensor")
+    pose_tau_xy_s: float = Field(0.5, gt=0.0, description="time constant pulling the odometry-propagated position (x, y, z) toward the pose sensor (2 s lagged 0.3-0.6 m behind the skid-steer slides on slopes)")
     pose_tau_yaw_s: float = Field(2.0, gt=0.0, description="time constant pulling the yaw toward the pose sensor")
     history_s: float = Field(30.0, gt=0.0, description="how long pose history is kept for placing scans by their time")
     # --- initial scan manoeuvre ---

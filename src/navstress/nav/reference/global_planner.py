@@ -217,15 +217,17 @@ class GlobalNavigator(ReferenceNavigator):
         d = np.where(ev.is_spin, here + self.config.turn_in_place_penalty_m, d)
         return self.config.goal_weight * d
 
-    def _spin_direction(self, pose: Pose) -> int:
+    def _target_bearing(self, pose: Pose) -> float:
+        """Signed angle from the heading to the global path ``carrot_m`` ahead (to the goal when
+        there is no path yet)."""
         if self.field is None:
-            return super()._spin_direction(pose)
+            return super()._target_bearing(pose)
         start = self.terrain.cell_of(pose.x, pose.y)
         path = descend(self.field, start, max(1, int(self.gconfig.carrot_m / self.terrain.cell_m)))
         if len(path) < 2:
-            return super()._spin_direction(pose)
+            return super()._target_bearing(pose)
         cx, cy = self.terrain.cell_center(*path[-1])
-        return 1 if wrap_angle(math.atan2(cy - pose.y, cx - pose.x) - pose.yaw) >= 0 else -1
+        return wrap_angle(math.atan2(cy - pose.y, cx - pose.x) - pose.yaw)
 
     def global_path(self, max_len_m: float = 500.0) -> np.ndarray:
         """(K, 2) map-frame points of the current global path from the perceived position."""

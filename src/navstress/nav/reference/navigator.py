@@ -104,11 +104,17 @@ class ReferenceNavigator:
         else:
             self._on_cycle(obs.t, pose)
             # once turning on the spot, keep the direction until a forward arc is elected (no dithering)
-            spin = self._spin_latch if self._spin_latch != 0 else self._spin_direction(pose)
+            bearing = self._target_bearing(pose)
+            spin = self._spin_latch if self._spin_latch != 0 else (1 if bearing >= 0 else -1)
             ev = self.planner.evaluate(self.terrain, pose.x, pose.y, pose.yaw, spin)
             goal = self._goal_terms(ev, pose)
             jit = self._rng.uniform(0.0, self.config.cost_jitter, len(goal)) if self.config.cost_jitter > 0 else None
-            idx = self.planner.elect(ev, goal, jit)
+            idx = -1
+            if abs(bearing) <= math.radians(self.config.spin_min_bearing_deg):
+                # the target is within the forward fan's reach: a turn on the spot makes no progress
+                idx = self.planner.elect(ev, np.where(ev.is_spin, np.inf, goal), jit)
+            if idx < 0:
+                idx = self.planner.elect(ev, goal, jit)
             self.last_evaluation, self.last_elected = ev, idx
             if idx < 0:
                 return self._latch(obs.t, Status("error", NO_ARC))
@@ -143,10 +149,11 @@ class ReferenceNavigator:
         d = np.where(ev.is_spin, math.hypot(pose.x - gx, pose.y - gy) + self.config.turn_in_place_penalty_m, d)
         return self.config.goal_weight * d
 
-    def _spin_direction(self, pose: Pose) -> int:
-        """Turn on the spot toward the goal's side."""
+    def _target_bearing(self, pose: Pose) -> float:
+        """Signed angle from the heading to the goal (radians, CCW positive): the side a turn on
+        the spot turns to, and whether it may be elected at all (``spin_min_bearing_deg``)."""
         gx, gy = self.mission.goal
-        return 1 if wrap_angle(math.atan2(gy - pose.y, gx - pose.x) - pose.yaw) >= 0 else -1
+        return wrap_angle(math.atan2(gy - pose.y, gx - pose.x) - pose.yaw)
 
     # ----------------------------------------------------------------- internals
     def _require_reset(self) -> None:

@@ -4,12 +4,13 @@ Frames: map (the pose sensor's frame, x east, y north, z up), robot (x forward, 
 sensor (axes as the robot's, origin at the lidar mount). Attitude is Z-Y-X Euler
 (``R = Rz(yaw) @ Ry(pitch) @ Rx(roll)``), the convention of the run traces.
 
-The filter is a complementary filter on (x, y, yaw): every odometry increment, expressed in the
-robot frame, is applied to the estimate (so wheel slip and odometry noise accumulate as drift);
-every pose reading pulls the estimate toward it with gain ``1 - exp(-dt / tau)`` (``dt`` the time
-since the previous reading), so noise in the pose sensor is smoothed but still moves the
-estimate. z comes from the pose sensor, roll and pitch from the IMU (the pose sensor's when no
-IMU reading is newer). The perceived trajectory therefore differs from the real one.
+The filter is a complementary filter on (x, y, z, yaw): every odometry increment, expressed in
+the robot frame, is applied to the estimate (x, y at the estimated heading; z along the current
+pitch and roll), so wheel slip and odometry noise accumulate as drift; every pose reading pulls
+the estimate toward it with gain ``1 - exp(-dt / tau)`` (``dt`` the time since the previous
+reading; z with the x/y time constant, the first reading sets z), so noise in the pose sensor is
+smoothed but still moves the estimate. Roll and pitch come from the IMU (the pose sensor's when
+no IMU reading is newer). The perceived trajectory therefore differs from the real one.
 
     >>> est = PoseEstimator(start=(0.0, 0.0, 0.0), tau_xy_s=2.0, tau_yaw_s=2.0)
     >>> from navstress.nav.api import Odometry
@@ -119,6 +120,8 @@ class PoseEstimator:
             c2, s2 = math.cos(h), math.sin(h)
             self.x += c2 * fwd - s2 * left
             self.y += s2 * fwd + c2 * left
+            # height change of the increment along the tilted robot frame (third row of R)
+            self.z += -math.sin(self.pitch) * fwd + math.cos(self.pitch) * math.sin(self.roll) * left
             self.yaw = wrap_angle(self.yaw + dyaw)
         self._last_odom = odom
         if imu is not None and math.isfinite(imu.yaw):
@@ -132,7 +135,8 @@ class PoseEstimator:
             self.x += a_xy * (pose.x - self.x)
             self.y += a_xy * (pose.y - self.y)
             self.yaw = wrap_angle(self.yaw + a_yaw * wrap_angle(pose.yaw - self.yaw))
-            self.z = pose.z
+            # z: odometry along the attitude, pulled toward the sensor like x/y (the first reading sets it)
+            self.z = pose.z if self._last_pose_t is None else self.z + a_xy * (pose.z - self.z)
             self._last_pose_t = pose.t
             self.pitch, self.roll = pose.pitch, pose.roll
         if imu is not None and math.isfinite(imu.pitch) and math.isfinite(imu.roll):
