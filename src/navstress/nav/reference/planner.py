@@ -35,7 +35,7 @@ import numba as nb
 import numpy as np
 
 from navstress.nav.reference.config import ReferenceConfig
-from navstress.nav.reference.terrain_map import TerrainMap, cell_ground, fine_is_obstacle
+from navstress.nav.reference.terrain_map import TerrainMap, cell_ground
 from navstress.robot import RobotSpec
 
 __all__ = ["ArcEvaluation", "ArcPlanner", "arc_nodes", "footprint_cells", "footprint_slope_roughness", "node_cost"]
@@ -125,7 +125,7 @@ def _rect_hits_square(dx: float, dy: float, c: float, s: float, hl: float, hw: f
 
 @nb.njit(cache=True)
 def _evaluate_fan(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: np.ndarray,
-                  fzmax: np.ndarray, fstamp: np.ndarray, cstamp: np.ndarray, sub: int, ox: float, oy: float, cell: float, step: float,
+                  fine: np.ndarray, sub: int, ox: float, oy: float, cell: float, step: float,
                   nodes: np.ndarray, hl: float, hw: float, rx: float, ry: float, ryaw: float,
                   exempt_on: bool, max_slope_tan: float, max_rough: float, w_s: float, w_r: float,
                   unknown_cost: float, clear_m: float, clear_cost: float, out_node: np.ndarray,
@@ -165,12 +165,16 @@ def _evaluate_fan(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: n
     obst = np.zeros((wi, wj), dtype=np.bool_)
     exempt = np.zeros((wi, wj), dtype=np.bool_)
     ground = np.empty((wi, wj))
+    known = np.zeros((wi, wj), dtype=np.bool_)
+    zmean = np.zeros((wi, wj))
     n_obst = 0
     for li in range(wi):
         for lj in range(wj):
             i = i0 + li
             j = j0 + lj
             if count[i, j] > 0:
+                known[li, lj] = True
+                zmean[li, lj] = zsum[i, j] / count[i, j]
                 g = cell_ground(zmin, count, i, j)
                 ground[li, lj] = g
                 if zmax[i, j] - g > step:
@@ -190,12 +194,11 @@ def _evaluate_fan(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: n
             if not obst[li, lj]:
                 continue
             g = ground[li, lj]
-            stamp = cstamp[i0 + li, j0 + lj]
             for u in range(sub):
                 fi = (i0 + li) * sub + u
                 for v in range(sub):
                     fj = (j0 + lj) * sub + v
-                    if fine_is_obstacle(fzmax, fstamp, stamp, fi, fj, g, step):
+                    if fine[i0 + li, j0 + lj, u * sub + v] - g > step:
                         px = ox + (fj + 0.5) * fcell
                         py = oy + (fi + 0.5) * fcell
                         if exempt_on and _rect_hits_square(px - rx, py - ry, cr, sr, hl, hw, rex, rey, h):
@@ -205,6 +208,8 @@ def _evaluate_fan(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: n
                         n_pts += 1
     buf_i = np.empty(_MAX_FP_CELLS, dtype=np.int64)
     buf_j = np.empty(_MAX_FP_CELLS, dtype=np.int64)
+    buf_x = np.empty(_MAX_FP_CELLS, dtype=np.float64)
+    buf_y = np.empty(_MAX_FP_CELLS, dtype=np.float64)
     buf_z = np.empty(_MAX_FP_CELLS, dtype=np.float64)
     if exempt_on:
         n = _footprint_cells(rx, ry, ryaw, hl, hw, ox, oy, cell, nr, nc, buf_i, buf_j)
@@ -213,7 +218,25 @@ def _evaluate_fan(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: n
     r_hit = math.hypot(hl, hw) + h * math.sqrt(2.0)
     r_clear = math.hypot(hl + clear_m, hw + clear_m) + h * math.sqrt(2.0)
     use_clear = clear_m > 0.0 and clear_cost > 0.0
+    r_max = r_clear if use_clear else r_hit
+    sub_pts = np.empty((max(n_pts, 1), 2))
     for a in range(n_arcs):
+        # the fine squares near this arc (its nodes' bounding box + the largest ring radius)
+        axlo = nodes[a, 0, 0]
+        axhi = axlo
+        aylo = nodes[a, 0, 1]
+        ayhi = aylo
+        for k in range(1, n_nodes):
+            axlo = min(axlo, nodes[a, k, 0])
+            axhi = max(axhi, nodes[a, k, 0])
+            aylo = min(aylo, nodes[a, k, 1])
+            ayhi = max(ayhi, nodes[a, k, 1])
+        n_sub = 0
+        for q in range(n_pts):
+            if axlo - r_max < pts[q, 0] < axhi + r_max and aylo - r_max < pts[q, 1] < ayhi + r_max:
+                sub_pts[n_sub, 0] = pts[q, 0]
+                sub_pts[n_sub, 1] = pts[q, 1]
+                n_sub += 1
         total = 0.0
         for k in range(n_nodes):
             x = nodes[a, k, 0]
@@ -226,18 +249,17 @@ def _evaluate_fan(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: n
             if n < 0:
                 cst = math.inf
             else:
-                # coarse layer: unknown cells and the plane fit
+                # coarse layer: unknown cells, then the plane fit over known non-obstacle cells
+                # (moments about the node, one pass; residuals in a second pass)
                 extra = 0.0
                 m = 0
                 sx = 0.0
                 sy = 0.0
                 sz = 0.0
                 for q in range(n):
-                    i = buf_i[q]
-                    j = buf_j[q]
-                    li = i - i0
-                    lj = j - j0
-                    if count[i, j] == 0:
+                    li = buf_i[q] - i0
+                    lj = buf_j[q] - j0
+                    if not known[li, lj]:
                         if exempt[li, lj]:
                             continue
                         if math.isinf(unknown_cost):
@@ -247,12 +269,15 @@ def _evaluate_fan(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: n
                         continue
                     if obst[li, lj]:
                         continue  # its obstacle part is the fine layer's business; its heights are not ground
-                    buf_i[m] = i
-                    buf_j[m] = j
-                    buf_z[m] = zsum[i, j] / count[i, j]
-                    sx += ox + (j + 0.5) * cell
-                    sy += oy + (i + 0.5) * cell
-                    sz += buf_z[m]
+                    dx = ox + (buf_j[q] + 0.5) * cell - x
+                    dy = oy + (buf_i[q] + 0.5) * cell - y
+                    z = zmean[li, lj]
+                    buf_x[m] = dx
+                    buf_y[m] = dy
+                    buf_z[m] = z
+                    sx += dx
+                    sy += dy
+                    sz += z
                     m += 1
                 if not math.isinf(cst):
                     slope_tan = 0.0
@@ -267,8 +292,8 @@ def _evaluate_fan(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: n
                         cxz = 0.0
                         cyz = 0.0
                         for q in range(m):
-                            dx = ox + (buf_j[q] + 0.5) * cell - mx
-                            dy = oy + (buf_i[q] + 0.5) * cell - my
+                            dx = buf_x[q] - mx
+                            dy = buf_y[q] - my
                             dz = buf_z[q] - mz
                             cxx += dx * dx
                             cxy += dx * dy
@@ -282,9 +307,7 @@ def _evaluate_fan(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: n
                             gb = (cxz * cyy - cyz * cxy) / det
                             gc = (cyz * cxx - cxz * cxy) / det
                         for q in range(m):
-                            dx = ox + (buf_j[q] + 0.5) * cell - mx
-                            dy = oy + (buf_i[q] + 0.5) * cell - my
-                            r = abs(buf_z[q] - mz - gb * dx - gc * dy)
+                            r = abs(buf_z[q] - mz - gb * (buf_x[q] - mx) - gc * (buf_y[q] - my))
                             if r > rough:
                                 rough = r
                         slope_tan = math.sqrt(gb * gb + gc * gc)
@@ -292,7 +315,7 @@ def _evaluate_fan(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: n
                         cst = math.inf
                     else:
                         cst = w_s * math.atan(slope_tan) / math.atan(max_slope_tan) + w_r * rough / max_rough + extra
-            if not math.isinf(cst) and n_pts > 0:
+            if not math.isinf(cst) and n_sub > 0:
                 # fine layer: obstacle squares against the footprint and its clearance ring
                 c = math.cos(th)
                 s = math.sin(th)
@@ -301,9 +324,9 @@ def _evaluate_fan(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: n
                 exc = (hl + clear_m) * abs(c) + (hw + clear_m) * abs(s)
                 eyc = (hl + clear_m) * abs(s) + (hw + clear_m) * abs(c)
                 near = False
-                for q in range(n_pts):
-                    dx = pts[q, 0] - x
-                    dy = pts[q, 1] - y
+                for q in range(n_sub):
+                    dx = sub_pts[q, 0] - x
+                    dy = sub_pts[q, 1] - y
                     d2 = dx * dx + dy * dy
                     if d2 < r_hit * r_hit and _rect_hits_square(dx, dy, c, s, hl, hw, ex, ey, h):
                         cst = math.inf
@@ -328,13 +351,44 @@ def _evaluate_fan(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: n
     return n_pts
 
 
+# parameters of one planning cycle, packed in a float64 vector (one cheap argument to dispatch)
+_P_OX, _P_OY, _P_CELL, _P_STEP, _P_SUB, _P_HL, _P_HW, _P_RX, _P_RY, _P_RYAW, _P_EXEMPT, _P_SLOPE, _P_ROUGH, \
+    _P_WS, _P_WR, _P_UNKNOWN, _P_CLEAR_M, _P_CLEAR_COST, _P_LENGTH, _P_SPIN_DIR, _P_SPIN_ANGLE, _P_N = range(22)
+
+
+@nb.njit(cache=True)
+def _plan_cycle(stats: np.ndarray, fine: np.ndarray, curv: np.ndarray, p: np.ndarray, nodes: np.ndarray,
+                out_node: np.ndarray, out_sr: np.ndarray, out_cost: np.ndarray) -> int:
+    """One whole planning cycle in one call: the fan's node poses into ``nodes`` (A, N, 3), then
+    :func:`_evaluate_fan` (``out_sr`` holds slope tangents and roughness, (2, A, N))."""
+    _fan_nodes(p[_P_RX], p[_P_RY], p[_P_RYAW], curv, p[_P_LENGTH], nodes.shape[1], int(p[_P_SPIN_DIR]),
+               p[_P_SPIN_ANGLE], nodes)
+    return _evaluate_fan(stats[:, :, 0], stats[:, :, 1], stats[:, :, 2], stats[:, :, 3], fine, int(p[_P_SUB]),
+                         p[_P_OX], p[_P_OY], p[_P_CELL], p[_P_STEP], nodes, p[_P_HL], p[_P_HW], p[_P_RX],
+                         p[_P_RY], p[_P_RYAW], p[_P_EXEMPT] != 0.0, p[_P_SLOPE], p[_P_ROUGH], p[_P_WS], p[_P_WR],
+                         p[_P_UNKNOWN], p[_P_CLEAR_M], p[_P_CLEAR_COST], out_node, out_sr[0], out_sr[1], out_cost)
+
+
+def _params(terrain: TerrainMap, hl: float, hw: float, x: float, y: float, yaw: float, exempt: bool,
+            max_slope_tan: float, max_rough: float, w_s: float, w_r: float, unknown_cost: float, clear_m: float,
+            clear_cost: float, length: float, spin_dir: int, spin_angle: float) -> np.ndarray:
+    p = np.empty(_P_N)
+    p[_P_OX], p[_P_OY], p[_P_CELL], p[_P_STEP], p[_P_SUB] = (terrain.origin[0], terrain.origin[1], terrain.cell_m,
+                                                            terrain.step_m, terrain.sub)
+    p[_P_HL], p[_P_HW], p[_P_RX], p[_P_RY], p[_P_RYAW], p[_P_EXEMPT] = hl, hw, x, y, yaw, float(exempt)
+    p[_P_SLOPE], p[_P_ROUGH], p[_P_WS], p[_P_WR], p[_P_UNKNOWN] = max_slope_tan, max_rough, w_s, w_r, unknown_cost
+    p[_P_CLEAR_M], p[_P_CLEAR_COST], p[_P_LENGTH], p[_P_SPIN_DIR], p[_P_SPIN_ANGLE] = (clear_m, clear_cost, length,
+                                                                                    spin_dir, spin_angle)
+    return p
+
+
 def _single(terrain: TerrainMap, x: float, y: float, yaw: float, hl: float, hw: float, max_slope_tan: float,
             max_rough: float, w_s: float, w_r: float, unknown_cost: float) -> tuple[float, float, float]:
     """(cost, slope tangent, roughness) of one footprint, no exemption, no clearance."""
     nodes = np.array([[[x, y, yaw]]], dtype=np.float64)
     on, os_, or_ = np.empty((1, 1)), np.empty((1, 1)), np.empty((1, 1))
     oc = np.empty(1)
-    _evaluate_fan(terrain.zmin, terrain.zmax, terrain.zsum, terrain.count, terrain.fzmax, terrain.fstamp, terrain.cstamp, terrain.sub,
+    _evaluate_fan(terrain.zmin, terrain.zmax, terrain.zsum, terrain.count, terrain.fine, terrain.sub,
                   terrain.origin[0], terrain.origin[1], terrain.cell_m, terrain.step_m, nodes, hl, hw,
                   x, y, yaw, False, max_slope_tan, max_rough, w_s, w_r, unknown_cost, 0.0, 0.0, on, os_,
                   or_, oc)
@@ -431,18 +485,14 @@ class ArcPlanner:
         n = cfg.nodes_per_arc
         d = (1 if spin_dir >= 0 else -1) if cfg.turn_in_place else 0
         nodes = np.empty((na, n, 3))
-        _fan_nodes(x, y, yaw, self.curvatures, cfg.arc_length_m, n, d, math.radians(cfg.turn_in_place_angle_deg),
-                   nodes)
         node_cost = np.empty((na, n))
-        slope = np.empty((na, n))
-        rough = np.empty((na, n))
+        sr = np.empty((2, na, n))
         cost = np.empty(na)
-        _evaluate_fan(terrain.zmin, terrain.zmax, terrain.zsum, terrain.count, terrain.fzmax, terrain.fstamp, terrain.cstamp, terrain.sub,
-                      terrain.origin[0], terrain.origin[1], terrain.cell_m, terrain.step_m, nodes,
-                      self.half_length, self.half_width, x, y, yaw, cfg.exempt_current_footprint,
-                      self._max_slope_tan, cfg.max_roughness_m, cfg.slope_weight, cfg.roughness_weight,
-                      float(cfg.unknown_cell_cost), cfg.clearance_margin_m, cfg.clearance_cost, node_cost,
-                      slope, rough, cost)
+        p = _params(terrain, self.half_length, self.half_width, x, y, yaw, cfg.exempt_current_footprint,
+                    self._max_slope_tan, cfg.max_roughness_m, cfg.slope_weight, cfg.roughness_weight,
+                    float(cfg.unknown_cell_cost), cfg.clearance_margin_m, cfg.clearance_cost, cfg.arc_length_m, d,
+                    math.radians(cfg.turn_in_place_angle_deg))
+        _plan_cycle(terrain.stats, terrain.fine, self.curvatures, p, nodes, node_cost, sr, cost)
         return ArcEvaluation(nodes, self._fan_curvatures, d, cost, node_cost)
 
     def elect(self, ev: ArcEvaluation, goal_terms: np.ndarray, jitter: np.ndarray | None = None) -> int:

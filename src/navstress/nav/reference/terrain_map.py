@@ -47,12 +47,17 @@ def step_threshold(obstacle_height_m: float, max_slope_deg: float, cell_m: float
 
 @nb.njit(cache=True)
 def _integrate(points: np.ndarray, rot: np.ndarray, trans: np.ndarray, ox: float, oy: float,
-               cell: float, max_range2: float, zmin: np.ndarray, zmax: np.ndarray,
-               zsum: np.ndarray, count: np.ndarray, fzmax: np.ndarray, fstamp: np.ndarray,
-               cstamp: np.ndarray, sub: int, scan: int) -> int:
-    nr, nc = zmin.shape
+               cell: float, max_range2: float, stats: np.ndarray, fine: np.ndarray, sub: int,
+               scan: int) -> int:
+    """Bin one scan: per coarse cell min/max/sum/count (``stats[i, j]``, one cache line), and the
+    fine max z of this scan per sub-cell (``fine[i, j, :sub*sub]``), reset when the scan is the
+    first to hit the cell since the last one (``fine[i, j, sub*sub]`` keeps that scan's number)."""
+    nr = stats.shape[0]
+    nc = stats.shape[1]
     inv = 1.0 / cell
     finv = sub * inv
+    nsub = sub * sub
+    fscan = np.float32(scan)
     added = 0
     for k in range(points.shape[0]):
         px = np.float64(points[k, 0])
@@ -69,26 +74,21 @@ def _integrate(points: np.ndarray, rot: np.ndarray, trans: np.ndarray, ox: float
             continue
         i = int(fi)
         j = int(fj)
-        if count[i, j] == 0:
-            zmin[i, j] = z
-            zmax[i, j] = z
-            zsum[i, j] = z
-        else:
-            if z < zmin[i, j]:
-                zmin[i, j] = z
-            if z > zmax[i, j]:
-                zmax[i, j] = z
-            zsum[i, j] += z
-        count[i, j] += 1
-        cstamp[i, j] = scan
+        st = stats[i, j]
+        st[0] = min(st[0], z)  # unknown cells hold +inf / -inf: no branch on the count
+        st[1] = max(st[1], z)
+        st[2] += z
+        st[3] += 1.0
+        f = fine[i, j]
+        if f[nsub] != fscan:
+            f[nsub] = fscan
+            for q in range(nsub):
+                f[q] = -np.inf
         # the sub-cell, kept inside coarse cell (i, j) whatever the rounding
-        fi2 = min(max(int((y - oy) * finv), i * sub), i * sub + sub - 1)
-        fj2 = min(max(int((x - ox) * finv), j * sub), j * sub + sub - 1)
-        if fstamp[fi2, fj2] != scan:
-            fstamp[fi2, fj2] = scan
-            fzmax[fi2, fj2] = z
-        elif z > fzmax[fi2, fj2]:
-            fzmax[fi2, fj2] = z
+        u = min(max(int((y - oy) * finv) - i * sub, 0), sub - 1)
+        v = min(max(int((x - ox) * finv) - j * sub, 0), sub - 1)
+        q = u * sub + v
+        f[q] = max(f[q], np.float32(z))
         added += 1
     return added
 
@@ -130,27 +130,19 @@ def cell_ground(zmin: np.ndarray, count: np.ndarray, i: int, j: int) -> float:
 
 
 @nb.njit(cache=True)
-def _fine_obstacle_grid(zmin: np.ndarray, count: np.ndarray, fzmax: np.ndarray, fstamp: np.ndarray,
-                        cstamp: np.ndarray, sub: int, step: float) -> np.ndarray:
+def _fine_obstacle_grid(zmin: np.ndarray, count: np.ndarray, fine: np.ndarray, sub: int,
+                        step: float) -> np.ndarray:
     nr, nc = zmin.shape
-    out = np.zeros(fzmax.shape, dtype=np.bool_)
+    out = np.zeros((nr * sub, nc * sub), dtype=np.bool_)
     for i in range(nr):
         for j in range(nc):
             if count[i, j] == 0:
                 continue
             g = cell_ground(zmin, count, i, j)
-            for fi in range(i * sub, i * sub + sub):
-                for fj in range(j * sub, j * sub + sub):
-                    out[fi, fj] = fine_is_obstacle(fzmax, fstamp, cstamp[i, j], fi, fj, g, step)
+            for u in range(sub):
+                for v in range(sub):
+                    out[i * sub + u, j * sub + v] = fine[i, j, u * sub + v] - g > step
     return out
-
-
-@nb.njit(cache=True, inline="always")
-def fine_is_obstacle(fzmax: np.ndarray, fstamp: np.ndarray, stamp: int, fi: int, fj: int, ground: float,
-                     step: float) -> bool:
-    """Fine cell (fi, fj) is an obstacle: hit by the latest scan that hit its coarse cell (``stamp``)
-    and that scan's max z there rises more than ``step`` above the coarse ``ground``."""
-    return fstamp[fi, fj] == stamp and fzmax[fi, fj] - ground > step
 
 
 @nb.njit(cache=True)
@@ -245,18 +237,38 @@ class TerrainMap:
         self.cell_m = float(cell_m)
         self.step_m = float(step_m)
         self.max_range_m = float(max_range_m)
-        self.zmin = np.zeros(shape, dtype=np.float64)
-        self.zmax = np.zeros(shape, dtype=np.float64)
-        self.zsum = np.zeros(shape, dtype=np.float64)
-        self.count = np.zeros(shape, dtype=np.int32)
+        #: per cell [min z, max z, sum z, hit count] (+inf, -inf, 0, 0 when unknown); zmin, zmax,
+        #: zsum and count are views of it
+        self.stats = np.zeros((*shape, 4), dtype=np.float64)
+        self.stats[:, :, 0] = np.inf
+        self.stats[:, :, 1] = -np.inf
         self.sub = int(obstacle_subcells)
-        fshape = (shape[0] * self.sub, shape[1] * self.sub)
-        #: fine layer: max z per sub-cell from the last scan that hit it (float32) and that scan's number
-        self.fzmax = np.full(fshape, -np.inf, dtype=np.float32)
-        self.fstamp = np.zeros(fshape, dtype=np.int32)
-        #: number of the last scan that hit each coarse cell (0 = never)
-        self.cstamp = np.zeros(shape, dtype=np.int32)
+        #: fine layer, per coarse cell: the max z per sub-cell (row-major, sub x sub) of the latest
+        #: scan that hit the cell (-inf: that scan did not hit the sub-cell), then that scan's
+        #: number (float32: exact up to 2**24 scans, 19 days at 10 Hz)
+        self.fine = np.full((*shape, self.sub * self.sub + 1), -np.inf, dtype=np.float32)
+        self.fine[:, :, -1] = 0.0
         self.scans = 0
+
+    @property
+    def zmin(self) -> np.ndarray:
+        """Lowest z hit per cell (view; +inf where unknown)."""
+        return self.stats[:, :, 0]
+
+    @property
+    def zmax(self) -> np.ndarray:
+        """Highest z hit per cell (view; -inf where unknown)."""
+        return self.stats[:, :, 1]
+
+    @property
+    def zsum(self) -> np.ndarray:
+        """Sum of the z of the hits per cell (view)."""
+        return self.stats[:, :, 2]
+
+    @property
+    def count(self) -> np.ndarray:
+        """Hits per cell (view, float64; 0 = unknown)."""
+        return self.stats[:, :, 3]
 
     @property
     def fine_cell_m(self) -> float:
@@ -276,7 +288,7 @@ class TerrainMap:
 
     @property
     def shape(self) -> tuple[int, int]:
-        return (int(self.zmin.shape[0]), int(self.zmin.shape[1]))
+        return (int(self.stats.shape[0]), int(self.stats.shape[1]))
 
     def cell_of(self, x: float, y: float) -> tuple[int, int]:
         """(row i, col j) of the cell holding (x, y); may be outside the grid."""
@@ -298,8 +310,7 @@ class TerrainMap:
         rot, trans = pose.sensor_transform(mount)
         self.scans += 1
         return int(_integrate(np.ascontiguousarray(pts), rot, trans, self.origin[0], self.origin[1],
-                              self.cell_m, self.max_range_m ** 2, self.zmin, self.zmax, self.zsum, self.count,
-                              self.fzmax, self.fstamp, self.cstamp, self.sub, self.scans))
+                              self.cell_m, self.max_range_m ** 2, self.stats, self.fine, self.sub, self.scans))
 
     def known(self) -> np.ndarray:
         return self.count > 0
@@ -317,8 +328,7 @@ class TerrainMap:
 
     def fine_obstacles(self) -> np.ndarray:
         """Bool grid of the fine layer (``obstacle_subcells`` x the coarse shape): obstacle sub-cells."""
-        return np.asarray(_fine_obstacle_grid(self.zmin, self.count, self.fzmax, self.fstamp, self.cstamp,
-                                              self.sub, self.step_m))
+        return np.asarray(_fine_obstacle_grid(self.zmin, self.count, self.fine, self.sub, self.step_m))
 
     def fill_unknown(self, cells_i: np.ndarray, cells_j: np.ndarray, center_xy: tuple[float, float],
                      radius_m: float, fallback_z: float) -> int:
