@@ -6,7 +6,8 @@ mission; flat with 6 % trees, and s=4 d=2; fixed seeds), for ``--seconds`` of si
 in the same run, the baseline: the simulation alone driven by a scripted controller; and a
 breakdown from timers wrapped around the hot calls (physics+sensors = Simulation.advance minus
 the lidar; lidar = Lidar.scan; map integration = TerrainMap.integrate; planning =
-ArcPlanner.evaluate; the rest of the navigator = step minus those two).
+ArcPlanner.evaluate; the rest of the navigator = step minus those two), with the mean cost per
+call of map integration (per scan) and planning (per 10 Hz cycle).
 
     .venv/bin/python benchmarks/bench_loop.py [--seconds 60]
 """
@@ -30,6 +31,7 @@ from navstress.world.generate import generate
 from navstress.world.spec import parse_spec
 
 TIMES: dict[str, float] = defaultdict(float)
+CALLS: dict[str, int] = defaultdict(int)
 
 
 def timed(cls: type, name: str, key: str) -> Callable[[], None]:
@@ -42,6 +44,7 @@ def timed(cls: type, name: str, key: str) -> Callable[[], None]:
             return orig(*a, **k)
         finally:
             TIMES[key] += time.perf_counter() - t0
+            CALLS[key] += 1
 
     setattr(cls, name, wrapper)
     return lambda: setattr(cls, name, orig)
@@ -67,12 +70,14 @@ def main() -> None:
         "s=4 d=2 (seed 1)": generate(parse_spec({"size_m": [100, 100], "ground": {"subdivisions": 4, "deformation": 2.0}}), 1),
     }
     # warm up the numba caches outside the timing
-    run_mission(worlds["s=4 d=2 (seed 1)"], ReferenceNavigator(), run_seed=0, timeout_s=2.0)
+    # (20 s: past the scan manoeuvre, so the planning kernels are loaded too)
+    run_mission(worlds["s=4 d=2 (seed 1)"], ReferenceNavigator(), run_seed=0, timeout_s=20.0)
     for name, world in worlds.items():
         sim = Simulation(world, seed=3)
         base_wall = scripted(sim, args.seconds)
         base_ratio = sim.t / base_wall
         TIMES.clear()
+        CALLS.clear()
         undo = [timed(Simulation, "advance", "sim"), timed(Lidar, "scan", "lidar"),
                 timed(ReferenceNavigator, "step", "nav"), timed(TerrainMap, "integrate", "map"),
                 timed(ArcPlanner, "evaluate", "plan")]
@@ -91,6 +96,9 @@ def main() -> None:
         parts["loop/other"] = wall - sum(parts.values())
         for k, v in parts.items():
             print(f"    {k:40s} {v:7.3f} s  {100 * v / wall:5.1f} %")
+        print(f"  per call: map integration {1e3 * TIMES['map'] / max(1, CALLS['map']):.3f} ms/scan "
+              f"({CALLS['map']} scans), planning {1e3 * TIMES['plan'] / max(1, CALLS['plan']):.3f} ms/cycle "
+              f"({CALLS['plan']} cycles), navigator step {1e3 * TIMES['nav'] / max(1, CALLS['nav']):.3f} ms")
 
 
 if __name__ == "__main__":
