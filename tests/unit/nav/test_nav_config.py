@@ -45,6 +45,9 @@ def test_yaml_and_json_files_load(tmp_path: Path) -> None:
     ({"base_height_m": 9.0}, "base_height_m", "[0, 5]"),
     ({"arc_lenght_m": 3.0}, "arc_lenght_m", "spelling"),
     ({"control_rate_hz": "fast"}, "control_rate_hz", "number"),
+    ({"obstacle_subcells": 0}, "obstacle_subcells", ">= 1"),
+    ({"spin_min_bearing_deg": 200}, "spin_min_bearing_deg", "<= 180"),
+    ({"curvature_spacing": "cubic"}, "curvature_spacing", "linear"),
 ])
 def test_bad_values_name_field_value_and_range(data: dict[str, object], field: str, words: str) -> None:
     with pytest.raises(SpecError) as ei:

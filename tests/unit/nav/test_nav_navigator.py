@@ -195,3 +195,10 @@ def test_no_turn_on_the_spot_while_the_goal_is_ahead_and_a_forward_arc_is_electa
     steep, nav2 = _bowl_step(60.0, deg=24.0)
     assert isinstance(steep, Command) and nav2.last_evaluation is not None
     assert nav2.last_evaluation.is_spin[nav2.last_elected]
+
+
+def test_obstacle_subcells_sets_the_fine_layer_of_the_map() -> None:
+    nav = ReferenceNavigator(ReferenceConfig(obstacle_subcells=2))
+    nav.reset(NavMission((0.0, 0.0, 0.0), (10.0, 0.0)), RobotSpec(), seed=0)
+    assert nav.terrain.sub == 2 and nav.terrain.fine_cell_m == pytest.approx(0.15)
+    assert nav.terrain.fine_obstacles().shape == (2 * nav.terrain.shape[0], 2 * nav.terrain.shape[1])

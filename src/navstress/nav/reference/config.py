@@ -77,6 +77,7 @@ class ReferenceConfig(BaseModel):
     slowdown_per_cost: float = Field(1.0, ge=0.0, description="speed = max * (1 - min(0.7, slowdown * mean node cost))")
     # --- DTM ---
     cell_m: float = Field(0.3, ge=0.05, le=2.0, description="map cell size")
+    obstacle_subcells: int = Field(3, ge=1, le=10, description="the fine obstacle layer splits each map cell into this many x this many sub-cells (3: 0.1 m); footprints are checked against it")
     map_margin_m: float = Field(30.0, ge=5.0, le=1000.0, description="the map grid covers the start-goal bounding box plus this margin on every side")
     max_range_m: float = Field(40.0, gt=0.0, description="lidar points farther than this from the sensor are not integrated")
     base_height_m: float | None = Field(None, description="height of the robot frame origin above the ground, used only to seed cells under the robot when nothing around is known; None = the RobotSpec's wheel radius")

@@ -63,7 +63,7 @@ class ReferenceNavigator:
         self.pom = PoseEstimator(mission.start, cfg.pose_tau_xy_s, cfg.pose_tau_yaw_s, cfg.history_s)
         step = step_threshold(cfg.obstacle_height_m, cfg.max_slope_deg, cfg.cell_m)
         self.terrain = TerrainMap.covering([mission.start[:2], mission.goal], cfg.map_margin_m, cfg.cell_m,
-                                           step, cfg.max_range_m)
+                                           step, cfg.max_range_m, cfg.obstacle_subcells)
         self._base_height = cfg.base_height_m if cfg.base_height_m is not None else robot.wheel_radius_m
         self.phase = "scan_turn" if cfg.scan_turn_deg > 0 else ("scan_align" if cfg.scan_forward_m > 0 else "navigate")
         self._turned = 0.0
