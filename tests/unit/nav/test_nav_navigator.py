@@ -192,7 +192,7 @@ def test_no_turn_on_the_spot_while_the_goal_is_ahead_and_a_forward_arc_is_electa
     assert isinstance(old, Command) and nav0.last_evaluation is not None
     assert nav0.last_evaluation.is_spin[nav0.last_elected] and old.v == 0.0
     # walls too steep for any forward arc: the spin is still elected (not "no arc elected")
-    steep, nav2 = _bowl_step(60.0, deg=24.0)
+    steep, nav2 = _bowl_step(60.0, deg=35.0)
     assert isinstance(steep, Command) and nav2.last_evaluation is not None
     assert nav2.last_evaluation.is_spin[nav2.last_elected]
 

@@ -64,7 +64,7 @@ class ReferenceConfig(BaseModel):
     slope_weight: float = Field(1.0, ge=0.0, description="cost per node at the max slope")
     roughness_weight: float = Field(1.0, ge=0.0, description="cost per node at the max roughness")
     goal_weight: float = Field(1.0, gt=0.0, description="cost per meter of remaining distance to the goal from an arc's end")
-    election_threshold: float = Field(12.0, gt=0.0, description="an arc whose summed node cost exceeds this is not electable")
+    election_threshold: float = Field(15.0, gt=0.0, description="an arc whose summed node cost exceeds this is not electable (15 = 15 nodes at the max slope; 12, a mean of ~20 deg, refused the way out of pits the robot had driven down into at 19 deg)")
     unknown_cell_cost: float = Field(math.inf, description="cost of a node whose footprint touches a never-seen cell (infinite: the paper's P3D)")
     obstacle_height_m: float = Field(0.3, gt=0.0, description="a cell is an obstacle when it rises this much (plus the max-slope allowance) above its 3x3 neighbourhood's ground")
     exempt_current_footprint: bool = Field(True, description="cells under the robot's current (margined) footprint are not checked at the nodes: an obstacle cell dilated into the margin does not forbid driving away from it")
