@@ -450,7 +450,8 @@ class ArcEvaluation:
 
     @property
     def is_spin(self) -> np.ndarray:
-        return np.isnan(self.curvatures)
+        out: np.ndarray = np.isnan(self.curvatures)
+        return out
 
 
 class ArcPlanner:

@@ -72,13 +72,15 @@ class Pose:
 def sensor_to_map(points: np.ndarray, mount: tuple[float, float, float], pose: Pose) -> np.ndarray:
     """(N, 3) sensor-frame points to the map frame (float64)."""
     rot, trans = pose.sensor_transform(mount)
-    return np.asarray(points, dtype=np.float64) @ rot.T + trans
+    out: np.ndarray = np.asarray(points, dtype=np.float64) @ rot.T + trans
+    return out
 
 
 def map_to_sensor(points: np.ndarray, mount: tuple[float, float, float], pose: Pose) -> np.ndarray:
     """Inverse of :func:`sensor_to_map`."""
     rot, trans = pose.sensor_transform(mount)
-    return (np.asarray(points, dtype=np.float64) - trans) @ rot
+    out: np.ndarray = (np.asarray(points, dtype=np.float64) - trans) @ rot
+    return out
 
 
 class PoseEstimator:

@@ -103,7 +103,7 @@ def cell_is_obstacle(zmin: np.ndarray, zmax: np.ndarray, count: np.ndarray, i: i
         for b in range(max(0, j - 1), min(nc, j + 2)):
             if count[a, b] > 0 and zmin[a, b] < ground:
                 ground = zmin[a, b]
-    return zmax[i, j] - ground > step
+    return bool(zmax[i, j] - ground > step)
 
 
 @nb.njit(cache=True)
