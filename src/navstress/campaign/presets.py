@@ -13,8 +13,9 @@ fault on the 30 obstacle configurations (750 runs, same maps and run seeds) = 2,
 against the paper's 2,345 (the paper does not list its exact increments).
 
 ``demo``: 40 m maps (the mission scaled down: start and goal 5 m from the corners, 42 m
-apart), 3 tree configurations, 2 terrain configurations, 2 maps x 2 runs, nominal plus the
-fault on the tree configurations; sized to finish in about two minutes on 2 cores and
+apart), 4 tree configurations (0-14 %: dense enough for the footprint fault to collide),
+3 terrain configurations, 2 maps x 3 runs, nominal plus the fault on the tree
+configurations (66 runs); sized to finish in about two minutes on 2 cores and
 still feed every analysis (difficulty needs several configurations incl. the flat empty
 one, indeterminism needs 2+ runs per map, fault power needs paired faulty runs).
 """
@@ -62,12 +63,12 @@ def demo() -> dict[str, Any]:
         "seed": 7,
         "world": {"size_m": [40.0, 40.0], "cell_m": 0.4},
         "experiments": [
-            {"name": "trees", "sweep": {"obstacles.obstruction.tree": {"values": [0, 4, 8]}}},
+            {"name": "trees", "sweep": {"obstacles.obstruction.tree": {"values": [0, 6, 10, 14]}}},
             {"name": "smooth-s4", "overrides": {"ground": {"subdivisions": 4}},
-             "sweep": {"ground.deformation": {"values": [0.5, 1.5]}}, "faults": [None]},
+             "sweep": {"ground.deformation": {"values": [0.5, 1.0, 1.5]}}, "faults": [None]},
         ],
         "maps_per_config": 2,
-        "runs_per_map": 2,
+        "runs_per_map": 3,
         "navigators": [{"name": "reference-v1", "config": {}}],
         "faults": [None, "small-footprint"],
         "timeout_s": 120.0,

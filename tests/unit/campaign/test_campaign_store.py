@@ -37,19 +37,19 @@ def _record(store: Store, i: int, **over: object) -> RunRecord:
 def test_create_then_resume_same_spec(tmp_path: Path) -> None:
     d = tmp_path / "c"
     with Store.create(d, SPEC, TEXT) as s:
-        assert s.progress() == (0, 32)
+        assert s.progress() == (0, 66)
         assert s.add(_record(s, 0))
     assert (d / "spec.yaml").read_text() == TEXT  # as given, byte for byte
     with Store.create(d, parse_campaign(yaml.safe_load(TEXT)), "# reformatted\n" + TEXT) as s:
-        assert s.progress() == (1, 32)
-        assert len(s.pending()) == 31 and s.plan().tasks[0].run_id not in {t.run_id for t in s.pending()}
+        assert s.progress() == (1, 66)
+        assert len(s.pending()) == 65 and s.plan().tasks[0].run_id not in {t.run_id for t in s.pending()}
 
 
 def test_refuses_different_spec(tmp_path: Path) -> None:
     with Store.create(tmp_path, SPEC, TEXT):
         pass
     other = demo()
-    other["runs_per_map"] = 3
+    other["runs_per_map"] = SPEC.runs_per_map + 1
     with pytest.raises(StoreError, match="different spec"):
         Store.create(tmp_path, parse_campaign(other), "x")
 
