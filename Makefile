@@ -1,12 +1,12 @@
 # navstress: two commands a new user needs.
 #   make demo   create .venv, install, run the demo on the built-in defaults
-#   make test   create .venv with test extras, run the whole suite
+#   make test   create .venv with test extras, type-check (mypy --strict), run the whole suite
 PY ?= $(shell command -v python3.11 || command -v python3)
 VENV := .venv
 BIN := $(VENV)/bin
 DEMO_OUT ?= demo-out
 
-.PHONY: demo test bench clean
+.PHONY: demo test typecheck bench clean
 
 $(BIN)/python:
 	$(PY) -m venv $(VENV)
@@ -23,8 +23,12 @@ $(VENV)/.installed-test: $(BIN)/python pyproject.toml constraints.txt
 demo: $(VENV)/.installed
 	$(BIN)/navstress demo -o $(DEMO_OUT)
 
+typecheck: $(VENV)/.installed-test
+	$(BIN)/mypy
+
 test: $(VENV)/.installed-test
 	command -v chromium >/dev/null || (apt-get update -qq && apt-get install -y -qq chromium)
+	$(BIN)/mypy
 	$(BIN)/python -m pytest -n 2 -q
 
 bench: $(VENV)/.installed
