@@ -133,3 +133,16 @@ def test_lidar_clouds_in_the_trace_land_on_the_obstacles(tmp_path: Path) -> None
     face = pts[(pts[:, 2] > 0.3) & (pts[:, 1] > 2) & (pts[:, 1] < 8)]
     assert len(ground) > 1000 and len(face) > 20
     assert np.allclose(face[:, 0], 11.0, atol=0.15)
+
+
+@pytest.mark.parametrize("timeout", [3.0, 3.004, 3.005, 3.0149])
+def test_timeouts_off_the_physics_grid_end(timeout: float) -> None:
+    # the clock moves in 10 ms physics steps; a timeout between two steps must still end the run
+    r = run_mission(wall_world(), Idle(), run_seed=2, timeout_s=timeout)
+    assert r.classification.outcome.value == "fail-timeout"
+    assert abs(r.duration_s - timeout) <= 0.01
+
+
+class Idle(Raises):
+    def step(self, obs: Observation) -> Command | Status:
+        return Command(0.0, 0.0)

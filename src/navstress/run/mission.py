@@ -159,12 +159,14 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
                 events.append((sim.t, "error", error))
                 break
             dt = period * (1.0 + CONTROL_JITTER * (2.0 * float(jitter.random()) - 1.0)) if cfg.jitter else period
-            sim.advance(min(dt, max(timeout_s - sim.t, 0.0)) if sim.t + dt > timeout_s else dt)
+            t_before = sim.t
+            sim.advance(min(dt, timeout_s - sim.t))
             if sim.observer.collisions and stop_on_collision:
                 break
             if sim.stopped is not None:
                 break
-            if sim.t >= timeout_s - 1e-9:
+            # the clock moves in whole physics steps: less than half a step left is the end
+            if sim.t >= timeout_s - cfg.timestep_s / 2 or sim.t == t_before:
                 timed_out = True
                 events.append((sim.t, "warning", f"timeout after {timeout_s:g} s"))
                 break
