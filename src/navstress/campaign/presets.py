@@ -15,7 +15,7 @@ against the paper's 2,345 (the paper does not list its exact increments).
 ``demo``: 40 m maps (the mission scaled down: start and goal 5 m from the corners, 42 m
 apart), 4 tree configurations (0-14 %: dense enough for the footprint fault to collide),
 3 terrain configurations, 2 maps x 3 runs, nominal plus the fault on the tree
-configurations (66 runs); sized to finish in about two minutes on 2 cores and
+configurations (66 runs); sized to finish in under a minute on 2 cores and
 still feed every analysis (difficulty needs several configurations incl. the flat empty
 one, indeterminism needs 2+ runs per map, fault power needs paired faulty runs).
 """
@@ -57,7 +57,7 @@ def paper() -> dict[str, Any]:
 
 
 def demo() -> dict[str, Any]:
-    """A small campaign showing every analysis in about two minutes on 2 cores."""
+    """A small campaign showing every analysis in under a minute on 2 cores."""
     return {
         "name": "demo",
         "seed": 7,
