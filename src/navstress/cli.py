@@ -284,9 +284,9 @@ def _fmt(v: Any) -> str:
 
 
 def _console() -> Any:
-    from rich.console import Console
+    from navstress._console import console
 
-    return Console(width=110, soft_wrap=False)
+    return console()
 
 
 # ---- world commands -----------------------------------------------------------------------

@@ -42,7 +42,7 @@ def analyze_cmd(
     dt: Dt = 1.0,
 ) -> None:
     """Print the campaign's difficulty levels, indeterminism and fault power."""
-    from rich.console import Console
+    from navstress._console import console
     from rich.table import Table
 
     from navstress.analysis.analyze import analyze
@@ -51,7 +51,7 @@ def analyze_cmd(
     if not dt > 0:
         raise SpecError("--dt", dt, "a time step in seconds > 0")
     a = analyze(directory, params=_params(threshold, k, weights), navigator=navigator, dt=dt)
-    con = Console(highlight=False)
+    con = console()
     con.print(f"campaign {a.name}: {a.done}/{a.planned} runs recorded; "
               + ", ".join(f"{n} {o}" for o, n in a.outcome_counts.items()))
     if not a.done:

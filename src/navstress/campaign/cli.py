@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.console import Console
+from navstress._console import console
 from rich.table import Table
 
 from navstress.campaign.presets import PRESETS, preset_yaml
@@ -90,7 +90,7 @@ def status(directory: Annotated[Path, typer.Argument(help="Campaign directory.")
             table.add_row(name, f"{d}/{p}", *(str(counts[o]) for o in OUTCOMES))
         total = store.outcome_counts()
         table.add_row("all", f"{done}/{planned}", *(str(total[o]) for o in OUTCOMES))
-        Console().print(table)
+        console().print(table)
         mean = store.mean_wall_s()
         if mean is not None and done < planned:
             typer.echo(f"remaining: {planned - done} runs, about {(planned - done) * mean / 3600:.1f} h of "

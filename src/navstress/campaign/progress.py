@@ -12,6 +12,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TaskID, TextColumn, TimeElapsedColumn, \
     TimeRemainingColumn
 
+from navstress._console import console as make_console
 from navstress.campaign.store import OUTCOMES
 from navstress.run.record import RunRecord
 
@@ -32,11 +33,7 @@ class CampaignProgress:
     """Use as ``on_start`` / ``on_record`` callbacks of :func:`run_campaign` inside a ``with``."""
 
     def __init__(self, console: Console | None = None, enabled: bool = True) -> None:
-        if console is None:
-            console = Console(stderr=True)
-            if not console.is_terminal:  # a log file or pipe: no 80-column default truncating the counts
-                console = Console(stderr=True, width=140)
-        self.console = console
+        self.console = console if console is not None else make_console(stderr=True)
         self.counts = {o: 0 for o in OUTCOMES}
         self._progress = Progress(TextColumn("[bold]campaign"), BarColumn(bar_width=24), MofNCompleteColumn(),
                                   TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
