@@ -94,6 +94,9 @@ class Analysis:
     world_dirs: dict[tuple[str, str], list[tuple[int, Path]]]
     dt: float
     notes: list[str] = field(default_factory=list)
+    #: per configuration, (maps whose mission is infeasible a priori, maps generated so far): the
+    #: world generator's shortest-path check for the nominal robot (``descriptors.feasible``)
+    infeasible: dict[tuple[str, str], tuple[int, int]] = field(default_factory=dict)
 
     @property
     def missing(self) -> list[tuple[str, str, int, int]]:
@@ -117,7 +120,8 @@ class Analysis:
             "difficulty": {"threshold": self.difficulty.params.threshold, "k": self.difficulty.params.k,
                            "weights": list(self.difficulty.params.weights), "notes": list(self.difficulty.notes),
                            "reference": ["/".join(r) for r in self.difficulty.reference]},
-            "configurations": [dict(s.to_json(), level=self.level(s.experiment, s.config_key))
+            "configurations": [dict(s.to_json(), level=self.level(s.experiment, s.config_key),
+                                    infeasible_maps=list(self.infeasible.get(s.key, (0, 0))))
                                for s in self.stats],
             "level_ranges": [{"experiment": r.experiment, "parameter": r.parameter, "level": r.level,
                               "values": list(r.values), "lo": r.lo, "hi": r.hi} for r in self.ranges],
@@ -135,6 +139,21 @@ class Analysis:
             "descriptor_correlations": [c.to_json() for c in self.correlations],
             "missing": [{"experiment": e, "config": k, "recorded": d, "planned": p} for e, k, d, p in self.missing],
         }
+
+
+def infeasible_maps(world_dirs: list[Path]) -> tuple[int, int]:
+    """(maps flagged infeasible before simulation, maps present) among ``world_dirs``."""
+    import json
+
+    bad = seen = 0
+    for d in world_dirs:
+        try:
+            desc = json.loads((d / "world.json").read_text(encoding="utf-8")).get("descriptors", {})
+        except (OSError, ValueError):
+            continue  # not generated yet (a partial campaign)
+        seen += 1
+        bad += desc.get("feasible") is False
+    return bad, seen
 
 
 def trace_path(root: Path, rec: RunRecord) -> Path | None:
@@ -194,10 +213,11 @@ def analyze(directory: str | Path, *, params: DifficultyParams | None = None, na
         ds = [d for d in (world_descriptors(p) for _, p in dirs) if d is not None]
         if ds:
             desc[key] = mean_descriptors(ds)
+    infeasible = {key: infeasible_maps([p for _, p in dirs]) for key, dirs in world_dirs.items()}
     rank = {k: LEVEL_RANK[v] for k, v in levels.items() if v in LEVEL_RANK}
     succ = {s.key: s.success_rate for s in nominal if s.success_rate is not None}
     corr = correlations(desc, rank, {k: float(v) for k, v in succ.items() if v is not None})
     return Analysis(root=root, name=spec.name, navigator=nav, done=done, planned=planned, outcome_counts=counts,
                     per_experiment=per_exp, records=records, stats=stats, nominal=nominal, difficulty=diff,
                     ranges=ranges, overlaps=overlaps, indeterminism=indet, power=power, power_levels=power_levels,
-                    correlations=corr, world_dirs=world_dirs, dt=dt)
+                    correlations=corr, world_dirs=world_dirs, dt=dt, infeasible=infeasible)

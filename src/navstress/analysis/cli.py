@@ -57,7 +57,8 @@ def analyze_cmd(
     if not a.done:
         con.print("no run recorded yet: nothing to analyse")
     t = Table(title=f"Difficulty (nominal runs of {a.navigator})")
-    for c in ("class", "parameters", "runs", "success % [95% CI]", "med. duration s", "med. tortuousness", "level"):
+    for c in ("class", "parameters", "runs", "success % [95% CI]", "med. duration s", "med. tortuousness",
+              "infeasible maps", "level"):
         t.add_column(c)
     for s in a.nominal:
         r = s.success_rate
@@ -65,7 +66,7 @@ def analyze_cmd(
                   "-" if r is None else f"{100 * r:.0f} [{100 * s.ci_low:.0f}, {100 * s.ci_high:.0f}]",
                   "-" if s.median_duration_s is None else f"{s.median_duration_s:.1f}",
                   "-" if s.median_tortuousness is None else f"{s.median_tortuousness:.4f}",
-                  a.level(s.experiment, s.config_key))
+                  "{}/{}".format(*a.infeasible.get(s.key, (0, 0))), a.level(s.experiment, s.config_key))
     con.print(t)
     for o in a.overlaps:
         con.print(f"fuzzy threshold in {o.experiment}: {o.a} and {o.b} overlap over {o.lo:g}..{o.hi:g}")

@@ -135,7 +135,9 @@ def _difficulty(a: Analysis) -> str:
            f'median duration and median tortuousness of successful runs, weighted {", ".join(f"{w:g}" for w in p.weights)}. '
            'The cluster holding the flat, obstacle-free configuration is <i>easy</i>, the other <i>challenging</i>. '
            'Success intervals: 95 % Wilson score. Tortuousness: mean absolute heading change between positions '
-           'resampled every 0.5 m of travelled distance (moves under 0.1 m dropped), in radians per step.</p>']
+           'resampled every 0.5 m of travelled distance (moves under 0.1 m dropped), in radians per step. '
+           '<i>Maps infeasible a priori</i>: maps on which the world generator found no traversable path for '
+           'the nominal robot (slope limit 25 deg, obstacles inflated by its half-width) before any run.</p>']
     for n in a.difficulty.notes:
         out.append(f'<p class="note">Note: {_e(n)}</p>')
     rows = []
@@ -153,6 +155,8 @@ def _difficulty(a: Analysis) -> str:
             + _cell("median-duration", s.median_duration_s, _fmt(s.median_duration_s, 1))
             + _cell("median-tortuousness", s.median_tortuousness, _fmt(s.median_tortuousness, 4))
             + _cell("mean-goal-distance", s.mean_goal_distance_m, _fmt(s.mean_goal_distance_m, 2))
+            + _cell("infeasible-maps", a.infeasible.get(s.key, (0, 0))[0],
+                    "{}/{}".format(*a.infeasible.get(s.key, (0, 0))))
             + "".join(_cell(f"n-{o}", n) for o, n in s.outcomes.items())
             + f'<td class="l" data-field="level" data-value="{_e(lev)}">{_level_badge(lev)}</td>'
             + f'<td class="l"><a href="#{_slug(s.experiment, s.config_key)}">maps</a></td></tr>')
@@ -160,7 +164,8 @@ def _difficulty(a: Analysis) -> str:
     out.append('<table id="difficulty-table"><tr><th class="l">class</th><th class="l">parameters</th>'
                '<th class="l">navigator</th><th class="l">fault</th><th>runs</th><th>successes</th>'
                '<th>success %</th><th>CI low %</th><th>CI high %</th><th>median duration [s]</th>'
-               f'<th>median tortuousness</th><th>mean end distance [m]</th>{heads}<th class="l">level</th><th></th></tr>'
+               f'<th>median tortuousness</th><th>mean end distance [m]</th><th>maps infeasible a priori</th>'
+               f'{heads}<th class="l">level</th><th></th></tr>'
                + "".join(rows) + "</table>")
     # level ranges and overlaps
     rr = "".join(f'<tr data-experiment="{_e(r.experiment)}" data-level="{_e(r.level)}"><td class="l">{_e(r.experiment)}'

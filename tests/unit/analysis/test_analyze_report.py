@@ -136,3 +136,27 @@ def test_empty_campaign_report_says_so(tmp_path: Path) -> None:
 def test_not_a_campaign_is_a_clear_error(tmp_path: Path) -> None:
     with pytest.raises(StoreError, match="not a campaign directory"):
         analyze(tmp_path)
+
+
+def test_infeasible_maps_counts_the_generators_verdict(tmp_path: Path) -> None:
+    from dataclasses import replace
+
+    from navstress.analysis.analyze import infeasible_maps
+    from navstress.world.spec import WorldSpec
+    from navstress.world.world import World
+
+    w = World.flat(WorldSpec(size_m=(20.0, 20.0), cell_m=0.5))
+    replace(w, descriptors={"feasible": True, "path_length_m": 21.0}).save(tmp_path / "ok")
+    replace(w, descriptors={"feasible": False, "path_length_m": None}).save(tmp_path / "walled")
+    replace(w, descriptors={}).save(tmp_path / "unknown")  # no verdict recorded: not counted as infeasible
+    dirs = [tmp_path / n for n in ("ok", "walled", "unknown", "not-generated-yet")]
+    assert infeasible_maps(dirs) == (1, 3)
+    assert infeasible_maps([]) == (0, 0)
+
+
+def test_report_shows_infeasible_maps_per_configuration(campaign: Path, tmp_path: Path) -> None:
+    from navstress.analysis.report import build_report
+
+    html = build_report(campaign, tmp_path / "r.html").read_text()
+    assert "maps infeasible a priori" in html
+    assert html.count('data-field="infeasible-maps"') >= 1
