@@ -60,8 +60,8 @@ def example_package() -> Path:
     return EXAMPLE
 
 
-def _children_of(pid: int) -> list[int]:
-    """Process ids whose parent is ``pid`` (from /proc)."""
+def _procs() -> list[tuple[int, list[str]]]:
+    """(pid, stat fields after the command name) of every process, from /proc."""
     out = []
     for entry in os.listdir("/proc"):
         if not entry.isdigit():
@@ -70,26 +70,18 @@ def _children_of(pid: int) -> list[int]:
             stat = Path(f"/proc/{entry}/stat").read_text()
         except OSError:
             continue
-        fields = stat[stat.rfind(")") + 2:].split()
-        if int(fields[1]) == pid:
-            out.append(int(entry))
+        out.append((int(entry), stat[stat.rfind(")") + 2:].split()))
     return out
+
+
+def _children_of(pid: int) -> list[int]:
+    """Process ids whose parent is ``pid``."""
+    return [p for p, f in _procs() if int(f[1]) == pid]
 
 
 def _group_members(pgid: int) -> list[int]:
     """Live (non-zombie) processes of process group ``pgid``."""
-    out = []
-    for entry in os.listdir("/proc"):
-        if not entry.isdigit():
-            continue
-        try:
-            stat = Path(f"/proc/{entry}/stat").read_text()
-        except OSError:
-            continue
-        fields = stat[stat.rfind(")") + 2:].split()
-        if int(fields[2]) == pgid and fields[0] != "Z":
-            out.append(int(entry))
-    return out
+    return [p for p, f in _procs() if int(f[2]) == pgid and f[0] != "Z"]
 
 
 @pytest.fixture
