@@ -1,13 +1,15 @@
 """The compiled inner loop of :class:`~navstress.sim.simulation.Simulation`.
 
 One numba call (:func:`run_steps`) runs physics steps until something needs Python: a lidar scan,
-a collision or stop event, instability, full sample buffers, or the requested step. Each step is
-the drive firmware, the obstacle pool refill (every ``pool_every`` steps), the stages of MuJoCo's
+a collision or stop event, instability, full sample buffers or used-up pre-drawn random numbers,
+or the requested step. Each step is the pending velocity command (when its step has come), the
+drive firmware, the obstacle pool refill (every ``pool_every`` steps), the stages of MuJoCo's
 ``mj_fwdPosition`` up to ``mj_collision``, the skid-steer contact rewrite
 (:func:`_align_wheel_contacts`; optionally analytic wheel contacts first), the remaining stages
 (``mj_makeConstraint``, ``mj_transmission``, ``mj_projectConstraint``), ``mj_fwdVelocity``,
-``mj_step2``, then the event checks; odometry, IMU, pose and observer samples are recorded raw
-(Python turns them into readings, with noise, in order, see ``Simulation._flush``).
+``mj_step2``, then the event checks; odometry, IMU, pose and observer readings are recorded in
+buffers, IMU and pose noise from standard normals that Python pre-draws from the sensors'
+generators in batches (Python turns the last rows into readings, see ``Simulation._flush``).
 
 MuJoCo's C functions are called by symbol from the loaded ``libmujoco`` (numba intrinsics, so the
 code caches), with the ``mjModel*``/``mjData*`` addresses of the Python objects. ``mjData.ncon``
@@ -49,16 +51,24 @@ DONE, LIDAR, CONTACT, LEFT_MAP, FLIPPED, UNSTABLE, FLUSH = 0, 1, 2, 4, 8, 16, 32
 ODOM, IMU, POSE, SCAN, OBSERVER = 0, 1, 2, 3, 4
 NSENSORS = 5
 # int state I[...]
-# I_TOUCHING: size of the touching set; I_STARTS/I_NEVENT: contact starts / events not yet flushed
-I_K, I_TOUCHING, I_NCONTACT, I_WARN0, I_JITTER, I_STARTS, I_NEVENT = 0, 1, 2, 3, 4, 5, 6
-NI = 8
+# I_TOUCHING: size of the touching set; I_STARTS/I_NEVENT: contact starts / events not yet flushed;
+# I_CMDK: step at which the pending command (F_CMDV, F_CMDW) takes effect (NO_CMD: none);
+# I_NOISE: sensor noise on; I_NIMU/I_NPOSE: next unused value of the noise rows IMU_NOISE/POSE_NOISE
+I_K, I_TOUCHING, I_NCONTACT, I_WARN0, I_JITTER, I_STARTS, I_NEVENT, I_CMDK, I_NOISE, I_NIMU, I_NPOSE = range(11)
+NI = 11
+NO_CMD = np.iinfo(np.int64).max
+# rows of the pre-drawn standard-normal noise array (7 values per IMU sample, 6 per pose sample)
+IMU_NOISE, POSE_NOISE = 0, 1
+NOISE_BATCH = 42 * 16  # a multiple of 7 and 6: a row is used up exactly
 # float state F[...] (drive firmware state and the constants of a run)
 (F_TV, F_TW, F_V, F_W, F_YAWI, F_REF, F_DT, F_DV, F_DW, F_SKID, F_KP, F_KI, F_HALFTRACK, F_RADIUS, F_HOLD,
  F_MU, F_FLOOR, F_EPS, F_MAXSPEED, F_SX, F_SY, F_MARGIN, F_COSFLIP, F_RATEJIT, F_UPZ, F_DEBOUNCE) = (
     0, 1, 2, 3, 4, 5, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28)
 # wheel odometry state: x, y, yaw, previous angles (4), previous t, v, omega, wheel radius, track
 F_OX, F_OY, F_OYAW, F_OA, F_OT, F_OV, F_OW, F_OR, F_OTRACK = 29, 30, 31, 32, 36, 37, 38, 39, 40
-NF = 41
+# pending command (clamped); IMU yaw bias and last sample time; IMU and pose noise parameters
+F_CMDV, F_CMDW, F_IBIAS, F_IT, F_IATT, F_IRATE, F_IDRIFT, F_PPOS, F_PATT = range(41, 50)
+NF = 50
 
 
 def _void_mj(name: str) -> Any:
@@ -537,18 +547,34 @@ def _euler(qpos: np.ndarray) -> tuple[float, float, float]:  # pragma: no cover 
 
 
 @numba.njit(cache=True)
+def _wrap(a: float) -> float:  # pragma: no cover - compiled
+    """:func:`navstress.sim.sensors.wrap` (same arithmetic: Python's float modulo)."""
+    return (a + math.pi) % (2 * math.pi) - math.pi
+
+
+@numba.njit(cache=True)
 def _fire(k: int, I: np.ndarray, F: np.ndarray, qpos: np.ndarray, qvel: np.ndarray, wqpos: np.ndarray,
           next_k: np.ndarray, period: np.ndarray, jit: np.ndarray, jit_idx: np.ndarray, samples: np.ndarray,
-          nsamp: np.ndarray) -> int:  # pragma: no cover - compiled
-    """Record the samples of the sensors due at step ``k``; LIDAR when the lidar is due (its
-    schedule already advanced), FLUSH when a buffer is full (nothing recorded for that sensor)."""
+          nsamp: np.ndarray, noise: np.ndarray) -> int:  # pragma: no cover - compiled
+    """Record the readings of the sensors due at step ``k``; LIDAR when the lidar is due (its
+    schedule already advanced), FLUSH when a buffer is full or a noise/jitter row used up
+    (nothing recorded for that sensor).
+
+    Rows: odometry (t, x, y, yaw, v, omega); IMU (t, roll, pitch, yaw, wx, wy, wz) and pose
+    (t, x, y, z, yaw, pitch, roll) with their noise, as ``ImuSensor.read``/``PoseSensor.read``
+    compute it from the same standard normals (``noise``, pre-drawn in order); observer
+    (t, x, y, z, yaw, pitch, roll), true."""
     status = DONE
     t = k * F[F_DT]
+    noisy = I[I_NOISE] != 0
+    nb = noise.shape[1]
     for s in range(NSENSORS):
         if next_k[s] > k:
             continue
         jittered = I[I_JITTER] != 0 and F[F_RATEJIT] > 0 and s != OBSERVER
         if (s != SCAN and nsamp[s] >= samples.shape[1]) or (jittered and jit_idx[s] >= jit.shape[1]):
+            return status | FLUSH
+        if noisy and ((s == IMU and I[I_NIMU] + 7 > nb) or (s == POSE and I[I_NPOSE] + 6 > nb)):
             return status | FLUSH
         if s == SCAN:
             status |= LIDAR
@@ -560,11 +586,29 @@ def _fire(k: int, I: np.ndarray, F: np.ndarray, qpos: np.ndarray, qvel: np.ndarr
                 row[1], row[2], row[3], row[4], row[5] = F[F_OX], F[F_OY], F[F_OYAW], F[F_OV], F[F_OW]
             else:
                 yaw, pitch, roll = _euler(qpos)
-                row[1], row[2], row[3] = yaw, pitch, roll
                 if s == IMU:
-                    row[4], row[5], row[6] = qvel[3], qvel[4], qvel[5]
-                else:
-                    row[4], row[5], row[6] = qpos[0], qpos[1], qpos[2]
+                    wx, wy, wz = qvel[3], qvel[4], qvel[5]
+                    if noisy:  # ImuSensor.read: bias random walk, white noise
+                        j = I[I_NIMU]
+                        e = noise[IMU_NOISE]
+                        F[F_IBIAS] += F[F_IDRIFT] * math.sqrt(max(t - F[F_IT], 0.0)) * e[j]
+                        a, rs = F[F_IATT], F[F_IRATE]
+                        row[1], row[2] = roll + a * e[j + 1], pitch + a * e[j + 2]
+                        row[3] = _wrap(yaw + F[F_IBIAS] + a * e[j + 3])
+                        row[4], row[5], row[6] = wx + rs * e[j + 4], wy + rs * e[j + 5], wz + rs * e[j + 6]
+                        I[I_NIMU] = j + 7
+                    else:
+                        row[1], row[2], row[3], row[4], row[5], row[6] = roll, pitch, yaw, wx, wy, wz
+                    F[F_IT] = t
+                elif s == POSE and noisy:  # PoseSensor.read: independent Gaussian noise
+                    j = I[I_NPOSE]
+                    e = noise[POSE_NOISE]
+                    p, a = F[F_PPOS], F[F_PATT]
+                    row[1], row[2], row[3] = qpos[0] + p * e[j], qpos[1] + p * e[j + 1], qpos[2] + p * e[j + 2]
+                    row[4], row[5], row[6] = _wrap(yaw + a * e[j + 3]), pitch + a * e[j + 4], roll + a * e[j + 5]
+                    I[I_NPOSE] = j + 6
+                else:  # pose without noise, observer
+                    row[1], row[2], row[3], row[4], row[5], row[6] = qpos[0], qpos[1], qpos[2], yaw, pitch, roll
             nsamp[s] += 1
         p = period[s]
         if jittered:
@@ -613,12 +657,13 @@ def run_steps(maddr: int, daddr: int, ncon_addr: int, con_field: int, k_stop: in
               slot_bvh: np.ndarray, mocap_pos: np.ndarray, mocap_quat: np.ndarray, geom_size: np.ndarray,
               geom_rbound: np.ndarray, geom_aabb: np.ndarray, bvh_aabb: np.ndarray, geom_contype: np.ndarray,
               contype: int, park_z: float, next_k: np.ndarray, period: np.ndarray, jit: np.ndarray,
-              jit_idx: np.ndarray, samples: np.ndarray, nsamp: np.ndarray, wgeom: np.ndarray, terrain: int,
-              hf: np.ndarray, grid: np.ndarray, tmpl: np.ndarray, cbuf: np.ndarray) -> int:  # pragma: no cover
+              jit_idx: np.ndarray, samples: np.ndarray, nsamp: np.ndarray, noise: np.ndarray, wgeom: np.ndarray,
+              terrain: int, hf: np.ndarray, grid: np.ndarray, tmpl: np.ndarray,
+              cbuf: np.ndarray) -> int:  # pragma: no cover
     """Fire the sensors due at the current step, then step until ``k_stop`` (or an event).
 
     ``bodies`` = (chassis, bumper geom, wheel bodies x4). Returns the status bits; the step count
-    is ``I[I_K]``. Bumper contacts go through :func:`contact_events` (collision events in
+    is ``I[I_K]``. The pending command (``I[I_CMDK]``) is applied at the start of its step. Bumper contacts go through :func:`contact_events` (collision events in
     ``events[:I[I_NEVENT]]``, contact starts counted in ``I[I_STARTS]``); FLUSH also when the event
     buffer is full. The up-vector z is in ``F[F_UPZ]``.
     """
@@ -626,10 +671,13 @@ def run_steps(maddr: int, daddr: int, ncon_addr: int, con_field: int, k_stop: in
     wbody = bodies[2:6]
     while True:
         k = I[I_K]
-        st = _fire(k, I, F, qpos, qvel, wqpos, next_k, period, jit, jit_idx, samples, nsamp)
+        st = _fire(k, I, F, qpos, qvel, wqpos, next_k, period, jit, jit_idx, samples, nsamp, noise)
         if st != DONE or k >= k_stop:
             return st
         # ---- one physics step
+        if k >= I[I_CMDK]:  # the pending command takes effect at the start of its step
+            F[F_TV], F[F_TW] = F[F_CMDV], F[F_CMDW]
+            I[I_CMDK] = NO_CMD
         _drive(F, qpos, qvel, ctrl, wqpos)
         if pool_every > 0 and k % pool_every == 0:
             fill_obstacle_slots(qpos[0], qpos[1], pc, ph, pq, preach, pdist, slot_obstacle, slot_geom, slot_mocap,

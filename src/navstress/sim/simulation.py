@@ -28,7 +28,6 @@ from navstress.sim.lidar import Lidar, build_scene
 from navstress.sim import _step as K
 from navstress.sim.model import OBSTACLE_BIT, PARK_Z_M, ObstaclePool, RobotModel, build_model
 from navstress.sim.observer import CollisionEvent, Observer, StopEvent
-from navstress.sim.sensors import ImuSensor, PoseSensor
 from navstress.world.world import World
 
 _SENSORS = ("odom", "imu", "pose", "lidar", "observer")  # the order of the _step sensor rows
@@ -85,11 +84,10 @@ class Simulation:
         self._timing = [rng(seed, "sim", "timing", n) for n in _SENSORS]
         self._latency_gen = rng(seed, "sim", "latency")
         self._queue: list[tuple[int, Command]] = []
-        # sensors
-        self.pose_sensor = PoseSensor(rng(seed, "sim", "noise", "pose"), cfg.pose_pos_std_m,
-                                      cfg.pose_att_std_rad, cfg.noise)
-        self.imu_sensor = ImuSensor(rng(seed, "sim", "noise", "imu"), cfg.imu_att_std_rad, cfg.imu_rate_std_rps,
-                                    cfg.imu_yaw_drift_rps, cfg.noise, 0.0)
+        # sensors: IMU and pose noise (ImuSensor/PoseSensor arithmetic, compiled in _step._fire) come
+        # from standard normals pre-drawn in batches from each sensor's generator, consumed in order
+        self._noise_gen = (rng(seed, "sim", "noise", "imu"), rng(seed, "sim", "noise", "pose"))
+        self._noise = np.zeros((2, K.NOISE_BATCH))
         self._lidar: Lidar | None = None
         self._lidar_gen = rng(seed, "sim", "noise", "lidar")
         rates = [cfg.odom_rate_hz, cfg.imu_rate_hz, cfg.pose_rate_hz, 0.0, cfg.observer_rate_hz]
@@ -113,6 +111,9 @@ class Simulation:
         r = robot
         self._I = np.zeros(K.NI, np.int64)
         self._I[K.I_JITTER] = int(cfg.jitter)
+        self._I[K.I_CMDK] = K.NO_CMD
+        self._I[K.I_NOISE] = int(cfg.noise)
+        self._I[K.I_NIMU] = self._I[K.I_NPOSE] = K.NOISE_BATCH  # drawn on first use
         F = self._F = np.zeros(K.NF)
         F[K.F_REF:K.F_REF + 4] = d.qpos[rm.wheel_qpos]
         F[K.F_DT], F[K.F_DV], F[K.F_DW] = self._dt, r.max_accel_mps2 * self._dt, r.max_yaw_accel_rps2 * self._dt
@@ -125,6 +126,8 @@ class Simulation:
         F[K.F_DEBOUNCE] = cfg.collision_debounce_s
         F[K.F_OA:K.F_OA + 4] = d.qpos[rm.wheel_qpos]
         F[K.F_OR], F[K.F_OTRACK] = r.wheel_radius_m, r.track_m * cfg.skid_factor
+        F[K.F_IATT], F[K.F_IRATE], F[K.F_IDRIFT] = cfg.imu_att_std_rad, cfg.imu_rate_std_rps, cfg.imu_yaw_drift_rps
+        F[K.F_PPOS], F[K.F_PATT] = cfg.pose_pos_std_m, cfg.pose_att_std_rad
         warn = d.warning.number
         bad = np.array([int(w) for w in _BAD_WARNINGS], np.int64)
         self._I[K.I_WARN0] = int(sum(int(warn[w]) for w in bad))
@@ -144,9 +147,11 @@ class Simulation:
             max(1, int(round(0.1 / self._dt))) if pool is not None else 0, *pargs,
             d.mocap_pos, d.mocap_quat, m.geom_size, m.geom_rbound, m.geom_aabb, m.bvh_aabb, m.geom_contype,
             OBSTACLE_BIT, PARK_Z_M, self._next, self._period, self._jit, self._jit_idx, self._samples,
-            self._nsamp, *self._wheel_args)
+            self._nsamp, self._noise, *self._wheel_args)
         # readings since the last observe()
         self._scans: list[LidarScan] = []
+        self._mount = (robot.lidar.x_m, robot.lidar.y_m, robot.lidar.z_m)
+        self._mount_v = np.array(self._mount)
         self._pose: PoseReading | None = None
         self._odom = Odometry(0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
         self._imu: Imu | None = None
@@ -175,9 +180,12 @@ class Simulation:
         delay = cfg.command_latency_s
         if cfg.jitter and cfg.command_latency_jitter_s > 0:
             delay += cfg.command_latency_jitter_s * float(self._latency_gen.random())
-        k = self._k + max(0, int(round(delay / self._dt)))
-        if self._queue:
-            k = max(k, self._queue[-1][0])  # commands never overtake each other
+        k = int(self._I[K.I_K]) + max(0, int(round(delay / self._dt)))
+        pending = int(self._I[K.I_CMDK])
+        if self._queue:  # commands never overtake each other
+            k = max(k, self._queue[-1][0])
+        elif pending != K.NO_CMD:
+            k = max(k, pending)
         self._queue.append((k, cmd))
 
     def advance(self, dt: float) -> None:
@@ -188,13 +196,13 @@ class Simulation:
         """
         if not (math.isfinite(dt) and dt >= 0):
             raise SpecError("dt", dt, "a finite duration >= 0 s")
-        self._run(self._k + int(round(dt / self._dt)))
+        self._run(int(self._I[K.I_K]) + int(round(dt / self._dt)))
 
     def observe(self) -> Observation:
         """Sensor readings since the previous call: all scans, the latest pose (or None),
         the latest odometry and IMU readings."""
         assert self._imu is not None
-        obs = Observation(t=self.t, odom=self._odom, imu=self._imu, pose=self._pose, scans=tuple(self._scans))
+        obs = Observation(t=int(self._I[K.I_K]) * self._dt, odom=self._odom, imu=self._imu, pose=self._pose, scans=tuple(self._scans))
         self._scans = []
         self._pose = None
         return obs
@@ -206,15 +214,21 @@ class Simulation:
     def _run(self, k_end: int) -> None:
         """Step until step ``k_end`` (or a stop), handling what the compiled loop hands back."""
         r, I, q, F = self.robot, self._I, self._queue, self._F
-        a, b = self._args_a, self._args_b
+        a, b, run_steps, ob = self._args_a, self._args_b, K.run_steps, self.observer
+        vmax, wmax = r.max_speed_mps, r.max_yaw_rate_rps
         while True:
-            k = int(I[K.I_K])
-            while q and q[0][0] <= k:  # commands take effect at the start of their step
-                c = q.pop(0)[1]
-                F[K.F_TV] = min(max(c.v, -r.max_speed_mps), r.max_speed_mps)
-                F[K.F_TW] = min(max(c.omega, -r.max_yaw_rate_rps), r.max_yaw_rate_rps)
-            stopped = self.observer.stop is not None
-            st = K.run_steps(*a, k if stopped else min(k_end, q[0][0] if q else k_end), *b)
+            # the compiled loop applies one pending command at the start of its step; it stops at
+            # the next queued one (a later command for the same step replaces the pending one)
+            if q and (I[K.I_CMDK] == K.NO_CMD or q[0][0] <= I[K.I_CMDK]):
+                while True:
+                    kc, c = q.pop(0)
+                    I[K.I_CMDK] = kc
+                    F[K.F_CMDV] = min(max(c.v, -vmax), vmax)
+                    F[K.F_CMDW] = min(max(c.omega, -wmax), wmax)
+                    if not (q and q[0][0] <= kc):
+                        break
+            stopped = ob.stop is not None
+            st = run_steps(*a, int(I[K.I_K]) if stopped else (min(k_end, q[0][0]) if q else k_end), *b)
             if st == K.DONE:
                 if stopped or int(I[K.I_K]) >= k_end:
                     break
@@ -231,6 +245,11 @@ class Simulation:
                     if self._jit_idx[s] >= _JITTER_BATCH:
                         self._jit[s] = self._timing[s].random(_JITTER_BATCH)
                         self._jit_idx[s] = 0
+                if self.config.noise:
+                    for row, idx in ((K.IMU_NOISE, K.I_NIMU), (K.POSE_NOISE, K.I_NPOSE)):
+                        if I[idx] >= K.NOISE_BATCH:  # used up exactly (a multiple of 7 and 6)
+                            self._noise[row] = self._noise_gen[row].standard_normal(K.NOISE_BATCH)
+                            I[idx] = 0
             if st & K.LIDAR:
                 self._scan()
         self._flush()
@@ -246,18 +265,18 @@ class Simulation:
 
     def _flush(self) -> None:
         """Turn the raw samples of the compiled loop into readings, in order."""
-        n, smp = self._nsamp, self._samples
-        if n[K.ODOM]:  # integrated in the loop (_step.odom_update): the last row is the reading
-            r = smp[K.ODOM, n[K.ODOM] - 1]
-            self._odom = Odometry(float(r[0]), float(r[1]), float(r[2]), float(r[3]), float(r[4]), float(r[5]))
+        n, smp = self._nsamp.tolist(), self._samples
+        if n[K.ODOM]:  # the rows are the readings (_step._fire): the last one counts
+            o = smp[K.ODOM, n[K.ODOM] - 1].tolist()
+            self._odom = Odometry(o[0], o[1], o[2], o[3], o[4], o[5])
         if n[K.IMU]:
-            self._imu = self.imu_sensor.read_many(smp[K.IMU, : n[K.IMU]])
-        for row in smp[K.POSE, : n[K.POSE]]:
-            self._pose = self.pose_sensor.read(float(row[0]), row[4:7], float(row[1]), float(row[2]), float(row[3]))
+            i = smp[K.IMU, n[K.IMU] - 1].tolist()
+            self._imu = Imu(i[0], i[1], i[2], i[3], (i[4], i[5], i[6]))
+        if n[K.POSE]:
+            self._pose = PoseReading(*smp[K.POSE, n[K.POSE] - 1].tolist())
         if n[K.OBSERVER]:
-            rows = smp[K.OBSERVER, : n[K.OBSERVER]]
-            self.observer.record_poses(rows[:, [0, 4, 5, 6, 1, 2, 3]])
-        n[:] = 0
+            self.observer.record_poses(smp[K.OBSERVER, : n[K.OBSERVER]])
+        self._nsamp[:] = 0
         I, ob = self._I, self.observer
         ne = int(I[K.I_NEVENT])
         if ne or I[K.I_STARTS]:
@@ -265,17 +284,18 @@ class Simulation:
                                  for e in self._event_buf[:ne])
             ob.contact_starts += int(I[K.I_STARTS])
             I[K.I_NEVENT] = I[K.I_STARTS] = 0
-        ob._touching = set(self._contact_prev[: int(I[K.I_TOUCHING])].tolist())
+        if I[K.I_TOUCHING] or ob._touching:
+            ob._touching = set(self._contact_prev[: int(I[K.I_TOUCHING])].tolist())
 
     def _scan(self) -> None:
         assert self._lidar is not None
-        d, lm = self.data, self.robot.lidar
-        rot9 = np.zeros(9)
-        mujoco.mju_quat2Mat(rot9, d.qpos[3:7])
+        qpos = self.data.qpos
+        rot9 = np.empty(9)
+        mujoco.mju_quat2Mat(rot9, qpos[3:7])
         rot = rot9.reshape(3, 3)
-        origin = d.qpos[0:3] + rot @ np.array([lm.x_m, lm.y_m, lm.z_m])
+        origin = qpos[0:3] + rot @ self._mount_v
         pts = self._lidar.scan(origin, rot, self._lidar_gen if self.config.noise else None)
-        self._scans.append(LidarScan(self.t, pts, (lm.x_m, lm.y_m, lm.z_m)))
+        self._scans.append(LidarScan(int(self._I[K.I_K]) * self._dt, pts, self._mount))
 
     def _unstable(self) -> None:
         d = self.data

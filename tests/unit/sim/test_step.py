@@ -17,7 +17,8 @@ from navstress.sim import SimConfig, Simulation
 from navstress.sim import _step as K
 from navstress.sim.model import ObstaclePool, build_model
 from navstress.sim.observer import Observer
-from navstress.sim.sensors import ImuSensor, WheelOdometry
+from navstress.seeding import rng
+from navstress.sim.sensors import ImuSensor, PoseSensor, WheelOdometry
 from navstress.world.world import Obstacle
 
 from sim_worlds import bumpy, flat, rough
@@ -177,6 +178,72 @@ def test_compiled_odometry_and_batched_imu_equal_the_reference() -> None:
             la = ia.read(float(r[0]), float(r[1]), float(r[2]), float(r[3]), r[4:7])
         lb = ib.read_many(rows)
         assert la == lb and ia.bias == ib.bias
+
+
+@pytest.mark.parametrize("imu_hz", [50.0, 300.0])
+def test_compiled_imu_and_pose_noise_equal_the_reference_sensors(imu_hz: float) -> None:
+    """The noisy IMU and pose readings of a run equal ImuSensor.read_many / PoseSensor.read on the
+    run's noise generators, fed the noise-free readings of the same run (noise changes no physics)
+    at the samples' times (no rate jitter: IMU every 1/imu_hz s, pose every 0.1 s, from t = 0).
+    300 Hz uses up the pre-drawn noise rows and fills the sample buffers several times."""
+    obs = {}
+    for noise in (False, True):
+        cfg = SimConfig(lidar_enabled=False, jitter=False, noise=noise, imu_rate_hz=imu_hz)
+        sim = Simulation(bumpy(), config=cfg, seed=11, start=(10.0, 10.0, 0.3))
+        obs[noise] = []
+        for k in range(40):
+            sim.command(Command(1.0, 0.4 * math.sin(k / 6)))
+            sim.advance(0.1 if k % 5 else 0.83)
+            obs[noise].append(sim.observe())
+    cfg = SimConfig()
+    imu = ImuSensor(rng(11, "sim", "noise", "imu"), cfg.imu_att_std_rad, cfg.imu_rate_std_rps,
+                    cfg.imu_yaw_drift_rps, True, 0.0)
+    pose = PoseSensor(rng(11, "sim", "noise", "pose"), cfg.pose_pos_std_m, cfg.pose_att_std_rad, True)
+    every = max(1, int(round(1.0 / imu_hz / 0.01)))  # (300 Hz: every 10 ms step)
+    k_imu = k_pose = 0
+    for clean, noisy in zip(obs[False], obs[True]):
+        c = clean.imu
+        ks = list(range(k_imu, int(round(c.t / 0.01)) + 1, every))
+        rows = np.zeros((len(ks), 7))
+        rows[:, 0] = np.array(ks) * 0.01
+        rows[-1, 1:] = (c.yaw, c.pitch, c.roll, *c.rates)
+        assert rows[-1, 0] == c.t
+        assert imu.read_many(rows) == noisy.imu
+        k_imu = ks[-1] + every
+        p = clean.pose
+        assert p is not None and noisy.pose is not None
+        while k_pose * 0.01 < p.t:  # earlier pose samples of the period: their draws
+            pose.read(k_pose * 0.01, np.zeros(3), 0.0, 0.0, 0.0)
+            k_pose += 10
+        assert pose.read(p.t, np.array([p.x, p.y, p.z]), p.yaw, p.pitch, p.roll) == noisy.pose
+        k_pose += 10
+    assert obs[True][-1].imu != obs[False][-1].imu
+
+
+@settings(max_examples=8, deadline=None)
+@given(cuts=st.sets(st.integers(1, 9), min_size=1, max_size=4), seed=st.integers(0, 1000),
+       doubled=st.integers(0, 29))
+def test_advance_in_pieces_gives_the_same_run(cuts: set[int], seed: int, doubled: int) -> None:
+    """Commands (with latency jitter) and readings do not depend on how a control period is cut
+    into ``advance`` calls: 0.1 s at once or cut after the steps in ``cuts`` gives the same
+    trajectory and readings; two commands in one period: the later one wins from its step on."""
+    runs = []
+    ends = [0, *sorted(cuts), 10]
+    for pieces in ([10], [b - a for a, b in zip(ends, ends[1:])]):
+        sim = Simulation(bumpy(), config=SimConfig(lidar_enabled=False), seed=seed, start=(10.0, 10.0, 0.3))
+        out = []
+        for k in range(30):
+            sim.command(Command(1.0, 0.5 * math.sin(k / 4)))
+            if k == doubled:
+                sim.command(Command(-0.5, 0.0))
+            for n in pieces:
+                sim.advance(n * 0.01)
+            o = sim.observe()
+            out.append((o.t, o.odom, o.imu))
+        runs.append((sim.t, out, sim.observer.poses.copy(), sim.data.qpos.copy()))
+    (ta, oa, pa, qa), (tb, ob, pb, qb) = runs
+    assert ta == tb and np.array_equal(pa, pb) and np.array_equal(qa, qb)
+    assert [x[1:] for x in oa] == [x[1:] for x in ob]
 
 
 @settings(max_examples=6, deadline=None)
