@@ -334,21 +334,28 @@ def cast_rays_kernel(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarr
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray, moff: np.ndarray, mnx: np.ndarray,
-                grad_max: float, boxes: np.ndarray, origin: np.ndarray, rot: np.ndarray,
-                cos_el: np.ndarray, sin_el: np.ndarray, cos_az: np.ndarray, sin_az: np.ndarray,
-                max_range: float, min_range: float, plane_march: bool, out: np.ndarray) -> None:
-    """One scan: out[channel, azimuth] = range (inf: no return). Channels ascending in elevation.
+def _terrain_pass(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray, moff: np.ndarray, mnx: np.ndarray,
+                  grad_max: float, origin: np.ndarray, rot: np.ndarray, cos_el: np.ndarray, sin_el: np.ndarray,
+                  cos_az: np.ndarray, sin_az: np.ndarray, max_range: float, plane_march: bool,
+                  out: np.ndarray) -> None:
+    """Terrain-only ranges of one scan: out[channel, azimuth] = first terrain hit (inf: none
+    within max_range; no min_range filter). Channels ascending in elevation.
 
-    Per azimuth column, all channels lie in one plane through the sensor's z axis. Boxes come
-    from world-heading sector bins (built per scan), each tested only on the contiguous channel
-    range whose world slope can reach it. The terrain is marched once per column, lowest
-    channel first: channel k+1 starts where channel k hit or was proven clear (in the plane
-    coordinate p along the plane's horizontal line L). This is exact when the terrain section is
-    a graph over p in the column plane, which holds when tan(plane inclination) > the steepest
-    terrain triangle's gradient, the sensor is inside the map above the ground, its z axis
-    points up and every channel advances along L; otherwise that column's channels are each
-    marched from the sensor (still exact, slower). Boxes are never part of the shortcut.
+    Per azimuth column, all channels lie in one plane through the sensor's z axis. The terrain
+    is marched lowest channel first: channel k+1 starts where channel k hit or was proven clear
+    (in the plane coordinate p along the plane's horizontal line L). This is exact when the
+    terrain section is a graph over p in the column plane, which holds when tan(plane
+    inclination) > the steepest terrain triangle's gradient, the sensor is inside the map above
+    the ground, its z axis points up and every channel advances along L; otherwise that
+    column's channels are each marched from the sensor by :func:`march_terrain` (still exact).
+
+    Order of work (measured, docs/performance.md): channel-major, i.e. one channel over all
+    columns, then the next. A column's channels depend on each other through p (a serial chain
+    of divisions and loads); consecutive marches of one channel over neighbouring columns are
+    independent and alike, so the CPU overlaps them and predicts their branches. Each march is
+    a plain cell walk (the per-cell max of ``mipf`` level 0 decides whether the exact test
+    runs): marches start where the channel below hit, so they are short, and the mipmap's block
+    skipping measured slower than the plain walk here.
     """
     nch = cos_el.shape[0]
     naz = cos_az.shape[0]
@@ -356,8 +363,171 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray, m
     ncx = h.shape[1] - 1
     ncy = h.shape[0] - 1
     icell = 1.0 / cell
-    inside = 0.0 <= ox * icell <= ncx and 0.0 <= oy * icell <= ncy  # (_march_plane relies on it)
+    inside = 0.0 <= ox * icell <= ncx and 0.0 <= oy * icell <= ncy
     mono = plane_march and inside and (oz - height_at_cells(h, ox / cell, oy / cell) > 0.0)
+    top = moff[moff.shape[0] - 1]
+    gmax = mip[0, top]
+    flat_map = mip[1, top] == gmax
+    oxc = ox * icell
+    oyc = oy * icell
+    wc = float(ncx)
+    hc = float(ncy)
+    uwx, uwy, uwz = rot[0, 2], rot[1, 2], rot[2, 2]
+    # per column: horizontal axis, whether the plane march applies, and p cleared so far
+    cawx = np.empty(naz)
+    cawy = np.empty(naz)
+    cawz = np.empty(naz)
+    clx = np.zeros(naz)
+    cly = np.zeros(naz)
+    plane = np.zeros(naz, np.bool_)
+    pcl = np.zeros(naz)
+    for a in range(naz):
+        ca = cos_az[a]
+        sa = sin_az[a]
+        awx = rot[0, 0] * ca + rot[0, 1] * sa
+        awy = rot[1, 0] * ca + rot[1, 1] * sa
+        awz = rot[2, 0] * ca + rot[2, 1] * sa
+        cawx[a] = awx
+        cawy[a] = awy
+        cawz[a] = awz
+        if not mono:
+            continue
+        nx = awy * uwz - awz * uwy
+        ny = awz * uwx - awx * uwz
+        nz = awx * uwy - awy * uwx
+        nn = math.sqrt(nx * nx + ny * ny + nz * nz)
+        nxy = math.sqrt(nx * nx + ny * ny)
+        if nxy > 1e-12 * nn and nxy > grad_max * abs(nz) * (1.0 + 1e-6) + 1e-12 * nn:
+            lx = ny / nxy
+            ly = -nx / nxy
+            if lx * awx + ly * awy < 0.0:
+                lx = -lx
+                ly = -ly
+            # every channel must advance along L (p > 0), and the sensor's z axis point up so
+            # that elevation order is the in-plane angle order
+            use_plane = uwz > 0.0
+            for k in range(nch):
+                rx = cos_el[k] * awx + sin_el[k] * uwx
+                ry = cos_el[k] * awy + sin_el[k] * uwy
+                if rx * lx + ry * ly <= 1e-9:
+                    use_plane = False
+            plane[a] = use_plane
+            clx[a] = lx
+            cly[a] = ly
+    for k in range(nch):
+        ce = cos_el[k]
+        se = sin_el[k]
+        for a in range(naz):
+            rx = ce * cawx[a] + se * uwx
+            ry = ce * cawy[a] + se * uwy
+            rz = ce * cawz[a] + se * uwz
+            out[k, a] = INF
+            if not plane[a]:  # each ray from the sensor
+                if not (rz >= 0.0 and oz > gmax):
+                    th, _ = march_terrain(h, mip, moff, mnx, oxc, oyc, oz, rx * icell, ry * icell, rz,
+                                          0.0, max_range, False)
+                    out[k, a] = th
+                continue
+            rl = rx * clx[a] + ry * cly[a]
+            p_clear = pcl[a]
+            tstart = p_clear / rl * (1.0 - 1e-12)
+            if rz >= 0.0 and oz + rz * tstart > gmax:  # climbing above the highest terrain point
+                pcl[a] = max(p_clear, max_range * rl)
+                continue
+            if not tstart < max_range:
+                continue
+            # march_terrain(..., above=True) from tstart, written out (a call would add array
+            # reference counting per ray) and without the mipmap's block skipping
+            dx = rx * icell
+            dy = ry * icell
+            dz = rz
+            idx = 1.0 / dx if dx != 0.0 else 0.0
+            idy = 1.0 / dy if dy != 0.0 else 0.0
+            ex = max(-oxc * idx, (wc - oxc) * idx)
+            ey = max(-oyc * idy, (hc - oyc) * idy)
+            thi = min(max_range, ex if dx != 0.0 else INF, ey if dy != 0.0 else INF)
+            th = INF
+            if tstart > thi:
+                tc = max_range
+            elif oz + dz * (tstart if dz >= 0.0 else thi) > gmax:
+                tc = thi  # passes over the highest point of the map
+            elif flat_map:
+                th = tstart if dz >= 0.0 else max(tstart, (gmax - oz) / dz)
+                tc = th
+            else:
+                tc = thi
+                x = oxc + tstart * dx
+                y = oyc + tstart * dy
+                cx = int(math.ceil(x)) - 1 if dx < 0.0 else int(math.floor(x))
+                cy = int(math.ceil(y)) - 1 if dy < 0.0 else int(math.floor(y))
+                cx = min(max(cx, 0), ncx - 1)
+                cy = min(max(cy, 0), ncy - 1)
+                t = tstart
+                sx = 1 if dx > 0.0 else -1
+                sy = 1 if dy > 0.0 else -1
+                offx = 1.0 if dx > 0.0 else 0.0
+                offy = 1.0 if dy > 0.0 else 0.0
+                tmx = (cx + offx - oxc) * idx if dx != 0.0 else INF  # where the ray leaves the cell in x
+                tmy = (cy + offy - oyc) * idy if dy != 0.0 else INF
+                desc = dz < 0.0
+                while True:
+                    te = min(tmx, tmy, thi)
+                    zlow = oz + dz * (te if desc else t)
+                    ci = cy * ncx + cx
+                    cmax = float(mipf[ci, 0])
+                    if zlow <= cmax:  # the ray may meet the surface in this cell: exact test
+                        h00 = float(h[cy, cx])
+                        h10 = float(h[cy, cx + 1])
+                        h01 = float(h[cy + 1, cx])
+                        h11 = float(h[cy + 1, cx + 1])
+                        if float(mipf[ci, 1]) == cmax:  # a flat cell: the plane z = cmax
+                            ts = max(t, (h00 - oz) / dz) if desc else t
+                            if ts <= te:
+                                th = ts
+                                tc = ts
+                                break
+                        tcell = _cell_hit(h00, h10, h01, h11, cx, cy, oxc, oyc, oz, dx, dy, dz, t, te, 1.0)
+                        if tcell <= te:
+                            th = tcell
+                            tc = tcell
+                            break
+                    if te >= thi:
+                        break
+                    stx = tmx <= tmy
+                    sty = tmy <= tmx
+                    if stx:
+                        cx += sx
+                        tmx = (cx + offx - oxc) * idx
+                    if sty:
+                        cy += sy
+                        tmy = (cy + offy - oyc) * idy
+                    if cx < 0 or cx >= ncx or cy < 0 or cy >= ncy:
+                        break
+                    t = te
+            out[k, a] = th
+            pcl[a] = max(p_clear, min(th, tc) * rl)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray, moff: np.ndarray, mnx: np.ndarray,
+                grad_max: float, boxes: np.ndarray, origin: np.ndarray, rot: np.ndarray,
+                cos_el: np.ndarray, sin_el: np.ndarray, cos_az: np.ndarray, sin_az: np.ndarray,
+                max_range: float, min_range: float, plane_march: bool, out: np.ndarray) -> None:
+    """One scan: out[channel, azimuth] = range (inf: no return). Channels ascending in elevation.
+
+    The terrain ranges come from :func:`_terrain_pass` (one plane per azimuth column, lowest
+    channel first). Boxes come from world-heading sector bins (built per scan), each tested only
+    on the contiguous channel range whose world slope can reach it, nearer than the terrain hit.
+    """
+    nch = cos_el.shape[0]
+    naz = cos_az.shape[0]
+    ox, oy, oz = origin[0], origin[1], origin[2]
+    ncx = h.shape[1] - 1
+    ncy = h.shape[0] - 1
+    icell = 1.0 / cell
+    tr = np.empty((nch, naz))
+    _terrain_pass(h, cell, mip, mipf, moff, mnx, grad_max, origin, rot, cos_el, sin_el, cos_az, sin_az,
+                  max_range, plane_march, tr)
     # ---- per-scan box preparation: distances, reachable slopes, heading intervals, bins --
     nb = boxes.shape[0]
     nsec = 360
@@ -433,25 +603,18 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray, m
                 bins[f + 1] = bins[f]
                 f -= 1
             bins[f + 1] = i
-    # ---- columns ----------------------------------------------------------------------
+    # ---- columns: boxes over the terrain ranges ---------------------------------------
+    if nbinned == 0:  # no box within range: the terrain ranges are the scan
+        for k in range(nch):
+            for a in range(naz):
+                r = tr[k, a]
+                out[k, a] = r if (min_range <= r <= max_range) else INF
+        return
     stamp = np.full(nb, -1, np.int64)
-    gmax = mip[0, moff[moff.shape[0] - 1]]
     dirs = np.empty((nch, 3))
     slope = np.empty(nch)
     hxy = np.empty(nch)
     best = np.empty(nch)
-    flat_map = mip[1, moff[moff.shape[0] - 1]] == gmax
-    nlev = moff.shape[0]
-    oxc = ox * icell
-    oyc = oy * icell
-    wc = float(ncx)
-    hc = float(ncy)
-    cdx = np.empty(nch)
-    cdy = np.empty(nch)
-    cix = np.empty(nch)
-    ciy = np.empty(nch)
-    cthi = np.empty(nch)
-    crl = np.empty(nch)
     uwx, uwy, uwz = rot[0, 2], rot[1, 2], rot[2, 2]
     for a in range(naz):
         ca = cos_az[a]
@@ -459,6 +622,7 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray, m
         awx = rot[0, 0] * ca + rot[0, 1] * sa
         awy = rot[1, 0] * ca + rot[1, 1] * sa
         awz = rot[2, 0] * ca + rot[2, 1] * sa
+        reach = 0.0
         for k in range(nch):
             ce = cos_el[k]
             se = sin_el[k]
@@ -471,221 +635,8 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray, m
             hh = math.sqrt(rx * rx + ry * ry)
             hxy[k] = hh
             slope[k] = rz / hh if hh > 0.0 else (INF if rz > 0.0 else -INF)
-            best[k] = INF
-        # terrain: one march per column, lowest unresolved channel first
-        use_plane = False
-        lx = 0.0
-        ly = 0.0
-        if mono:
-            nx = awy * uwz - awz * uwy
-            ny = awz * uwx - awx * uwz
-            nz = awx * uwy - awy * uwx
-            nn = math.sqrt(nx * nx + ny * ny + nz * nz)
-            nxy = math.sqrt(nx * nx + ny * ny)
-            if nxy > 1e-12 * nn and nxy > grad_max * abs(nz) * (1.0 + 1e-6) + 1e-12 * nn:
-                lx = ny / nxy
-                ly = -nx / nxy
-                if lx * awx + ly * awy < 0.0:
-                    lx = -lx
-                    ly = -ly
-                # every channel must advance along L (p > 0), and the sensor's z axis point up so
-                # that elevation order is the in-plane angle order
-                use_plane = uwz > 0.0
-                for k in range(nch):
-                    if dirs[k, 0] * lx + dirs[k, 1] * ly <= 1e-9:
-                        use_plane = False
-        p_clear = 0.0
-        reach = 0.0
-        if use_plane:
-            for k in range(nch):  # per-channel march set-up, branch-free (vectorisable)
-                dxk = dirs[k, 0] * icell
-                dyk = dirs[k, 1] * icell
-                ix = 1.0 / dxk if dxk != 0.0 else 0.0
-                iy = 1.0 / dyk if dyk != 0.0 else 0.0
-                ex = max(-oxc * ix, (wc - oxc) * ix)
-                ey = max(-oyc * iy, (hc - oyc) * iy)
-                cdx[k] = dxk
-                cdy[k] = dyk
-                cix[k] = ix
-                ciy[k] = iy
-                cthi[k] = min(max_range, ex if dxk != 0.0 else INF, ey if dyk != 0.0 else INF)
-                crl[k] = dirs[k, 0] * lx + dirs[k, 1] * ly
-            for k in range(nch):
-                rz = dirs[k, 2]
-                rl = crl[k]
-                tstart = p_clear / rl * (1.0 - 1e-12)
-                if rz >= 0.0 and oz + rz * tstart > gmax:
-                    best[k] = INF  # climbing above the highest terrain point: clear to max range
-                    p_clear = max(p_clear, max_range * rl)
-                elif tstart < max_range:
-                    th, tc = INF, INF
-                    dx = cdx[k]
-                    dy = cdy[k]
-                    dz = rz
-                    idx = cix[k]
-                    idy = ciy[k]
-                    thi = cthi[k]
-                    # march_terrain(..., above=True) for a ray from inside the map, written out
-                    # here (a call would add array reference counting per ray); same arithmetic
-                    if tstart > thi:
-                        tc = max_range
-                    elif oz + dz * (tstart if dz >= 0.0 else thi) > gmax:
-                        tc = thi  # passes over the highest point of the map
-                    elif flat_map:
-                        th = tstart if dz >= 0.0 else max(tstart, (gmax - oz) / dz)
-                        tc = th
-                    else:
-                        tc = thi
-                        x = oxc + tstart * dx
-                        y = oyc + tstart * dy
-                        cx = int(math.ceil(x)) - 1 if dx < 0.0 else int(math.floor(x))
-                        cy = int(math.ceil(y)) - 1 if dy < 0.0 else int(math.floor(y))
-                        cx = min(max(cx, 0), ncx - 1)
-                        cy = min(max(cy, 0), ncy - 1)
-                        lev = 0
-                        t = tstart
-                        known = False
-                        while True:
-                            if lev == 0:  # a cell (most iterations): the general step below, simplified
-                                if dx > 0.0:
-                                    tx = (cx + 1 - oxc) * idx
-                                elif dx < 0.0:
-                                    tx = (cx - oxc) * idx
-                                else:
-                                    tx = INF
-                                if dy > 0.0:
-                                    ty = (cy + 1 - oyc) * idy
-                                elif dy < 0.0:
-                                    ty = (cy - oyc) * idy
-                                else:
-                                    ty = INF
-                                te = min(tx, ty, thi)
-                                zmin = oz + dz * (t if dz >= 0.0 else te)
-                                h00 = float(h[cy, cx])
-                                h10 = float(h[cy, cx + 1])
-                                h01 = float(h[cy + 1, cx])
-                                h11 = float(h[cy + 1, cx + 1])
-                                skip = zmin > max(max(h00, h10), max(h01, h11))
-                                if not skip:
-                                    if min(min(h00, h10), min(h01, h11)) == max(max(h00, h10), max(h01, h11)):
-                                        ts = t if dz >= 0.0 else max(t, (h00 - oz) / dz)  # flat cell
-                                        if ts <= te:
-                                            th = ts
-                                            tc = ts
-                                            break
-                                    tcell = _cell_hit(h00, h10, h01, h11, cx, cy, oxc, oyc, oz, dx, dy, dz, t, te, 1.0)
-                                    if tcell <= te:
-                                        th = tcell
-                                        tc = tcell
-                                        break
-                                if te >= thi:
-                                    break
-                                if tx <= ty:
-                                    cx = cx + 1 if dx > 0.0 else cx - 1
-                                if ty <= tx:
-                                    cy = cy + 1 if dy > 0.0 else cy - 1
-                                if cx < 0 or cx >= ncx or cy < 0 or cy >= ncy:
-                                    break
-                                t = te
-                                if skip and nlev > 1:  # climb at the parent block's near edge...
-                                    if tx <= ty:
-                                        up = (cx & 1) == (0 if dx > 0.0 else 1)
-                                    else:
-                                        up = (cy & 1) == (0 if dy > 0.0 else 1)
-                                    if up:  # ... if the ray passes over it (tested here: no wasted descent)
-                                        pbx = cx >> 1
-                                        pby = cy >> 1
-                                        if dx > 0.0:
-                                            ptx = (min((pbx + 1) << 1, ncx) - oxc) * idx
-                                        elif dx < 0.0:
-                                            ptx = ((pbx << 1) - oxc) * idx
-                                        else:
-                                            ptx = INF
-                                        if dy > 0.0:
-                                            pty = (min((pby + 1) << 1, ncy) - oyc) * idy
-                                        elif dy < 0.0:
-                                            pty = ((pby << 1) - oyc) * idy
-                                        else:
-                                            pty = INF
-                                        pz = oz + dz * (t if dz >= 0.0 else min(ptx, pty, thi))
-                                        mi = moff[1] + pby * mnx[1] + pbx
-                                        ptop = float(mipf[mi, 0])
-                                        if pz > ptop:
-                                            lev = 1
-                                            known = True
-                                        elif float(mipf[mi, 1]) == ptop:
-                                            lev = 1  # a flat parent: solved on the block path below
-                                continue
-                            bx = cx >> lev
-                            by = cy >> lev
-                            if dx > 0.0:
-                                tx = (min((bx + 1) << lev, ncx) - oxc) * idx
-                            elif dx < 0.0:
-                                tx = ((bx << lev) - oxc) * idx
-                            else:
-                                tx = INF
-                            if dy > 0.0:
-                                ty = (min((by + 1) << lev, ncy) - oyc) * idy
-                            elif dy < 0.0:
-                                ty = ((by << lev) - oyc) * idy
-                            else:
-                                ty = INF
-                            te = min(tx, ty, thi)
-                            # a block of level >= 1: pass over it, or solve it as a plane, or descend
-                            mi = moff[lev] + by * mnx[lev] + bx
-                            if known:  # tested when climbing: the ray passes over this block
-                                known = False
-                            else:
-                                top = float(mipf[mi, 0])
-                                if not oz + dz * (t if dz >= 0.0 else te) > top:
-                                    if float(mipf[mi, 1]) == top:  # flat block: the plane z = top
-                                        ts = t if dz >= 0.0 else max(t, (top - oz) / dz)
-                                        if ts <= te:
-                                            th = ts
-                                            tc = ts
-                                            break
-                                    lev -= 1
-                                    continue
-                            if te >= thi:
-                                break
-                            if tx <= ty:
-                                cx = (bx + 1) << lev if dx > 0.0 else (bx << lev) - 1
-                            if ty <= tx:
-                                cy = (by + 1) << lev if dy > 0.0 else (by << lev) - 1
-                            if tx < ty:
-                                yy = oyc + te * dy
-                                ylo = by << lev
-                                yhi = min(((by + 1) << lev) - 1, ncy - 1)
-                                cy = min(max(int(math.ceil(yy)) - 1 if dy < 0.0 else int(math.floor(yy)), ylo), yhi)
-                            elif ty < tx:
-                                xx = oxc + te * dx
-                                xlo = bx << lev
-                                xhi = min(((bx + 1) << lev) - 1, ncx - 1)
-                                cx = min(max(int(math.ceil(xx)) - 1 if dx < 0.0 else int(math.floor(xx)), xlo), xhi)
-                            if cx < 0 or cx >= ncx or cy < 0 or cy >= ncy:
-                                break
-                            t = te
-                            if lev + 1 < nlev:  # climb at the parent block's near edge
-                                if tx <= ty:
-                                    if ((cx >> lev) & 1) == (0 if dx > 0.0 else 1):
-                                        lev += 1
-                                elif ((cy >> lev) & 1) == (0 if dy > 0.0 else 1):
-                                    lev += 1
-                    best[k] = th
-                    p_clear = max(p_clear, min(th, tc) * rl)
-                reach = max(reach, min(best[k], max_range) * hxy[k])
-        else:
-            for k in range(nch):
-                rx = dirs[k, 0]
-                ry = dirs[k, 1]
-                rz = dirs[k, 2]
-                if rz >= 0.0 and oz > gmax:
-                    best[k] = INF
-                else:
-                    th, tc = march_terrain(h, mip, moff, mnx, oxc, oyc, oz,
-                                           rx * icell, ry * icell, rz, 0.0, max_range, False)
-                    best[k] = th
-                reach = max(reach, min(best[k], max_range) * hxy[k])
+            best[k] = tr[k, a]
+            reach = max(reach, min(best[k], max_range) * hh)
         # boxes: candidates from the sectors spanned by the column's headings, nearest first.
         # Headings vary monotonically with elevation (while no ray is vertical); slopes do for
         # moderate tilts: checked, else every sector and channel is a candidate (still exact).
