@@ -131,6 +131,25 @@ def test_pool_and_static_obstacles_give_the_same_run() -> None:
     assert np.abs(pa - pb).max() < 1e-3
 
 
+def test_pool_has_no_more_slots_than_obstacles_and_empty_slots_change_nothing() -> None:
+    """A world with n < K obstacles gets n slots (none: no slot bodies); the run is bit-identical to
+    one where far-away extra obstacles make the pool K slots (K - n of them always empty)."""
+    near = [Obstacle("tree", 12.0 + 2.0 * k, 20.5 - 0.3 * k, 0.2 * k, (0.8, 0.8, 5.0)) for k in range(6)]
+    far = [Obstacle("tree", 38.0, 2.0 + 1.2 * k, 0.0, (0.3, 0.3, 3.0)) for k in range(30)]
+    runs = []
+    for obs in (near, near + far):
+        sim = Simulation(flat(obstacles=tuple(obs)), config=NOLIDAR, seed=2, start=(5.0, 20.0, 0.0))
+        assert len(sim.rm.slot_geoms) == min(len(obs), NOLIDAR.obstacle_pool)
+        for k in range(100):
+            sim.command(Command(1.0, 0.0))
+            sim.advance(0.1)
+        runs.append((sim.observer.poses.copy(), [(e.t, e.obstacle) for e in sim.observer.collisions],
+                     sim.observer.contact_starts))
+    (pa, ea, sa), (pb, eb, sb) = runs
+    assert ea and ea == eb and sa == sb and np.array_equal(pa, pb)
+    assert len(Simulation(flat(), config=NOLIDAR, seed=0).rm.slot_geoms) == 0
+
+
 def test_bad_pool_size() -> None:
     with pytest.raises(SpecError, match=r"sim.obstacle_pool=-1 is invalid"):
         SimConfig(obstacle_pool=-1)
