@@ -414,21 +414,43 @@ def _terrain_pass(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray,
             plane[a] = use_plane
             clx[a] = lx
             cly[a] = ly
+    sdx = np.empty(naz)
+    sdy = np.empty(naz)
+    sdz = np.empty(naz)
+    sidx = np.empty(naz)
+    sidy = np.empty(naz)
+    sthi = np.empty(naz)
+    srl = np.empty(naz)
     for k in range(nch):
         ce = cos_el[k]
         se = sin_el[k]
-        for a in range(naz):
+        for a in range(naz):  # per-ray set-up, branch-free (vectorised: divisions off the march's path)
             rx = ce * cawx[a] + se * uwx
             ry = ce * cawy[a] + se * uwy
-            rz = ce * cawz[a] + se * uwz
+            dx = rx * icell
+            dy = ry * icell
+            idx = 1.0 / dx if dx != 0.0 else 0.0
+            idy = 1.0 / dy if dy != 0.0 else 0.0
+            ex = max(-oxc * idx, (wc - oxc) * idx)
+            ey = max(-oyc * idy, (hc - oyc) * idy)
+            sdx[a] = dx
+            sdy[a] = dy
+            sdz[a] = ce * cawz[a] + se * uwz
+            sidx[a] = idx
+            sidy[a] = idy
+            sthi[a] = min(max_range, ex if dx != 0.0 else INF, ey if dy != 0.0 else INF)
+            rl = rx * clx[a] + ry * cly[a]
+            srl[a] = rl
+        for a in range(naz):
+            rz = sdz[a]
             out[k, a] = INF
             if not plane[a]:  # each ray from the sensor
                 if not (rz >= 0.0 and oz > gmax):
-                    th, _ = march_terrain(h, mip, moff, mnx, oxc, oyc, oz, rx * icell, ry * icell, rz,
+                    th, _ = march_terrain(h, mip, moff, mnx, oxc, oyc, oz, sdx[a], sdy[a], rz,
                                           0.0, max_range, False)
                     out[k, a] = th
                 continue
-            rl = rx * clx[a] + ry * cly[a]
+            rl = srl[a]
             p_clear = pcl[a]
             tstart = p_clear / rl * (1.0 - 1e-12)
             if rz >= 0.0 and oz + rz * tstart > gmax:  # climbing above the highest terrain point
@@ -438,14 +460,12 @@ def _terrain_pass(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray,
                 continue
             # march_terrain(..., above=True) from tstart, written out (a call would add array
             # reference counting per ray) and without the mipmap's block skipping
-            dx = rx * icell
-            dy = ry * icell
+            dx = sdx[a]
+            dy = sdy[a]
             dz = rz
-            idx = 1.0 / dx if dx != 0.0 else 0.0
-            idy = 1.0 / dy if dy != 0.0 else 0.0
-            ex = max(-oxc * idx, (wc - oxc) * idx)
-            ey = max(-oyc * idy, (hc - oyc) * idy)
-            thi = min(max_range, ex if dx != 0.0 else INF, ey if dy != 0.0 else INF)
+            idx = sidx[a]
+            idy = sidy[a]
+            thi = sthi[a]
             th = INF
             if tstart > thi:
                 tc = max_range
