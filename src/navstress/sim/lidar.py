@@ -34,10 +34,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from navstress.errors import SpecError
-from navstress.sim import _raycast
+from navstress.sim import _raybox, _raycast
 from navstress.world.world import World
 
 __all__ = ["LidarConfig", "LidarScene", "Lidar", "build_scene", "cast_rays"]
+
+_NO_BOXES = np.zeros((0, 9))  # the terrain-only scan (boxes come from _raybox.box_pass)
+_NO_BOXES.setflags(write=False)
 
 
 @dataclass(frozen=True)
@@ -250,9 +253,13 @@ class Lidar:
     def _ranges(self, origin: np.ndarray, rotation: np.ndarray) -> np.ndarray:
         o, r = _check_pose(origin, rotation)
         s, c = self.scene, self.config
-        _raycast.scan_kernel(s.heights, s.cell_m, s.mip, s.mipf, s.mip_offsets, s.mip_widths, s.grad_max, s.boxes,
+        # terrain first (no boxes, no min-range filter), then the boxes lower it and filter:
+        # bit-identical to scan_kernel with the boxes (min_range applies to the nearer hit)
+        _raycast.scan_kernel(s.heights, s.cell_m, s.mip, s.mipf, s.mip_offsets, s.mip_widths, s.grad_max, _NO_BOXES,
                              o, r, self._cos_el, self._sin_el, self._cos_az, self._sin_az,
-                             float(c.max_range_m), float(c.min_range_m), self.plane_march, self._out)
+                             float(c.max_range_m), -math.inf, self.plane_march, self._out)
+        _raybox.box_pass(s.boxes, o, r, self._cos_el, self._sin_el, self._cos_az, self._sin_az,
+                         float(c.max_range_m), float(c.min_range_m), self._out)
         return self._out
 
     def scan(self, origin: np.ndarray, rotation: np.ndarray, rng: np.random.Generator | None = None) -> np.ndarray:
