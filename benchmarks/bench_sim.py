@@ -118,9 +118,7 @@ def overhead(world, baseline: dict[str, ModuleType], seconds: float,  # type: ig
     kinds = {"baseline": (baseline["simulation"].Simulation, baseline["_step"]),
              "current": (Simulation, cur_step)}
     sims = {n: c(world, config=cfg, seed=1, start=(20.0, 20.0, math.pi / 4)) for n, (c, _) in kinds.items()}
-    timed = {n: sims[n] for n in kinds}
-    for n, (c, _) in kinds.items():
-        timed[n] = c(world, config=cfg, seed=1, start=(20.0, 20.0, math.pi / 4))
+    timed = {n: c(world, config=cfg, seed=1, start=(20.0, 20.0, math.pi / 4)) for n, (c, _) in kinds.items()}
     for s in (*sims.values(), *timed.values()):
         s.advance(0.1)
     res: dict[str, tuple[list[float], list[float]]] = {n: ([], []) for n in kinds}
@@ -135,7 +133,7 @@ def overhead(world, baseline: dict[str, ModuleType], seconds: float,  # type: ig
                 sim.observe()
             total = (time.process_time_ns() - c0) / cycles / 1e3
             w = _Timed(mod)
-            mod.run_steps = w
+            setattr(mod, "run_steps", w)
             try:
                 sim = timed[n]
                 c0 = time.process_time_ns()
@@ -145,7 +143,7 @@ def overhead(world, baseline: dict[str, ModuleType], seconds: float,  # type: ig
                     sim.observe()
                 total_w = (time.process_time_ns() - c0) / cycles / 1e3
             finally:
-                mod.run_steps = w.inner
+                setattr(mod, "run_steps", w.inner)
             res[n][0].append(total)
             res[n][1].append(total_w - w.ns / cycles / 1e3)
     return {n: (statistics.median(a), statistics.median(b)) for n, (a, b) in res.items()}
