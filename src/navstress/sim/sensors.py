@@ -1,6 +1,9 @@
 """Sensors: wheel odometry, pose sensor, IMU. Each draws from its own generator.
 
 Readings are the ``navstress.nav.api`` types; the navigator never sees anything else.
+:class:`~navstress.sim.simulation.Simulation` runs the same arithmetic compiled
+(``navstress.sim._step``: ``odom_update``, ``_fire``); these classes are the reference the tests
+compare it with.
 """
 
 from __future__ import annotations
