@@ -495,3 +495,142 @@ def test_scan_from_outside_the_map_sees_the_side_walls() -> None:
     below = np.tan(el) * 3.0 < 0.2  # reaches x=0 under z=2: the wall at 3 / cos(el)
     assert np.allclose(r[below, 0], 3.0 / np.cos(el[below]), rtol=1e-6)
     assert (~below).sum() >= 3 and np.isinf(r[~below, 0]).all()  # rising over the plateau
+
+
+# ---------------------------------------------------------------------------------------------
+# the box pass (_raybox.box_pass after a terrain-only scan): bit-identical to the all-in-one
+# scan_kernel and to the minimum over every box of the scalar ray-box test
+# ---------------------------------------------------------------------------------------------
+
+
+def _kernel_args(lidar: Lidar) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    return lidar._cos_el, lidar._sin_el, lidar._cos_az, lidar._sin_az
+
+
+def terrain_then_boxes(sc: LidarScene, cfg: LidarConfig, origin: np.ndarray, rot: np.ndarray,
+                       plane_march: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """(terrain-only ranges before any filter, terrain + box_pass result)."""
+    from navstress.sim import _raybox, _raycast
+
+    lidar = Lidar(sc, cfg, plane_march=plane_march)
+    terr = np.empty((cfg.channels, cfg.azimuth_steps))
+    _raycast.scan_kernel(sc.heights, sc.cell_m, sc.mip, sc.mipf, sc.mip_offsets, sc.mip_widths, sc.grad_max,
+                         np.zeros((0, 9)), origin, rot, *_kernel_args(lidar), cfg.max_range_m, -math.inf,
+                         plane_march, terr)
+    out = terr.copy()
+    _raybox.box_pass(sc.boxes, origin, rot, *_kernel_args(lidar), cfg.max_range_m, cfg.min_range_m, out)
+    return terr, out
+
+
+def all_in_one(sc: LidarScene, cfg: LidarConfig, origin: np.ndarray, rot: np.ndarray,
+               plane_march: bool = True) -> np.ndarray:
+    """scan_kernel with the boxes (the path before box_pass)."""
+    from navstress.sim import _raycast
+
+    lidar = Lidar(sc, cfg)
+    out = np.empty((cfg.channels, cfg.azimuth_steps))
+    _raycast.scan_kernel(sc.heights, sc.cell_m, sc.mip, sc.mipf, sc.mip_offsets, sc.mip_widths, sc.grad_max,
+                         sc.boxes, origin, rot, *_kernel_args(lidar), cfg.max_range_m, cfg.min_range_m,
+                         plane_march, out)
+    return out
+
+
+def boxes_brute_force(sc: LidarScene, cfg: LidarConfig, origin: np.ndarray, rot: np.ndarray,
+                      terr: np.ndarray) -> np.ndarray:
+    """min(terrain, every box) per ray with the kernel's own direction arithmetic and the scalar
+    _ray_box (run as Python: IEEE double, same operations), then the range filter."""
+    from navstress.sim._raycast import _ray_box
+
+    ray_box = _ray_box.py_func
+    el, az = cfg.elevations_rad, cfg.azimuths_rad
+    ce, se, ca, sa = np.cos(el), np.sin(el), np.cos(az), np.sin(az)
+    ox, oy, oz = (float(v) for v in origin)
+    uwx, uwy, uwz = float(rot[0, 2]), float(rot[1, 2]), float(rot[2, 2])
+    out = terr.copy()
+    for a in range(cfg.azimuth_steps):
+        awx = float(rot[0, 0]) * float(ca[a]) + float(rot[0, 1]) * float(sa[a])
+        awy = float(rot[1, 0]) * float(ca[a]) + float(rot[1, 1]) * float(sa[a])
+        awz = float(rot[2, 0]) * float(ca[a]) + float(rot[2, 1]) * float(sa[a])
+        for k in range(cfg.channels):
+            c, s = float(ce[k]), float(se[k])
+            rx, ry, rz = c * awx + s * uwx, c * awy + s * uwy, c * awz + s * uwz
+            best = float(out[k, a])
+            for b in sc.boxes.tolist():
+                best = min(best, ray_box(b[0], b[1], b[7], b[8], b[3], b[4], b[5], b[6], ox, oy, oz, rx, ry, rz))
+            out[k, a] = best if cfg.min_range_m <= best <= cfg.max_range_m else math.inf
+    return out
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from([0.0, 1e-3, 0.1, 0.5, 1.2, 3.0]),
+       st.sampled_from(["random", "inside", "straddle", "wide"]))
+@example(seed=1, tilt=0.0, kind="inside")
+def test_box_pass_equals_all_in_one_and_brute_force(seed: int, tilt: float, kind: str) -> None:
+    """Random boxes (yawed, tall, below and above the sensor), tilted or upside-down sensors, a
+    sensor inside a box, boxes straddling the min/max range, buildings wider than the range,
+    a rotation off orthonormal by rounding: bit-identical ranges."""
+    g = np.random.default_rng(seed)
+    n = int(g.integers(8, 30))
+    cell = float(g.uniform(0.3, 1.0))
+    relief = float(g.choice([0.0, 0.5, 2.0]))
+    h = (relief * g.uniform(-1, 1, (n, n)).cumsum(0).cumsum(1) / n).astype(np.float32)
+    W = (n - 1) * cell
+    t = Terrain(h, cell)
+    x, y = g.uniform(0.2 * W, 0.8 * W, 2)
+    origin = np.array([x, y, t.height_at(x, y) + g.uniform(0.2, 2.0)])
+    lo = float(g.uniform(-60, 5))
+    cfg = LidarConfig(channels=int(g.integers(1, 24)), min_elevation_deg=lo, max_elevation_deg=lo + float(g.uniform(1, 80)),
+                      azimuth_steps=int(g.integers(1, 60)), max_range_m=float(g.uniform(4, 30)),
+                      min_range_m=float(g.choice([0.0, 0.3, 1.5])))
+    nb = int(g.integers(0, 25))
+    boxes = []
+    for _ in range(nb):
+        zb = float(g.uniform(origin[2] - 4, origin[2] + 1))
+        hx, hy = g.uniform(0.05, 1.5, 2)
+        if kind == "straddle":  # centre near the min or max range
+            r = float(g.choice([cfg.min_range_m, cfg.max_range_m])) + g.uniform(-1, 1)
+            ang = g.uniform(-np.pi, np.pi)
+            bx, by = x + r * math.cos(ang), y + r * math.sin(ang)
+        else:
+            bx, by = g.uniform(-0.2 * W, 1.2 * W, 2)
+        if kind == "wide":
+            hx, hy = g.uniform(0.5, 2.0 * W, 2)
+        boxes.append([bx, by, g.uniform(-4, 4), hx, hy, zb, zb + g.uniform(0.1, 8)])
+    if kind == "inside":  # the sensor inside a box: rays hit its exit faces
+        boxes.append([x + g.uniform(-0.3, 0.3), y + g.uniform(-0.3, 0.3), g.uniform(-4, 4), g.uniform(0.4, 1.5),
+                      g.uniform(0.4, 1.5), origin[2] - g.uniform(0.1, 2), origin[2] + g.uniform(0.1, 2)])
+    sc = LidarScene(h, cell, np.array(boxes).reshape(-1, 7))
+    rot = rot_zyx(g.uniform(-np.pi, np.pi), tilt * g.uniform(-1, 1), tilt * g.uniform(-1, 1))
+    if g.uniform() < 0.3:
+        rot = rot + g.uniform(-3e-7, 3e-7, (3, 3))  # still accepted (rotation error <= 1e-6)
+    for plane in (True, False):
+        terr, new = terrain_then_boxes(sc, cfg, origin, rot, plane)
+        old = all_in_one(sc, cfg, origin, rot, plane)
+        assert np.array_equal(new, old), (np.argwhere(new != old)[:5], new[new != old][:5], old[new != old][:5])
+        assert np.array_equal(Lidar(sc, cfg, plane_march=plane)._ranges(origin, rot), new)
+        ref = boxes_brute_force(sc, cfg, origin, rot, terr)
+        assert np.array_equal(new, ref), (np.argwhere(new != ref)[:5], new[new != ref][:5], ref[new != ref][:5])
+
+
+def test_box_pass_equals_all_in_one_on_generated_worlds() -> None:
+    """Trees and buildings on flat and hilly generated worlds, default 32 x 360 scans."""
+    from navstress.world.generate import generate
+
+    for ground in ({}, {"subdivisions": 4, "deformation": 2.0}):
+        spec = WorldSpec.model_validate({"size_m": [60.0, 60.0], "ground": ground,
+                                         "obstacles": {"obstruction": {"tree": 8, "building": 6}}})
+        w = generate(spec, seed=3)
+        sc = build_scene(w)
+        g = np.random.default_rng(1)
+        cfg = LidarConfig()
+        lidar = Lidar(sc, cfg)
+        hits = 0
+        for _ in range(6):
+            x, y = g.uniform(5, 55, 2)
+            origin = np.array([x, y, w.terrain.height_at(x, y) + 0.9])
+            rot = rot_zyx(g.uniform(-3, 3), g.uniform(-0.2, 0.2), g.uniform(-0.2, 0.2))
+            new = lidar._ranges(origin, rot).copy()
+            assert np.array_equal(new, all_in_one(sc, cfg, origin, rot))
+            terr, _ = terrain_then_boxes(sc, cfg, origin, rot)
+            hits += int(np.sum(new < np.where(terr >= cfg.min_range_m, terr, np.inf)))
+        assert hits > 1000  # the boxes were seen (rays shortened by them)
