@@ -78,19 +78,19 @@ def box_pass(boxes: np.ndarray, origin: np.ndarray, rot: np.ndarray, cos_el: np.
             ga = awx * awx + awy * awy + awz * awz
             gc = awx * uwx + awy * uwy + awz * uwz
             gu = uwx * uwx + uwy * uwy + uwz * uwz
-            det = ga * gu - gc * gc
+            idet = 1.0 / (ga * gu - gc * gc)  # (bounds only: rounding is far inside the margins)
             col[a, 0] = awx
             col[a, 1] = awy
             col[a, 2] = awz
             col[a, 3] = nx
             col[a, 4] = ny
             col[a, 5] = nz
-            col[a, 6] = (gu * awx - gc * uwx) / det  # as: as.aw = 1, as.uw = 0
-            col[a, 7] = (gu * awy - gc * uwy) / det
-            col[a, 8] = (gu * awz - gc * uwz) / det
-            col[a, 9] = (ga * uwx - gc * awx) / det  # us: us.aw = 0, us.uw = 1
-            col[a, 10] = (ga * uwy - gc * awy) / det
-            col[a, 11] = (ga * uwz - gc * awz) / det
+            col[a, 6] = (gu * awx - gc * uwx) * idet  # as: as.aw = 1, as.uw = 0
+            col[a, 7] = (gu * awy - gc * uwy) * idet
+            col[a, 8] = (gu * awz - gc * uwz) * idet
+            col[a, 9] = (ga * uwx - gc * awx) * idet  # us: us.aw = 0, us.uw = 1
+            col[a, 10] = (ga * uwy - gc * awy) * idet
+            col[a, 11] = (ga * uwz - gc * awz) * idet
         # per box: near distance in the sensor's xy plane, azimuth interval -> column range
         rn = np.empty(nb)
         c0 = np.empty(nb, np.int64)
@@ -120,8 +120,9 @@ def box_pass(boxes: np.ndarray, origin: np.ndarray, rot: np.ndarray, cos_el: np.
             g3y = hz * r21
             rho = math.sqrt(sx * sx + sy * sy)
             if rho > 0.0:
-                ux = sx / rho
-                uy = sy / rho
+                irho = 1.0 / rho
+                ux = sx * irho
+                uy = sy * irho
                 epar = abs(ux * g1x + uy * g1y) + abs(ux * g2x + uy * g2y) + abs(ux * g3x + uy * g3y)
                 wid = abs(ux * g1y - uy * g1x) + abs(ux * g2y - uy * g2x) + abs(ux * g3y - uy * g3x)
                 near = rho - epar
