@@ -14,8 +14,9 @@ Exact to the geometry MuJoCo simulates (checked against ``mujoco.mj_ray`` in the
   yaw about z only; faces two-sided (a ray starting inside a box hits its exit face).
 
 The scan marches, per azimuth column, the plane of its 32 channels once, lowest unresolved
-channel first, with max-height mipmaps to skip empty space; boxes are binned by world heading
-per scan. See :func:`navstress.sim._raycast.scan_kernel`.
+channel first, with max-height mipmaps to skip empty space; the boxes then lower those ranges
+in a box-major pass (near boxes first). See :func:`navstress.sim._raycast.scan_kernel` and
+:func:`navstress.sim._raybox.box_pass`.
 
     >>> import numpy as np
     >>> from navstress.world.spec import WorldSpec
