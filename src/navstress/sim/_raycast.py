@@ -538,6 +538,11 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray, m
     The terrain ranges come from :func:`_terrain_pass` (one plane per azimuth column, lowest
     channel first). Boxes come from world-heading sector bins (built per scan), each tested only
     on the contiguous channel range whose world slope can reach it, nearer than the terrain hit.
+
+    :class:`~navstress.sim.lidar.Lidar` calls this with no boxes (terrain only) and then the
+    faster box-major :func:`navstress.sim._raybox.box_pass`; the per-column box code here is kept
+    as the independent all-in-one reference that tests and ``benchmarks/bench_lidar_boxes.py``
+    compare ``box_pass`` against (bit-identical).
     """
     nch = cos_el.shape[0]
     naz = cos_az.shape[0]
