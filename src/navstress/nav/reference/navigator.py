@@ -26,7 +26,7 @@ import numpy as np
 from navstress.errors import NavigatorError
 from navstress.nav.api import Command, NavMission, Observation, Status
 from navstress.nav.reference.config import ReferenceConfig
-from navstress.nav.reference.planner import ArcEvaluation, ArcPlanner, footprint_cells, node_cost
+from navstress.nav.reference.planner import _MAX_FP_CELLS, ArcEvaluation, ArcPlanner, _footprint_cells, node_cost
 from navstress.nav.reference.pose import Pose, PoseEstimator, wrap_angle
 from navstress.nav.reference.terrain_map import TerrainMap, step_threshold
 from navstress.robot import RobotSpec
@@ -76,6 +76,7 @@ class ReferenceNavigator:
         self.last_elected: int = -1
         self._spin_latch = 0
         self.messages: list[tuple[float, str]] = []
+        self._fp_buf = (np.empty(_MAX_FP_CELLS, dtype=np.int64), np.empty(_MAX_FP_CELLS, dtype=np.int64))
         self._ready = True
 
     def step(self, obs: Observation) -> Command | Status:
@@ -166,11 +167,12 @@ class ReferenceNavigator:
         return status
 
     def _mark_under_robot(self, pose: Pose) -> None:
-        cells = footprint_cells(pose.x, pose.y, pose.yaw, 0.5 * self.robot.length_m, 0.5 * self.robot.width_m,
-                                self.terrain)
-        if cells is not None and len(cells[0]):
-            self.terrain.fill_unknown(cells[0], cells[1], (pose.x, pose.y), self.config.fill_radius_m,
-                                      pose.z - self._base_height)
+        t = self.terrain
+        bi, bj = self._fp_buf
+        n = _footprint_cells(pose.x, pose.y, pose.yaw, 0.5 * self.robot.length_m, 0.5 * self.robot.width_m,
+                             t.origin[0], t.origin[1], t.cell_m, t.shape[0], t.shape[1], bi, bj)
+        if n > 0:  # the buffers' first n entries (footprint_cells without its copies)
+            t.fill_unknown(bi[:n], bj[:n], (pose.x, pose.y), self.config.fill_radius_m, pose.z - self._base_height)
 
     def _progress_manoeuvre(self, obs: Observation) -> None:
         """Advance the scan manoeuvre: the turn is measured on the perceived (gyro-fused) heading,
