@@ -176,3 +176,59 @@ def test_fine_layer_keeps_each_cells_latest_scan_and_forgets_a_ghost() -> None:
 def test_bad_obstacle_subcells_is_refused() -> None:
     with pytest.raises(ValueError, match="obstacle_subcells=0"):
         TerrainMap((0.0, 0.0), (10, 10), 0.3, obstacle_subcells=0)
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(1, 400), st.integers(1, 400))
+def test_fine_layer_and_stats_match_brute_force_over_two_scans(seed: int, n1: int, n2: int) -> None:
+    """Two scans of different sizes (the scratch buffers grow): exact min/max/sum/count per cell
+    in point order, and per fine sub-cell the max z of the latest scan that hit its cell."""
+    g = np.random.default_rng(seed)
+    m = TerrainMap((-5.0, -4.0), (20, 30), 0.3, STEP, 100.0)
+    pose = Pose(0.0, 0.2, -0.1, 0.3, 0.4, 0.03, -0.02)
+    scans = [g.uniform(-6, 6, (n, 3)).astype(np.float32) for n in (n1, n2)]
+    zmin = np.full((20, 30), np.inf)
+    zmax = np.full((20, 30), -np.inf)
+    zsum = np.zeros((20, 30))
+    cnt = np.zeros((20, 30))
+    fine = np.full((60, 90), -np.inf, dtype=np.float32)
+    for pts in scans:
+        m.integrate(pts, MOUNT, pose)
+        r, t = pose.sensor_transform(MOUNT)
+        inv = 1.0 / 0.3
+        hit_now = np.zeros((20, 30), bool)
+        latest = np.full((60, 90), -np.inf, dtype=np.float32)
+        for px, py, pz in pts.astype(np.float64).tolist():  # point order, the map's arithmetic
+            x = r[0, 0] * px + r[0, 1] * py + r[0, 2] * pz + t[0]
+            y = r[1, 0] * px + r[1, 1] * py + r[1, 2] * pz + t[1]
+            z = r[2, 0] * px + r[2, 1] * py + r[2, 2] * pz + t[2]
+            fi, fj = (y + 4.0) * inv, (x + 5.0) * inv
+            if not (0 <= fi < 20 and 0 <= fj < 30):
+                continue
+            i, j = int(fi), int(fj)
+            zmin[i, j], zmax[i, j] = min(zmin[i, j], z), max(zmax[i, j], z)
+            zsum[i, j] += z
+            cnt[i, j] += 1
+            hit_now[i, j] = True
+            u = min(max(int((y + 4.0) * (3 * inv)) - 3 * i, 0), 2)
+            v = min(max(int((x + 5.0) * (3 * inv)) - 3 * j, 0), 2)
+            latest[3 * i + u, 3 * j + v] = max(latest[3 * i + u, 3 * j + v], np.float32(z))
+        mask = np.repeat(np.repeat(hit_now, 3, axis=0), 3, axis=1)
+        fine[mask] = latest[mask]
+    assert np.array_equal(m.zmin, zmin) and np.array_equal(m.zmax, zmax)
+    assert np.array_equal(m.zsum, zsum) and np.array_equal(m.count, cnt)
+    got = m.fine[:, :, :9].reshape(20, 30, 3, 3).transpose(0, 2, 1, 3).reshape(60, 90)
+    assert np.array_equal(got, fine)
+
+
+def test_fill_unknown_changes_nothing_when_every_cell_is_known() -> None:
+    m = TerrainMap((0.0, 0.0), (10, 10), 0.5, STEP, 40.0)
+    m.stats[:, :, 0] = m.stats[:, :, 1] = m.stats[:, :, 2] = 1.5
+    m.stats[:, :, 3] = 1.0
+    m.stats[4, 6] = (np.inf, -np.inf, 0.0, 0.0)  # unknown, but not among the cells asked
+    before = m.stats.copy()
+    ii, jj = np.array([2, 3, 3], dtype=np.int64), np.array([2, 2, 3], dtype=np.int64)
+    assert m.fill_unknown(ii, jj, (1.5, 1.5), 2.0, 0.0) == 0
+    assert np.array_equal(m.stats, before)
+    assert m.fill_unknown(np.array([4]), np.array([6]), (3.0, 2.0), 2.0, 0.0) == 1
+    assert m.count[4, 6] == 1 and m.zmin[4, 6] == m.zmax[4, 6]

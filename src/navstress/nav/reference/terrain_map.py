@@ -57,7 +57,7 @@ def _prefetch(typingctx: Any, arr: Any, idx: Any) -> Any:
         ary = context.make_array(sig.args[0])(context, builder, args[0])
         i8p = ir.IntType(8).as_pointer()
         fnty = ir.FunctionType(ir.VoidType(), [i8p, ir.IntType(32), ir.IntType(32), ir.IntType(32)])
-        fn = cgutils.get_or_insert_function(builder.module, fnty, "llvm.prefetch.p0i8")
+        fn = cgutils.get_or_insert_function(builder.module, fnty, "llvm.prefetch.p0i8")  # type: ignore[no-untyped-call]
         i32 = ir.IntType(32)
         builder.call(fn, [builder.bitcast(builder.gep(ary.data, [args[1]]), i8p), ir.Constant(i32, 1),
                           ir.Constant(i32, 3), ir.Constant(i32, 1)])
@@ -113,7 +113,7 @@ def _integrate(points: np.ndarray, rot: np.ndarray, trans: np.ndarray, ox: float
     for k in range(n):
         if k + _AHEAD < n:
             ca = buf_c[k + _AHEAD]
-            _prefetch(sf, 4 * ca)
+            _prefetch(sf, 4 * ca)  # type: ignore[call-arg]
             _prefetch(ff, ca * fstride + buf_q[k + _AHEAD])
             _prefetch(ff, ca * fstride + nsub)
         c = buf_c[k]
