@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from navstress.errors import SpecError
-from navstress.sim import _raybox, _raycast
+from navstress.sim import _noise, _raybox, _raycast
 from navstress.world.world import World
 
 __all__ = ["LidarConfig", "LidarScene", "Lidar", "build_scene", "cast_rays"]
@@ -265,14 +265,22 @@ class Lidar:
 
     def scan(self, origin: np.ndarray, rotation: np.ndarray, rng: np.random.Generator | None = None) -> np.ndarray:
         """Hit points (N, 3) float32 in the sensor frame (x forward, y left, z up); rays without a
-        return are omitted. With ``rng``, each range gets N(0, range_noise_std_m) noise along its
-        ray (``rng.standard_normal(N, dtype=float32)``, one draw per return in channel-major order; nothing else
-        is drawn), clamped at 0."""
+        return are omitted. With ``rng``, each range gets exact N(0, range_noise_std_m) noise along
+        its ray, clamped at 0: one standard normal per return in channel-major order, from a
+        ziggurat on raw words of ``rng.bit_generator`` (:mod:`navstress.sim._noise`): one 32-bit
+        half of a 64-bit word per sample (``random_raw(ceil(N/2) + N//16 + 64)``, the rest spare
+        words for rejections and the tail, refilled by ``random_raw(N//16 + 64)`` if ever
+        exhausted); nothing else is drawn. Same generator state -> same points."""
         r = self._ranges(origin, rotation)
         n = _raycast.count_finite(r)
         std = self.config.range_noise_std_m
-        noise = rng.standard_normal(n, dtype=np.float32) if (rng is not None and std > 0) else \
-            np.empty(0, np.float32)
         pts = np.empty((n, 3), np.float32)
-        _raycast.points_from_ranges(r, self._dirs, noise, float(std), pts)
+        if rng is None or std <= 0:
+            _raycast.points_from_ranges(r, self._dirs, np.empty(0, np.float32), 0.0, pts)
+            return pts
+        m, s = (n + 1) // 2, _noise.default_spare(n)
+        words = rng.bit_generator.random_raw(m + s)
+        k = _noise.noisy_points(r, self._dirs, words[:m], words[m:], 0, float(std), pts)
+        while k < n:  # spare words exhausted (practically never): refill, redo sample k
+            k = _noise.noisy_points(r, self._dirs, words[:m], rng.bit_generator.random_raw(s), k, float(std), pts)
         return pts
