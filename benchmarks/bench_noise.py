@@ -35,7 +35,7 @@ def main() -> None:
     passes, rep = (3, 300) if a.quick else (15, 2000)
     w = generate(WorldSpec.model_validate({"obstacles": {"obstruction": {"tree": 6}}}), seed=1)
     lidar = Lidar(build_scene(w))
-    sx, sy = w.spec.size_m if hasattr(w.spec, "size_m") else (100.0, 100.0)
+    sx, sy = w.spec.size_m
     r = lidar._ranges(np.array([sx / 2, sy / 2, 1.5]), np.eye(3)).copy()
     n = _raycast.count_finite(r)
     std = lidar.config.range_noise_std_m

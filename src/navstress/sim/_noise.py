@@ -102,7 +102,7 @@ def _u01(w: np.uint64) -> float:
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _slow(i: int, x: float, neg: bool, spare: np.ndarray, pos: int) -> tuple[float, int]:
+def _slow(i: int | np.int64, x: float, neg: bool, spare: np.ndarray, pos: int) -> tuple[float, int]:
     """Finish a sample in layer ``i`` at ``|x|`` that failed the quick test; returns (z, new pos),
     or (nan, -1) if the spare words ran out. Redraws use whole 64-bit spare words."""
     ns = spare.shape[0]
@@ -154,7 +154,7 @@ def fill_normals(first: np.ndarray, spare: np.ndarray, start: int, out: np.ndarr
             if pos < 0:
                 return k
             out[k] = z
-    return out.shape[0]
+    return int(out.shape[0])
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
