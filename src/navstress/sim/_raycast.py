@@ -334,7 +334,7 @@ def cast_rays_kernel(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarr
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _terrain_pass(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray, moff: np.ndarray, mnx: np.ndarray,
+def terrain_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray, moff: np.ndarray, mnx: np.ndarray,
                   grad_max: float, origin: np.ndarray, rot: np.ndarray, cos_el: np.ndarray, sin_el: np.ndarray,
                   cos_az: np.ndarray, sin_az: np.ndarray, max_range: float, plane_march: bool,
                   out: np.ndarray) -> None:
@@ -535,7 +535,7 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray, m
                 max_range: float, min_range: float, plane_march: bool, out: np.ndarray) -> None:
     """One scan: out[channel, azimuth] = range (inf: no return). Channels ascending in elevation.
 
-    The terrain ranges come from :func:`_terrain_pass` (one plane per azimuth column, lowest
+    The terrain ranges come from :func:`terrain_kernel` (one plane per azimuth column, lowest
     channel first). Boxes come from world-heading sector bins (built per scan), each tested only
     on the contiguous channel range whose world slope can reach it, nearer than the terrain hit.
 
@@ -551,7 +551,7 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray, m
     ncy = h.shape[0] - 1
     icell = 1.0 / cell
     tr = np.empty((nch, naz))
-    _terrain_pass(h, cell, mip, mipf, moff, mnx, grad_max, origin, rot, cos_el, sin_el, cos_az, sin_az,
+    terrain_kernel(h, cell, mip, mipf, moff, mnx, grad_max, origin, rot, cos_el, sin_el, cos_az, sin_az,
                   max_range, plane_march, tr)
     # ---- per-scan box preparation: distances, reachable slopes, heading intervals, bins --
     nb = boxes.shape[0]

@@ -14,9 +14,9 @@ Exact to the geometry MuJoCo simulates (checked against ``mujoco.mj_ray`` in the
   yaw about z only; faces two-sided (a ray starting inside a box hits its exit face).
 
 The scan marches, per azimuth column, the plane of its 32 channels once, lowest unresolved
-channel first, with max-height mipmaps to skip empty space; the boxes then lower those ranges
-in a box-major pass (near boxes first). See :func:`navstress.sim._raycast.scan_kernel` and
-:func:`navstress.sim._raybox.box_pass`.
+channel first (channel-major over the columns, a cell walk with per-cell maxima deciding the
+exact tests); the boxes then lower those ranges in a box-major pass (near boxes first). See
+:func:`navstress.sim._raycast.terrain_kernel` and :func:`navstress.sim._raybox.box_pass`.
 
     >>> import numpy as np
     >>> from navstress.world.spec import WorldSpec
@@ -39,9 +39,6 @@ from navstress.sim import _noise, _raybox, _raycast
 from navstress.world.world import World
 
 __all__ = ["LidarConfig", "LidarScene", "Lidar", "build_scene", "cast_rays"]
-
-_NO_BOXES = np.zeros((0, 9))  # the terrain-only scan (boxes come from _raybox.box_pass)
-_NO_BOXES.setflags(write=False)
 
 
 @dataclass(frozen=True)
@@ -256,9 +253,9 @@ class Lidar:
         s, c = self.scene, self.config
         # terrain first (no boxes, no min-range filter), then the boxes lower it and filter:
         # bit-identical to scan_kernel with the boxes (min_range applies to the nearer hit)
-        _raycast.scan_kernel(s.heights, s.cell_m, s.mip, s.mipf, s.mip_offsets, s.mip_widths, s.grad_max, _NO_BOXES,
-                             o, r, self._cos_el, self._sin_el, self._cos_az, self._sin_az,
-                             float(c.max_range_m), -math.inf, self.plane_march, self._out)
+        _raycast.terrain_kernel(s.heights, s.cell_m, s.mip, s.mipf, s.mip_offsets, s.mip_widths, s.grad_max,
+                                o, r, self._cos_el, self._sin_el, self._cos_az, self._sin_az,
+                                float(c.max_range_m), self.plane_march, self._out)
         _raybox.box_pass(s.boxes, o, r, self._cos_el, self._sin_el, self._cos_az, self._sin_az,
                          float(c.max_range_m), float(c.min_range_m), self._out)
         return self._out
