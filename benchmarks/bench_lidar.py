@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import hashlib
 import importlib.util
+import inspect
 import math
 import platform
 import subprocess
@@ -80,7 +81,7 @@ def load_baseline(rev: str) -> ModuleType:
 
 
 class BaselineLidar:
-    """``Lidar.scan`` as of revision e6a6917 (same kernel signature), on a baseline module."""
+    """``Lidar.scan`` as of revision e6a6917 (all-in-one ``scan_kernel``, numpy noise), on a baseline module."""
 
     def __init__(self, mod: ModuleType, scene: LidarScene, config: LidarConfig) -> None:
         self.mod, self.scene, self.config = mod, scene, config
@@ -88,13 +89,16 @@ class BaselineLidar:
         self._cos_el, self._sin_el, self._cos_az, self._sin_az = np.cos(el), np.sin(el), np.cos(az), np.sin(az)
         self._dirs = config.directions()
         self._out = np.empty((config.channels, config.azimuth_steps), np.float64)
+        # revisions from 2026-11-21 on take the float32 mipmap too
+        self._takes_mipf = "mipf" in inspect.signature(mod.scan_kernel.py_func).parameters
 
     def ranges(self, origin: np.ndarray, rotation: np.ndarray) -> np.ndarray:
         o = np.ascontiguousarray(origin, dtype=np.float64)
         r = np.ascontiguousarray(rotation, dtype=np.float64)
         assert self.mod.rotation_error(r) <= 1e-6
         s, c = self.scene, self.config
-        self.mod.scan_kernel(s.heights, s.cell_m, s.mip, s.mip_offsets, s.mip_widths, s.grad_max, s.boxes,
+        mip = (s.mip, s.mipf) if self._takes_mipf else (s.mip,)
+        self.mod.scan_kernel(s.heights, s.cell_m, *mip, s.mip_offsets, s.mip_widths, s.grad_max, s.boxes,
                              o, r, self._cos_el, self._sin_el, self._cos_az, self._sin_az,
                              float(c.max_range_m), float(c.min_range_m), True, self._out)
         return self._out
