@@ -234,3 +234,60 @@ def test_quadratic_curvature_spacing_is_denser_near_straight() -> None:
     assert np.allclose(quad, -quad[::-1])
     gaps = np.diff(quad[9:])
     assert np.all(np.diff(gaps) > 0) and gaps[0] == pytest.approx(0.8 / 81)
+
+
+def _brute_node_cost(m: TerrainMap, p: ArcPlanner, x: float, y: float, yaw: float) -> float:
+    """The module doc's node cost (coarse layer only), cell by cell in numpy: footprint cells,
+    unknown -> inf, least-squares plane over the known non-obstacle cells' mean heights."""
+    cells = footprint_cells(x, y, yaw, p.half_length, p.half_width, m)
+    if cells is None:
+        return math.inf
+    pts = []
+    for i, j in zip(*cells):
+        if m.count[i, j] == 0:
+            return math.inf
+        nb = [(a, b) for a in range(i - 1, i + 2) for b in range(j - 1, j + 2)
+              if 0 <= a < m.shape[0] and 0 <= b < m.shape[1] and m.count[a, b] > 0]
+        ground = min(m.zmin[a, b] for a, b in nb)
+        if m.zmax[i, j] - ground > m.step_m:
+            continue
+        pts.append((m.origin[0] + (j + 0.5) * m.cell_m, m.origin[1] + (i + 0.5) * m.cell_m, m.zsum[i, j] / m.count[i, j]))
+    if len(pts) < 3:
+        return 0.0
+    a = np.array(pts)
+    sol, *_ = np.linalg.lstsq(np.c_[a[:, 0], a[:, 1], np.ones(len(a))], a[:, 2], rcond=None)
+    rough = float(np.abs(a[:, 2] - np.c_[a[:, 0], a[:, 1], np.ones(len(a))] @ sol).max())
+    slope = math.hypot(sol[0], sol[1])
+    cfg = p.config
+    tmax = math.tan(math.radians(cfg.max_slope_deg))
+    if slope > tmax or rough > cfg.max_roughness_m:
+        return math.inf
+    return cfg.slope_weight * math.atan(slope) / math.atan(tmax) + cfg.roughness_weight * rough / cfg.max_roughness_m
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.floats(-math.pi, math.pi))
+def test_fan_node_costs_match_a_brute_force_plane_fit(seed: int, yaw: float) -> None:
+    # rough random terrain with a never-seen patch and a few coarse obstacle cells (no fine ones)
+    rng = np.random.default_rng(seed)
+    m = TerrainMap((-6.0, -6.0), (40, 40), 0.3, step_m=0.5)
+    ii, jj = np.mgrid[0:40, 0:40]
+    z = 0.15 * np.sin(0.3 * ii + rng.uniform(0, 6)) + 0.1 * np.cos(0.2 * jj) + rng.normal(0, 0.03, (40, 40))
+    m.stats[:, :, 0] = z
+    m.stats[:, :, 1] = z
+    m.stats[:, :, 2] = 2.0 * z
+    m.stats[:, :, 3] = 2.0
+    for _ in range(4):
+        i, j = rng.integers(5, 35, 2)
+        m.stats[i, j, 1] = z[i, j] + 1.0
+    i, j = rng.integers(5, 30, 2)
+    m.stats[i:i + 3, j:j + 4] = (np.inf, -np.inf, 0.0, 0.0)
+    p = ArcPlanner(ReferenceConfig(clearance_cost=0.0, exempt_current_footprint=False), RobotSpec())
+    ev = p.evaluate(m, 0.0, 0.0, yaw, 1)
+    for a in range(ev.nodes.shape[0]):
+        for k in range(ev.nodes.shape[1]):
+            if k > 0 and math.isinf(ev.node_cost[a, k - 1]):
+                break  # after the first blocked node the rest of the arc is not evaluated
+            want = _brute_node_cost(m, p, *ev.nodes[a, k])
+            got = ev.node_cost[a, k]
+            assert (math.isinf(want) and math.isinf(got)) or got == pytest.approx(want, abs=1e-9), (a, k)

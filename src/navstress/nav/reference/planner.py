@@ -86,9 +86,10 @@ def _footprint_cells(cx: float, cy: float, yaw: float, hl: float, hw: float, ox:
 
 @nb.njit(cache=True)
 def _fan_nodes(x: float, y: float, yaw: float, curv: np.ndarray, length: float, n_nodes: int,
-               spin_dir: int, spin_angle: float, out: np.ndarray) -> None:
+               spin_dir: int, spin_angle: float, out: np.ndarray, trig: np.ndarray) -> None:
     """Fill ``out`` (A, N, 3) with the fan's node poses: the arcs of ``curv`` (as :func:`arc_nodes`),
-    then, when ``spin_dir != 0``, the turn on the spot (``spin_angle`` covered by its N nodes)."""
+    then, when ``spin_dir != 0``, the turn on the spot (``spin_angle`` covered by its N nodes);
+    ``trig`` (A, N, 2) gets each node's (cos, sin) heading (the arcs' own sin/cos, reused)."""
     cy0 = math.cos(yaw)
     sy0 = math.sin(yaw)
     for a in range(curv.shape[0]):
@@ -99,16 +100,34 @@ def _fan_nodes(x: float, y: float, yaw: float, curv: np.ndarray, length: float, 
             if abs(k) < 1e-9:
                 out[a, n, 0] = x + s * cy0
                 out[a, n, 1] = y + s * sy0
+                trig[a, n, 0] = math.cos(th)
+                trig[a, n, 1] = math.sin(th)
             else:
-                out[a, n, 0] = x + (math.sin(th) - sy0) / k
-                out[a, n, 1] = y - (math.cos(th) - cy0) / k
+                st = math.sin(th)
+                ct = math.cos(th)
+                out[a, n, 0] = x + (st - sy0) / k
+                out[a, n, 1] = y - (ct - cy0) / k
+                trig[a, n, 0] = ct
+                trig[a, n, 1] = st
             out[a, n, 2] = th
     if spin_dir != 0:
         a = curv.shape[0]
         for n in range(n_nodes):
             out[a, n, 0] = x
             out[a, n, 1] = y
-            out[a, n, 2] = yaw + spin_dir * spin_angle * (n + 1) / n_nodes
+            th = yaw + spin_dir * spin_angle * (n + 1) / n_nodes
+            out[a, n, 2] = th
+            trig[a, n, 0] = math.cos(th)
+            trig[a, n, 1] = math.sin(th)
+
+
+@nb.njit(cache=True)
+def _node_trig(nodes: np.ndarray, trig: np.ndarray) -> None:
+    """``trig[a, n]`` = (cos, sin) of the heading ``nodes[a, n, 2]``."""
+    for a in range(nodes.shape[0]):
+        for n in range(nodes.shape[1]):
+            trig[a, n, 0] = math.cos(nodes[a, n, 2])
+            trig[a, n, 1] = math.sin(nodes[a, n, 2])
 
 
 @nb.njit(cache=True, inline="always")
@@ -126,21 +145,24 @@ def _rect_hits_square(dx: float, dy: float, c: float, s: float, hl: float, hw: f
 @nb.njit(cache=True)
 def _evaluate_fan(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: np.ndarray,
                   fine: np.ndarray, sub: int, ox: float, oy: float, cell: float, step: float,
-                  nodes: np.ndarray, hl: float, hw: float, rx: float, ry: float, ryaw: float,
+                  nodes: np.ndarray, trig: np.ndarray, hl: float, hw: float, rx: float, ry: float, ryaw: float,
                   exempt_on: bool, max_slope_tan: float, max_rough: float, w_s: float, w_r: float,
                   unknown_cost: float, clear_m: float, clear_cost: float, out_node: np.ndarray,
                   out_slope: np.ndarray, out_rough: np.ndarray, out_cost: np.ndarray) -> int:
-    """One planning cycle's terrain costs, in one call (module doc). Returns the number of fine
-    obstacle cells considered.
+    """One planning cycle's terrain costs, in one call (module doc); ``trig`` holds each node's
+    (cos, sin) heading. Returns the number of fine obstacle cells considered.
 
-    1. A window of coarse cells covering every node's (clearance-grown) footprint: coarse
-       obstacle flags and ground estimates computed once; the fine obstacle cells inside the
-       coarse obstacle cells collected as a list of squares.
+    1. A window of coarse cells covering every node's (clearance-grown) footprint: per cell one
+       class (known ground, obstacle, unknown exempt, unknown) and its mean height, computed once
+       (the 3x3 ground minimum separably: a row minimum, then a column minimum); the fine
+       obstacle cells inside the coarse obstacle cells collected as a list of squares.
     2. With ``exempt_on``: the coarse cells and the fine obstacle cells under the footprint at
        (rx, ry, ryaw) are not checked (the robot already stands there).
-    3. Per node: coarse footprint cells -> unknown / outside check and the plane fit (coarse
-       obstacle cells left out of the fit); fine obstacle squares -> collision (inf) with the
-       footprint, or ``clear_cost`` when one overlaps the footprint grown by ``clear_m``.
+    3. Per node: the coarse footprint cells (those of :func:`_footprint_cells`, same order;
+       each row's cells are contiguous, so a row stops at its first miss after a hit), classified
+       as they are enumerated -> unknown / outside check and the plane fit (coarse obstacle cells
+       left out of the fit); fine obstacle squares -> collision (inf) with the footprint, or
+       ``clear_cost`` when one overlaps the footprint grown by ``clear_m``.
     """
     nr, nc = zmin.shape
     n_arcs = nodes.shape[0]
@@ -162,24 +184,47 @@ def _evaluate_fan(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: n
     j1 = min(nc - 1, int(math.floor((xhi + reach - ox) / cell)))
     wi = max(0, i1 - i0 + 1)
     wj = max(0, j1 - j0 + 1)
-    obst = np.zeros((wi, wj), dtype=np.bool_)
-    exempt = np.zeros((wi, wj), dtype=np.bool_)
+    # the window's 3x3 ground minimum: row minima over a one-cell halo, then column minima
+    hi0 = max(0, i0 - 1)
+    hi1 = min(nr - 1, i1 + 1)
+    rowmin = np.empty((max(0, hi1 - hi0 + 1), wj))
+    for r in range(hi1 - hi0 + 1):
+        i = hi0 + r
+        for lj in range(wj):
+            j = j0 + lj
+            g = math.inf
+            for b in range(max(0, j - 1), min(nc, j + 2)):
+                if count[i, b] > 0 and zmin[i, b] < g:
+                    g = zmin[i, b]
+            rowmin[r, lj] = g
+    # per window cell: 0 known ground, 1 obstacle, 2 unknown exempt, 3 unknown
+    cls = np.full((wi, wj), 3, dtype=np.int8)
     ground = np.empty((wi, wj))
-    known = np.zeros((wi, wj), dtype=np.bool_)
     zmean = np.zeros((wi, wj))
     n_obst = 0
     for li in range(wi):
+        i = i0 + li
         for lj in range(wj):
-            i = i0 + li
             j = j0 + lj
             if count[i, j] > 0:
-                known[li, lj] = True
                 zmean[li, lj] = zsum[i, j] / count[i, j]
-                g = cell_ground(zmin, count, i, j)
+                g = math.inf
+                for r in range(max(0, i - 1) - hi0, min(nr, i + 2) - hi0):
+                    if rowmin[r, lj] < g:
+                        g = rowmin[r, lj]
                 ground[li, lj] = g
                 if zmax[i, j] - g > step:
-                    obst[li, lj] = True
+                    cls[li, lj] = 1
                     n_obst += 1
+                else:
+                    cls[li, lj] = 0
+    # cell centres of the window's columns and rows (as the fit's moments need them)
+    xc = np.empty(wj)
+    for lj in range(wj):
+        xc[lj] = ox + (j0 + lj + 0.5) * cell
+    yc = np.empty(wi)
+    for li in range(wi):
+        yc[li] = oy + (i0 + li + 0.5) * cell
     # fine obstacle squares (centres), from the coarse obstacle cells only (fine ones lie inside)
     fcell = cell / sub
     h = 0.5 * fcell
@@ -191,7 +236,7 @@ def _evaluate_fan(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: n
     rey = hl * abs(sr) + hw * abs(cr)
     for li in range(wi):
         for lj in range(wj):
-            if not obst[li, lj]:
+            if cls[li, lj] != 1:
                 continue
             g = ground[li, lj]
             for u in range(sub):
@@ -206,19 +251,28 @@ def _evaluate_fan(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: n
                         pts[n_pts, 0] = px
                         pts[n_pts, 1] = py
                         n_pts += 1
-    buf_i = np.empty(_MAX_FP_CELLS, dtype=np.int64)
-    buf_j = np.empty(_MAX_FP_CELLS, dtype=np.int64)
     buf_x = np.empty(_MAX_FP_CELLS, dtype=np.float64)
     buf_y = np.empty(_MAX_FP_CELLS, dtype=np.float64)
     buf_z = np.empty(_MAX_FP_CELLS, dtype=np.float64)
     if exempt_on:
+        buf_i = np.empty(_MAX_FP_CELLS, dtype=np.int64)
+        buf_j = np.empty(_MAX_FP_CELLS, dtype=np.int64)
         n = _footprint_cells(rx, ry, ryaw, hl, hw, ox, oy, cell, nr, nc, buf_i, buf_j)
         for k in range(max(n, 0)):
-            exempt[buf_i[k] - i0, buf_j[k] - j0] = True
+            li = buf_i[k] - i0
+            lj = buf_j[k] - j0
+            if cls[li, lj] == 3:
+                cls[li, lj] = 2
     r_hit = math.hypot(hl, hw) + h * math.sqrt(2.0)
     r_clear = math.hypot(hl + clear_m, hw + clear_m) + h * math.sqrt(2.0)
     use_clear = clear_m > 0.0 and clear_cost > 0.0
     r_max = r_clear if use_clear else r_hit
+    inf_unknown = math.isinf(unknown_cost)
+    atan_max = math.atan(max_slope_tan)
+    half = 0.5 * cell
+    n_col = int(2.0 * (hl + hw) / cell) + 3  # more than a footprint's bounding box spans
+    col_c = np.empty(n_col)
+    col_s = np.empty(n_col)
     sub_pts = np.empty((max(n_pts, 1), 2))
     for a in range(n_arcs):
         # the fine squares near this arc (its nodes' bounding box + the largest ring radius)
@@ -241,88 +295,128 @@ def _evaluate_fan(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: n
         for k in range(n_nodes):
             x = nodes[a, k, 0]
             y = nodes[a, k, 1]
-            th = nodes[a, k, 2]
+            c = trig[a, k, 0]
+            s = trig[a, k, 1]
             cst = 0.0
             slope_tan = math.nan
             rough = math.nan
-            n = _footprint_cells(x, y, th, hl, hw, ox, oy, cell, nr, nc, buf_i, buf_j)
-            if n < 0:
-                cst = math.inf
-            else:
-                # coarse layer: unknown cells, then the plane fit over known non-obstacle cells
-                # (moments about the node, one pass; residuals in a second pass)
-                extra = 0.0
-                m = 0
-                sx = 0.0
-                sy = 0.0
-                sz = 0.0
-                for q in range(n):
-                    li = buf_i[q] - i0
-                    lj = buf_j[q] - j0
-                    if not known[li, lj]:
-                        if exempt[li, lj]:
-                            continue
-                        if math.isinf(unknown_cost):
-                            cst = math.inf
+            # coarse layer, as the footprint cells are enumerated (as _footprint_cells): outside
+            # the map or unknown -> inf; else moments about the node of the known non-obstacle
+            # cells (one pass), residuals in a second pass
+            ac = abs(c)
+            as_ = abs(s)
+            ex = hl * ac + hw * as_
+            ey = hl * as_ + hw * ac
+            fj0 = int(math.floor((x - ex - ox) / cell))
+            fj1 = int(math.floor((x + ex - ox) / cell))
+            fi0 = int(math.floor((y - ey - oy) / cell))
+            fi1 = int(math.floor((y + ey - oy) / cell))
+            proj = half * (ac + as_)
+            lim_l = hl + proj - _EPS
+            lim_w = hw + proj - _EPS
+            extra = 0.0
+            m = 0
+            n = 0
+            sx = 0.0
+            sy = 0.0
+            sz = 0.0
+            blocked = False
+            # the columns passing the bounding-box test (the same for every row; contiguous),
+            # and their centres' projections on the footprint axes
+            ja = fj1 + 1
+            jb = fj0 - 1
+            for j in range(fj0, fj1 + 1):
+                x0 = ox + j * cell
+                if x - ex < x0 + cell - _EPS and x + ex > x0 + _EPS:
+                    if ja > fj1:
+                        ja = j
+                    jb = j
+                    dxc = x0 + half - x
+                    col_c[j - fj0] = dxc * c
+                    col_s[j - fj0] = -dxc * s
+            for i in range(fi0, fi1 + 1):
+                y0 = oy + i * cell
+                if not (y - ey < y0 + cell - _EPS and y + ey > y0 + _EPS):
+                    continue
+                dyc = y0 + half - y
+                dys = dyc * s
+                dyc_ = dyc * c
+                hit = False
+                for j in range(ja, jb + 1):
+                    if abs(col_c[j - fj0] + dys) >= lim_l or abs(col_s[j - fj0] + dyc_) >= lim_w:
+                        if hit:
+                            break  # a row's footprint cells are contiguous
+                        continue
+                    hit = True
+                    if i < 0 or j < 0 or i >= nr or j >= nc or n >= _MAX_FP_CELLS:
+                        blocked = True
+                        break
+                    n += 1
+                    li = i - i0
+                    lj = j - j0
+                    kind = cls[li, lj]
+                    if kind == 0:
+                        dx = xc[lj] - x
+                        dy = yc[li] - y
+                        z = zmean[li, lj]
+                        buf_x[m] = dx
+                        buf_y[m] = dy
+                        buf_z[m] = z
+                        sx += dx
+                        sy += dy
+                        sz += z
+                        m += 1
+                    elif kind == 3:
+                        if inf_unknown:
+                            blocked = True
                             break
                         extra += unknown_cost
-                        continue
-                    if obst[li, lj]:
-                        continue  # its obstacle part is the fine layer's business; its heights are not ground
-                    dx = ox + (buf_j[q] + 0.5) * cell - x
-                    dy = oy + (buf_i[q] + 0.5) * cell - y
-                    z = zmean[li, lj]
-                    buf_x[m] = dx
-                    buf_y[m] = dy
-                    buf_z[m] = z
-                    sx += dx
-                    sy += dy
-                    sz += z
-                    m += 1
-                if not math.isinf(cst):
-                    slope_tan = 0.0
-                    rough = 0.0
-                    if m > 0:
-                        mx = sx / m
-                        my = sy / m
-                        mz = sz / m
-                        cxx = 0.0
-                        cxy = 0.0
-                        cyy = 0.0
-                        cxz = 0.0
-                        cyz = 0.0
-                        for q in range(m):
-                            dx = buf_x[q] - mx
-                            dy = buf_y[q] - my
-                            dz = buf_z[q] - mz
-                            cxx += dx * dx
-                            cxy += dx * dy
-                            cyy += dy * dy
-                            cxz += dx * dz
-                            cyz += dy * dz
-                        det = cxx * cyy - cxy * cxy
-                        gb = 0.0
-                        gc = 0.0
-                        if det > 1e-12 * (cxx + cyy + 1e-12) ** 2:
-                            gb = (cxz * cyy - cyz * cxy) / det
-                            gc = (cyz * cxx - cxz * cxy) / det
-                        for q in range(m):
-                            r = abs(buf_z[q] - mz - gb * (buf_x[q] - mx) - gc * (buf_y[q] - my))
-                            if r > rough:
-                                rough = r
-                        slope_tan = math.sqrt(gb * gb + gc * gc)
-                    if slope_tan > max_slope_tan or rough > max_rough:
-                        cst = math.inf
-                    else:
-                        cst = w_s * math.atan(slope_tan) / math.atan(max_slope_tan) + w_r * rough / max_rough + extra
+                    # kind 1: its obstacle part is the fine layer's business; its heights are not
+                    # ground; kind 2: unknown under the current footprint
+                if blocked:
+                    break
+            if blocked:
+                cst = math.inf
+            else:
+                slope_tan = 0.0
+                rough = 0.0
+                if m > 0:
+                    mx = sx / m
+                    my = sy / m
+                    mz = sz / m
+                    cxx = 0.0
+                    cxy = 0.0
+                    cyy = 0.0
+                    cxz = 0.0
+                    cyz = 0.0
+                    for q in range(m):
+                        dx = buf_x[q] - mx
+                        dy = buf_y[q] - my
+                        dz = buf_z[q] - mz
+                        cxx += dx * dx
+                        cxy += dx * dy
+                        cyy += dy * dy
+                        cxz += dx * dz
+                        cyz += dy * dz
+                    det = cxx * cyy - cxy * cxy
+                    gb = 0.0
+                    gc = 0.0
+                    if det > 1e-12 * (cxx + cyy + 1e-12) ** 2:
+                        gb = (cxz * cyy - cyz * cxy) / det
+                        gc = (cyz * cxx - cxz * cxy) / det
+                    for q in range(m):
+                        r = abs(buf_z[q] - mz - gb * (buf_x[q] - mx) - gc * (buf_y[q] - my))
+                        if r > rough:
+                            rough = r
+                    slope_tan = math.sqrt(gb * gb + gc * gc)
+                if slope_tan > max_slope_tan or rough > max_rough:
+                    cst = math.inf
+                else:
+                    cst = w_s * math.atan(slope_tan) / atan_max + w_r * rough / max_rough + extra
             if not math.isinf(cst) and n_sub > 0:
                 # fine layer: obstacle squares against the footprint and its clearance ring
-                c = math.cos(th)
-                s = math.sin(th)
-                ex = hl * abs(c) + hw * abs(s)
-                ey = hl * abs(s) + hw * abs(c)
-                exc = (hl + clear_m) * abs(c) + (hw + clear_m) * abs(s)
-                eyc = (hl + clear_m) * abs(s) + (hw + clear_m) * abs(c)
+                exc = (hl + clear_m) * ac + (hw + clear_m) * as_
+                eyc = (hl + clear_m) * as_ + (hw + clear_m) * ac
                 near = False
                 for q in range(n_sub):
                     dx = sub_pts[q, 0] - x
@@ -361,10 +455,11 @@ def _plan_cycle(stats: np.ndarray, fine: np.ndarray, curv: np.ndarray, p: np.nda
                 out_node: np.ndarray, out_sr: np.ndarray, out_cost: np.ndarray) -> int:
     """One whole planning cycle in one call: the fan's node poses into ``nodes`` (A, N, 3), then
     :func:`_evaluate_fan` (``out_sr`` holds slope tangents and roughness, (2, A, N))."""
+    trig = np.empty((nodes.shape[0], nodes.shape[1], 2))
     _fan_nodes(p[_P_RX], p[_P_RY], p[_P_RYAW], curv, p[_P_LENGTH], nodes.shape[1], int(p[_P_SPIN_DIR]),
-               p[_P_SPIN_ANGLE], nodes)
+               p[_P_SPIN_ANGLE], nodes, trig)
     return _evaluate_fan(stats[:, :, 0], stats[:, :, 1], stats[:, :, 2], stats[:, :, 3], fine, int(p[_P_SUB]),
-                         p[_P_OX], p[_P_OY], p[_P_CELL], p[_P_STEP], nodes, p[_P_HL], p[_P_HW], p[_P_RX],
+                         p[_P_OX], p[_P_OY], p[_P_CELL], p[_P_STEP], nodes, trig, p[_P_HL], p[_P_HW], p[_P_RX],
                          p[_P_RY], p[_P_RYAW], p[_P_EXEMPT] != 0.0, p[_P_SLOPE], p[_P_ROUGH], p[_P_WS], p[_P_WR],
                          p[_P_UNKNOWN], p[_P_CLEAR_M], p[_P_CLEAR_COST], out_node, out_sr[0], out_sr[1], out_cost)
 
@@ -386,10 +481,12 @@ def _single(terrain: TerrainMap, x: float, y: float, yaw: float, hl: float, hw: 
             max_rough: float, w_s: float, w_r: float, unknown_cost: float) -> tuple[float, float, float]:
     """(cost, slope tangent, roughness) of one footprint, no exemption, no clearance."""
     nodes = np.array([[[x, y, yaw]]], dtype=np.float64)
+    trig = np.empty((1, 1, 2))
+    _node_trig(nodes, trig)
     on, os_, or_ = np.empty((1, 1)), np.empty((1, 1)), np.empty((1, 1))
     oc = np.empty(1)
     _evaluate_fan(terrain.zmin, terrain.zmax, terrain.zsum, terrain.count, terrain.fine, terrain.sub,
-                  terrain.origin[0], terrain.origin[1], terrain.cell_m, terrain.step_m, nodes, hl, hw,
+                  terrain.origin[0], terrain.origin[1], terrain.cell_m, terrain.step_m, nodes, trig, hl, hw,
                   x, y, yaw, False, max_slope_tan, max_rough, w_s, w_r, unknown_cost, 0.0, 0.0, on, os_,
                   or_, oc)
     return float(on[0, 0]), float(os_[0, 0]), float(or_[0, 0])
