@@ -421,6 +421,7 @@ def terrain_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray
     sidy = np.empty(naz)
     sthi = np.empty(naz)
     srl = np.empty(naz)
+    sirl = np.empty(naz)
     for k in range(nch):
         ce = cos_el[k]
         se = sin_el[k]
@@ -441,6 +442,7 @@ def terrain_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray
             sthi[a] = min(max_range, ex if dx != 0.0 else INF, ey if dy != 0.0 else INF)
             rl = rx * clx[a] + ry * cly[a]
             srl[a] = rl
+            sirl[a] = (1.0 - 1e-12) / rl
         for a in range(naz):
             rz = sdz[a]
             out[k, a] = INF
@@ -452,7 +454,7 @@ def terrain_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray
                 continue
             rl = srl[a]
             p_clear = pcl[a]
-            tstart = p_clear / rl * (1.0 - 1e-12)
+            tstart = p_clear * sirl[a]
             if rz >= 0.0 and oz + rz * tstart > gmax:  # climbing above the highest terrain point
                 pcl[a] = max(p_clear, max_range * rl)
                 continue
