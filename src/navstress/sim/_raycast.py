@@ -422,6 +422,11 @@ def terrain_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray
     sthi = np.empty(naz)
     srl = np.empty(naz)
     sirl = np.empty(naz)
+    # a march's start cell and the t where the ray leaves that cell in x / y
+    scx = np.empty(naz, np.int64)
+    scy = np.empty(naz, np.int64)
+    stmx = np.empty(naz)
+    stmy = np.empty(naz)
     for k in range(nch):
         ce = cos_el[k]
         se = sin_el[k]
@@ -443,6 +448,22 @@ def terrain_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray
             rl = rx * clx[a] + ry * cly[a]
             srl[a] = rl
             sirl[a] = (1.0 - 1e-12) / rl
+        for a in range(naz if not flat_map else 0):  # march starts (p_clear is known for every column): branch-free
+            dx = sdx[a]
+            dy = sdy[a]
+            tstart = pcl[a] * sirl[a] if plane[a] else 0.0  # (no plane: rl = 0, unused)
+            x = oxc + tstart * dx
+            y = oyc + tstart * dy
+            fx = math.floor(x)
+            fy = math.floor(y)
+            cx = int(fx) - (1 if (dx < 0.0 and fx == x) else 0)  # ceil(x) - 1 when moving toward -x
+            cy = int(fy) - (1 if (dy < 0.0 and fy == y) else 0)
+            cx = min(max(cx, 0), ncx - 1)
+            cy = min(max(cy, 0), ncy - 1)
+            scx[a] = cx
+            scy[a] = cy
+            stmx[a] = (cx + (1.0 if dx > 0.0 else 0.0) - oxc) * sidx[a] if dx != 0.0 else INF
+            stmy[a] = (cy + (1.0 if dy > 0.0 else 0.0) - oyc) * sidy[a] if dy != 0.0 else INF
         for a in range(naz):
             rz = sdz[a]
             out[k, a] = INF
@@ -454,7 +475,7 @@ def terrain_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray
                 continue
             rl = srl[a]
             p_clear = pcl[a]
-            tstart = p_clear * sirl[a]
+            tstart = p_clear * sirl[a]  # (the same product as in the start loop above)
             if rz >= 0.0 and oz + rz * tstart > gmax:  # climbing above the highest terrain point
                 pcl[a] = max(p_clear, max_range * rl)
                 continue
@@ -480,19 +501,13 @@ def terrain_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray
                 tc = th
             else:
                 tc = thi
-                x = oxc + tstart * dx
-                y = oyc + tstart * dy
-                cx = int(math.ceil(x)) - 1 if dx < 0.0 else int(math.floor(x))
-                cy = int(math.ceil(y)) - 1 if dy < 0.0 else int(math.floor(y))
-                cx = min(max(cx, 0), ncx - 1)
-                cy = min(max(cy, 0), ncy - 1)
+                cx = scx[a]
+                cy = scy[a]
                 t = tstart
                 sx = 1 if dx > 0.0 else -1
                 sy = 1 if dy > 0.0 else -1
-                offx = 1.0 if dx > 0.0 else 0.0
-                offy = 1.0 if dy > 0.0 else 0.0
-                tmx = (cx + offx - oxc) * idx if dx != 0.0 else INF  # where the ray leaves the cell in x
-                tmy = (cy + offy - oyc) * idy if dy != 0.0 else INF
+                tmx = stmx[a]  # where the ray leaves the cell in x
+                tmy = stmy[a]
                 tdx = abs(idx)  # t per cell in x (with dx = 0: tmx stays inf)
                 tdy = abs(idy)
                 desc = dz < 0.0
