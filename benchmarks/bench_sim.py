@@ -109,6 +109,16 @@ class _Timed:
         return int(r)
 
 
+def _cycle_us(sim: Simulation, cycles: int) -> float:
+    """CPU microseconds per 10 Hz cycle of the scripted course, over ``cycles`` cycles."""
+    c0 = time.process_time_ns()
+    for _ in range(cycles):
+        sim.command(course(sim.t))
+        sim.advance(0.1)
+        sim.observe()
+    return (time.process_time_ns() - c0) / cycles / 1e3
+
+
 def overhead(world, baseline: dict[str, ModuleType], seconds: float,  # type: ignore[no-untyped-def]
              block: float = 5.0) -> dict[str, tuple[float, float]]:
     """{"baseline"/"current": (CPU us per 10 Hz cycle, of which outside run_steps)}, no lidar: the
@@ -125,23 +135,11 @@ def overhead(world, baseline: dict[str, ModuleType], seconds: float,  # type: ig
     cycles = int(round(block / 0.1))
     for _ in range(max(2, int(seconds / block))):
         for n, (_, mod) in kinds.items():
-            sim = sims[n]
-            c0 = time.process_time_ns()
-            for _ in range(cycles):
-                sim.command(course(sim.t))
-                sim.advance(0.1)
-                sim.observe()
-            total = (time.process_time_ns() - c0) / cycles / 1e3
+            total = _cycle_us(sims[n], cycles)
             w = _Timed(mod)
             setattr(mod, "run_steps", w)
             try:
-                sim = timed[n]
-                c0 = time.process_time_ns()
-                for _ in range(cycles):
-                    sim.command(course(sim.t))
-                    sim.advance(0.1)
-                    sim.observe()
-                total_w = (time.process_time_ns() - c0) / cycles / 1e3
+                total_w = _cycle_us(timed[n], cycles)
             finally:
                 setattr(mod, "run_steps", w.inner)
             res[n][0].append(total)
