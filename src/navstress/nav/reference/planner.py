@@ -44,6 +44,24 @@ _MAX_FP_CELLS = 4096
 _EPS = 1e-9  # touching within this (rounding) is not a positive-area overlap
 
 
+@nb.njit(cache=True, inline="always")
+def _footprint_box(x: float, y: float, c: float, s: float, hl: float, hw: float, ox: float, oy: float,
+                   cell: float) -> tuple[float, float, float, int, int, int, int]:
+    """Of a footprint (half sides hl, hw) at (x, y) with heading cos/sin (c, s): its half extents
+    (ex, ey) on the grid axes, a cell's half-diagonal projection ``proj`` on its axes, and the range
+    of cells its bounding box covers (j0, j1, i0, i1). Scalars only (cheap to inline in hot loops)."""
+    ac = abs(c)
+    as_ = abs(s)
+    ex = hl * ac + hw * as_
+    ey = hl * as_ + hw * ac
+    j0 = int(math.floor((x - ex - ox) / cell))
+    j1 = int(math.floor((x + ex - ox) / cell))
+    i0 = int(math.floor((y - ey - oy) / cell))
+    i1 = int(math.floor((y + ey - oy) / cell))
+    proj = 0.5 * cell * (ac + as_)
+    return ex, ey, proj, j0, j1, i0, i1
+
+
 @nb.njit(cache=True)
 def _footprint_cells(cx: float, cy: float, yaw: float, hl: float, hw: float, ox: float, oy: float,
                      cell: float, nr: int, nc: int, out_i: np.ndarray, out_j: np.ndarray) -> int:
@@ -51,16 +69,8 @@ def _footprint_cells(cx: float, cy: float, yaw: float, hl: float, hw: float, ox:
     test). Returns their count, or -1 if the rectangle reaches outside the grid or overflows."""
     c = math.cos(yaw)
     s = math.sin(yaw)
-    ac = abs(c)
-    as_ = abs(s)
-    ex = hl * ac + hw * as_
-    ey = hl * as_ + hw * ac
-    j0 = int(math.floor((cx - ex - ox) / cell))
-    j1 = int(math.floor((cx + ex - ox) / cell))
-    i0 = int(math.floor((cy - ey - oy) / cell))
-    i1 = int(math.floor((cy + ey - oy) / cell))
+    ex, ey, proj, j0, j1, i0, i1 = _footprint_box(cx, cy, c, s, hl, hw, ox, oy, cell)
     half = 0.5 * cell
-    proj = half * (ac + as_)
     n = 0
     for i in range(i0, i1 + 1):
         y0 = oy + i * cell
@@ -303,15 +313,9 @@ def _evaluate_fan(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: n
             # coarse layer, as the footprint cells are enumerated (as _footprint_cells): outside
             # the map or unknown -> inf; else moments about the node of the known non-obstacle
             # cells (one pass), residuals in a second pass
-            ac = abs(c)
+            ex, ey, proj, fj0, fj1, fi0, fi1 = _footprint_box(x, y, c, s, hl, hw, ox, oy, cell)
+            ac = abs(c)  # (the clearance ring below)
             as_ = abs(s)
-            ex = hl * ac + hw * as_
-            ey = hl * as_ + hw * ac
-            fj0 = int(math.floor((x - ex - ox) / cell))
-            fj1 = int(math.floor((x + ex - ox) / cell))
-            fi0 = int(math.floor((y - ey - oy) / cell))
-            fi1 = int(math.floor((y + ey - oy) / cell))
-            proj = half * (ac + as_)
             lim_l = hl + proj - _EPS
             lim_w = hw + proj - _EPS
             extra = 0.0
