@@ -223,6 +223,27 @@ def test_scan_plane_march_equals_per_ray(seed: int, tilt: float) -> None:
     scan_vs_per_ray(sc, cfg, origin, rot)
 
 
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.floats(-0.5, 3.0), st.sampled_from([0.0, 0.3, 1.0]))
+def test_scan_near_the_highest_point_equals_per_ray(seed: int, above: float, tilt: float) -> None:
+    """Marches start where a descending ray comes down to the highest terrain point and end where
+    a rising ray climbs above it: with the sensor just under or above that point (rays grazing a
+    peak or a flat top at the highest height), the scan still equals casting every ray on its own."""
+    g = np.random.default_rng(seed)
+    rows, cols = int(g.integers(10, 40)), int(g.integers(10, 40))
+    cell = float(g.uniform(0.3, 1.0))
+    h = 3.0 * g.uniform(-1, 1, (rows, cols)).cumsum(0).cumsum(1) / max(rows, cols)
+    i, j = int(g.integers(0, rows - 3)), int(g.integers(0, cols - 3))
+    h[i:i + int(g.integers(1, 4)), j:j + int(g.integers(1, 4))] = h.max() + float(g.uniform(0.0, 2.0))  # the top
+    sc = LidarScene(h.astype(np.float32), cell, np.zeros((0, 7)))
+    W, H = sc.size_m
+    x, y = g.uniform(0.1 * W, 0.9 * W), g.uniform(0.1 * H, 0.9 * H)
+    z = max(float(sc.heights.max()) + above, Terrain(sc.heights, cell).height_at(x, y) + 0.05)
+    rot = rot_zyx(g.uniform(-np.pi, np.pi), tilt * g.uniform(-1, 1), tilt * g.uniform(-1, 1))
+    cfg = LidarConfig(azimuth_steps=int(g.integers(8, 90)), max_range_m=float(g.uniform(5, 60)))
+    scan_vs_per_ray(sc, cfg, np.array([x, y, z]), rot)
+
+
 def test_scan_on_generated_hilly_world_equals_per_ray() -> None:
     from navstress.world.generate import generate
 
