@@ -31,10 +31,10 @@ TWO_PI = 2.0 * math.pi
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _tri_height(h: np.ndarray, cx: int, cy: int, u: float, v: float) -> float:
     """Height at local (u, v) in cell (cx, cy) on the MuJoCo triangulation."""
-    h00 = float(h[cy, cx])
-    h10 = float(h[cy, cx + 1])
-    h01 = float(h[cy + 1, cx])
-    h11 = float(h[cy + 1, cx + 1])
+    h00 = np.float64(h[cy, cx])
+    h10 = np.float64(h[cy, cx + 1])
+    h01 = np.float64(h[cy + 1, cx])
+    h11 = np.float64(h[cy + 1, cx + 1])
     if u >= v:
         return h00 + u * (h10 - h00) + v * (h11 - h10)
     return h00 + v * (h01 - h00) + u * (h11 - h01)
@@ -217,8 +217,8 @@ def march_terrain(h: np.ndarray, mip: np.ndarray, moff: np.ndarray, mnx: np.ndar
         else:
             skip = False
         if not skip:
-            th = _cell_hit(float(h[cy, cx]), float(h[cy, cx + 1]), float(h[cy + 1, cx]),
-                           float(h[cy + 1, cx + 1]), cx, cy, ox, oy, oz, dx, dy, dz, t, te, sgn)
+            th = _cell_hit(np.float64(h[cy, cx]), np.float64(h[cy, cx + 1]), np.float64(h[cy + 1, cx]),
+                           np.float64(h[cy + 1, cx + 1]), cx, cy, ox, oy, oz, dx, dy, dz, t, te, sgn)
             if th <= te:
                 return th, th
         if te >= thi:
@@ -528,10 +528,10 @@ def terrain_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray
                     ci = cy * ncx + cx
                     cmax = float(mipf[ci, 0])
                     if zlow <= cmax:  # the ray may meet the surface in this cell: exact test
-                        h00 = float(h[cy, cx])
-                        h10 = float(h[cy, cx + 1])
-                        h01 = float(h[cy + 1, cx])
-                        h11 = float(h[cy + 1, cx + 1])
+                        h00 = np.float64(h[cy, cx])
+                        h10 = np.float64(h[cy, cx + 1])
+                        h01 = np.float64(h[cy + 1, cx])
+                        h11 = np.float64(h[cy + 1, cx + 1])
                         if float(mipf[ci, 1]) == cmax:  # a flat cell: the plane z = cmax
                             ts = max(t, (h00 - oz) / dz) if desc else t
                             if ts <= te:
