@@ -24,7 +24,7 @@ import math
 import numpy as np
 from numba import njit
 
-from navstress.sim._raycast import _ray_box
+from navstress.sim._raycast import _ray_box, terrain_kernel
 
 INF = np.inf
 TWO_PI = 2.0 * math.pi
@@ -247,3 +247,55 @@ def box_pass(boxes: np.ndarray, origin: np.ndarray, rot: np.ndarray, cos_el: np.
             r = out[k, a]
             out[k, a] = r if (min_range <= r <= max_range) else INF
 
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def body_scan_ranges(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray, moff: np.ndarray,
+                     mnx: np.ndarray, grad_max: float, boxes: np.ndarray, qpos: np.ndarray, mount: np.ndarray,
+                     cos_el: np.ndarray, sin_el: np.ndarray, cos_az: np.ndarray, sin_az: np.ndarray,
+                     max_range: float, min_range: float, plane_march: bool, out: np.ndarray,
+                     rot: np.ndarray, origin: np.ndarray) -> int:
+    """One scan's ranges (terrain, then boxes) from a body pose ``qpos[:7]`` = (x, y, z, qw, qx,
+    qy, qz) with the sensor at ``mount`` in the body frame and oriented as the body; returns the
+    number of returns, or -1 (nothing computed) if the pose is not finite or not a rotation.
+
+    One compiled call instead of the pose arithmetic, validation, terrain kernel, box pass and
+    count made separately from Python (each call pays the dispatcher). ``rot`` (3, 3) and
+    ``origin`` (3,) receive the sensor pose: ``rot`` with the formula of MuJoCo's
+    ``mju_quat2Mat`` (MuJoCo's build contracts some products into fused multiply-adds, so
+    entries may differ from it in the last bit), ``origin = qpos[:3] + rot @ mount``."""
+    q0, q1, q2, q3 = qpos[3], qpos[4], qpos[5], qpos[6]
+    if q0 == 1.0 and q1 == 0.0 and q2 == 0.0 and q3 == 0.0:
+        for i in range(3):
+            for j in range(3):
+                rot[i, j] = 1.0 if i == j else 0.0
+    else:
+        q00, q01, q02, q03 = q0 * q0, q0 * q1, q0 * q2, q0 * q3
+        q11, q12, q13 = q1 * q1, q1 * q2, q1 * q3
+        q22, q23, q33 = q2 * q2, q2 * q3, q3 * q3
+        rot[0, 0] = q00 + q11 - q22 - q33
+        rot[1, 1] = q00 - q11 + q22 - q33
+        rot[2, 2] = q00 - q11 - q22 + q33
+        rot[0, 1] = 2.0 * (q12 - q03)
+        rot[0, 2] = 2.0 * (q13 + q02)
+        rot[1, 0] = 2.0 * (q12 + q03)
+        rot[1, 2] = 2.0 * (q23 - q01)
+        rot[2, 0] = 2.0 * (q13 - q02)
+        rot[2, 1] = 2.0 * (q23 + q01)
+    for i in range(3):
+        origin[i] = qpos[i] + (rot[i, 0] * mount[0] + rot[i, 1] * mount[1] + rot[i, 2] * mount[2])
+    ok = math.isfinite(origin[0]) and math.isfinite(origin[1]) and math.isfinite(origin[2])
+    e = 0.0
+    for i in range(3):
+        for j in range(3):
+            s = rot[0, i] * rot[0, j] + rot[1, i] * rot[1, j] + rot[2, i] * rot[2, j]
+            e = max(e, abs(s - (1.0 if i == j else 0.0)))
+    if not (ok and e <= 1e-6):  # (a NaN rotation fails the comparison)
+        return -1
+    terrain_kernel(h, cell, mip, mipf, moff, mnx, grad_max, origin, rot, cos_el, sin_el, cos_az, sin_az,
+                   max_range, plane_march, out)
+    box_pass(boxes, origin, rot, cos_el, sin_el, cos_az, sin_az, max_range, min_range, out)
+    n = 0
+    for v in out.ravel():
+        n += v < INF
+    return n

@@ -243,6 +243,8 @@ class Lidar:
         self._cos_az, self._sin_az = np.cos(az), np.sin(az)
         self._dirs = config.directions()
         self._out = np.empty((config.channels, config.azimuth_steps), np.float64)
+        self._rot = np.empty((3, 3))  # the last body scan's sensor pose
+        self._origin = np.empty(3)
 
     def ranges(self, origin: np.ndarray, rotation: np.ndarray) -> np.ndarray:
         """Noise-free ranges, (channels, azimuth_steps) float32, inf where there is no return."""
@@ -269,7 +271,28 @@ class Lidar:
         words for rejections and the tail, refilled by ``random_raw(N//16 + 64)`` if ever
         exhausted); nothing else is drawn. Same generator state -> same points."""
         r = self._ranges(origin, rotation)
-        n = _raycast.count_finite(r)
+        return self._points(_raycast.count_finite(r), rng)
+
+    def scan_body(self, qpos: np.ndarray, mount: np.ndarray, rng: np.random.Generator | None = None) -> np.ndarray:
+        """:meth:`scan` from a body pose: ``qpos[:7]`` = (x, y, z, qw, qx, qy, qz) as in MuJoCo, the
+        sensor at ``mount`` (3,) in the body frame and oriented as the body. Same points as
+        ``scan(qpos[:3] + R @ mount, R)`` with R from the quaternion (``mju_quat2Mat``'s formula,
+        equal to it within 1e-15), up to the rounding of that pose; the pose arithmetic, its check,
+        the terrain and box passes and the count run in one compiled call (the simulation's path)."""
+        s, c = self.scene, self.config
+        if qpos.dtype != np.float64 or qpos.ndim != 1 or qpos.shape[0] < 7 or mount.shape != (3,):
+            raise SpecError("qpos", getattr(qpos, "shape", None), "a float64 (>= 7,) body pose and a (3,) mount")
+        n = _raybox.body_scan_ranges(s.heights, s.cell_m, s.mip, s.mipf, s.mip_offsets, s.mip_widths, s.grad_max,
+                                     s.boxes, qpos, np.ascontiguousarray(mount, dtype=np.float64), self._cos_el,
+                                     self._sin_el, self._cos_az, self._sin_az, float(c.max_range_m),
+                                     float(c.min_range_m), self.plane_march, self._out, self._rot, self._origin)
+        if n < 0:
+            raise SpecError("qpos", qpos[:7].tolist(), "a finite position and a unit quaternion (w, x, y, z)")
+        return self._points(n, rng)
+
+    def _points(self, n: int, rng: np.random.Generator | None) -> np.ndarray:
+        """The ``n`` returns in ``self._out`` as points, with the range noise of :meth:`scan`."""
+        r = self._out
         std = self.config.range_noise_std_m
         pts = np.empty((n, 3), np.float32)
         if rng is None or std <= 0:

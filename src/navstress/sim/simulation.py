@@ -294,12 +294,7 @@ class Simulation:
 
     def _scan(self) -> None:
         assert self._lidar is not None
-        qpos = self.data.qpos
-        rot9 = np.empty(9)
-        mujoco.mju_quat2Mat(rot9, qpos[3:7])
-        rot = rot9.reshape(3, 3)
-        origin = qpos[0:3] + rot @ self._mount_v
-        pts = self._lidar.scan(origin, rot, self._lidar_gen if self.config.noise else None)
+        pts = self._lidar.scan_body(self.data.qpos, self._mount_v, self._lidar_gen if self.config.noise else None)
         self._scans.append(LidarScan(int(self._I[K.I_K]) * self._dt, pts, self._mount))
 
     def _unstable(self) -> None:

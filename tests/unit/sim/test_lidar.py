@@ -244,6 +244,20 @@ def test_scan_near_the_highest_point_equals_per_ray(seed: int, above: float, til
     scan_vs_per_ray(sc, cfg, np.array([x, y, z]), rot)
 
 
+_HILLY: list[World] = []
+
+
+def _hilly_world() -> World:
+    """A 40 m s=4 d=2 world with trees and buildings (generated once)."""
+    from navstress.world.generate import generate
+
+    if not _HILLY:
+        spec = WorldSpec.model_validate({"size_m": [40.0, 40.0], "ground": {"subdivisions": 4, "deformation": 2.0},
+                                         "obstacles": {"obstruction": {"tree": 6, "building": 4}}})
+        _HILLY.append(generate(spec, seed=5))
+    return _HILLY[0]
+
+
 def test_scan_on_generated_hilly_world_equals_per_ray() -> None:
     from navstress.world.generate import generate
 
@@ -490,6 +504,37 @@ def test_bad_pose_and_rays_raise_clear_errors() -> None:
         LidarScene(np.zeros((3, 3), np.float32), 0.0, np.zeros((0, 7)))
     with pytest.raises(SpecError, match="^scene.heights="):
         LidarScene(np.zeros((1, 3), np.float32), 0.4, np.zeros((0, 7)))
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.floats(-1.0, 1.0), min_size=4, max_size=4), st.integers(0, 2**32 - 1), st.booleans())
+def test_scan_from_a_body_pose_equals_scan_from_its_sensor_pose(q: list[float], seed: int, identity: bool) -> None:
+    """scan_body (the simulation's one-call path) builds the rotation as MuJoCo's mju_quat2Mat
+    (to the last bit but FMA rounding), places the sensor at qpos[:3] + R @ mount, and returns
+    the same points (same noise draws) as scan() from that pose."""
+    qv = np.array([1.0, 0.0, 0.0, 0.0]) if identity or np.linalg.norm(q) < 1e-3 else np.array(q) / np.linalg.norm(q)
+    sc = build_scene(_hilly_world())
+    g = np.random.default_rng(seed)
+    x, y = g.uniform(5.0, 35.0, 2)
+    qpos = np.concatenate([[x, y, _hilly_world().terrain.height_at(x, y) + g.uniform(0.3, 1.5)], qv, g.uniform(-1, 1, 3)])
+    mount = np.array([0.2, -0.05, 0.6])
+    lid = Lidar(sc, LidarConfig(azimuth_steps=90))
+    pts = lid.scan_body(qpos, mount, np.random.default_rng(seed))
+    ref_rot = np.empty(9)
+    mujoco.mju_quat2Mat(ref_rot, qpos[3:7])
+    assert np.allclose(lid._rot.ravel(), ref_rot, rtol=0, atol=1e-15)
+    assert np.allclose(lid._origin, qpos[:3] + ref_rot.reshape(3, 3) @ mount, rtol=0, atol=1e-12)
+    again = Lidar(sc, LidarConfig(azimuth_steps=90)).scan(lid._origin.copy(), lid._rot.copy(), np.random.default_rng(seed))
+    assert pts.shape == again.shape and np.array_equal(pts, again)
+
+
+def test_scan_from_a_bad_body_pose_names_qpos() -> None:
+    lidar = Lidar(flat_scene(size=10.0))
+    good = np.array([5.0, 5.0, 1.0, 1.0, 0.0, 0.0, 0.0])
+    for bad in (good * np.array([1, 1, 1, 2, 1, 1, 1]), np.where(np.arange(7) == 0, np.nan, good), good[:5],
+                good.astype(np.float32)):
+        with pytest.raises(SpecError, match="^qpos="):
+            lidar.scan_body(bad, np.zeros(3))
 
 
 @pytest.mark.parametrize("rot", [rot_zyx(0.3, 1.4, 0.0), rot_zyx(-2.0, 0.2, math.pi), rot_zyx(1.0, -1.2, 0.7)])
