@@ -6,10 +6,13 @@ mission's diagonal, 0.9 m above the ground, tilted to the local terrain normal. 
 pinned (``taskset -c 1``). Times are process CPU time per ``Lidar.scan`` (noise on), best of the
 passes; the current kernel and the baseline alternate pass by pass, so load changes hit both.
 
-Baselines: ``--baseline REV`` (default e6a6917, the kernel before the per-ray-setup work) loads
-``src/navstress/sim/_raycast.py`` of that git revision into a temporary module and scans through
-it exactly as that revision's ``Lidar.scan`` did (its results are checked equal to the current
-ones); ``plane_march=False`` (per-ray march) and ``cast_rays`` (naive) are also timed.
+Baselines: ``--baseline REV`` (default e6a6917, the kernel before the per-ray-setup work). A
+revision with the separate box pass (``_raybox.py``, from 2026-11-21) is loaded whole -- its
+``lidar``, ``_raycast``, ``_raybox`` and ``_noise`` as a temporary package -- and scanned through
+its own ``Lidar.scan``; for an older one, ``src/navstress/sim/_raycast.py`` is loaded into a
+temporary module and scanned exactly as that revision's ``Lidar.scan`` did (all-in-one
+``scan_kernel``, numpy noise). Its ranges are checked equal to the current ones (1e-6);
+``plane_march=False`` (per-ray march) and ``cast_rays`` (naive) are also timed.
 
     taskset -c 1 .venv/bin/python benchmarks/bench_lidar.py [--quick] [--baseline REV] [--no-naive]
 """
@@ -78,6 +81,35 @@ def load_baseline(rev: str) -> ModuleType:
     sys.modules[spec.name] = mod  # numba's cache re-imports the module by name
     spec.loader.exec_module(mod)
     return mod
+
+
+LIDAR_MODULES = ("_raycast", "_raybox", "_noise", "lidar")
+
+
+def load_baseline_lidar(rev: str) -> ModuleType | None:
+    """The ``lidar`` module of git revision ``rev`` with its own kernels (a temporary package whose
+    imports are rewritten to it; kept in the temp dir so that numba's cache survives between
+    runs), or None if that revision has no separate box pass."""
+    srcs = {}
+    for m in LIDAR_MODULES:
+        r = subprocess.run(["git", "show", f"{rev}:src/navstress/sim/{m}.py"], cwd=REPO, capture_output=True, text=True)
+        if r.returncode != 0:
+            return None
+        srcs[m] = r.stdout
+    digest = hashlib.sha1("".join(srcs.values()).encode()).hexdigest()[:12]
+    pkg = f"navlidar_base_{digest}"
+    root = Path(tempfile.gettempdir()) / f"navstress_bench_lidar_pkg_{digest}"
+    (root / pkg).mkdir(parents=True, exist_ok=True)
+    for m, src in {**srcs, "__init__": ""}.items():
+        text = src.replace("from navstress.sim import ", f"from {pkg} import ")
+        for n in LIDAR_MODULES:
+            text = text.replace(f"navstress.sim.{n} ", f"{pkg}.{n} ").replace(f"navstress.sim.{n}\n", f"{pkg}.{n}\n")
+        p = root / pkg / f"{m}.py"
+        if not p.exists() or p.read_text() != text:
+            p.write_text(text)
+    if str(root) not in sys.path:
+        sys.path.insert(0, str(root))
+    return importlib.import_module(f"{pkg}.lidar")
 
 
 class BaselineLidar:
@@ -153,7 +185,8 @@ def main() -> None:
     ap.add_argument("--no-naive", action="store_true", help="skip the per-ray and naive baselines")
     a = ap.parse_args()
     n, rep = (10, 3) if a.quick else (50, 7)
-    base = load_baseline(a.baseline)
+    base_cls = load_baseline_lidar(a.baseline)
+    base = load_baseline(a.baseline) if base_cls is None else None
     worlds = {
         "flat, 6% trees": generate(WorldSpec.model_validate({"obstacles": {"obstruction": {"tree": 6}}}), seed=1),
         "s=4 d=2": generate(WorldSpec.model_validate({"ground": {"subdivisions": 4, "deformation": 2.0}}), seed=1),
@@ -168,7 +201,9 @@ def main() -> None:
         for az in (360, 1024):
             cfg = LidarConfig(azimuth_steps=az)
             nr = cfg.channels * az
-            new, old = Lidar(scene, cfg), BaselineLidar(base, scene, cfg)
+            new = Lidar(scene, cfg)
+            old = (BaselineLidar(base, scene, cfg) if base_cls is None
+                   else base_cls.Lidar(scene, base_cls.LidarConfig(azimuth_steps=az)))
             for o, r in ps:
                 a_, b_ = new.ranges(o, r), old.ranges(o, r).astype(np.float32)
                 assert np.array_equal(np.isinf(a_), np.isinf(b_)) and np.allclose(
