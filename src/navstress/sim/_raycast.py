@@ -21,10 +21,35 @@ from __future__ import annotations
 
 import math
 
+from typing import Any
+
 import numpy as np
-from numba import njit
+from llvmlite import ir
+from numba import njit, types
+from numba.core import cgutils
+from numba.extending import intrinsic
+
+from navstress.sim import native
 
 INF = np.inf
+NATIVE = native.AVAILABLE  # the AVX-512 walk of the terrain marches (navstress.sim.native)
+
+
+@intrinsic
+def _march_channel_native(typingctx: Any, h: Any, w: Any, ncx: Any, ncy: Any, oz: Any, oxc: Any, oyc: Any,
+                          nq: Any, q: Any, qi: Any, qs: Any, r: Any) -> Any:  # pragma: no cover - compile time
+    """``nv_march_channel`` (``_march_avx512.c``) with array addresses as int64."""
+    i64, f64, ptr = ir.IntType(64), ir.DoubleType(), ir.IntType(8).as_pointer()
+    kinds = (ptr, i64, i64, i64, f64, f64, f64, i64, ptr, ptr, i64, ptr)
+
+    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+        fn = cgutils.get_or_insert_function(  # type: ignore[no-untyped-call]
+            builder.module, ir.FunctionType(ir.VoidType(), list(kinds)), native.SYMBOL)
+        builder.call(fn, [builder.inttoptr(v, ptr) if k is ptr else v for v, k in zip(args, kinds)])
+        return context.get_dummy_value()
+
+    sig = types.void(*[types.int64 if k is not f64 else types.float64 for k in kinds])
+    return sig, codegen
 TWO_PI = 2.0 * math.pi
 
 
@@ -337,9 +362,10 @@ def cast_rays_kernel(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarr
 def terrain_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray, moff: np.ndarray, mnx: np.ndarray,
                   grad_max: float, origin: np.ndarray, rot: np.ndarray, cos_el: np.ndarray, sin_el: np.ndarray,
                   cos_az: np.ndarray, sin_az: np.ndarray, max_range: float, plane_march: bool,
-                  out: np.ndarray) -> None:
+                  out: np.ndarray, simd: bool = False) -> None:
     """Terrain-only ranges of one scan: out[channel, azimuth] = first terrain hit (inf: none
-    within max_range; no min_range filter). Channels ascending in elevation.
+    within max_range; no min_range filter). Channels ascending in elevation. ``simd``: each
+    channel's cell walks run in the native AVX-512 walk (only when :data:`NATIVE`; bit-identical).
 
     Per azimuth column, all channels lie in one plane through the sensor's z axis. The terrain
     is marched lowest channel first: channel k+1 starts where channel k hit or was proven clear
@@ -430,6 +456,13 @@ def terrain_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray
     stmx = np.empty(naz)
     stmy = np.empty(naz)
     sts = np.empty(naz)  # march start t
+    # the native walk's queue (rows: t, tmx, tmy, tdx, tdy, dx, dy, dz, tend, thi / cx, cy, sx, sy)
+    # (rows padded to an odd stride: rows 4 KiB apart would share L1 sets)
+    qs = naz + 9
+    qd = np.empty((10, qs) if simd else (0, 0))
+    qi = np.empty((4, qs) if simd else (0, 0), np.int64)
+    qr = np.empty((2, qs) if simd else (0, 0))
+    qa = np.empty(naz if simd else 0, np.int64)
     gtop = gmax + 1e-6  # (a margin above the highest point: the clips below stay conservative)
     for k in range(nch):
         ce = cos_el[k]
@@ -472,6 +505,7 @@ def terrain_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray
             scy[a] = cy
             stmx[a] = (cx + (1.0 if dx > 0.0 else 0.0) - oxc) * sidx[a] if dx != 0.0 else INF
             stmy[a] = (cy + (1.0 if dy > 0.0 else 0.0) - oyc) * sidy[a] if dy != 0.0 else INF
+        nq = 0
         for a in range(naz):
             rz = sdz[a]
             out[k, a] = INF
@@ -515,6 +549,24 @@ def terrain_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray
                 # the walk ends where the ray leaves the map or range, or climbs above the highest
                 # terrain point (no hit beyond; the ray is then clear up to thi all the same)
                 tend = min(thi, (gtop - oz) / dz) if dz > 0.0 else thi
+                if simd:  # queued for the native walk (below), which computes the same th, tc
+                    qa[nq] = a
+                    qd[0, nq] = t
+                    qd[1, nq] = stmx[a]
+                    qd[2, nq] = stmy[a]
+                    qd[3, nq] = abs(idx)
+                    qd[4, nq] = abs(idy)
+                    qd[5, nq] = dx
+                    qd[6, nq] = dy
+                    qd[7, nq] = dz
+                    qd[8, nq] = tend
+                    qd[9, nq] = thi
+                    qi[0, nq] = cx
+                    qi[1, nq] = cy
+                    qi[2, nq] = 1 if dx > 0.0 else -1
+                    qi[3, nq] = 1 if dy > 0.0 else -1
+                    nq += 1
+                    continue
                 sx = 1 if dx > 0.0 else -1
                 sy = 1 if dy > 0.0 else -1
                 tmx = stmx[a]  # where the ray leaves the cell in x
@@ -558,6 +610,13 @@ def terrain_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray
                     t = te
             out[k, a] = th
             pcl[a] = max(p_clear, min(th, tc) * rl)
+        if nq > 0:
+            _march_channel_native(h.ctypes.data, ncx + 1, ncx, ncy, oz, oxc, oyc, nq, qd.ctypes.data,  # type: ignore[call-arg]
+                                  qi.ctypes.data, qs, qr.ctypes.data)
+            for q in range(nq):
+                a = qa[q]
+                out[k, a] = qr[0, q]
+                pcl[a] = max(pcl[a], min(qr[0, q], qr[1, q]) * srl[a])
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

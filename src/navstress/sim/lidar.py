@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from navstress.errors import SpecError
-from navstress.sim import _noise, _raybox, _raycast
+from navstress.sim import _noise, _raybox, _raycast, native
 from navstress.world.world import World
 
 __all__ = ["LidarConfig", "LidarScene", "Lidar", "build_scene", "cast_rays"]
@@ -228,15 +228,21 @@ class Lidar:
     """A lidar on a scene. ``scan`` returns hit points in the sensor frame.
 
     ``plane_march=False`` marches every ray from the sensor (a slower, independent path used
-    as the baseline in benchmarks; same results).
+    as the baseline in benchmarks; same results). ``simd``: walk the terrain marches with the
+    native AVX-512 walk (:mod:`navstress.sim.native`; bit-identical ranges); None (default) uses
+    it when it is available, False never, True requires it.
     """
 
-    def __init__(self, scene: LidarScene, config: LidarConfig = LidarConfig(), *, plane_march: bool = True) -> None:
+    def __init__(self, scene: LidarScene, config: LidarConfig = LidarConfig(), *, plane_march: bool = True,
+                 simd: bool | None = None) -> None:
         if not isinstance(config, LidarConfig):
             raise SpecError("config", config, "a LidarConfig")
+        if simd and not _raycast.NATIVE:
+            raise SpecError("simd", simd, "False or None: the native walk is " + native.STATUS)
         self.scene = scene
         self.config = config
         self.plane_march = plane_march
+        self.simd = _raycast.NATIVE if simd is None else bool(simd)
         el = config.elevations_rad
         az = config.azimuths_rad
         self._cos_el, self._sin_el = np.cos(el), np.sin(el)
@@ -257,7 +263,7 @@ class Lidar:
         # bit-identical to scan_kernel with the boxes (min_range applies to the nearer hit)
         _raycast.terrain_kernel(s.heights, s.cell_m, s.mip, s.mipf, s.mip_offsets, s.mip_widths, s.grad_max,
                                 o, r, self._cos_el, self._sin_el, self._cos_az, self._sin_az,
-                                float(c.max_range_m), self.plane_march, self._out)
+                                float(c.max_range_m), self.plane_march, self._out, self.simd)
         _raybox.box_pass(s.boxes, o, r, self._cos_el, self._sin_el, self._cos_az, self._sin_az,
                          float(c.max_range_m), float(c.min_range_m), self._out)
         return self._out
@@ -285,7 +291,8 @@ class Lidar:
         n = _raybox.body_scan_ranges(s.heights, s.cell_m, s.mip, s.mipf, s.mip_offsets, s.mip_widths, s.grad_max,
                                      s.boxes, qpos, np.ascontiguousarray(mount, dtype=np.float64), self._cos_el,
                                      self._sin_el, self._cos_az, self._sin_az, float(c.max_range_m),
-                                     float(c.min_range_m), self.plane_march, self._out, self._rot, self._origin)
+                                     float(c.min_range_m), self.plane_march, self._out, self._rot, self._origin,
+                                     self.simd)
         if n < 0:
             raise SpecError("qpos", qpos[:7].tolist(), "a finite position and a unit quaternion (w, x, y, z)")
         return self._points(n, rng)
