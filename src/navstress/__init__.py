@@ -1,3 +1,40 @@
 """navstress: stress-test robot navigation software in generated virtual worlds."""
 
+import hashlib
+import os
+import sys
+from pathlib import Path
+
 __version__ = "0.1.0"
+
+
+def _numba_cache_dir() -> str | None:
+    """numba's on-disk cache for this exact source tree: ``<cache>/numba/<hash of the sources>``.
+
+    numba keys a cached function by its own file's time stamp only, while the compiled code also
+    holds every ``@njit`` function it calls from other files: after an update that touches only a
+    callee's file, a caller would keep running the old callee (or crash on a changed signature).
+    One cache directory per source tree avoids that. None when the directory cannot be created
+    (numba then caches next to the sources, as by default)."""
+    h = hashlib.sha256()
+    root = Path(__file__).parent
+    for p in sorted(root.rglob("*")):
+        if p.suffix in (".py", ".c") and p.is_file():
+            h.update(p.relative_to(root).as_posix().encode() + b"\0" + p.read_bytes() + b"\0")
+    base = os.environ.get("NAVSTRESS_CACHE_DIR") or os.path.join(
+        os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"), "navstress")
+    d = Path(base) / "numba" / h.hexdigest()[:16]
+    try:
+        d.mkdir(parents=True, exist_ok=True)
+    except OSError:
+        return None
+    return str(d) if os.access(d, os.W_OK) else None
+
+
+if not os.environ.get("NUMBA_CACHE_DIR"):  # a directory chosen by the user wins
+    _dir = _numba_cache_dir()
+    if _dir is not None:
+        if "numba" in sys.modules:  # numba read its configuration already
+            sys.modules["numba"].config.CACHE_DIR = _dir
+        else:
+            os.environ["NUMBA_CACHE_DIR"] = _dir
