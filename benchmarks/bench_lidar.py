@@ -35,6 +35,7 @@ from types import ModuleType
 
 import numpy as np
 
+from navstress.sim import native
 from navstress.sim.lidar import Lidar, LidarConfig, LidarScene, build_scene, cast_rays
 from navstress.world.generate import generate
 from navstress.world.spec import WorldSpec
@@ -193,8 +194,9 @@ def main() -> None:
     }
     print(f"# lidar benchmark  ({platform.processor() or platform.machine()}, numba, 1 core, "
           f"{n} poses, best of {rep}; baseline {a.baseline})")
+    print(f"# native terrain walk: {native.STATUS}; 'numba walk' = the same scan with Lidar(simd=False)")
     print(f"{'world':16s} {'rays':>8s} {'ms/scan':>8s} {'Mrays/s':>8s} | {'baseline':>8s} {'speedup':>7s}"
-          f" | {'per-ray ms':>10s} {'x':>5s} | {'naive ms':>9s} {'x':>5s}")
+          f" | {'numba walk':>8s} {'x':>7s} | {'per-ray ms':>10s} {'x':>5s} | {'naive ms':>9s} {'x':>5s}")
     for name, w in worlds.items():
         scene = build_scene(w)
         ps = poses(w, n)
@@ -208,9 +210,10 @@ def main() -> None:
                 a_, b_ = new.ranges(o, r), old.ranges(o, r).astype(np.float32)
                 assert np.array_equal(np.isinf(a_), np.isinf(b_)) and np.allclose(
                     a_[np.isfinite(a_)], b_[np.isfinite(b_)], rtol=1e-6, atol=1e-6), "baseline disagrees"
-            fast, slow = time_alternating([new.scan, old.scan], ps, rep)
+            walk = Lidar(scene, cfg, simd=False)
+            fast, slow, nb = time_alternating([new.scan, old.scan, walk.scan], ps, rep)
             line = (f"{name:16s} {f'32x{az}':>8s} {fast * 1e3:8.3f} {nr / fast / 1e6:8.1f} | "
-                    f"{slow * 1e3:8.3f} {slow / fast:6.2f}x")
+                    f"{slow * 1e3:8.3f} {slow / fast:6.2f}x | {nb * 1e3:8.3f} {nb / fast:6.2f}x")
             if not a.no_naive:
                 (per_ray,) = time_alternating([Lidar(scene, cfg, plane_march=False).scan], ps, max(1, rep // 3))
                 naive = time_naive(scene, cfg, ps[: max(3, n // 5)])

@@ -41,6 +41,7 @@ import numpy as np
 from navstress.nav.api import Command
 from navstress.sim import SimConfig, Simulation
 from navstress.sim import _step as cur_step
+from navstress.sim import native
 from navstress.sim.lidar import Lidar, LidarConfig, build_scene
 from navstress.world.generate import generate
 from navstress.world.spec import WorldSpec
@@ -172,7 +173,8 @@ def main() -> None:
         "trees6%": generate(WorldSpec.model_validate({"obstacles": {"obstruction": {"tree": 6}}}), 1),
         "s4d2": generate(WorldSpec.model_validate({"ground": {"subdivisions": 4, "deformation": 2.0}}), 1),
     }
-    print(f"bench_sim: {a.seconds:g} s scripted course, timestep {SimConfig().timestep_s * 1e3:g} ms, one core")
+    print(f"bench_sim: {a.seconds:g} s scripted course, timestep {SimConfig().timestep_s * 1e3:g} ms, one core; "
+          f"native terrain walk {native.STATUS}")
     base = load_baseline(a.baseline)
     for name, w in worlds.items():
         oh = overhead(w, base, min(a.seconds, 60.0))
