@@ -2,7 +2,6 @@
 
 import hashlib
 import os
-import sys
 from pathlib import Path
 
 __version__ = "0.1.0"
@@ -34,7 +33,6 @@ def _numba_cache_dir() -> str | None:
 if not os.environ.get("NUMBA_CACHE_DIR"):  # a directory chosen by the user wins
     _dir = _numba_cache_dir()
     if _dir is not None:
-        if "numba" in sys.modules:  # numba read its configuration already
-            sys.modules["numba"].config.CACHE_DIR = _dir
-        else:
-            os.environ["NUMBA_CACHE_DIR"] = _dir
+        import numba  # (not through the environment: processes navstress starts for others keep theirs)
+
+        numba.config.CACHE_DIR = _dir  # type: ignore[attr-defined]

@@ -156,3 +156,24 @@ def test_without_the_native_walk_scans_still_work(tmp_path: Path, env: dict[str,
     assert available == "False" and status.startswith(why)
     simd, hits = last.split()
     assert simd == "False" and int(hits) > 1000
+
+
+def test_numba_cache_lives_in_a_directory_per_source_tree(tmp_path: Path) -> None:
+    """navstress points numba's cache at <cache>/numba/<hash of its sources> (a cached caller can
+    then never run an older callee from another file); a NUMBA_CACHE_DIR set by the user wins."""
+    code = """
+        import numba, navstress
+        from navstress.sim import _noise
+        _noise.standard_normals(__import__('numpy').random.default_rng(0), 4)
+        print(numba.config.CACHE_DIR)
+    """
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    r = subprocess.run([sys.executable, "-c", textwrap.dedent(code)], capture_output=True, text=True, timeout=600,
+                       env={**env, "NAVSTRESS_CACHE_DIR": str(tmp_path)})
+    assert r.returncode == 0, r.stderr[-2000:]
+    used = Path(r.stdout.strip().splitlines()[-1])
+    assert used.parent == tmp_path / "numba" and len(used.name) == 16
+    assert any(used.rglob("*.nbi")), "numba wrote its cache index there"
+    mine = tmp_path / "mine"
+    out = _fresh_python("import numba, navstress; print(numba.config.CACHE_DIR)", NUMBA_CACHE_DIR=str(mine))
+    assert out.strip() == str(mine)
