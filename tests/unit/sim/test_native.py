@@ -10,6 +10,7 @@ import sys
 import textwrap
 from pathlib import Path
 
+import numba
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -151,7 +152,7 @@ def test_without_the_native_walk_scans_still_work(tmp_path: Path, env: dict[str,
         sc = LidarScene(np.zeros((30, 30), np.float32), 0.5, np.zeros((0, 7)))
         lid = Lidar(sc)
         print(lid.simd, int(np.isfinite(lid.ranges(np.array([7.0, 7.0, 1.0]), np.eye(3))).sum()))
-    """, NAVSTRESS_CACHE_DIR=str(tmp_path), **env)
+    """, NAVSTRESS_CACHE_DIR=str(tmp_path), NUMBA_CACHE_DIR=str(numba.config.CACHE_DIR), **env)  # warm numba cache
     available, status, last = out.strip().splitlines()
     assert available == "False" and status.startswith(why)
     simd, hits = last.split()
