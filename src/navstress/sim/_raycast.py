@@ -15,12 +15,14 @@ arrays costs atomic reference-count updates per call, even when inlined by numba
 loops of :func:`scan_kernel` the plane march is therefore written out and the helpers it uses
 (:func:`_cell_hit`, :func:`_ray_box`) take scalars only. Level 0 of the mipmap is read from the
 four corner heights (which the cell test needs anyway) rather than from the mipmap array.
+With ``simd``, :func:`terrain_kernel` queues each channel's walks for the native AVX-512 walk
+(``_march_avx512.c``, called by symbol name through :func:`_march_channel_native`), which
+repeats the walk below operation for operation: bit-identical ranges.
 """
 
 from __future__ import annotations
 
 import math
-
 from typing import Any
 
 import numpy as np
@@ -32,7 +34,9 @@ from numba.extending import intrinsic
 from navstress.sim import native
 
 INF = np.inf
-NATIVE = native.AVAILABLE  # the AVX-512 walk of the terrain marches (navstress.sim.native)
+# the AVX-512 walk of the terrain marches is usable (navstress.sim.native); kernels take it as the
+# ``simd`` argument, never as this global (numba would freeze its value into the cached code)
+NATIVE = native.AVAILABLE
 
 
 @intrinsic
@@ -50,6 +54,8 @@ def _march_channel_native(typingctx: Any, h: Any, w: Any, ncx: Any, ncy: Any, oz
 
     sig = types.void(*[types.int64 if k is not f64 else types.float64 for k in kinds])
     return sig, codegen
+
+
 TWO_PI = 2.0 * math.pi
 
 
