@@ -286,15 +286,16 @@ class Lidar:
         equal to it within 1e-15), up to the rounding of that pose; the pose arithmetic, its check,
         the terrain and box passes and the count run in one compiled call (the simulation's path)."""
         s, c = self.scene, self.config
-        if qpos.dtype != np.float64 or qpos.ndim != 1 or qpos.shape[0] < 7 or mount.shape != (3,):
-            raise SpecError("qpos", getattr(qpos, "shape", None), "a float64 (>= 7,) body pose and a (3,) mount")
+        q, m = np.asarray(qpos), np.ascontiguousarray(mount, dtype=np.float64)
+        if q.dtype != np.float64 or q.ndim != 1 or q.shape[0] < 7 or m.shape != (3,):
+            raise SpecError("qpos", getattr(qpos, "shape", qpos), "a float64 (>= 7,) body pose and a (3,) mount")
         n = _raybox.body_scan_ranges(s.heights, s.cell_m, s.mip, s.mipf, s.mip_offsets, s.mip_widths, s.grad_max,
-                                     s.boxes, qpos, np.ascontiguousarray(mount, dtype=np.float64), self._cos_el,
+                                     s.boxes, q, m, self._cos_el,
                                      self._sin_el, self._cos_az, self._sin_az, float(c.max_range_m),
                                      float(c.min_range_m), self.plane_march, self._out, self._rot, self._origin,
                                      self.simd)
         if n < 0:
-            raise SpecError("qpos", qpos[:7].tolist(), "a finite position and a unit quaternion (w, x, y, z)")
+            raise SpecError("qpos", q[:7].tolist(), "a finite position and a unit quaternion (w, x, y, z)")
         return self._points(n, rng)
 
     def _points(self, n: int, rng: np.random.Generator | None) -> np.ndarray:

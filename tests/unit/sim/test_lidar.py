@@ -532,7 +532,7 @@ def test_scan_from_a_bad_body_pose_names_qpos() -> None:
     lidar = Lidar(flat_scene(size=10.0))
     good = np.array([5.0, 5.0, 1.0, 1.0, 0.0, 0.0, 0.0])
     for bad in (good * np.array([1, 1, 1, 2, 1, 1, 1]), np.where(np.arange(7) == 0, np.nan, good), good[:5],
-                good.astype(np.float32)):
+                good.astype(np.float32), [5.0, 5.0, 1.0]):
         with pytest.raises(SpecError, match="^qpos="):
             lidar.scan_body(bad, np.zeros(3))
 
