@@ -9,9 +9,8 @@
  * Queue (structure of arrays, rows of Q with stride qs; ray q = column of the channel):
  *   Q[0] t (march start), Q[1] tmx, Q[2] tmy (where the ray leaves its start cell in x / y),
  *   Q[3] |1/dx|, Q[4] |1/dy| (t per cell), Q[5] dx, Q[6] dy (cell units per metre), Q[7] dz,
- *   Q[8] tend (end of the walk), Q[9] thi (the ray's clear range if nothing is hit);
- *   I[0] cx, I[1] cy (start cell), I[2] sx, I[3] sy (cell steps, +-1).
- * Result: R[q] = hit t or +inf, R[qs + q] = t up to which the ray is proven clear (the hit, or thi).
+ *   Q[8] tend (end of the walk); I[0] cx, I[1] cy (start cell), I[2] sx, I[3] sy (cell steps, +-1).
+ * Result: R[q] = hit t or +inf.
  * Terrain: h (rows of W = ncx + 1 float32 heights); a cell's max height is the max of its corners.
  */
 #include <stdint.h>
@@ -39,15 +38,16 @@ NV_TARGET void nv_march_channel(const float *h, int64_t W, int64_t ncx, int64_t 
                                 double oxc, double oyc, int64_t nq, const double *Q, const int64_t *I, int64_t qs,
                                 double *R) {
     const double *Q_t = Q, *Q_tmx = Q + qs, *Q_tmy = Q + 2 * qs, *Q_tdx = Q + 3 * qs, *Q_tdy = Q + 4 * qs;
-    const double *Q_dx = Q + 5 * qs, *Q_dy = Q + 6 * qs, *Q_dz = Q + 7 * qs, *Q_tend = Q + 8 * qs, *Q_thi = Q + 9 * qs;
+    const double *Q_dx = Q + 5 * qs, *Q_dy = Q + 6 * qs, *Q_dz = Q + 7 * qs, *Q_tend = Q + 8 * qs;
     const int64_t *Q_cx = I, *Q_cy = I + qs, *Q_sx = I + 2 * qs, *Q_sy = I + 3 * qs;
-    double *R_th = R, *R_tc = R + qs;
+    double *R_th = R;
+    for (int64_t q = 0; q < nq; q++) R_th[q] = 1.0 / 0.0;  /* a miss unless a hit is written */
     const __m512d voz = _mm512_set1_pd(oz), vox = _mm512_set1_pd(oxc), voy = _mm512_set1_pd(oyc);
     const __m512d zero = _mm512_setzero_pd(), one = _mm512_set1_pd(1.0), vinf = _mm512_set1_pd(1.0 / 0.0);
     const __m512i vncx = _mm512_set1_epi64(ncx), vncy = _mm512_set1_epi64(ncy), vW = _mm512_set1_epi64(W);
     const __m512i izero = _mm512_setzero_si512(), lane = _mm512_set_epi64(7, 6, 5, 4, 3, 2, 1, 0);
     __m512d t = zero, tmx = zero, tmy = zero, tdx = zero, tdy = zero, dx = zero, dy = zero, dz = zero;
-    __m512d tend = zero, thi = zero;
+    __m512d tend = zero;
     __m512i cx = izero, cy = izero, sx = izero, sy = izero, qid = izero;
     __mmask8 act = 0;
     int64_t next = 0;
@@ -73,7 +73,6 @@ NV_TARGET void nv_march_channel(const float *h, int64_t W, int64_t ncx, int64_t 
             dy = _mm512_mask_expandloadu_pd(dy, fr, Q_dy + next);
             dz = _mm512_mask_expandloadu_pd(dz, fr, Q_dz + next);
             tend = _mm512_mask_expandloadu_pd(tend, fr, Q_tend + next);
-            thi = _mm512_mask_expandloadu_pd(thi, fr, Q_thi + next);
             cx = _mm512_mask_expandloadu_epi64(cx, fr, Q_cx + next);
             cy = _mm512_mask_expandloadu_epi64(cy, fr, Q_cy + next);
             sx = _mm512_mask_expandloadu_epi64(sx, fr, Q_sx + next);
@@ -148,7 +147,6 @@ NV_TARGET void nv_march_channel(const float *h, int64_t W, int64_t ncx, int64_t 
             if (hit) {
                 __m512d res = _mm512_mask_blend_pd(flat_hit, tcell, ts);
                 _mm512_mask_i64scatter_pd(R_th, hit, qid, res, 8);
-                _mm512_mask_i64scatter_pd(R_tc, hit, qid, res, 8);
                 act &= (__mmask8)~hit;
             }
         }
@@ -161,12 +159,7 @@ NV_TARGET void nv_march_channel(const float *h, int64_t W, int64_t ncx, int64_t 
         tmy = _mm512_mask_add_pd(tmy, sty, tmy, tdy);
         __mmask8 oob = _mm512_cmp_epi64_mask(cx, izero, _MM_CMPINT_LT) | _mm512_cmp_epi64_mask(cx, vncx, _MM_CMPINT_NLT) |
                        _mm512_cmp_epi64_mask(cy, izero, _MM_CMPINT_LT) | _mm512_cmp_epi64_mask(cy, vncy, _MM_CMPINT_NLT);
-        __mmask8 fin = act & (endm | oob);
-        if (fin) {
-            _mm512_mask_i64scatter_pd(R_th, fin, qid, vinf, 8);
-            _mm512_mask_i64scatter_pd(R_tc, fin, qid, thi, 8);
-            act &= (__mmask8)~fin;
-        }
+        act &= (__mmask8)~(endm | oob);  /* finished without a hit: R_th stays +inf */
         t = te;
     }
 }

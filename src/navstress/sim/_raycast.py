@@ -462,12 +462,12 @@ def terrain_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray
     stmx = np.empty(naz)
     stmy = np.empty(naz)
     sts = np.empty(naz)  # march start t
-    # the native walk's queue (rows: t, tmx, tmy, tdx, tdy, dx, dy, dz, tend, thi / cx, cy, sx, sy)
+    # the native walk's queue (rows: t, tmx, tmy, tdx, tdy, dx, dy, dz, tend / cx, cy, sx, sy)
     # (rows padded to an odd stride: rows 4 KiB apart would share L1 sets)
     qs = naz + 9
-    qd = np.empty((10, qs) if simd else (0, 0))
+    qd = np.empty((9, qs) if simd else (0, 0))
     qi = np.empty((4, qs) if simd else (0, 0), np.int64)
-    qr = np.empty((2, qs) if simd else (0, 0))
+    qr = np.empty(qs if simd else 0)
     qa = np.empty(naz if simd else 0, np.int64)
     gtop = gmax + 1e-6  # (a margin above the highest point: the clips below stay conservative)
     for k in range(nch):
@@ -566,7 +566,6 @@ def terrain_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray
                     qd[6, nq] = dy
                     qd[7, nq] = dz
                     qd[8, nq] = tend
-                    qd[9, nq] = thi
                     qi[0, nq] = cx
                     qi[1, nq] = cy
                     qi[2, nq] = 1 if dx > 0.0 else -1
@@ -619,10 +618,10 @@ def terrain_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray
         if nq > 0:
             _march_channel_native(h.ctypes.data, ncx + 1, ncx, ncy, oz, oxc, oyc, nq, qd.ctypes.data,  # type: ignore[call-arg]
                                   qi.ctypes.data, qs, qr.ctypes.data)
-            for q in range(nq):
+            for q in range(nq):  # (a hit is <= thi; no hit: clear up to thi, as in the walk above)
                 a = qa[q]
-                out[k, a] = qr[0, q]
-                pcl[a] = max(pcl[a], min(qr[0, q], qr[1, q]) * srl[a])
+                out[k, a] = qr[q]
+                pcl[a] = max(pcl[a], min(qr[q], sthi[a]) * srl[a])
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
