@@ -24,7 +24,7 @@ import math
 import numpy as np
 from numba import njit
 
-from navstress.sim._raycast import _ray_box, terrain_kernel
+from navstress.sim._raycast import _ray_box, count_finite, rotation_error, terrain_kernel
 
 INF = np.inf
 TWO_PI = 2.0 * math.pi
@@ -286,17 +286,9 @@ def body_scan_ranges(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarr
     for i in range(3):
         origin[i] = qpos[i] + (rot[i, 0] * mount[0] + rot[i, 1] * mount[1] + rot[i, 2] * mount[2])
     ok = math.isfinite(origin[0]) and math.isfinite(origin[1]) and math.isfinite(origin[2])
-    e = 0.0
-    for i in range(3):
-        for j in range(3):
-            s = rot[0, i] * rot[0, j] + rot[1, i] * rot[1, j] + rot[2, i] * rot[2, j]
-            e = max(e, abs(s - (1.0 if i == j else 0.0)))
-    if not (ok and e <= 1e-6):  # (a NaN rotation fails the comparison)
+    if not (ok and rotation_error(rot) <= 1e-6):  # (a NaN rotation fails the comparison)
         return -1
     terrain_kernel(h, cell, mip, mipf, moff, mnx, grad_max, origin, rot, cos_el, sin_el, cos_az, sin_az,
                    max_range, plane_march, out, simd)
     box_pass(boxes, origin, rot, cos_el, sin_el, cos_az, sin_az, max_range, min_range, out)
-    n = 0
-    for v in out.ravel():
-        n += v < INF
-    return n
+    return count_finite(out)
