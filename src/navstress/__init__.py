@@ -7,6 +7,15 @@ from pathlib import Path
 __version__ = "0.1.0"
 
 
+def cache_dir() -> Path:
+    """Where navstress keeps what it builds: ``$NAVSTRESS_CACHE_DIR``, else
+    ``$XDG_CACHE_HOME/navstress``, else ``~/.cache/navstress``."""
+    if os.environ.get("NAVSTRESS_CACHE_DIR"):
+        return Path(os.environ["NAVSTRESS_CACHE_DIR"])
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "navstress"
+
+
 def _numba_cache_dir() -> str | None:
     """numba's on-disk cache for this exact source tree: ``<cache>/numba/<hash of the sources>``.
 
@@ -20,9 +29,7 @@ def _numba_cache_dir() -> str | None:
     for p in sorted(root.rglob("*")):
         if p.suffix in (".py", ".c") and p.is_file():
             h.update(p.relative_to(root).as_posix().encode() + b"\0" + p.read_bytes() + b"\0")
-    base = os.environ.get("NAVSTRESS_CACHE_DIR") or os.path.join(
-        os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"), "navstress")
-    d = Path(base) / "numba" / h.hexdigest()[:16]
+    d = cache_dir() / "numba" / h.hexdigest()[:16]
     try:
         d.mkdir(parents=True, exist_ok=True)
     except OSError:

@@ -27,20 +27,14 @@ from pathlib import Path
 
 from llvmlite import binding as llvm
 
+from navstress import cache_dir
+
 SYMBOL = "nv_march_channel"
 SOURCE = Path(__file__).with_name("_march_avx512.c")
 FLAGS = ("-O3", "-ffp-contract=off", "-fno-math-errno", "-fPIC", "-shared")
 
 _STUB_TYPE = ctypes.CFUNCTYPE(None, *([ctypes.c_void_p] * 12))
 _stub = _STUB_TYPE(lambda *a: None)  # kept alive: LLVM holds its address
-
-
-def cache_dir() -> Path:
-    """Where built libraries are kept."""
-    if os.environ.get("NAVSTRESS_CACHE_DIR"):
-        return Path(os.environ["NAVSTRESS_CACHE_DIR"])
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "navstress"
 
 
 def build(cc: str | None = None, out_dir: Path | None = None) -> Path:
