@@ -517,10 +517,11 @@ def _check_navigator(name: str, fault: str | None, config: dict[str, Any]) -> No
     """Fail fast (one line, exit 2) on an unknown navigator or fault, before any output is made."""
     import warnings
 
-    from navstress.nav.registry import make_navigator
+    from navstress.nav.registry import make_navigator, validate_config
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
+        validate_config(name, config, fault=fault)
         nav = make_navigator(name, config or None, fault=fault)
     nav.close()
 
@@ -628,9 +629,16 @@ def nav_check(
         "YAML/JSON configuration passed to the navigator."))] = None,
 ) -> None:
     """Run the conformance checks on a navigator; exit 1 if any check fails."""
-    from navstress.nav.check import check_navigator, format_report
+    import warnings
 
-    report = check_navigator(name, _navigator_config(navigator_config) or None)
+    from navstress.nav.check import check_navigator, format_report
+    from navstress.nav.registry import validate_config
+
+    cfg = _navigator_config(navigator_config)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        validate_config(name, cfg)  # the same up-front check as `campaign run` (one line, exit 2)
+    report = check_navigator(name, cfg or None)
     _console().print(format_report(report))
     if not report.passed:
         raise typer.Exit(1)

@@ -57,8 +57,15 @@ def run(
     ray_address: Annotated[str | None, typer.Option("--ray-address", help="Ray cluster address (default: start a local one).")] = None,
     wall_limit: Annotated[float | None, typer.Option("--wall-limit", help="Per-run wall-clock limit in seconds (default timeout_s*2+120).")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
+    yes: Annotated[bool, typer.Option("--yes", "-y", help="Accept a plan of more than 100,000 runs.")] = False,
 ) -> None:
-    """Run a campaign (resumes where it stopped if DIR already holds it)."""
+    """Run a campaign (resumes where it stopped if DIR already holds it).
+
+    Exit 0 when every planned run is recorded, 1 when some runs stayed pending after repeated
+    failures of the machinery (run again to retry them), 2 for a bad spec or directory or a
+    full disk, 130 on Ctrl-C and 143 on SIGTERM (run the same command again to resume)."""
+    import signal
+
     from navstress.campaign.executors import run_campaign
 
     if executor not in ("local", "ray"):
@@ -67,18 +74,53 @@ def run(
         raise SpecError("--workers", workers, "an integer >= 1")
     if wall_limit is not None and not wall_limit > 0:
         raise SpecError("--wall-limit", wall_limit, "seconds > 0")
-    with CampaignProgress(enabled=not quiet) as bar:
-        res = run_campaign(spec, out, workers=workers, executor=executor,  # type: ignore[arg-type]
-                           ray_address=ray_address, wall_limit_s=wall_limit, on_start=bar.on_start,
-                           on_record=bar.on_record)
+    resume = f"navstress campaign run {_quote(spec)} -o {_quote(out)}" + (" --yes" if yes else "")
+
+    def on_term(signum: int, frame: object) -> None:
+        raise _Stopped(signum)
+
+    old = signal.signal(signal.SIGTERM, on_term)
+    try:
+        with CampaignProgress(enabled=not quiet) as bar:
+            res = run_campaign(spec, out, workers=workers, executor=executor,  # type: ignore[arg-type]
+                               ray_address=ray_address, wall_limit_s=wall_limit, on_start=bar.on_start,
+                               on_record=bar.on_record, accept_large=yes)
+    except (KeyboardInterrupt, _Stopped) as err:
+        signum = err.signum if isinstance(err, _Stopped) else signal.SIGINT
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)  # a second SIGTERM must not cut the message
+        typer.echo(f"stopped by {signal.Signals(signum).name}; nothing recorded is lost; resume with: {resume}",
+                   err=True)
+        raise typer.Exit(128 + int(signum)) from None
+    finally:
+        signal.signal(signal.SIGTERM, old)
     typer.echo(f"{out}: {res.already_done + res.recorded}/{res.planned} runs recorded "
                f"({res.recorded} this session, {res.wall_s:.0f} s, {res.workers} workers); "
                + format_counts(res.counts, markup=False))
+    if res.unfinished:
+        first, why = next(iter(res.unfinished.items()))
+        typer.echo(f"{len(res.unfinished)} run(s) not recorded: navstress itself failed on each attempt "
+                   f"(e.g. {first}: {why}); fix the cause and resume with: {resume}", err=True)
+        raise typer.Exit(1)
+
+
+class _Stopped(BaseException):
+    """SIGTERM received by ``campaign run`` (a BaseException, like KeyboardInterrupt, so that no
+    ``except Exception`` on the way swallows it)."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(f"signal {signum}")
+        self.signum = signum
+
+
+def _quote(p: Path) -> str:
+    import shlex
+
+    return shlex.quote(str(p))
 
 
 @campaign_app.command("status")
 def status(directory: Annotated[Path, typer.Argument(help="Campaign directory.")]) -> None:
-    """Show progress and outcome counts, per experiment."""
+    """Show progress and outcome counts, per experiment and per navigator and fault."""
     with Store.open(directory) as store:
         done, planned = store.progress()
         table = Table(title=f"campaign {store.spec.name}: {done}/{planned} runs ({100 * done / max(planned, 1):.0f}%)")
@@ -91,6 +133,21 @@ def status(directory: Annotated[Path, typer.Argument(help="Campaign directory.")
         total = store.outcome_counts()
         table.add_row("all", f"{done}/{planned}", *(str(total[o]) for o in OUTCOMES))
         console().print(table)
+        groups = store.per_navigator()
+        if len(groups) > 1:
+            by_nav = Table(title="per navigator and fault")
+            by_nav.add_column("navigator")
+            by_nav.add_column("fault")
+            by_nav.add_column("done", justify="right")
+            for o in OUTCOMES:
+                by_nav.add_column(o, justify="right")
+            for nav, fault, d, p, counts in groups:
+                by_nav.add_row(nav, fault, f"{d}/{p}", *(str(counts[o]) for o in OUTCOMES))
+            console().print(by_nav)
+        retried = store.attempts()
+        if retried:
+            typer.echo(f"failed attempts kept: {len(retried)} (of {len({a[0] for a in retried})} runs; "
+                       "navstress's own failures, retried)")
         mean = store.mean_wall_s()
         if mean is not None and done < planned:
             typer.echo(f"remaining: {planned - done} runs, about {(planned - done) * mean / 3600:.1f} h of "

@@ -22,6 +22,7 @@ import math
 import multiprocessing as mp
 import multiprocessing.connection as mpc
 import os
+import shutil
 import signal
 import sys
 import threading
@@ -35,8 +36,8 @@ from typing import Any, Literal
 
 from navstress.campaign.plan import MapJob, Plan
 from navstress.campaign.spec import CampaignSpec, load_campaign
-from navstress.campaign.store import OUTCOMES, Store
-from navstress.errors import NavigatorError, SpecError
+from navstress.campaign.store import OUTCOMES, Store, disk_full, is_disk_full
+from navstress.errors import GenerationError, NavigatorError, NavstressError, SpecError, WorldFileError
 from navstress.run.record import RunRecord, RunTask
 
 RecordCallback = Callable[[RunRecord], None]
@@ -45,6 +46,8 @@ WALL_FACTOR = 2.0
 WALL_SLACK_S = 120.0
 #: Wall-clock limit of generating one world.
 WORLD_LIMIT_S = 900.0
+#: Attempts of one run (or world) in one ``campaign run`` before it is given up for this session.
+MAX_ATTEMPTS = 3
 
 
 @dataclass
@@ -58,6 +61,23 @@ class CampaignResult:
     counts: dict[str, int] = field(default_factory=dict)
     wall_s: float = 0.0
     workers: int = 0
+    unfinished: dict[str, str] = field(default_factory=dict)  # run_id -> last reason (infrastructure failures)
+
+
+@dataclass(frozen=True)
+class Infra:
+    """A failure of navstress's own machinery during a task: never a result (the task is retried).
+
+    ``kind``: ``world`` (the world on disk is unusable: it is regenerated), ``disk-full`` (the
+    campaign stops, resumable), ``error`` (anything else: retried)."""
+
+    kind: str
+    reason: str
+
+
+def _line(err: BaseException) -> str:
+    text = " ".join(f"{type(err).__name__}: {err}".split())
+    return text if len(text) <= 300 else text[:300] + "..."
 
 
 # ---- work functions (run inside workers, local or Ray) -------------------------------------
@@ -83,6 +103,21 @@ def generate_world(job: MapJob) -> None:
     generate(parse_spec(job.world), job.map_seed).save(job.world_dir)
 
 
+def attempt_world(job: MapJob) -> str | Infra | None:
+    """Generate ``job``'s world: None when done; a reason string when its spec cannot be generated
+    (GenerationError or another navstress error: the same on every attempt, recorded as the runs'
+    result); :class:`Infra` for a failure of the machinery (retried)."""
+    try:
+        generate_world(job)
+        return None
+    except (GenerationError, SpecError) as err:
+        return " ".join(str(err).split())
+    except Exception as err:
+        if is_disk_full(err):
+            return Infra("disk-full", _line(err))
+        return Infra("error", f"world generation failed: {_line(err)}")
+
+
 def failure_record(task: RunTask, reason: str, wall_s: float = 0.0) -> RunRecord:
     """A Fail-Other record for a run that produced no result of its own (crash, limit, no world)."""
     return RunRecord(
@@ -99,16 +134,85 @@ def drop_partial_trace(task: RunTask) -> None:
     p.with_name(f".{p.name}.partial").unlink(missing_ok=True)
 
 
-def run_one(task: RunTask) -> RunRecord:
-    """Run one task with ``navstress.run.mission.execute``; an unexpected exception becomes Fail-Other."""
+def attempt_run(task: RunTask) -> RunRecord | Infra:
+    """Run one task: its record, or :class:`Infra` when navstress's machinery failed (the world on
+    disk cannot be loaded, the disk is full, out of memory, another OS error). Any other exception
+    from ``execute`` is a Fail-Other record (it repeats with the same task)."""
     t0 = time.perf_counter()
     try:
         from navstress.run.mission import execute
 
         return execute(task)
+    except WorldFileError as err:
+        return Infra("world", f"world unusable: {' '.join(str(err).split())}")
+    except (OSError, MemoryError) as err:
+        if is_disk_full(err):
+            return Infra("disk-full", _line(err))
+        return Infra("error", f"run failed in navstress: {_line(err)}")
     except Exception as err:  # execute() should not raise; if it does the campaign goes on
         msg = f"run raised {type(err).__name__}: {err}".splitlines()[0]
         return failure_record(task, msg, time.perf_counter() - t0)
+
+
+def run_one(task: RunTask) -> RunRecord:
+    """Run one task with ``navstress.run.mission.execute``; any failure becomes a Fail-Other record."""
+    out = attempt_run(task)
+    return failure_record(task, out.reason) if isinstance(out, Infra) else out
+
+
+class Recorder:
+    """Takes every end of a task from an executor (the driver's single writer): records results,
+    keeps failed attempts in the store's ``attempts`` table, and decides what is retried.
+
+    The rule (docs/design.md): a worker that dies (signal, exit) is retried with the same seeds;
+    when it dies on each of ``max_attempts`` attempts the crash is the navigator's own and the
+    run is recorded (Fail-Other, with the reason and the count). Failures of the machinery
+    (:class:`Infra`) are retried too and never recorded: after ``max_attempts`` the run stays
+    pending (``unfinished``) for the next ``campaign run``. A full disk stops the campaign."""
+
+    def __init__(self, store: Store, on_record: RecordCallback | None = None,
+                 max_attempts: int = MAX_ATTEMPTS) -> None:
+        self.store = store
+        self.on_record = on_record
+        self.max_attempts = max_attempts
+        self.recorded = 0
+        self.kinds: dict[str, list[str]] = {}
+        self.unfinished: dict[str, str] = {}
+
+    def record(self, rec: RunRecord) -> None:
+        self.unfinished.pop(rec.run_id, None)
+        if self.store.add(rec):
+            self.recorded += 1
+            if self.on_record is not None:
+                self.on_record(rec)
+
+    def failed(self, task: RunTask, kind: str, reason: str, wall_s: float = 0.0) -> bool:
+        """A failed attempt of ``task`` (``kind``: died, world, error, disk-full); True: run it again."""
+        if kind == "disk-full":
+            raise disk_full(self.store.root, reason)
+        drop_partial_trace(task)
+        self.store.add_attempt(task.run_id, kind, reason)
+        kinds = self.kinds.setdefault(task.run_id, [])
+        kinds.append(kind)
+        if len(kinds) < self.max_attempts:
+            return True
+        if all(k == "died" for k in kinds):
+            n = len(kinds)
+            self.record(failure_record(task, f"{reason}, in {n} of {n} attempts with the same seeds", wall_s))
+        else:
+            self.unfinished[task.run_id] = reason
+        return False
+
+    def world_failed(self, tasks: list[RunTask], result: str | Infra) -> list[RunTask]:
+        """The world of ``tasks`` could not be made; returns the tasks to try again (with a new
+        generation). A spec that cannot be generated (``result`` a string) is recorded for each
+        run; a machinery failure counts as a failed attempt of each run."""
+        if isinstance(result, str):
+            for t in tasks:
+                self.record(failure_record(t, f"world generation failed: {result}"))
+            return []
+        kind = "disk-full" if result.kind == "disk-full" else "world"
+        return [t for t in tasks if self.failed(t, kind, result.reason)]
 
 
 def describe_exit(code: int | None) -> str:
@@ -127,9 +231,13 @@ def describe_exit(code: int | None) -> str:
 
 
 def check_runnable(spec: CampaignSpec) -> None:
-    """Every navigator and fault of ``spec`` exists (SpecError naming the field otherwise)."""
+    """Every navigator and fault of ``spec`` exists, every navigator accepts its config and the
+    ``sim:`` overrides are a valid SimConfig (SpecError naming the field otherwise). Nothing is
+    written and no run is started (navigator factories validate their config, see
+    :func:`navstress.nav.registry.validate_config`)."""
     from navstress.nav import faults as nav_faults
     from navstress.nav import registry
+    from navstress.sim.config import SimConfig
 
     targets = {n.name: n.target for n in spec.navigators if n.target}
     for i, nav in enumerate(spec.navigators):
@@ -144,6 +252,7 @@ def check_runnable(spec: CampaignSpec) -> None:
             registry.resolve(nav.name)
         except NavigatorError as err:
             raise SpecError(f"navigators[{i}].name", nav.name, "a registered navigator", str(err)) from None
+    faults: list[str] = []
     for exp in spec.experiments:
         for f in spec.faults_of(exp):
             if f is None:
@@ -152,20 +261,46 @@ def check_runnable(spec: CampaignSpec) -> None:
                 nav_faults.get_fault(f)
             except NavigatorError as err:
                 raise SpecError("faults", f, "a known fault or null (nominal)", str(err)) from None
+            faults.append(f)
+    SimConfig.from_mapping(dict(spec.sim))
+    saved = dict(registry._registered)
+    try:
+        register_targets(targets)
+        for i, nav in enumerate(spec.navigators):
+            try:
+                registry.validate_config(nav.name, dict(nav.config), field=f"navigators[{i}].config")
+            except NavigatorError as err:  # a spec-given target that cannot be imported
+                where = f"navigators[{i}].target" if nav.name in targets else f"navigators[{i}].name"
+                raise SpecError(where, nav.target or nav.name, "a navigator that can be loaded",
+                                str(err)) from None
+    finally:
+        registry._registered.clear()
+        registry._registered.update(saved)
 
 
 def run_campaign(spec_path: str | Path, directory: str | Path, *, workers: int | None = None,
                  executor: Literal["local", "ray"] = "local", ray_address: str | None = None,
                  wall_limit_s: float | None = None, on_record: RecordCallback | None = None,
-                 on_start: Callable[[int, int, dict[str, int]], None] | None = None) -> CampaignResult:
+                 on_start: Callable[[int, int, dict[str, int]], None] | None = None,
+                 accept_large: bool = False, max_attempts: int = MAX_ATTEMPTS) -> CampaignResult:
     """Run (or resume) the campaign of ``spec_path`` into ``directory``.
 
     ``workers``: processes (local, default ``os.cpu_count()``) or concurrent Ray tasks (default:
     the cluster's CPUs). ``wall_limit_s``: per-run wall-clock limit (default
     ``timeout_s * 2 + 120``). ``on_start(done, planned, counts)`` and ``on_record(record)``
-    feed progress displays. Raises SpecError / StoreError before running anything when the
-    spec or directory is unusable."""
-    spec, text = load_campaign(spec_path)
+    feed progress displays. ``accept_large``: plan more than ``MAX_PLANNED_RUNS`` runs.
+    Raises SpecError / StoreError before running anything when the spec, a navigator or sim
+    config, or the directory is unusable; DiskFullError (nothing lost: resume later) when the
+    disk fills. An interrupted campaign (KeyboardInterrupt, or the CLI's SIGTERM) leaves no
+    partial file behind. Runs whose machinery failed ``max_attempts`` times stay pending
+    (``CampaignResult.unfinished``)."""
+    from navstress.campaign.spec import MAX_PLANNED_RUNS
+
+    if workers is not None and workers < 1:
+        raise SpecError("--workers", workers, "an integer >= 1")
+    if executor not in ("local", "ray"):
+        raise SpecError("--executor", executor, "local or ray")
+    spec, text = load_campaign(spec_path, max_runs=None if accept_large else MAX_PLANNED_RUNS)
     check_runnable(spec)
     t0 = time.perf_counter()
     with Store.create(directory, spec, text) as store:
@@ -177,30 +312,21 @@ def run_campaign(spec_path: str | Path, directory: str | Path, *, workers: int |
             on_start(len(done), len(p.tasks), store.outcome_counts())
         limit = wall_limit_s if wall_limit_s is not None else spec.timeout_s * WALL_FACTOR + WALL_SLACK_S
         targets = {n.name: n.target for n in spec.navigators if n.target}
-        recorded = 0
+        rec = Recorder(store, on_record, max_attempts)
+        try:
+            if executor == "local":
+                n = workers if workers is not None else (os.cpu_count() or 1)
+                LocalExecutor(n, limit, targets).run(p, pending, rec)
+            else:
+                from navstress.campaign.ray_executor import RayExecutor
 
-        def sink(rec: RunRecord) -> None:
-            nonlocal recorded
-            if store.add(rec):
-                recorded += 1
-                if on_record is not None:
-                    on_record(rec)
-
-        if executor == "local":
-            n = workers if workers is not None else (os.cpu_count() or 1)
-            if n < 1:
-                raise SpecError("--workers", n, "an integer >= 1")
-            LocalExecutor(n, limit, targets).run(p, pending, sink)
-        elif executor == "ray":
-            from navstress.campaign.ray_executor import RayExecutor
-
-            ex = RayExecutor(workers, limit, targets, address=ray_address)
-            n = ex.workers
-            ex.run(p, pending, sink)
-        else:
-            raise SpecError("--executor", executor, "local or ray")
-        return CampaignResult(Path(directory), len(p.tasks), len(done), recorded, store.outcome_counts(),
-                              time.perf_counter() - t0, n)
+                ex = RayExecutor(workers, limit, targets, address=ray_address)
+                n = ex.workers
+                ex.run(p, pending, rec)
+        finally:
+            store.cleanup_partials()  # whatever stopped the executors: no partial trace or world left
+        return CampaignResult(Path(directory), len(p.tasks), len(done), rec.recorded, store.outcome_counts(),
+                              time.perf_counter() - t0, n, dict(rec.unfinished))
 
 
 def maps_needed(plan: Plan, pending: list[RunTask]) -> tuple[list[MapJob], dict[str, deque[RunTask]]]:
@@ -209,6 +335,68 @@ def maps_needed(plan: Plan, pending: list[RunTask]) -> tuple[list[MapJob], dict[
     for t in pending:
         by_map.setdefault(t.world_dir, deque()).append(t)
     return [m for m in plan.maps if m.world_dir in by_map], by_map
+
+
+class WorkQueue:
+    """What an executor hands out next: each map's world first (once), then the map's runs;
+    failed tasks come back to the front, runs on a broken world wait for its regeneration."""
+
+    def __init__(self, plan: Plan, pending: list[RunTask]) -> None:
+        from navstress.world.world import is_world_dir
+
+        maps, self.by_map = maps_needed(plan, pending)
+        self.jobs = {m.world_dir: m for m in plan.maps}
+        self.to_generate: deque[MapJob] = deque()
+        self.ready: deque[RunTask] = deque()
+        self.generating: set[str] = set()
+        for m in maps:
+            if is_world_dir(m.world_dir):
+                self.ready.extend(self.by_map.pop(m.world_dir))
+            else:
+                self.to_generate.append(m)
+                self.generating.add(m.world_dir)
+
+    def __bool__(self) -> bool:
+        return bool(self.ready or self.to_generate)
+
+    def next(self) -> tuple[str, Any]:
+        """("run", RunTask) or ("world", MapJob); call only when the queue is not empty."""
+        if self.ready:
+            return "run", self.ready.popleft()
+        return "world", self.to_generate.popleft()
+
+    def world_ended(self, job: MapJob, result: str | Infra | None, rec: Recorder) -> None:
+        self.generating.discard(job.world_dir)
+        tasks = list(self.by_map.pop(job.world_dir, deque()))
+        if result is None:
+            self.ready.extend(tasks)
+            return
+        again = rec.world_failed(tasks, result)
+        if again:
+            self.regenerate(job.world_dir, again, remove=False)
+
+    def run_ended(self, task: RunTask, result: RunRecord | Infra, rec: Recorder, wall_s: float) -> None:
+        if isinstance(result, RunRecord):
+            rec.record(result)
+        elif result.kind == "world":
+            if rec.failed(task, "world", result.reason, wall_s):
+                self.regenerate(task.world_dir, [task], remove=True)
+        elif rec.failed(task, result.kind, result.reason, wall_s):
+            self.ready.appendleft(task)
+
+    def run_died(self, task: RunTask, reason: str, rec: Recorder, wall_s: float) -> None:
+        if rec.failed(task, "died", reason, wall_s):
+            self.ready.appendleft(task)
+
+    def regenerate(self, world_dir: str, tasks: list[RunTask], *, remove: bool) -> None:
+        """Queue ``tasks`` behind a new generation of ``world_dir`` (removing the broken one)."""
+        self.by_map.setdefault(world_dir, deque()).extend(tasks)
+        if world_dir in self.generating:
+            return
+        if remove:
+            shutil.rmtree(world_dir, ignore_errors=True)
+        self.generating.add(world_dir)
+        self.to_generate.append(self.jobs[world_dir])
 
 
 # ---- local executor --------------------------------------------------------------------------
@@ -274,11 +462,7 @@ def _worker_main(conn: mpc.Connection, parent_pid: int, targets: dict[str, str],
         kind, payload = msg
         conn.send(("started", None))
         try:
-            if kind == "world":
-                generate_world(payload)
-                result: Any = None
-            else:
-                result = run_one(payload)
+            result: Any = attempt_world(payload) if kind == "world" else attempt_run(payload)
             conn.send(("ok", result))
         except Exception as err:
             conn.send(("error", f"{type(err).__name__}: {err}".splitlines()[0] + "\n" + traceback.format_exc(limit=3)))
@@ -312,30 +496,18 @@ class LocalExecutor:
         child.close()
         return _Slot(proc, parent)
 
-    def run(self, plan: Plan, pending: list[RunTask], sink: RecordCallback) -> None:
-        """Run ``pending`` (worlds first, per map), passing every record to ``sink``."""
-        maps, by_map = maps_needed(plan, pending)
-        from navstress.world.world import is_world_dir
-
-        to_generate: deque[MapJob] = deque()
-        ready: deque[RunTask] = deque()
-        for m in maps:
-            if is_world_dir(m.world_dir):
-                ready.extend(by_map.pop(m.world_dir))
-            else:
-                to_generate.append(m)
-        if not ready and not to_generate:
+    def run(self, plan: Plan, pending: list[RunTask], rec: Recorder) -> None:
+        """Run ``pending`` (worlds first, per map), passing every end of a task to ``rec``."""
+        q = WorkQueue(plan, pending)
+        if not q:
             return
         slots = [self._spawn() for _ in range(min(self.workers, len(pending)))]
+        clean = False
         try:
-            while ready or to_generate or any(s.kind for s in slots):
+            while q or any(s.kind for s in slots):
                 for s in slots:
-                    if s.kind:
-                        continue
-                    if ready:
-                        self._send(s, "run", ready.popleft())
-                    elif to_generate:
-                        self._send(s, "world", to_generate.popleft())
+                    if not s.kind and q:
+                        self._send(s, *q.next())
                 busy = [s for s in slots if s.kind]
                 waitables: list[Any] = [s.conn for s in busy] + [s.proc.sentinel for s in busy]
                 mpc.wait(waitables, timeout=1.0)
@@ -363,12 +535,15 @@ class LocalExecutor:
                         outcome = ("limit", f"{limit:g} s")
                     if outcome is None:
                         continue
-                    self._finish(s, outcome, now, by_map, ready, sink)
                     if outcome[0] in ("died", "limit"):
                         s.conn.close()
                         slots[i] = self._spawn()
+                    self._finish(s, outcome, now, q, rec)
+            clean = True
         finally:
             for s in slots:
+                if not clean:  # interrupted or failed: stop every worker now
+                    s.proc.kill()
                 try:
                     s.conn.send(None)
                 except (OSError, ValueError):
@@ -384,32 +559,26 @@ class LocalExecutor:
         s.kind, s.payload, s.started, s.running = kind, payload, time.monotonic(), False
         s.conn.send((kind, payload))
 
-    def _finish(self, s: _Slot, outcome: tuple[str, Any], now: float, by_map: dict[str, deque[RunTask]],
-                ready: deque[RunTask], sink: RecordCallback) -> None:
+    @staticmethod
+    def _finish(s: _Slot, outcome: tuple[str, Any], now: float, q: WorkQueue, rec: Recorder) -> None:
         kind, payload, wall = s.kind, s.payload, now - s.started
         s.kind, s.payload = "", None
         status, value = outcome
         if kind == "world":
-            tasks = by_map.pop(payload.world_dir, deque())
-            if status == "ok":
-                ready.extend(tasks)
-                return
-            why = {"error": f"world generation failed: {str(value).splitlines()[0]}",
-                   "died": f"world generation killed its worker ({value})",
-                   "limit": f"world generation exceeded wall-clock limit ({value})"}[status]
-            for t in tasks:
-                sink(failure_record(t, why))
-            return
-        if status == "ok":
-            sink(value)
+            result: Any = value if status == "ok" else Infra("error", {
+                "error": f"world generation failed: {str(value).splitlines()[0]}",
+                "died": f"world generation killed its worker ({value})",
+                "limit": f"world generation exceeded wall-clock limit ({value})"}[status])
+            q.world_ended(payload, result, rec)
+        elif status == "ok":
+            q.run_ended(payload, value, rec, wall)
         elif status == "error":
-            sink(failure_record(payload, f"worker error: {str(value).splitlines()[0]}", wall))
+            q.run_ended(payload, Infra("error", f"worker error: {str(value).splitlines()[0]}"), rec, wall)
         elif status == "died":
-            drop_partial_trace(payload)
-            sink(failure_record(payload, f"run killed its worker process ({value})", wall))
+            q.run_died(payload, f"run killed its worker process ({value})", rec, wall)
         else:
             drop_partial_trace(payload)
-            sink(failure_record(payload, f"run exceeded wall-clock limit ({value}); worker killed", wall))
+            rec.record(failure_record(payload, f"run exceeded wall-clock limit ({value}); worker killed", wall))
 
 
 def outcome_counts(records: list[RunRecord]) -> dict[str, int]:

@@ -18,14 +18,15 @@ from collections import deque
 from typing import Any
 
 from navstress.campaign.executors import (
-    RecordCallback,
-    drop_partial_trace,
     WORLD_LIMIT_S,
+    Infra,
+    Recorder,
+    WorkQueue,
+    attempt_run,
+    attempt_world,
+    drop_partial_trace,
     failure_record,
-    generate_world,
-    maps_needed,
     register_targets,
-    run_one,
 )
 from navstress.campaign.plan import MapJob, Plan
 from navstress.errors import SpecError
@@ -41,13 +42,13 @@ def _import_ray() -> Any:
     return ray
 
 
-def _world_task(job: MapJob, targets: dict[str, str]) -> None:
-    generate_world(job)
+def _world_task(job: MapJob, targets: dict[str, str]) -> str | Infra | None:
+    return attempt_world(job)
 
 
-def _run_task(task: RunTask, targets: dict[str, str]) -> RunRecord:
+def _run_task(task: RunTask, targets: dict[str, str]) -> RunRecord | Infra:
     register_targets(targets)
-    return run_one(task)
+    return attempt_run(task)
 
 
 class RayExecutor:
@@ -73,22 +74,17 @@ class RayExecutor:
         self._world = ray.remote(num_cpus=1, max_retries=0)(_world_task)
         self._run = ray.remote(num_cpus=1, max_retries=0)(_run_task)
 
-    def run(self, plan: Plan, pending: list[RunTask], sink: RecordCallback) -> None:
-        """Run ``pending`` on the cluster, passing every record to ``sink``."""
+    def run(self, plan: Plan, pending: list[RunTask], rec: Recorder) -> None:
+        """Run ``pending`` on the cluster, passing every end of a task to ``rec``."""
         ray = self.ray
-        maps, by_map = maps_needed(plan, pending)
-        to_generate: deque[MapJob] = deque(maps)
-        ready: deque[RunTask] = deque()
+        q = WorkQueue(plan, pending)
         inflight: dict[Any, tuple[str, Any, float]] = {}
         try:
-            while ready or to_generate or inflight:
-                while len(inflight) < self.workers and (ready or to_generate):
-                    if ready:
-                        t = ready.popleft()
-                        inflight[self._run.remote(t, self.targets)] = ("run", t, time.monotonic())
-                    else:
-                        m = to_generate.popleft()
-                        inflight[self._world.remote(m, self.targets)] = ("world", m, time.monotonic())
+            while q or inflight:
+                while len(inflight) < self.workers and q:
+                    kind, payload = q.next()
+                    fn = self._run if kind == "run" else self._world
+                    inflight[fn.remote(payload, self.targets)] = (kind, payload, time.monotonic())
                 done, _ = ray.wait(list(inflight), num_returns=1, timeout=1.0)
                 now = time.monotonic()
                 for ref in done:
@@ -98,15 +94,16 @@ class RayExecutor:
                         status, why = "ok", ""
                     except Exception as err:  # RayTaskError, WorkerCrashedError, ...
                         value, status = None, "error"
-                        why = f"{type(err).__name__}: {str(err).strip().splitlines()[0] if str(err).strip() else ''}"
-                    self._finish(kind, payload, status, value, why, now - t0, by_map, ready, sink)
+                        text = " ".join(str(err).split())
+                        why = f"{type(err).__name__}: {text[:300]}"
+                    self._finish(kind, payload, status, value, why, now - t0, q, rec)
                 for ref, (kind, payload, t0) in list(inflight.items()):
                     limit = self.wall_limit_s if kind == "run" else WORLD_LIMIT_S
                     if now - t0 > limit:
                         ray.cancel(ref, force=True)
                         inflight.pop(ref)
                         self._finish(kind, payload, "limit", None, f"exceeded wall-clock limit ({limit:g} s)",
-                                     now - t0, by_map, ready, sink)
+                                     now - t0, q, rec)
         finally:
             for ref in inflight:
                 ray.cancel(ref, force=True)
@@ -114,21 +111,18 @@ class RayExecutor:
                 ray.shutdown()
 
     @staticmethod
-    def _finish(kind: str, payload: Any, status: str, value: Any, why: str, wall: float,
-                by_map: dict[str, deque[RunTask]], ready: deque[RunTask], sink: RecordCallback) -> None:
+    def _finish(kind: str, payload: Any, status: str, value: Any, why: str, wall: float, q: WorkQueue,
+                rec: Recorder) -> None:
         if kind == "world":
-            tasks = by_map.pop(payload.world_dir, deque())
-            if status == "ok":
-                ready.extend(tasks)
-            else:
-                for t in tasks:
-                    sink(failure_record(t, f"world generation failed: {why}"))
+            q.world_ended(payload, value if status == "ok" else Infra("error", f"world generation failed: {why}"),
+                          rec)
             return
         if status == "ok":
-            sink(value)
-            return
-        drop_partial_trace(payload)
-        if "WorkerCrashed" in why or "died" in why.lower():
-            sink(failure_record(payload, f"run killed its Ray worker ({why})", wall))
+            q.run_ended(payload, value, rec, wall)
+        elif status == "limit":
+            drop_partial_trace(payload)
+            rec.record(failure_record(payload, f"run {why}; Ray task cancelled", wall))
+        elif "WorkerCrashed" in why or "died" in why.lower():
+            q.run_died(payload, f"run killed its Ray worker ({why})", rec, wall)
         else:
-            sink(failure_record(payload, f"run failed on Ray: {why}", wall))
+            q.run_ended(payload, Infra("error", f"run failed on Ray: {why}"), rec, wall)

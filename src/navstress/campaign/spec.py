@@ -38,6 +38,10 @@ _STRICT = ConfigDict(frozen=True, extra="forbid")
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 #: Most values a single experiment may expand to (guards against a typo'd step of 1e-9).
 MAX_CONFIGS_PER_EXPERIMENT = 10_000
+#: Most runs a campaign may plan unless the user accepts more (``campaign run --yes``).
+MAX_PLANNED_RUNS = 100_000
+#: Wall seconds per run assumed by the size estimate of a refused plan (a rough order of magnitude).
+ESTIMATED_WALL_S_PER_RUN = 10.0
 
 
 class Range(BaseModel):
@@ -175,10 +179,35 @@ class Configuration:
 # ---- validation ----------------------------------------------------------------------
 
 
-def parse_campaign(data: Any) -> CampaignSpec:
+def planned_runs(spec: CampaignSpec) -> int:
+    """How many runs ``spec`` plans, computed from the sweep sizes without expanding any product."""
+    total = 0
+    for exp in spec.experiments:
+        n = 1
+        for rng in exp.sweep.values():
+            n *= len(rng.values) if rng.values is not None else max(
+                0, math.floor((rng.stop - rng.start) / rng.step + 1e-9) + 1)  # type: ignore[operator]
+        total += n * spec.maps_per_config * spec.runs_per_map * len(spec.navigators) * len(spec.faults_of(exp))
+    return total
+
+
+def check_plan_size(spec: CampaignSpec, max_runs: int | None = MAX_PLANNED_RUNS) -> int:
+    """The planned run count; SpecError (with the count and a rough duration) above ``max_runs``."""
+    n = planned_runs(spec)
+    if max_runs is not None and n > max_runs:
+        hours = n * ESTIMATED_WALL_S_PER_RUN / 3600
+        size = f"{n:,}" if n < 10**15 else f"about 10^{len(str(n)) - 1}"
+        raise SpecError("campaign", f"{size} planned runs", f"at most {max_runs:,} runs (this plan is about "
+                        f"{hours:,.0f} h of single-worker time at ~{ESTIMATED_WALL_S_PER_RUN:g} s per run)",
+                        "reduce the sweeps, maps_per_config or runs_per_map, or pass --yes to accept it")
+    return n
+
+
+def parse_campaign(data: Any, *, max_runs: int | None = MAX_PLANNED_RUNS) -> CampaignSpec:
     """Validate a mapping into a CampaignSpec and check every configuration (SpecError on bad input).
 
-    Checks, before anything runs: every field, every swept path exists in WorldSpec, every
+    Checks, before anything runs: every field, the plan's size (at most ``max_runs`` runs, None:
+    no limit; checked before any sweep is expanded), every swept path exists in WorldSpec, every
     configuration validates as a WorldSpec, experiment names are unique, no duplicate navigator/fault."""
     if not isinstance(data, dict):
         raise SpecError("campaign", type(data).__name__, "a mapping of fields at the top level")
@@ -189,6 +218,13 @@ def parse_campaign(data: Any) -> CampaignSpec:
     except ValidationError as err:
         e = _pydantic_to_spec_error(err)
         raise SpecError(re.sub(r"\.(\d+)(?=\.|$)", r"[\1]", e.field), e.value, e.expected, e.fix) from None
+    for i, exp in enumerate(spec.experiments):
+        for path, rng in exp.sweep.items():
+            try:
+                rng.expand()
+            except ValueError as e:
+                raise SpecError(f"experiments[{i}].sweep.{path}", rng.model_dump(exclude_none=True), str(e)) from None
+    check_plan_size(spec, max_runs)
     try:
         base = parse_spec(spec.world)
     except SpecError as err:
@@ -234,22 +270,24 @@ def parse_campaign(data: Any) -> CampaignSpec:
     return spec
 
 
-def load_campaign(path: str | Path) -> tuple[CampaignSpec, str]:
-    """Read and validate a campaign YAML/JSON file; returns the spec and the text as given."""
+def load_campaign(path: str | Path, *, max_runs: int | None = MAX_PLANNED_RUNS) -> tuple[CampaignSpec, str]:
+    """Read and validate a campaign YAML/JSON file; returns the spec and the text as given
+    (``max_runs``: see :func:`parse_campaign`)."""
     p = Path(path)
     try:
         text = p.read_text(encoding="utf-8")
     except OSError as err:
         raise SpecError("campaign", str(p), "a readable YAML or JSON file", str(err.strerror)) from None
-    return parse_campaign_text(text, str(p)), text
+    return parse_campaign_text(text, str(p), max_runs=max_runs), text
 
 
-def parse_campaign_text(text: str, name: str = "campaign") -> CampaignSpec:
+def parse_campaign_text(text: str, name: str = "campaign", *,
+                        max_runs: int | None = MAX_PLANNED_RUNS) -> CampaignSpec:
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as err:
         raise SpecError("campaign", name, "valid YAML/JSON", str(err).splitlines()[0]) from None
-    return parse_campaign(data if data is not None else {})
+    return parse_campaign(data if data is not None else {}, max_runs=max_runs)
 
 
 # ---- helpers -------------------------------------------------------------------------

@@ -56,12 +56,37 @@ _TYPES = {"map_index": "INTEGER", "run_index": "INTEGER", "map_seed": "INTEGER",
           "collisions": "INTEGER", "duration_s": "REAL", "wall_s": "REAL", "goal_distance_m": "REAL",
           "path_length_m": "REAL", "tortuousness": "REAL", "first_collision_s": "REAL"}
 _FLOATS = ("duration_s", "wall_s", "goal_distance_m", "path_length_m", "tortuousness")
-_OUR_NAMES = {SPEC_NAME, "worlds", "traces", LOCK_NAME, DB_NAME, DB_NAME + "-wal", DB_NAME + "-shm",
-              f".{SPEC_NAME}.tmp", ".campaign.sqlite.tmp"}
+_TMP_DB = f".{DB_NAME}.tmp"
+#: SQLite's side files of a database file (rollback journal, WAL, shared memory).
+_SIDE = ("-journal", "-wal", "-shm")
+#: Files a store creation that was killed may leave behind (removed when creation is redone).
+_CREATION_LEFTOVERS = (f".{SPEC_NAME}.tmp", _TMP_DB, *(_TMP_DB + x for x in _SIDE), *(DB_NAME + x for x in _SIDE))
+_OUR_NAMES = {SPEC_NAME, "worlds", "traces", LOCK_NAME, DB_NAME, *_CREATION_LEFTOVERS}
+#: Columns every store's tables must have (checked when a store is opened).
+_REQUIRED = {"meta": ("key", "value"), "planned": ("run_id", "seq", "task"), "runs": COLUMNS}
+
+
+class _Connection(sqlite3.Connection):
+    """A connection whose ``execute`` turns SQLite errors into one-line StoreErrors."""
+
+    where = ""
+
+    def execute(self, sql: str, parameters: Any = (), /) -> sqlite3.Cursor:
+        try:
+            return super().execute(sql, parameters)
+        except sqlite3.Error as err:
+            if is_disk_full(err):
+                raise disk_full(self.where) from None
+            if type(err) is sqlite3.DatabaseError or "malformed" in str(err) or "no such" in str(err):
+                raise StoreError(f"campaign={self.where!r} has a corrupt {DB_NAME} "
+                                 f"({' '.join(str(err).split())[:200]}); restore it from a backup, or run "
+                                 "the campaign again into a new -o") from None
+            raise
 
 
 def _connect(path: Path) -> sqlite3.Connection:
-    con = sqlite3.connect(path, timeout=30.0, isolation_level=None)
+    con = sqlite3.connect(path, timeout=30.0, isolation_level=None, factory=_Connection)
+    con.where = str(path.parent)
     con.row_factory = sqlite3.Row
     con.execute("PRAGMA journal_mode=WAL")
     con.execute("PRAGMA synchronous=FULL")
@@ -75,6 +100,35 @@ def _schema(con: sqlite3.Connection) -> None:
                 "experiment TEXT, config TEXT, map_index INTEGER, run_index INTEGER, navigator TEXT, "
                 "fault TEXT, task TEXT NOT NULL)")
     con.execute(f"CREATE TABLE IF NOT EXISTS runs ({cols}, recorded_at REAL)")
+    _attempts_schema(con)
+
+
+def _attempts_schema(con: sqlite3.Connection) -> None:
+    """Failed attempts of runs (infrastructure failures and crashes that were retried); added to
+    stores made before it existed when they are opened for writing."""
+    con.execute("CREATE TABLE IF NOT EXISTS attempts (run_id TEXT NOT NULL, attempt INTEGER NOT NULL, "
+                "kind TEXT NOT NULL, reason TEXT NOT NULL, at REAL, PRIMARY KEY (run_id, attempt))")
+
+
+class DiskFullError(StoreError):
+    """The campaign directory's filesystem is full (or over quota): the campaign stops, resumable."""
+
+
+def disk_full(where: str | Path, detail: str = "") -> DiskFullError:
+    """The one-line error of a full disk under campaign directory ``where``."""
+    extra = f" ({detail})" if detail else ""
+    return DiskFullError(f"output={str(where)!r} is invalid: expected a filesystem with free space; the disk "
+                         f"is full{extra}: free some space, then run the same `navstress campaign run` "
+                         "again to resume (nothing recorded is lost)")
+
+
+def is_disk_full(err: BaseException) -> bool:
+    """Whether ``err`` is an out-of-space error (ENOSPC / EDQUOT, or SQLite's SQLITE_FULL)."""
+    import errno
+
+    if isinstance(err, OSError) and err.errno in (errno.ENOSPC, errno.EDQUOT):
+        return True
+    return isinstance(err, sqlite3.OperationalError) and "full" in str(err).lower()
 
 
 class Store:
@@ -111,27 +165,46 @@ class Store:
             if extra:
                 raise StoreError(f"output={str(d)!r} is a non-empty directory that is not a campaign "
                                  f"(holds {extra[:3]}); choose a new or empty -o")
-            _atomic_write(d / SPEC_NAME, spec_text)
-            p = plan(spec, d)
-            tmp = d / ".campaign.sqlite.tmp"
-            tmp.unlink(missing_ok=True)
-            con = sqlite3.connect(tmp, isolation_level=None)
-            _schema(con)
-            con.execute("BEGIN")
-            con.executemany("INSERT INTO meta VALUES (?, ?)", [
-                ("schema", SCHEMA_VERSION), ("spec_digest", spec.digest()), ("spec_json", spec.canonical_json()),
-                ("name", spec.name)])
-            con.executemany("INSERT INTO planned VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)", [
-                (t.run_id, i, t.experiment, json.dumps(t.config, sort_keys=True), t.map_index, t.run_index,
-                 t.navigator, t.fault, _task_json(t, d)) for i, t in enumerate(p.tasks)])
-            con.execute("COMMIT")
-            con.close()
-            _fsync_path(tmp)
-            os.replace(tmp, db)
+            try:
+                cls._build(d, spec, spec_text)
+            except (OSError, sqlite3.Error) as err:
+                if is_disk_full(err):
+                    raise disk_full(d, "while creating the store") from None
+                raise
             return cls._open_db(d, lock)
         except BaseException:
             lock.close()
             raise
+
+    @staticmethod
+    def _build(d: Path, spec: CampaignSpec, spec_text: str) -> None:
+        """Write spec.yaml and campaign.sqlite (complete, then renamed into place). A creation
+        killed at any moment leaves only names of ``_CREATION_LEFTOVERS``: removed here first."""
+        for name in _CREATION_LEFTOVERS:
+            (d / name).unlink(missing_ok=True)
+        _atomic_write(d / SPEC_NAME, spec_text)
+        p = plan(spec, d)
+        tmp = d / _TMP_DB
+        try:
+            con = sqlite3.connect(tmp, isolation_level=None)
+            try:
+                _schema(con)
+                con.execute("BEGIN")
+                con.executemany("INSERT INTO meta VALUES (?, ?)", [
+                    ("schema", SCHEMA_VERSION), ("spec_digest", spec.digest()),
+                    ("spec_json", spec.canonical_json()), ("name", spec.name)])
+                con.executemany("INSERT INTO planned VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)", [
+                    (t.run_id, i, t.experiment, json.dumps(t.config, sort_keys=True), t.map_index, t.run_index,
+                     t.navigator, t.fault, _task_json(t, d)) for i, t in enumerate(p.tasks)])
+                con.execute("COMMIT")
+            finally:
+                con.close()
+            _fsync_path(tmp)
+            os.replace(tmp, d / DB_NAME)
+            _fsync_dir(d)
+        finally:
+            for name in _CREATION_LEFTOVERS[1:]:
+                (d / name).unlink(missing_ok=True)
 
     @classmethod
     def open(cls, root: str | Path) -> "Store":
@@ -144,14 +217,37 @@ class Store:
 
     @classmethod
     def _open_db(cls, d: Path, lock: IO[str] | None) -> "Store":
+        """Open and check ``d/campaign.sqlite``: a file that is not SQLite, a missing table or
+        column, a bad spec or schema are one-line StoreErrors (nothing is repaired)."""
+        con: sqlite3.Connection | None = None
+        fix = "restore it from a backup, or run the campaign again into a new -o"
         try:
             con = _connect(d / DB_NAME)
+            for table, needed in _REQUIRED.items():
+                have = {r[1] for r in con.execute(f"PRAGMA table_info({table})")}
+                if not have:
+                    raise StoreError(f"campaign={str(d)!r} is invalid: expected a {DB_NAME} with a {table!r} "
+                                     f"table; it has none (damaged or not made by navstress); {fix}")
+                missing = [c for c in needed if c not in have]
+                if missing:
+                    raise StoreError(f"campaign={str(d)!r} is invalid: expected column {missing[0]!r} in table "
+                                     f"{table!r} of {DB_NAME}; {fix}")
             meta = {r["key"]: r["value"] for r in con.execute("SELECT key, value FROM meta")}
+            if meta.get("schema") != SCHEMA_VERSION:
+                raise StoreError(f"campaign={str(d)!r} has store schema {meta.get('schema')!r}, expected "
+                                 f"{SCHEMA_VERSION} (made by another navstress version); use that version to read it")
             spec = _spec_from_json(meta["spec_json"])
-        except (sqlite3.DatabaseError, KeyError) as err:
-            raise StoreError(f"campaign={str(d)!r} has a corrupt {DB_NAME}: {err}") from None
-        if meta.get("schema") != SCHEMA_VERSION:
-            raise StoreError(f"campaign={str(d)!r} has store schema {meta.get('schema')!r}, expected {SCHEMA_VERSION}")
+            if lock is not None:
+                _attempts_schema(con)
+        except StoreError:
+            if con is not None:
+                con.close()
+            raise
+        except (sqlite3.Error, KeyError, ValueError, TypeError) as err:
+            if con is not None:
+                con.close()
+            what = "no spec_json in meta" if isinstance(err, KeyError) else " ".join(str(err).split())[:200]
+            raise StoreError(f"campaign={str(d)!r} has a corrupt {DB_NAME} ({what}); {fix}") from None
         return cls(d, con, spec, lock)
 
     @staticmethod
@@ -191,7 +287,12 @@ class Store:
         if row is None:
             raise StoreError(f"run_id={run_id!r} is not a run of campaign {self.spec.name!r}; "
                              "list them with `navstress campaign export DIR --format csv`")
-        d = json.loads(row[0])
+        try:
+            d = json.loads(row[0])
+            if not isinstance(d, dict):
+                raise ValueError(f"a {type(d).__name__}, not an object")
+        except ValueError as err:
+            raise _bad_value(self.root, "planned", run_id, "task", err) from None
         d["world_dir"] = str((self.root / d["world_dir"]).resolve())
         d["trace_path"] = str((self.root / d["trace_path"]).resolve())
         return RunTask(**d)
@@ -235,15 +336,46 @@ class Store:
                 "ON CONFLICT(run_id) DO NOTHING", vals)
             self.con.execute("COMMIT")
         except BaseException:
-            self.con.execute("ROLLBACK")
+            self._rollback()
             raise
         return cur.rowcount == 1
+
+    def _rollback(self) -> None:
+        if self.con.in_transaction:
+            try:
+                self.con.execute("ROLLBACK")
+            except (sqlite3.Error, StoreError):
+                pass
+
+    def add_attempt(self, run_id: str, kind: str, reason: str) -> int:
+        """Keep one failed attempt of ``run_id`` (``kind``: 'died', 'infrastructure', ...); returns
+        its number (1, 2, ...). Attempts are never results: the run stays pending until recorded."""
+        self.con.execute("BEGIN IMMEDIATE")
+        try:
+            n = int(self.con.execute("SELECT COALESCE(MAX(attempt), 0) + 1 FROM attempts WHERE run_id = ?",
+                                     (run_id,)).fetchone()[0])
+            self.con.execute("INSERT INTO attempts VALUES (?, ?, ?, ?, ?)", (run_id, n, kind, reason, time.time()))
+            self.con.execute("COMMIT")
+        except BaseException:
+            self._rollback()
+            raise
+        return n
+
+    def attempts(self, run_id: str | None = None) -> list[tuple[str, int, str, str]]:
+        """Failed attempts kept so far, ``(run_id, attempt, kind, reason)`` (empty for stores made
+        before attempts were kept and never resumed since)."""
+        if not self.con.execute("SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'attempts'").fetchone():
+            return []
+        q = "SELECT run_id, attempt, kind, reason FROM attempts"
+        rows = self.con.execute(q + " WHERE run_id = ? ORDER BY attempt", (run_id,)) if run_id is not None \
+            else self.con.execute(q + " ORDER BY run_id, attempt")
+        return [(str(r[0]), int(r[1]), str(r[2]), str(r[3])) for r in rows]
 
     def records(self) -> list[RunRecord]:
         """Every recorded run, in plan order."""
         q = (f"SELECT {', '.join('r.' + c for c in COLUMNS)} FROM runs r LEFT JOIN planned p USING (run_id) "
              "ORDER BY p.seq")
-        return [_record(dict(r)) for r in self.con.execute(q)]
+        return [_record(dict(r), self.root) for r in self.con.execute(q)]
 
     def progress(self) -> tuple[int, int]:
         """(recorded, planned)."""
@@ -267,6 +399,23 @@ class Store:
                                          (exp.name,)):
                 counts[o] = n
             out.append((exp.name, sum(counts.values()), int(planned), counts))
+        return out
+
+    def per_navigator(self) -> list[tuple[str, str, int, int, dict[str, int]]]:
+        """(navigator, fault, recorded, planned, outcome counts) per navigator and fault, in spec order."""
+        out = []
+        for nav in self.spec.navigators:
+            faults = list(dict.fromkeys(f for e in self.spec.experiments for f in self.spec.faults_of(e)))
+            for f in faults:
+                planned = self.con.execute("SELECT COUNT(*) FROM planned WHERE navigator = ? AND fault IS ?",
+                                           (nav.name, f)).fetchone()[0]
+                if not planned:
+                    continue
+                counts = {o: 0 for o in OUTCOMES}
+                for o, n in self.con.execute("SELECT outcome, COUNT(*) FROM runs WHERE navigator = ? AND fault IS ? "
+                                             "GROUP BY outcome", (nav.name, f)):
+                    counts[o] = n
+                out.append((nav.name, f or "nominal", sum(counts.values()), int(planned), counts))
         return out
 
     def mean_wall_s(self) -> float | None:
@@ -334,11 +483,29 @@ def read_export(path: str | Path) -> list[dict[str, Any]]:
     return out
 
 
-def _record(row: dict[str, Any]) -> RunRecord:
+def _record(row: dict[str, Any], root: Path) -> RunRecord:
     for c in _FLOATS:
         if row[c] is None:  # SQLite stores NaN as NULL
             row[c] = math.nan
-    return RunRecord.from_row(row)
+    for c, kind in (("config", dict), ("errors", list)):
+        try:
+            v = json.loads(row[c]) if isinstance(row[c], str) else row[c]
+            if not isinstance(v, kind):
+                raise ValueError(f"a {type(v).__name__}, not a JSON {'object' if kind is dict else 'array'}")
+        except ValueError as err:
+            raise _bad_value(root, "runs", row.get("run_id"), c, err) from None
+        row[c] = v
+    try:
+        return RunRecord.from_row(row)
+    except (TypeError, ValueError) as err:
+        raise _bad_value(root, "runs", row.get("run_id"), "?", err) from None
+
+
+def _bad_value(root: Path, table: str, run_id: Any, column: str, err: Exception) -> StoreError:
+    msg = " ".join(str(err).split())[:120]
+    return StoreError(f"campaign={str(root)!r} has a corrupt {DB_NAME}: table {table!r}, run_id={run_id!r}, "
+                      f"column {column!r} is not valid ({msg}); restore the file from a backup, or delete that "
+                      "row and resume to run it again")
 
 
 def _task_json(t: RunTask, root: Path) -> str:
@@ -356,7 +523,7 @@ def _rel(path: str, root: Path) -> str:
 
 
 def _spec_from_json(text: str) -> CampaignSpec:
-    return parse_campaign_text(text)
+    return parse_campaign_text(text, max_runs=None)
 
 
 def _atomic_write(path: Path, text: str) -> None:
@@ -366,6 +533,14 @@ def _atomic_write(path: Path, text: str) -> None:
         f.flush()
         os.fsync(f.fileno())
     os.replace(tmp, path)
+
+
+def _fsync_dir(path: Path) -> None:
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
 
 
 def _fsync_path(path: Path) -> None:

@@ -24,6 +24,7 @@ from __future__ import annotations
 import collections
 import contextlib
 import json
+import math
 import os
 import select
 import shlex
@@ -390,11 +391,15 @@ def _clip(obj: object, n: int = 120) -> str:
 _CONFIG_KEYS = ("command", "step_budget_s", "reset_budget_s", "close_budget_s", "cwd", "env")
 
 
-def external_from_config(*, config: Mapping[str, Any]) -> ExternalNavigator:
-    """Registry factory (``external-v1``): config ``{"command": [...] | "cmd line", ...}``.
+def external_config(config: Mapping[str, Any]) -> tuple[list[str], dict[str, Any]]:
+    """Validate an ``external-v1`` config without starting anything: ``(argv, keyword arguments)``.
 
-    Optional keys: ``step_budget_s``, ``reset_budget_s``, ``close_budget_s``, ``cwd``, ``env``.
-    """
+    Checks the keys, that ``command`` is a non-empty list of strings (or one command line) whose
+    program is an executable file or a program on PATH (of ``env`` when given), the budgets
+    (finite seconds > 0), ``cwd`` (an existing directory) and ``env`` (strings to strings).
+    SpecError fields are ``navigator-config.<key>``."""
+    if not isinstance(config, Mapping):
+        raise SpecError("navigator-config", config, "a mapping of option names to values")
     unknown = sorted(set(config) - set(_CONFIG_KEYS))
     if unknown:
         raise SpecError(f"navigator-config.{unknown[0]}", config[unknown[0]],
@@ -404,14 +409,58 @@ def external_from_config(*, config: Mapping[str, Any]) -> ExternalNavigator:
                         'the command that starts the navigator, e.g. ["python3", "my_nav.py"]')
     command = config["command"]
     if isinstance(command, str):
-        command = shlex.split(command)
+        try:
+            command = shlex.split(command)
+        except ValueError as err:
+            raise SpecError("navigator-config.command", config["command"], "a valid command line",
+                            str(err)) from None
     if not (isinstance(command, (list, tuple)) and command
             and all(isinstance(c, str) for c in command)):
         raise SpecError("navigator-config.command", command, "a non-empty list of strings")
+    for key in ("step_budget_s", "reset_budget_s", "close_budget_s"):
+        if key in config:
+            v = config[key]
+            if not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0):
+                raise SpecError(f"navigator-config.{key}", v, "a finite number of seconds > 0")
+    cwd = config.get("cwd")
+    if cwd is not None and not (isinstance(cwd, (str, os.PathLike)) and Path(cwd).is_dir()):
+        raise SpecError("navigator-config.cwd", cwd, "an existing directory")
+    env = config.get("env")
+    if env is not None and not (isinstance(env, Mapping)
+                                and all(isinstance(k, str) and isinstance(v, str) for k, v in env.items())):
+        raise SpecError("navigator-config.env", env, "a mapping of variable names to string values")
+    prog = command[0]
+    search = (env or {}).get("PATH", os.environ.get("PATH"))
+    if os.sep in prog:
+        where = Path(cwd) / prog if cwd is not None and not os.path.isabs(prog) else Path(prog)
+        ok = where.is_file() and os.access(where, os.X_OK)
+    else:
+        ok = shutil.which(prog, path=search) is not None
+    if not ok:
+        raise SpecError("navigator-config.command", list(command),
+                        "a command whose program is an executable file or a program on PATH",
+                        f"{prog!r} is not; fix the path or its permissions (chmod +x)")
     kwargs: dict[str, Any] = {k: config[k] for k in ("step_budget_s", "reset_budget_s",
                                                       "close_budget_s", "cwd", "env")
                               if k in config}
-    return ExternalNavigator(command, **kwargs)
+    return list(command), kwargs
+
+
+def external_from_config(*, config: Mapping[str, Any]) -> ExternalNavigator:
+    """Registry factory (``external-v1``): config ``{"command": [...] | "cmd line", ...}``.
+
+    Optional keys: ``step_budget_s``, ``reset_budget_s``, ``close_budget_s``, ``cwd``, ``env``.
+    Validated by :func:`external_config` (also its ``validate_config`` hook: nothing starts).
+    """
+    argv, kwargs = external_config(config)
+    return ExternalNavigator(argv, **kwargs)
+
+
+def _validate_external(config: Mapping[str, Any]) -> None:
+    external_config(config)
+
+
+external_from_config.validate_config = _validate_external  # type: ignore[attr-defined]
 
 
 # ---------------------------------------------------------------- the other side

@@ -44,7 +44,7 @@ from navstress.nav.api import Navigator
 __all__ = [
     "ENTRY_POINT_GROUP", "NavigatorFactory", "NavigatorNote", "NavigatorSpec", "load_config",
     "call_factory", "list_navigators", "load_factory", "make_navigator", "parse_name",
-    "reference_global_v1", "reference_v1", "register", "resolve", "unregister",
+    "reference_global_v1", "reference_v1", "register", "resolve", "unregister", "validate_config",
 ]
 
 ENTRY_POINT_GROUP = "navstress.navigators"
@@ -279,6 +279,42 @@ def call_factory(factory: NavigatorFactory, config: Mapping[str, Any], *, name: 
     return nav
 
 
+def validate_config(name: str, config: Mapping[str, Any] | str | Path | None = None, *,
+                    fault: str | None = None, field: str = "navigator-config") -> None:
+    """Check that navigator ``name`` accepts ``config`` without starting a run; SpecError naming
+    ``<field>.<key>`` otherwise (NavigatorError for an unknown or unloadable navigator).
+
+    A factory may carry a ``validate_config(config: Mapping) -> None`` attribute (a plain
+    attribute of a function, or a static/class method of a class factory) that raises
+    :class:`~navstress.errors.SpecError` (field relative to the config) or ``ValueError``; it is
+    called alone, nothing is built. A factory without one is built with the config and closed
+    at once (``reset`` is never called), so that it can refuse the config in its constructor.
+    """
+    spec, _note = resolve(name)
+    factory = load_factory(spec)
+    cfg = load_config(config)
+    hook = getattr(factory, "validate_config", None)
+    try:
+        if callable(hook):
+            hook(cfg)
+        else:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                make_navigator(spec.id, cfg, fault=fault).close()
+    except SpecError as err:
+        sub = err.field
+        for prefix in ("navigator-config.", "config."):
+            if sub.startswith(prefix):
+                sub = sub[len(prefix):]
+        where = field if sub in ("", "config", "navigator-config") else f"{field}.{sub}"
+        raise SpecError(where, err.value, err.expected, err.fix) from None
+    except NavigatorError as err:
+        raise SpecError(field, cfg, f"a configuration that navigator {spec.id!r} accepts", str(err)) from None
+    except Exception as err:
+        raise SpecError(field, cfg, f"a configuration that navigator {spec.id!r} accepts",
+                        f"{type(err).__name__}: {err}".splitlines()[0]) from None
+
+
 def make_navigator(
     name: str,
     config: Mapping[str, Any] | str | Path | None = None,
@@ -323,6 +359,20 @@ def reference_global_v1(*, config: Mapping[str, Any] | None = None) -> Navigator
     return GlobalNavigator(parse_config(dict(config or {}), cls=GlobalConfig))
 
 
+def _validate_reference(config: Mapping[str, Any]) -> None:
+    from navstress.nav.reference import parse_config
+
+    parse_config(dict(config))
+
+
+def _validate_reference_global(config: Mapping[str, Any]) -> None:
+    from navstress.nav.reference import GlobalConfig, parse_config
+
+    parse_config(dict(config), cls=GlobalConfig)
+
+
+reference_v1.validate_config = _validate_reference  # type: ignore[attr-defined]
+reference_global_v1.validate_config = _validate_reference_global  # type: ignore[attr-defined]
 # config-mutant faults (navstress.nav.faults) apply to factories carrying this mark
 reference_v1.__navstress_reference__ = True  # type: ignore[attr-defined]
 reference_global_v1.__navstress_reference__ = True  # type: ignore[attr-defined]

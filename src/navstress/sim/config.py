@@ -67,6 +67,22 @@ class SimConfig:
     observer_rate_hz: float = 10.0
 
     def __post_init__(self) -> None:
+        if isinstance(self.lidar, dict):  # a mapping from a spec's ``sim: {lidar: {...}}``
+            object.__setattr__(self, "lidar", _lidar_from_mapping(self.lidar))
+        if not isinstance(self.lidar, LidarConfig):
+            raise SpecError("sim.lidar", self.lidar, "a mapping of LidarConfig fields")
+        for f in fields(self):
+            v = getattr(self, f.name)
+            default = f.default
+            if isinstance(default, bool):
+                if not isinstance(v, bool):
+                    raise SpecError(f"sim.{f.name}", v, "true or false")
+            elif isinstance(default, int):
+                if not isinstance(v, int) or isinstance(v, bool):
+                    raise SpecError(f"sim.{f.name}", v, "an integer")
+            elif isinstance(default, float):
+                if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v):
+                    raise SpecError(f"sim.{f.name}", v, "a finite number")
         positive = ("timestep_s", "friction", "wheel_torque_nm", "wheel_kv", "skid_factor",
                     "odom_rate_hz", "imu_rate_hz", "pose_rate_hz", "observer_rate_hz", "max_speed_mps",
                     "flip_threshold_rad")
@@ -93,7 +109,30 @@ class SimConfig:
         if self.solver_iterations < 1:
             raise SpecError("sim.solver_iterations", self.solver_iterations, "an integer >= 1")
 
+    @classmethod
+    def from_mapping(cls, data: Any) -> "SimConfig":
+        """Validate a spec's ``sim:`` mapping (unknown keys, types, ranges); SpecError naming ``sim.<field>``."""
+        if not isinstance(data, dict):
+            raise SpecError("sim", data, "a mapping of SimConfig fields")
+        known = [f.name for f in fields(cls)]
+        for k in data:
+            if k not in known:
+                raise SpecError(f"sim.{k}", data[k], "a SimConfig field (check its spelling); one of "
+                                + ", ".join(known))
+        return cls(**data)
+
     def to_json(self) -> dict[str, Any]:
         out = {f.name: getattr(self, f.name) for f in fields(self)}
         out["lidar"] = {f.name: getattr(self.lidar, f.name) for f in fields(self.lidar)}
         return out
+
+
+def _lidar_from_mapping(data: dict[str, Any]) -> LidarConfig:
+    known = [f.name for f in fields(LidarConfig)]
+    for k in data:
+        if k not in known:
+            raise SpecError(f"sim.lidar.{k}", data[k], "a LidarConfig field; one of " + ", ".join(known))
+    try:
+        return LidarConfig(**data)
+    except SpecError as err:
+        raise SpecError(f"sim.{err.field}", err.value, err.expected, err.fix) from None

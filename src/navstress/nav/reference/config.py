@@ -132,6 +132,13 @@ class GlobalConfig(ReferenceConfig):
     carrot_m: float = Field(4.0, gt=0.0, description="look-ahead along the global path that sets the turn-in-place direction")
 
 
+_TYPE_WORDS = {
+    "float_parsing": "a number", "float_type": "a number", "finite_number": "a finite number",
+    "int_parsing": "an integer", "int_type": "an integer", "int_from_float": "an integer",
+    "bool_parsing": "true or false", "bool_type": "true or false", "literal_error": "one of the listed values",
+}
+
+
 def _to_spec_error(err: ValidationError) -> SpecError:
     e = err.errors(include_url=False)[0]
     field = ".".join(str(p) for p in e["loc"]) or "config"
@@ -145,6 +152,8 @@ def _to_spec_error(err: ValidationError) -> SpecError:
         expected = "a value " + " and ".join(f"{sym[k]} {v}" for k, v in bounds.items())
     elif e["type"] == "extra_forbidden":
         expected = "a known parameter (check its spelling)"
+    elif e["type"] in _TYPE_WORDS:
+        expected = _TYPE_WORDS[e["type"]]
     else:
         expected = str(e["msg"])
     return SpecError(field, e.get("input"), expected)
