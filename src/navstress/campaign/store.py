@@ -237,6 +237,7 @@ class Store:
                 raise StoreError(f"campaign={str(d)!r} has store schema {meta.get('schema')!r}, expected "
                                  f"{SCHEMA_VERSION} (made by another navstress version); use that version to read it")
             spec = _spec_from_json(meta["spec_json"])
+            _check_rows(con, d)
             if lock is not None:
                 _attempts_schema(con)
         except StoreError:
@@ -499,6 +500,23 @@ def _record(row: dict[str, Any], root: Path) -> RunRecord:
         return RunRecord.from_row(row)
     except (TypeError, ValueError) as err:
         raise _bad_value(root, "runs", row.get("run_id"), "?", err) from None
+
+
+def _check_rows(con: sqlite3.Connection, root: Path) -> None:
+    """Every JSON column of every row parses to the right kind (a damaged row is a one-line
+    StoreError when the store is opened, not a traceback in whatever reads it later)."""
+    for table, cols in (("runs", (("config", dict), ("errors", list))), ("planned", (("task", dict),))):
+        q = f"SELECT run_id, {', '.join(c for c, _ in cols)} FROM {table}"
+        for row in con.execute(q):
+            for j, (c, kind) in enumerate(cols, start=1):
+                v = row[j]
+                try:
+                    ok = isinstance(json.loads(v), kind) if isinstance(v, str) else False
+                except ValueError:
+                    ok = False
+                if not ok:
+                    raise _bad_value(root, table, row[0], c, ValueError(f"{str(v)[:40]!r} is not a JSON "
+                                                                        f"{'object' if kind is dict else 'array'}"))
 
 
 def _bad_value(root: Path, table: str, run_id: Any, column: str, err: Exception) -> StoreError:

@@ -66,3 +66,37 @@ class Raises(_Base):
 
     def misbehave(self) -> Command | Status:
         raise RuntimeError("planner exploded" + "!" * int(math.copysign(1, 1)))
+
+
+class Validated(_Base):
+    """A third-party navigator whose factory validates its config up front (``validate_config``)."""
+
+    @staticmethod
+    def validate_config(config: dict[str, Any]) -> None:
+        from navstress.errors import SpecError
+
+        unknown = sorted(set(config) - {"after_s", "gain"})
+        if unknown:
+            raise SpecError(unknown[0], config[unknown[0]], "one of after_s, gain")
+        gain = config.get("gain", 1.0)
+        if not isinstance(gain, (int, float)) or isinstance(gain, bool) or not 0 < gain < 10:
+            raise SpecError("gain", gain, "a number in (0, 10)")
+
+
+class KilledOnce(_Base):
+    """On its first attempt (no ``marker`` file yet) writes its process id to ``marker`` and waits
+    to be killed from outside; later attempts drive normally (a worker killed by the OOM killer)."""
+
+    def __init__(self, config: dict[str, Any] | None = None) -> None:
+        super().__init__(config)
+        self.marker = str((config or {})["marker"])
+
+    def misbehave(self) -> Command | Status:
+        if not os.path.exists(self.marker):
+            with open(self.marker + ".tmp", "w") as f:
+                f.write(str(os.getpid()))
+            os.replace(self.marker + ".tmp", self.marker)
+            while True:
+                time.sleep(0.1)
+        self.after_s = math.inf
+        return Command(0.5, 0.0)
