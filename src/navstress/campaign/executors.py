@@ -150,8 +150,22 @@ def attempt_run(task: RunTask) -> RunRecord | Infra:
             return Infra("disk-full", _line(err))
         return Infra("error", f"run failed in navstress: {_line(err)}")
     except Exception as err:  # execute() should not raise; if it does the campaign goes on
+        broken = _world_unloadable(task.world_dir)
+        if broken is not None:  # e.g. a truncated terrain file that World.load does not name
+            return Infra("world", f"world unusable: {broken}")
         msg = f"run raised {type(err).__name__}: {err}".splitlines()[0]
         return failure_record(task, msg, time.perf_counter() - t0)
+
+
+def _world_unloadable(world_dir: str) -> str | None:
+    """Why the world at ``world_dir`` cannot be loaded, or None when it loads."""
+    try:
+        from navstress.world.world import World
+
+        World.load(world_dir)
+        return None
+    except Exception as err:
+        return f"world={world_dir!r} is corrupt: {_line(err)}"
 
 
 def run_one(task: RunTask) -> RunRecord:

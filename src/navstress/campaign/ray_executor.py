@@ -42,6 +42,23 @@ def _import_ray() -> Any:
     return ray
 
 
+def _init_error(address: str | None, err: Exception) -> SpecError:
+    """One line for a Ray cluster that cannot be joined or started, with the fix."""
+    text = " ".join(str(err).split())
+    where = "--ray-address" if address is not None else "--executor"
+    value = address if address is not None else "ray"
+    if type(err).__name__ == "AuthenticationError" or "token" in text.lower() or "authenticat" in text.lower():
+        return SpecError(where, value, "a Ray cluster that accepts this process (it uses token authentication)",
+                         "give this process the cluster's token: export RAY_AUTH_TOKEN=... (from `ray "
+                         "get-auth-token` on the head node) or RAY_AUTH_TOKEN_PATH=FILE, then run again")
+    if address is not None:
+        return SpecError(where, value, "the address of a running Ray cluster (HOST:PORT, or auto)",
+                         f"{type(err).__name__}: {text[:200]}; start one with `ray start --head` or leave "
+                         "out --ray-address to start a local one")
+    return SpecError(where, value, "a local Ray instance that can start",
+                     f"{type(err).__name__}: {text[:200]}")
+
+
 def _world_task(job: MapJob, targets: dict[str, str]) -> str | Infra | None:
     return attempt_world(job)
 
@@ -62,8 +79,18 @@ class RayExecutor:
         if not ray.is_initialized():
             # workers import navstress and spec-given navigator modules like the driver does
             path = os.pathsep.join(p for p in sys.path if p)
-            ray.init(address=address, include_dashboard=False, log_to_driver=False,
-                     runtime_env={"env_vars": {"PYTHONPATH": path}})
+            env = {"env_vars": {"PYTHONPATH": path}}
+            try:
+                if address is None:
+                    # our own cluster, on this machine only: "local" never joins one already
+                    # running (ray.init() with no address would follow RAY_ADDRESS or the last
+                    # cluster started here)
+                    ray.init(address="local", _node_ip_address="127.0.0.1", include_dashboard=False,
+                             log_to_driver=False, runtime_env=env)
+                else:
+                    ray.init(address=address, include_dashboard=False, log_to_driver=False, runtime_env=env)
+            except Exception as err:
+                raise _init_error(address, err) from None
             self._started = True
         cpus = int(ray.cluster_resources().get("CPU", 1))
         if workers is not None and workers < 1:
