@@ -239,3 +239,65 @@ def test_full_disk_stops_then_resumes(tmp_path: Path) -> None:
     _assert_complete(after)
     with Store.open(after) as s:
         assert s.progress() == (4, 4)
+
+
+# ---- Ray: never joins a cluster by accident; one line when it cannot join the one given ----------
+
+
+def test_ray_without_address_starts_its_own_cluster(tmp_path: Path) -> None:
+    """RAY_ADDRESS points elsewhere (a dead address): `--executor ray` with no address must not
+    follow it but start its own local cluster, with a token of its own."""
+    pytest.importorskip("ray", reason="ray is not installed (pip extra 'ray')")
+    spec = _write(tmp_path / "s.yaml", _spec())
+    code = ("import os, sys; from navstress.campaign.executors import run_campaign\n"
+            "res = run_campaign(sys.argv[1], sys.argv[2], executor='ray', workers=2)\n"
+            "print('recorded', res.recorded, res.planned)\n")
+    env = {k: v for k, v in ENV.items() if k not in ("RAY_AUTH_MODE", "RAY_AUTH_TOKEN")}
+    env["RAY_ADDRESS"] = "127.0.0.1:1"
+    p = subprocess.run([sys.executable, "-c", code, str(spec), str(tmp_path / "out")], env=env,
+                       capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0 and "recorded 2 2" in p.stdout, p.stderr[-2000:]
+    _assert_complete(tmp_path / "out")
+
+
+def test_ray_address_that_cannot_be_joined_is_one_line(tmp_path: Path) -> None:
+    pytest.importorskip("ray", reason="ray is not installed (pip extra 'ray')")
+    spec = _write(tmp_path / "s.yaml", _spec())
+    p = _cli(spec, tmp_path / "out", "--executor", "ray", "--ray-address", "127.0.0.1:1")
+    _o, err = p.communicate(timeout=240)
+    lines = err.strip().splitlines()
+    assert p.returncode == 2 and len(lines) == 1, err[-3000:]
+    assert lines[0].startswith("error: --ray-address='127.0.0.1:1' is invalid") and "ray start --head" in lines[0]
+    assert not (tmp_path / "out").exists()
+
+
+def test_machinery_failures_stay_pending_then_resume(tmp_path: Path) -> None:
+    """An OS error on every attempt (the trace folder's path is taken by a file) is not a result:
+    after the bounded attempts the run stays pending, the CLI exits 1 saying so, and once the cause
+    is gone the same command records it."""
+    spec = _write(tmp_path / "s.yaml", _spec(runs_per_map=1))
+    out = tmp_path / "out"
+    with Store.create(out, *_load(spec)) as s:
+        task = s.plan().tasks[0]
+    blocker = Path(task.trace_path).parent
+    blocker.parent.mkdir(parents=True)
+    blocker.write_text("not a folder")
+    p = _cli(spec, out, "-j", "1")
+    o, err = p.communicate(timeout=300)
+    assert p.returncode == 1, err
+    assert "1 run(s) not recorded" in err and "resume with: navstress campaign run" in err, err
+    with Store.open(out) as s:
+        assert s.progress() == (0, 1)
+        assert [a[2] for a in s.attempts(task.run_id)] == ["error"] * 3
+    blocker.unlink()
+    p = _cli(spec, out, "-j", "1")
+    o, err = p.communicate(timeout=300)
+    assert p.returncode == 0, err
+    _assert_complete(out)
+
+
+def _load(spec: Path) -> tuple[Any, str]:
+    from navstress.campaign.spec import load_campaign
+
+    s, text = load_campaign(spec)
+    return s, text

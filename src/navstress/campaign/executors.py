@@ -8,8 +8,10 @@ The local executor keeps ``workers`` processes of its own (spawn context) and kn
 job each one holds, so that:
 
 - each map's world is generated once, by one worker, before the runs on it are dispatched;
-- a worker that dies (``os._exit``, SIGKILL, segfault) costs exactly its own run, recorded
-  as Fail-Other with the exit status; a replacement worker is started;
+- a worker that dies (``os._exit``, SIGKILL, segfault) costs exactly its own run, which is
+  retried on a replacement worker; a crash that repeats on every attempt is the navigator's
+  own and recorded as Fail-Other with the exit status (see :class:`Recorder`); failures of
+  the machinery (a world that cannot be loaded, an OS error) are retried, never recorded;
 - a run that exceeds its wall-clock limit (last resort; ``execute`` handles hanging
   navigators itself) has its worker killed and is recorded as Fail-Other;
 - workers die with the driver (Linux ``PR_SET_PDEATHSIG``, plus a parent watch thread),
@@ -131,7 +133,10 @@ def failure_record(task: RunTask, reason: str, wall_s: float = 0.0) -> RunRecord
 def drop_partial_trace(task: RunTask) -> None:
     """Remove the partial trace a killed run left behind (TraceWriter's ``.NAME.partial``)."""
     p = Path(task.trace_path)
-    p.with_name(f".{p.name}.partial").unlink(missing_ok=True)
+    try:
+        p.with_name(f".{p.name}.partial").unlink(missing_ok=True)
+    except OSError:  # its folder is gone or not a folder: there is no partial trace either
+        pass
 
 
 def attempt_run(task: RunTask) -> RunRecord | Infra:
@@ -317,30 +322,38 @@ def run_campaign(spec_path: str | Path, directory: str | Path, *, workers: int |
     spec, text = load_campaign(spec_path, max_runs=None if accept_large else MAX_PLANNED_RUNS)
     check_runnable(spec)
     t0 = time.perf_counter()
-    with Store.create(directory, spec, text) as store:
-        store.cleanup_partials()
-        p = store.plan()
-        done = store.done_ids()
-        pending = [t for t in p.tasks if t.run_id not in done]
-        if on_start is not None:
-            on_start(len(done), len(p.tasks), store.outcome_counts())
-        limit = wall_limit_s if wall_limit_s is not None else spec.timeout_s * WALL_FACTOR + WALL_SLACK_S
-        targets = {n.name: n.target for n in spec.navigators if n.target}
-        rec = Recorder(store, on_record, max_attempts)
-        try:
-            if executor == "local":
-                n = workers if workers is not None else (os.cpu_count() or 1)
-                LocalExecutor(n, limit, targets).run(p, pending, rec)
-            else:
-                from navstress.campaign.ray_executor import RayExecutor
+    ray_ex: Any = None
+    if executor == "ray":  # joined (or started) before the store is made: a cluster error writes nothing
+        from navstress.campaign.ray_executor import RayExecutor
 
-                ex = RayExecutor(workers, limit, targets, address=ray_address)
-                n = ex.workers
-                ex.run(p, pending, rec)
-        finally:
-            store.cleanup_partials()  # whatever stopped the executors: no partial trace or world left
-        return CampaignResult(Path(directory), len(p.tasks), len(done), rec.recorded, store.outcome_counts(),
-                              time.perf_counter() - t0, n, dict(rec.unfinished))
+        limit0 = wall_limit_s if wall_limit_s is not None else spec.timeout_s * WALL_FACTOR + WALL_SLACK_S
+        ray_ex = RayExecutor(workers, limit0, {n.name: n.target for n in spec.navigators if n.target},
+                             address=ray_address)
+    try:
+        with Store.create(directory, spec, text) as store:
+            store.cleanup_partials()
+            p = store.plan()
+            done = store.done_ids()
+            pending = [t for t in p.tasks if t.run_id not in done]
+            if on_start is not None:
+                on_start(len(done), len(p.tasks), store.outcome_counts())
+            limit = wall_limit_s if wall_limit_s is not None else spec.timeout_s * WALL_FACTOR + WALL_SLACK_S
+            targets = {n.name: n.target for n in spec.navigators if n.target}
+            rec = Recorder(store, on_record, max_attempts)
+            try:
+                if ray_ex is None:
+                    n = workers if workers is not None else (os.cpu_count() or 1)
+                    LocalExecutor(n, limit, targets).run(p, pending, rec)
+                else:
+                    n = ray_ex.workers
+                    ray_ex.run(p, pending, rec)
+            finally:
+                store.cleanup_partials()  # whatever stopped the executors: no partial trace or world left
+            return CampaignResult(Path(directory), len(p.tasks), len(done), rec.recorded, store.outcome_counts(),
+                                  time.perf_counter() - t0, n, dict(rec.unfinished))
+    finally:
+        if ray_ex is not None:
+            ray_ex.close()
 
 
 def maps_needed(plan: Plan, pending: list[RunTask]) -> tuple[list[MapJob], dict[str, deque[RunTask]]]:

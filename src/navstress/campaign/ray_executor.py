@@ -2,20 +2,27 @@
 
 The driver keeps at most ``workers`` tasks in flight (so a task's age approximates its run
 time, for the wall-clock watchdog), generates each map's world once before its runs, and
-writes every record itself. Tasks are never retried by Ray (``max_retries=0``): a task that
-kills its worker comes back as ``WorkerCrashedError`` and is recorded as Fail-Other. Paths in
-the tasks must be visible to every node (a shared filesystem; always true on one machine).
+writes every record itself. Ray never retries a task (``max_retries=0``): the driver does, by
+the campaign's rule (a task that kills its worker comes back as ``WorkerCrashedError`` and is
+retried like a crashed local worker; see :class:`~navstress.campaign.executors.Recorder`).
+Paths in the tasks must be visible to every node (a shared filesystem; always true on one
+machine). Without an address a Ray instance of its own is started (never one already running).
 
     navstress campaign run spec.yaml -o out --executor ray --ray-address auto
 """
 
 from __future__ import annotations
 
+import contextlib
+import logging
 import os
+import secrets
+import socket
 import sys
+import tempfile
 import time
-from collections import deque
-from typing import Any
+from collections.abc import Iterator
+from typing import IO, Any
 
 from navstress.campaign.executors import (
     WORLD_LIMIT_S,
@@ -42,15 +49,45 @@ def _import_ray() -> Any:
     return ray
 
 
-def _init_error(address: str | None, err: Exception) -> SpecError:
+def _reachable(address: str, timeout_s: float = 10.0) -> None:
+    """Fail fast (ConnectionError) when a HOST:PORT address does not accept TCP connections: Ray
+    itself keeps retrying a dead address for minutes."""
+    if "://" in address or address in ("auto", "local"):
+        return
+    host, sep, port = address.rpartition(":")
+    if not sep or not port.isdigit():
+        raise ConnectionError(f"{address!r} is not HOST:PORT")
+    try:
+        socket.create_connection((host.strip("[]"), int(port)), timeout=timeout_s).close()
+    except OSError as err:
+        raise ConnectionError(f"nothing answers at {address} ({err.strerror or err})") from None
+
+
+@contextlib.contextmanager
+def _stderr_to(f: IO[bytes]) -> Iterator[None]:
+    """Send file descriptor 2 (where Ray's C++ core logs) to ``f`` for the duration."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        os.dup2(f.fileno(), 2)
+        yield
+    finally:
+        sys.stderr.flush()
+        os.dup2(saved, 2)
+        os.close(saved)
+
+
+def _init_error(address: str | None, err: Exception, logs: str = "") -> SpecError:
     """One line for a Ray cluster that cannot be joined or started, with the fix."""
     text = " ".join(str(err).split())
+    if "InvalidAuthToken" in logs or "Unauthenticated" in logs:
+        text += " (the cluster refused this process's authentication token)"
     where = "--ray-address" if address is not None else "--executor"
     value = address if address is not None else "ray"
     if type(err).__name__ == "AuthenticationError" or "token" in text.lower() or "authenticat" in text.lower():
         return SpecError(where, value, "a Ray cluster that accepts this process (it uses token authentication)",
-                         "give this process the cluster's token: export RAY_AUTH_TOKEN=... (from `ray "
-                         "get-auth-token` on the head node) or RAY_AUTH_TOKEN_PATH=FILE, then run again")
+                         "give this process the cluster's token: export RAY_AUTH_MODE=token RAY_AUTH_TOKEN=... "
+                         "(from `ray get-auth-token` on the head node; or RAY_AUTH_TOKEN_PATH=FILE), then run again")
     if address is not None:
         return SpecError(where, value, "the address of a running Ray cluster (HOST:PORT, or auto)",
                          f"{type(err).__name__}: {text[:200]}; start one with `ray start --head` or leave "
@@ -73,6 +110,13 @@ class RayExecutor:
 
     def __init__(self, workers: int | None, wall_limit_s: float, targets: dict[str, str] | None = None, *,
                  address: str | None = None) -> None:
+        self._restore_env: dict[str, str | None] = {}
+        if address is None and "ray" not in sys.modules and not os.environ.get("RAY_AUTH_MODE"):
+            # Ray reads its authentication mode when it is imported: our own cluster gets a
+            # random token, so that nobody else on the network can use it
+            for k, v in (("RAY_AUTH_MODE", "token"), ("RAY_AUTH_TOKEN", secrets.token_hex(16))):
+                self._restore_env[k] = os.environ.get(k)
+                os.environ[k] = v
         ray = _import_ray()
         self.ray = ray
         self._started = False
@@ -80,17 +124,18 @@ class RayExecutor:
             # workers import navstress and spec-given navigator modules like the driver does
             path = os.pathsep.join(p for p in sys.path if p)
             env = {"env_vars": {"PYTHONPATH": path}}
+            captured = tempfile.TemporaryFile(mode="w+b")
             try:
                 if address is None:
-                    # our own cluster, on this machine only: "local" never joins one already
-                    # running (ray.init() with no address would follow RAY_ADDRESS or the last
-                    # cluster started here)
-                    ray.init(address="local", _node_ip_address="127.0.0.1", include_dashboard=False,
-                             log_to_driver=False, runtime_env=env)
-                else:
-                    ray.init(address=address, include_dashboard=False, log_to_driver=False, runtime_env=env)
+                    self._init(ray, address, env)
+                else:  # Ray's C++ and Python logs of a failed connect: kept for the error line
+                    with _stderr_to(captured):
+                        self._init(ray, address, env)
             except Exception as err:
-                raise _init_error(address, err) from None
+                captured.seek(0)
+                raise _init_error(address, err, captured.read().decode("utf-8", "replace")) from None
+            finally:
+                captured.close()
             self._started = True
         cpus = int(ray.cluster_resources().get("CPU", 1))
         if workers is not None and workers < 1:
@@ -100,6 +145,21 @@ class RayExecutor:
         self.targets = dict(targets or {})
         self._world = ray.remote(num_cpus=1, max_retries=0)(_world_task)
         self._run = ray.remote(num_cpus=1, max_retries=0)(_run_task)
+
+    @staticmethod
+    def _init(ray: Any, address: str | None, env: dict[str, Any]) -> None:
+        quiet = {"include_dashboard": False, "log_to_driver": False, "logging_level": logging.WARNING,
+                 "runtime_env": env}
+        if address is None:
+            # our own cluster: "local" never joins one already running (ray.init() with no
+            # address follows RAY_ADDRESS or the last cluster started on this machine). Ray
+            # (2.60, Linux) resolves 127.0.0.1 to the node's address and listens on every
+            # interface, so the cluster is protected by a token of its own instead (set before
+            # ray is imported, see RayExecutor; unless the user chose an authentication mode).
+            ray.init(address="local", **quiet)
+        else:
+            _reachable(address)
+            ray.init(address=address, **quiet)
 
     def run(self, plan: Plan, pending: list[RunTask], rec: Recorder) -> None:
         """Run ``pending`` on the cluster, passing every end of a task to ``rec``."""
@@ -134,8 +194,18 @@ class RayExecutor:
         finally:
             for ref in inflight:
                 ray.cancel(ref, force=True)
-            if self._started:
-                ray.shutdown()
+            self.close()
+
+    def close(self) -> None:
+        """Stop the Ray instance this executor started (idempotent; a cluster joined is left alone)."""
+        if self._started:
+            self._started = False
+            self.ray.shutdown()
+            for k, v in self._restore_env.items():
+                if v is None:
+                    os.environ.pop(k, None)
+                else:
+                    os.environ[k] = v
 
     @staticmethod
     def _finish(kind: str, payload: Any, status: str, value: Any, why: str, wall: float, q: WorkQueue,

@@ -354,3 +354,25 @@ def test_status_splits_by_navigator_and_fault(tmp_path: Path) -> None:
     assert code == 0 and "per navigator and fault" in out
     rows = [ln for ln in out.splitlines() if "reference-global-v1" in ln and "nominal" in ln]
     assert len(rows) == 1 and f"3/{per}" in rows[0]
+
+
+# ---- Ray connection errors ------------------------------------------------------------------------
+
+
+class AuthenticationError(Exception):
+    """Stands for ray.exceptions.AuthenticationError (matched by name, ray need not be imported)."""
+
+
+@pytest.mark.parametrize("err,logs,needle", [
+    (AuthenticationError("Authentication token is missing or incorrect"), "", "RAY_AUTH_TOKEN"),
+    (ConnectionError("Failed to connect to Ray cluster at 10.0.0.2:6379"),
+     "gcs_client.cc:210: Unauthenticated: RPC error: InvalidAuthToken", "RAY_AUTH_MODE=token RAY_AUTH_TOKEN"),
+    (ConnectionError("Failed to connect to Ray cluster at 10.0.0.2:6379"), "", "ray start --head"),
+    (RuntimeError("line one\nline two"), "", "line one line two"),
+])
+def test_ray_init_errors_are_one_line_with_a_fix(err: Exception, logs: str, needle: str) -> None:
+    from navstress.campaign.ray_executor import _init_error
+
+    e = _init_error("10.0.0.2:6379", err, logs)
+    assert isinstance(e, SpecError) and "\n" not in str(e) and needle in str(e)
+    assert str(e).startswith("--ray-address='10.0.0.2:6379' is invalid")
