@@ -12,7 +12,10 @@ nothing.
 
 from __future__ import annotations
 
+import errno
 import math
+import os
+import re
 import shutil
 import sys
 import tempfile
@@ -51,6 +54,11 @@ class _OneLineErrors(TyperGroup):
             _fail(e.format_message())
         except NavstressError as e:
             _fail(str(e))
+        except OSError as e:
+            _fail(os_error_line(e))
+        except MemoryError:
+            _fail("memory=exhausted is invalid: expected a task that fits in this machine's memory; "
+                  "use a smaller map or a larger --cell, or fewer workers")
         except KeyboardInterrupt:
             click.echo("aborted", err=True)
             sys.exit(130)
@@ -65,6 +73,49 @@ def _usage_line(e: Any) -> str:
     if opts and not any(o in msg for o in opts):
         msg = f"{'/'.join(opts)}: {msg}"
     return f"{msg}; see --help"
+
+
+_OS_FIXES = {
+    errno.EACCES: "permission denied; choose a path you may write or change its permissions",
+    errno.EPERM: "operation not permitted; choose a path you may write or change its permissions",
+    errno.EROFS: "read-only file system; choose a path on a writable file system",
+    errno.EISDIR: "it is a directory; name a file (inside it, for instance)",
+    errno.ENOTDIR: "a part of the path is a file, not a folder; choose another path",
+    errno.EEXIST: "something already exists there; choose another path or remove it",
+    errno.ENOENT: "no such file or folder; check the path (create its folder first)",
+    errno.ENOSPC: "no space left on the device; free some space and run again",
+    errno.EDQUOT: "disk quota exceeded; free some space and run again",
+    errno.ENAMETOOLONG: "the name is too long; choose a shorter path",
+    errno.ELOOP: "too many symbolic links; check the path",
+}
+
+
+_TEMP_NAME = re.compile(r"^\.(?P<name>.+?)(?:\.tmp|\.partial|\.[A-Za-z0-9_]{8})$")
+
+
+def _user_path(path: Any) -> Any:
+    """The path the user named, for the temporary names files are written under
+    (``.NAME.tmp``, ``.NAME.partial``, ``.NAME.XXXXXXXX``) before they are renamed into place."""
+    if path is None:
+        return None
+    p = Path(os.fsdecode(path))
+    m = _TEMP_NAME.match(p.name)
+    return str(p.with_name(m.group("name"))) if m else str(p)
+
+
+def os_error_line(e: OSError) -> str:
+    """One line for an OSError raised while a command works: the path, what failed, what to do.
+
+        >>> os_error_line(PermissionError(13, "Permission denied", "/x/out.sdf"))
+        "path='/x/out.sdf' is invalid: expected a path navstress can write and read (Permission denied, EACCES); permission denied; choose a path you may write or change its permissions"
+    """
+    path = _user_path(e.filename if e.filename is not None else e.filename2)
+    name = errno.errorcode.get(e.errno or 0, "")
+    what = " ".join(str(e.strerror or type(e).__name__).split())
+    fix = _OS_FIXES.get(e.errno or 0, "check the path, its permissions and the free space")
+    field = f"path={str(path)!r}" if path is not None else "file system"
+    return (f"{field} is invalid: expected a path navstress can write and read ({what}{', ' + name if name else ''}); "
+            f"{fix}")
 
 
 def _fail(line: str) -> None:
@@ -505,12 +556,17 @@ def world_drive(
 
 # ---- runs ------------------------------------------------------------------------------------
 
-def _navigator_config(path: Path | None) -> dict[str, Any]:
-    if path is None:
+_NAV_CONFIG_HELP = ("Configuration passed to the navigator: a JSON/YAML file, or inline JSON/YAML text "
+                    "such as '{\"command\": [\"./my_nav\"]}'.")
+
+
+def _navigator_config(raw: str | None) -> dict[str, Any]:
+    """``--navigator-config``: a file path or inline JSON/YAML (SpecError naming the flag)."""
+    if raw is None:
         return {}
     from navstress.nav.registry import load_config
 
-    return dict(load_config(path))
+    return dict(load_config(raw, field="--navigator-config"))
 
 
 def _check_navigator(name: str, fault: str | None, config: dict[str, Any]) -> None:
@@ -532,8 +588,7 @@ def run_cmd(
         "Folder for the traces (run-NNN.mcap), records (runs.jsonl) and trajectories.png; must be new or empty."))],
     navigator: Annotated[str, typer.Option(metavar="NAME", help=(
         "Navigator under test, by registered name (see `navstress nav list`).")) ] = "reference-v1",
-    navigator_config: Annotated[Path | None, typer.Option(metavar="FILE", help=(
-        "YAML/JSON configuration passed to the navigator."))] = None,
+    navigator_config: Annotated[str | None, typer.Option(metavar="FILE|TEXT", help=_NAV_CONFIG_HELP)] = None,
     fault: Annotated[str | None, typer.Option(metavar="NAME", help=(
         "Inject a named fault into the navigator (see `navstress nav faults`)."))] = None,
     runs: Annotated[str, typer.Option(metavar="N", help="Number of runs (each with its own run seed), >= 1. Default 1.")] = "1",
@@ -624,8 +679,7 @@ def nav_faults() -> None:
 @nav_app.command("check")
 def nav_check(
     name: Annotated[str, typer.Argument(metavar="NAME", help="Registered navigator name, e.g. reference-v1.")],
-    navigator_config: Annotated[Path | None, typer.Option(metavar="FILE", help=(
-        "YAML/JSON configuration passed to the navigator."))] = None,
+    navigator_config: Annotated[str | None, typer.Option(metavar="FILE|TEXT", help=_NAV_CONFIG_HELP)] = None,
 ) -> None:
     """Run the conformance checks on a navigator; exit 1 if any check fails."""
     from navstress.nav.check import check_navigator, format_report

@@ -106,6 +106,8 @@ def export(
     """Write the runs table as CSV or Parquet."""
     if fmt not in ("csv", "parquet"):
         raise SpecError("--format", fmt, "csv or parquet")
+    if out is not None and out.is_dir():
+        raise SpecError("--output", str(out), f"a {fmt} file path, not a directory")
     with Store.open(directory) as store:
         path = store.export(fmt, out)  # type: ignore[arg-type]
         n = store.progress()[0]
