@@ -109,10 +109,20 @@ def os_error_line(e: OSError) -> str:
         >>> os_error_line(PermissionError(13, "Permission denied", "/x/out.sdf"))
         "path='/x/out.sdf' is invalid: expected a path navstress can write and read (Permission denied, EACCES); permission denied; choose a path you may write or change its permissions"
     """
-    path = _user_path(e.filename if e.filename is not None else e.filename2)
-    name = errno.errorcode.get(e.errno or 0, "")
+    raw = e.filename if e.filename is not None else e.filename2
+    code = e.errno
     what = " ".join(str(e.strerror or type(e).__name__).split())
-    fix = _OS_FIXES.get(e.errno or 0, "check the path, its permissions and the free space")
+    if code is None:  # e.g. pyarrow's: "Failed to open local file '/x'. Detail: [errno 13] Permission denied"
+        m = re.search(r"\[errno (\d+)\]\s*([^\n]*)", str(e))
+        code = int(m.group(1)) if m else None
+        what = m.group(2).strip() if m else " ".join(str(e).split())[:200]
+    if raw is None:  # a library's OSError with the path in its message only
+        q = re.search(r"'(/[^']+)'", str(e))
+        raw = q.group(1) if q else None
+        what = os.strerror(code) if code else what
+    path = _user_path(raw)
+    name = errno.errorcode.get(code or 0, "")
+    fix = _OS_FIXES.get(code or 0, "check the path, its permissions and the free space")
     field = f"path={str(path)!r}" if path is not None else "file system"
     return (f"{field} is invalid: expected a path navstress can write and read ({what}{', ' + name if name else ''}); "
             f"{fix}")
@@ -422,6 +432,20 @@ def _check_file_out(dest: Path) -> None:
         raise SpecError("--output", str(dest), "a file path (this is a directory)")
 
 
+def probe_writable(dest: Path) -> None:
+    """Fail now (OSError naming ``dest``) if a file cannot be created where ``dest`` will be
+    written, before long work whose result would be lost; leaves nothing behind."""
+    parent = dest.parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    try:
+        fd, probe = tempfile.mkstemp(prefix=f".{dest.name}.", suffix=".probe", dir=parent)
+    except OSError as e:
+        raise OSError(e.errno, e.strerror, str(dest)) from None
+    os.close(fd)
+    os.unlink(probe)
+
+
 @world_app.command("export")
 def world_export(
     world_dir: Annotated[Path, typer.Argument(metavar="DIR", help="A world directory.")],
@@ -540,6 +564,7 @@ def world_drive(
     dest = output if output is not None else world_dir / "drive.png"
     if dest.exists() and dest.is_dir():
         raise SpecError("--output", str(dest), "a PNG file path, not a directory")
+    probe_writable(dest)
     res = drive(world, segs, seed=seed_v)
     t = res.truth
     dist = float(np.sum(np.hypot(np.diff(t[:, 1]), np.diff(t[:, 2])))) if len(t) > 1 else 0.0

@@ -118,6 +118,9 @@ def report_cmd(
     params = _params(threshold, k, weights)
     if out.exists() and out.is_dir():
         raise SpecError("--output", str(out), "an HTML file path, not a directory")
+    from navstress.cli import probe_writable
+
+    probe_writable(out)  # before the analysis and the figures, not after
     path = build_report(directory, out, params=params, navigator=navigator, dt=dt)
     typer.echo(f"report: {path.resolve()}")
 
