@@ -123,7 +123,12 @@ def os_error_line(e: OSError) -> str:
     path = _user_path(raw)
     name = errno.errorcode.get(code or 0, "")
     fix = _OS_FIXES.get(code or 0, "check the path, its permissions and the free space")
-    field = f"path={str(path)!r}" if path is not None else "file system"
+    if path is not None:
+        field = f"path={str(path)!r}"
+    elif code in (errno.ENOSPC, errno.EDQUOT):
+        field = "disk='full'"
+    else:
+        field = "file system"
     return (f"{field} is invalid: expected a path navstress can write and read ({what}{', ' + name if name else ''}); "
             f"{fix}")
 
@@ -285,8 +290,14 @@ def _save_with_preview(world: Any, out: Path) -> None:
     from navstress.world.export._grid import write_atomic
 
     png = preview_png_bytes(world)  # render first: a failure here writes nothing
-    world.save(out)
-    write_atomic(out / PREVIEW, png)
+    existed = out.exists()
+    try:
+        world.save(out)
+        write_atomic(out / PREVIEW, png)
+    except BaseException:
+        if not existed:  # a world without its preview is partial output: take it back
+            shutil.rmtree(out, ignore_errors=True)
+        raise
 
 
 def _descriptor_table(world: Any, title: str) -> Any:
@@ -647,19 +658,25 @@ def run_cmd(
     if output.exists() and (not output.is_dir() or any(output.iterdir())):
         raise WorldFileError(f"--output={str(output)!r} is invalid: expected a new or empty folder; "
                              "choose another path or remove it")
-    tasks = plan_batch(world_dir, output, navigator=navigator, navigator_config=cfg, fault=fault, runs=n,
-                       seed=seed_v, timeout_s=timeout_v, goal_tolerance_m=tol, record_lidar=lidar)
+    created = not output.exists()
     con = _console()
     counts: dict[str, int] = {}
-    with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
-                  TimeRemainingColumn(), TextColumn("{task.fields[counts]}"), console=con) as prog:
-        bar = prog.add_task("runs", total=n, counts="")
+    try:
+        tasks = plan_batch(world_dir, output, navigator=navigator, navigator_config=cfg, fault=fault, runs=n,
+                           seed=seed_v, timeout_s=timeout_v, goal_tolerance_m=tol, record_lidar=lidar)
+        with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
+                      TimeRemainingColumn(), TextColumn("{task.fields[counts]}"), console=con) as prog:
+            bar = prog.add_task("runs", total=n, counts="")
 
-        def done(rec: Any) -> None:
-            counts[rec.outcome] = counts.get(rec.outcome, 0) + 1
-            prog.update(bar, advance=1, counts="  ".join(f"{k}={v}" for k, v in sorted(counts.items())))
+            def done(rec: Any) -> None:
+                counts[rec.outcome] = counts.get(rec.outcome, 0) + 1
+                prog.update(bar, advance=1, counts="  ".join(f"{k}={v}" for k, v in sorted(counts.items())))
 
-        records = run_batch(tasks, output, done)
+            records = run_batch(tasks, output, done)
+    except BaseException:
+        if created and not counts:  # nothing recorded: leave nothing behind
+            shutil.rmtree(output, ignore_errors=True)
+        raise
     from rich.table import Table
 
     table = Table(title=f"{navigator}{' + ' + fault if fault else ''} on {world_dir}")
