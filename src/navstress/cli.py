@@ -134,7 +134,9 @@ def os_error_line(e: OSError) -> str:
 
 
 def _fail(line: str) -> None:
-    line = " ".join(line.split())
+    from navstress._console import literal
+
+    line = literal(" ".join(line.split()))
     click.echo(f"error: {line}", err=True)
     sys.exit(EXIT_USAGE)
 
@@ -176,6 +178,22 @@ def _integer(flag: str, raw: str, expected: str) -> int:
         return int(raw)
     except ValueError:
         raise SpecError(flag, raw, expected) from None
+
+
+#: Largest seed a flag takes (seeds are stored as signed 64-bit integers).
+MAX_SEED = 2**63 - 1
+#: Most runs one `navstress run` makes (a campaign is the tool for more).
+MAX_RUNS = 10_000
+#: Most parallel workers a flag asks for.
+MAX_WORKERS = 1024
+
+
+def _bounded_int(flag: str, raw: str, lo: int, hi: int) -> int:
+    expected = f"an integer in [{lo}, {hi}]"
+    v = _integer(flag, raw, expected)
+    if not lo <= v <= hi:
+        raise SpecError(flag, raw, expected)
+    return v
 
 
 _KIND_ALIASES = {"trees": "tree", "buildings": "building"}
@@ -400,14 +418,12 @@ def world_generate(
     spec: Annotated[Path | None, typer.Option("--spec", metavar="FILE", help=(
         "WorldSpec file (YAML or JSON); the flags above override its fields."))] = None,
     seed: Annotated[str, typer.Option(metavar="N", help=(
-        "Map seed, an integer >= 0: the same spec and seed give the same world."))] = "0",
+        "Map seed, an integer in [0, 2**63-1]: the same spec and seed give the same world."))] = "0",
 ) -> None:
     """Generate one world from a spec and a seed; write it with a preview and print its descriptors."""
     from navstress.world.generate import generate
 
-    seed_v = _integer("--seed", seed, "an integer >= 0")
-    if seed_v < 0:
-        raise SpecError("--seed", seed, "an integer >= 0")
+    seed_v = _bounded_int("--seed", seed, 0, MAX_SEED)
     world_spec = build_spec(spec_file=spec, size=size, cell=cell, subdivisions=subdivisions,
                             deformation=deformation, ground=ground, trees=trees, buildings=buildings,
                             obstruction=obstruction, mix=mix)
@@ -501,7 +517,9 @@ def world_export(
 
         write_mesh(world, output, "glb" if f == "gltf" and output.suffix.lower() == ".glb" else f)
         written = [output]
-    click.echo("wrote " + ", ".join(str(p) for p in written))
+    from navstress._console import literal
+
+    click.echo(literal("wrote " + ", ".join(str(p) for p in written)))
 
 
 # ---- demo ---------------------------------------------------------------------------------
@@ -513,7 +531,7 @@ def demo(
         "Folder for the demo (DIR/demo.yaml, the campaign in DIR/campaign, DIR/report.html). "
         "Run again to resume an interrupted demo."))] = Path("demo-out"),
     workers: Annotated[str | None, typer.Option("--workers", "-j", metavar="N", help=(
-        "Parallel runs, an integer >= 1 (default: all cores)."))] = None,
+        "Parallel runs, an integer in [1, 1024] (default: all cores)."))] = None,
 ) -> None:
     """Run the demo campaign (worlds, missions, faults) and write its HTML report."""
     from navstress.analysis.report import build_report
@@ -523,9 +541,7 @@ def demo(
 
     n_workers = None
     if workers is not None:
-        n_workers = _integer("--workers", workers, "an integer >= 1")
-        if n_workers < 1:
-            raise SpecError("--workers", workers, "an integer >= 1")
+        n_workers = _bounded_int("--workers", workers, 1, MAX_WORKERS)
     if output.exists() and not output.is_dir():
         raise WorldFileError(f"--output={str(output)!r} is invalid: expected a folder; choose another path")
     if output.is_dir():
@@ -561,7 +577,7 @@ def world_drive(
     course: Annotated[str | None, typer.Option(metavar="SEGMENTS", help=(
         "Open-loop course from the mission start: 'v,omega,seconds; ...' (m/s, rad/s, s). Default: 20 m "
         "straight, quarter turn on the spot, 12 m straight, a right curve, 15 m straight."))] = None,
-    seed: Annotated[str, typer.Option(metavar="N", help="Run seed (sensor noise, jitter), an integer >= 0. Default 0.")] = "0",
+    seed: Annotated[str, typer.Option(metavar="N", help="Run seed (sensor noise, jitter), an integer in [0, 2**63-1]. Default 0.")] = "0",
 ) -> None:
     """Drive a scripted course in the simulation and draw where the robot really went."""
     from navstress.run.drive import DEFAULT_COURSE, drive, drive_picture, parse_course
@@ -569,9 +585,7 @@ def world_drive(
 
     world = World.load(world_dir)
     segs = parse_course(course) if course is not None else DEFAULT_COURSE
-    seed_v = _integer("--seed", seed, "an integer >= 0")
-    if seed_v < 0:
-        raise SpecError("--seed", seed, "an integer >= 0")
+    seed_v = _bounded_int("--seed", seed, 0, MAX_SEED)
     dest = output if output is not None else world_dir / "drive.png"
     if dest.exists() and dest.is_dir():
         raise SpecError("--output", str(dest), "a PNG file path, not a directory")
@@ -627,8 +641,8 @@ def run_cmd(
     navigator_config: Annotated[str | None, typer.Option(metavar="FILE|TEXT", help=_NAV_CONFIG_HELP)] = None,
     fault: Annotated[str | None, typer.Option(metavar="NAME", help=(
         "Inject a named fault into the navigator (see `navstress nav faults`)."))] = None,
-    runs: Annotated[str, typer.Option(metavar="N", help="Number of runs (each with its own run seed), >= 1. Default 1.")] = "1",
-    seed: Annotated[str, typer.Option(metavar="N", help="Root seed of the run seeds, an integer >= 0. Default 0.")] = "0",
+    runs: Annotated[str, typer.Option(metavar="N", help="Number of runs (each with its own run seed), in [1, 10000]. Default 1.")] = "1",
+    seed: Annotated[str, typer.Option(metavar="N", help="Root seed of the run seeds, an integer in [0, 2**63-1]. Default 0.")] = "0",
     timeout: Annotated[str, typer.Option(metavar="S", help="Simulated-time limit of a run in seconds, > 0. Default 400.")] = "400",
     goal_tolerance: Annotated[str, typer.Option(metavar="M", help="Success radius around the goal in meters, > 0. Default 2.")] = "2",
     lidar: Annotated[bool, typer.Option("--lidar", help=(
@@ -640,12 +654,8 @@ def run_cmd(
     from navstress.run.batch import batch_picture, plan_batch, run_batch
     from navstress.world.world import World
 
-    n = _integer("--runs", runs, "an integer >= 1")
-    if n < 1:
-        raise SpecError("--runs", runs, "an integer >= 1")
-    seed_v = _integer("--seed", seed, "an integer >= 0")
-    if seed_v < 0:
-        raise SpecError("--seed", seed, "an integer >= 0")
+    n = _bounded_int("--runs", runs, 1, MAX_RUNS)
+    seed_v = _bounded_int("--seed", seed, 0, MAX_SEED)
     timeout_v = _number("--timeout", timeout, "a duration in seconds > 0")
     if timeout_v <= 0:
         raise SpecError("--timeout", timeout, "a duration in seconds > 0")

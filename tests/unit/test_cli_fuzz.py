@@ -176,3 +176,23 @@ def test_every_option_survives_hostile_values(root: Path, cmd_name: str, data: s
     name = data.draw(st.sampled_from(params), label="param")
     value = data.draw(_value(name), label="value")
     _check(cmd_name, _argv(cmd_name, cmd, root, name, value), root)
+
+
+@pytest.mark.parametrize("argv,flag", [
+    (["run", "{root}/w", "--runs", "1000000000", "-o", "{root}/adir/new"], "--runs"),
+    (["run", "{root}/w", "--seed", str(2**64), "-o", "{root}/adir/new"], "--seed"),
+    (["world", "generate", "--size", "20", "--cell", "0.5", "--seed", "9" * 30, "-o", "{root}/adir/new"], "--seed"),
+    (["world", "drive", "{root}/w", "--seed", str(2**63), "-o", "{root}/adir/d.png"], "--seed"),
+    (["demo", "--workers", "1000000000", "-o", "{root}/adir/new"], "--workers"),
+])
+def test_huge_counts_and_seeds_are_refused_before_anything_starts(root: Path, argv: list[str], flag: str) -> None:
+    import time
+
+    from typer.testing import CliRunner
+
+    before = snapshot(root)
+    t0 = time.perf_counter()
+    r = CliRunner().invoke(app, [a.replace("{root}", str(root)) for a in argv])
+    assert r.exit_code == 2 and r.stderr.startswith(f"error: {flag}=") and "an integer in [" in r.stderr, r.stderr
+    assert time.perf_counter() - t0 < 5.0
+    assert snapshot(root) == before

@@ -103,3 +103,13 @@ def test_user_paths_and_names_are_literal(root: Path, text: str, tmp_path: Path)
     assert "\x1b" not in out
     code, out, err = invoke(["world", "show", str(tmp_path / f"missing{text}")])
     assert code == 2 and "\x1b" not in err and "\x07" not in err
+
+
+def test_echoed_lines_escape_control_characters(root: Path, tmp_path: Path) -> None:
+    out = tmp_path / "x\x1b[31m.xml"
+    code, so, err = invoke(["world", "export", str(root / "w"), "--format", "mjcf", "-o", str(out)])
+    assert code == 0, err
+    assert "\x1b" not in so and literal(str(out)) in so
+    code, so, err = invoke(["report", str(root / "c"), "-o", str(tmp_path / "r\x07.html")])
+    assert code == 0, err
+    assert "\x07" not in so and "r\\x07.html" in so

@@ -122,7 +122,9 @@ def report_cmd(
 
     probe_writable(out)  # before the analysis and the figures, not after
     path = build_report(directory, out, params=params, navigator=navigator, dt=dt)
-    typer.echo(f"report: {path.resolve()}")
+    from navstress._console import literal
+
+    typer.echo(literal(f"report: {path.resolve()}"))
 
 
 def register(app: typer.Typer) -> None:

@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from navstress._console import console
+from navstress._console import console, literal
 from rich.table import Table
 
 from navstress.campaign.presets import PRESETS, preset_yaml
@@ -45,7 +45,7 @@ def init(
     tmp = out.with_name(f".{out.name}.tmp")
     tmp.write_text(text, encoding="utf-8")
     os.replace(tmp, out)
-    typer.echo(f"wrote {out} (preset {preset})")
+    typer.echo(literal(f"wrote {out} (preset {preset})"))
 
 
 @campaign_app.command("run")
@@ -71,9 +71,9 @@ def run(
         res = run_campaign(spec, out, workers=workers, executor=executor,  # type: ignore[arg-type]
                            ray_address=ray_address, wall_limit_s=wall_limit, on_start=bar.on_start,
                            on_record=bar.on_record)
-    typer.echo(f"{out}: {res.already_done + res.recorded}/{res.planned} runs recorded "
+    typer.echo(literal(f"{out}: {res.already_done + res.recorded}/{res.planned} runs recorded "
                f"({res.recorded} this session, {res.wall_s:.0f} s, {res.workers} workers); "
-               + format_counts(res.counts, markup=False))
+               + format_counts(res.counts, markup=False)))
 
 
 @campaign_app.command("status")
@@ -111,7 +111,7 @@ def export(
     with Store.open(directory) as store:
         path = store.export(fmt, out)  # type: ignore[arg-type]
         n = store.progress()[0]
-    typer.echo(f"wrote {path} ({n} runs)")
+    typer.echo(literal(f"wrote {path} ({n} runs)"))
 
 
 def replay(
@@ -123,9 +123,9 @@ def replay(
     from navstress.campaign.replay import replay as do_replay
 
     r = do_replay(directory, run_id, keep=keep)
-    typer.echo(f"{run_id}: stored {r.stored.outcome} ({r.stored.reason}); replayed {r.new.outcome} ({r.new.reason})")
+    typer.echo(literal(f"{run_id}: stored {r.stored.outcome} ({r.stored.reason}); replayed {r.new.outcome} ({r.new.reason})"))
     if r.identical:
-        typer.echo(f"identical: the new trace has the same bytes as {r.stored_trace} (sha256 {r.new_sha256[:16]})")
+        typer.echo(literal(f"identical: the new trace has the same bytes as {r.stored_trace} (sha256 {r.new_sha256[:16]})"))
         return
     typer.echo(f"DIFFERENT: stored sha256 {r.stored_sha256[:16]}, replayed {r.new_sha256[:16]}; "
                f"record fields that differ: {', '.join(r.record_differences) or 'none'}")
