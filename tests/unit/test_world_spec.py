@@ -142,3 +142,26 @@ def test_cli_generate_refuses_a_huge_map_in_one_line_without_allocating(tmp_path
     assert time.perf_counter() - t0 < 2.0
     assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before < 200_000  # KiB: nothing big allocated
     assert not (tmp_path / "w").exists()
+
+
+# ---- a damaged world directory is a WorldFileError, whatever the damage ------------------------
+
+@pytest.mark.parametrize("name,data", [
+    ("world.json", bytes(range(256))), ("world.json", b"[" * 100_000), ("world.json", b"{\"a\": " * 50_000),
+    ("world.json", b"[1, 2]"), ("world.json", b"null"), ("world.json", b'{"spec": "x", "seed": 1}'),
+    ("world.json", b""), ("terrain.npz", b"PK\x03\x04garbage"), ("terrain.npz", b"hello"),
+    ("terrain.npz", b""), ("terrain.npz", bytes(range(256)) * 10),
+])
+def test_damaged_world_files_are_one_world_file_error(tmp_path: Path, name: str, data: bytes) -> None:
+    import shutil
+
+    from world_fixtures import small_world
+    from navstress.errors import WorldFileError
+    from navstress.world import World
+
+    small_world().save(tmp_path / "ok")
+    d = tmp_path / "bad"
+    shutil.copytree(tmp_path / "ok", d)
+    (d / name).write_bytes(data)
+    with pytest.raises(WorldFileError, match="is corrupt"):
+        World.load(d)
