@@ -186,3 +186,62 @@ def test_a_directory_or_missing_file_is_a_spec_error(tmp_path: Path) -> None:
             loader(tmp_path)
         with pytest.raises(SpecError):
             loader(tmp_path / "missing.yaml")
+
+
+_HOSTILE_SCALARS = st.one_of(
+    st.integers(-10**40, 10**40), st.floats(allow_nan=True, allow_infinity=True), st.sampled_from(
+        [1e308, -1e308, 5e-324, 10**400, "1e999", "nan", "", "x" * 10_000, True, None, [], {}, [1e308, 1e308]]),
+    st.text(max_size=30))
+_WORLD_FIELDS = ["size_m", "cell_m", "ground.subdivisions", "ground.deformation", "ground.model", "ground.octaves",
+                 "ground.persistence", "ground.wavelength_m", "ground.amplitude_m", "obstacles.total",
+                 "obstacles.obstruction.tree", "obstacles.mix.tree", "obstacles.types.rock.base_m",
+                 "obstacles.types.rock.height_m", "obstacles.types.rock.variability", "mission.start", "mission.goal",
+                 "mission.inset_m", "mission.free_radius_m", "mission.min_distance_m", "mission.mode"]
+_CAMPAIGN_FIELDS = ["seed", "maps_per_config", "runs_per_map", "timeout_s", "goal_tolerance_m", "name",
+                    "experiments.0.sweep.cell_m.start", "experiments.0.sweep.cell_m.step",
+                    "experiments.0.sweep.cell_m.stop", "experiments.0.sweep.cell_m.values", "faults",
+                    "navigators", "world.size_m", "world.cell_m"]
+
+
+def _put(data: dict[str, Any], path: str, value: Any) -> dict[str, Any]:
+    node: Any = data
+    parts = path.split(".")
+    for p in parts[:-1]:
+        key: Any = int(p) if p.isdigit() else p
+        if isinstance(node, list):
+            node = node[key]
+        else:
+            node = node.setdefault(key, {})
+    node[parts[-1]] = value
+    return data
+
+
+@settings(max_examples=100, deadline=None)
+@given(field=st.sampled_from(_WORLD_FIELDS), value=_HOSTILE_SCALARS)
+def test_huge_and_odd_values_in_every_world_spec_field_give_a_spec_or_a_spec_error(field: str, value: Any) -> None:
+    from navstress.world.spec import parse_spec
+
+    base: dict[str, Any] = {"size_m": [20, 20], "cell_m": 0.5}
+    if field.startswith("obstacles.types.rock"):
+        base["obstacles"] = {"types": {"rock": {"base_m": [1, 1], "height_m": 1}}}
+    try:
+        parse_spec(_put(base, field, value))
+    except SpecError as e:
+        assert "\n" not in str(e)
+
+
+@settings(max_examples=100, deadline=None)
+@given(field=st.sampled_from(_CAMPAIGN_FIELDS), value=_HOSTILE_SCALARS)
+def test_huge_and_odd_values_in_every_campaign_field_give_a_spec_or_a_spec_error(field: str, value: Any) -> None:
+    from navstress.campaign.spec import parse_campaign
+
+    base: dict[str, Any] = {"name": "t", "world": {"size_m": [20, 20], "cell_m": 0.5},
+                            "experiments": [{"name": "e", "sweep": {"cell_m": {"values": [0.5]}}}]}
+    if ".sweep.cell_m." in field and not field.endswith("values"):
+        base["experiments"][0]["sweep"]["cell_m"] = {"start": 0.5, "stop": 1.0, "step": 0.5}
+    try:
+        spec = parse_campaign(_put(base, field, value))
+    except SpecError as e:
+        assert "\n" not in str(e)
+    else:
+        spec.canonical_json()

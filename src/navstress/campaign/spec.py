@@ -207,7 +207,7 @@ def parse_campaign(data: Any) -> CampaignSpec:
                                 "check the spelling against `navstress world` options")
             try:
                 rng.expand()
-            except ValueError as e:
+            except (ValueError, OverflowError) as e:  # OverflowError: a range of infinitely many values
                 raise SpecError(f"{where}.sweep.{path}", rng.model_dump(exclude_none=True), str(e)) from None
         try:
             parse_spec(_deep_merge(base_data, exp.overrides))
