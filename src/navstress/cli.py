@@ -12,7 +12,10 @@ nothing.
 
 from __future__ import annotations
 
+import errno
 import math
+import os
+import re
 import shutil
 import sys
 import tempfile
@@ -51,6 +54,11 @@ class _OneLineErrors(TyperGroup):
             _fail(e.format_message())
         except NavstressError as e:
             _fail(str(e))
+        except OSError as e:
+            _fail(os_error_line(e))
+        except MemoryError:
+            _fail("memory=exhausted is invalid: expected a task that fits in this machine's memory; "
+                  "use a smaller map or a larger --cell, or fewer workers")
         except KeyboardInterrupt:
             click.echo("aborted", err=True)
             sys.exit(130)
@@ -67,8 +75,68 @@ def _usage_line(e: Any) -> str:
     return f"{msg}; see --help"
 
 
+_OS_FIXES = {
+    errno.EACCES: "permission denied; choose a path you may write or change its permissions",
+    errno.EPERM: "operation not permitted; choose a path you may write or change its permissions",
+    errno.EROFS: "read-only file system; choose a path on a writable file system",
+    errno.EISDIR: "it is a directory; name a file (inside it, for instance)",
+    errno.ENOTDIR: "a part of the path is a file, not a folder; choose another path",
+    errno.EEXIST: "something already exists there; choose another path or remove it",
+    errno.ENOENT: "no such file or folder; check the path (create its folder first)",
+    errno.ENOSPC: "no space left on the device; free some space and run again",
+    errno.EDQUOT: "disk quota exceeded; free some space and run again",
+    errno.ENAMETOOLONG: "the name is too long; choose a shorter path",
+    errno.ELOOP: "too many symbolic links; check the path",
+}
+
+
+_TEMP_NAME = re.compile(r"^\.(?P<name>.+?)(?:\.tmp|\.partial|\.[A-Za-z0-9_]{8})$")
+
+
+def _user_path(path: Any) -> Any:
+    """The path the user named, for the temporary names files are written under
+    (``.NAME.tmp``, ``.NAME.partial``, ``.NAME.XXXXXXXX``) before they are renamed into place."""
+    if path is None:
+        return None
+    p = Path(os.fsdecode(path))
+    m = _TEMP_NAME.match(p.name)
+    return str(p.with_name(m.group("name"))) if m else str(p)
+
+
+def os_error_line(e: OSError) -> str:
+    """One line for an OSError raised while a command works: the path, what failed, what to do.
+
+        >>> os_error_line(PermissionError(13, "Permission denied", "/x/out.sdf"))
+        "path='/x/out.sdf' is invalid: expected a path navstress can write and read (Permission denied, EACCES); permission denied; choose a path you may write or change its permissions"
+    """
+    raw = e.filename if e.filename is not None else e.filename2
+    code = e.errno
+    what = " ".join(str(e.strerror or type(e).__name__).split())
+    if code is None:  # e.g. pyarrow's: "Failed to open local file '/x'. Detail: [errno 13] Permission denied"
+        m = re.search(r"\[errno (\d+)\]\s*([^\n]*)", str(e))
+        code = int(m.group(1)) if m else None
+        what = m.group(2).strip() if m else " ".join(str(e).split())[:200]
+    if raw is None:  # a library's OSError with the path in its message only
+        q = re.search(r"'(/[^']+)'", str(e))
+        raw = q.group(1) if q else None
+        what = os.strerror(code) if code else what
+    path = _user_path(raw)
+    name = errno.errorcode.get(code or 0, "")
+    fix = _OS_FIXES.get(code or 0, "check the path, its permissions and the free space")
+    if path is not None:
+        field = f"path={str(path)!r}"
+    elif code in (errno.ENOSPC, errno.EDQUOT):
+        field = "disk='full'"
+    else:
+        field = "file system"
+    return (f"{field} is invalid: expected a path navstress can write and read ({what}{', ' + name if name else ''}); "
+            f"{fix}")
+
+
 def _fail(line: str) -> None:
-    line = " ".join(line.split())
+    from navstress._console import literal
+
+    line = literal(" ".join(line.split()))
     click.echo(f"error: {line}", err=True)
     sys.exit(EXIT_USAGE)
 
@@ -110,6 +178,22 @@ def _integer(flag: str, raw: str, expected: str) -> int:
         return int(raw)
     except ValueError:
         raise SpecError(flag, raw, expected) from None
+
+
+#: Largest seed a flag takes (seeds are stored as signed 64-bit integers).
+MAX_SEED = 2**63 - 1
+#: Most runs one `navstress run` makes (a campaign is the tool for more).
+MAX_RUNS = 10_000
+#: Most parallel workers a flag asks for.
+MAX_WORKERS = 1024
+
+
+def _bounded_int(flag: str, raw: str, lo: int, hi: int) -> int:
+    expected = f"an integer in [{lo}, {hi}]"
+    v = _integer(flag, raw, expected)
+    if not lo <= v <= hi:
+        raise SpecError(flag, raw, expected)
+    return v
 
 
 _KIND_ALIASES = {"trees": "tree", "buildings": "building"}
@@ -224,8 +308,14 @@ def _save_with_preview(world: Any, out: Path) -> None:
     from navstress.world.export._grid import write_atomic
 
     png = preview_png_bytes(world)  # render first: a failure here writes nothing
-    world.save(out)
-    write_atomic(out / PREVIEW, png)
+    existed = out.exists()
+    try:
+        world.save(out)
+        write_atomic(out / PREVIEW, png)
+    except BaseException:
+        if not existed:  # a world without its preview is partial output: take it back
+            shutil.rmtree(out, ignore_errors=True)
+        raise
 
 
 def _descriptor_table(world: Any, title: str) -> Any:
@@ -328,14 +418,12 @@ def world_generate(
     spec: Annotated[Path | None, typer.Option("--spec", metavar="FILE", help=(
         "WorldSpec file (YAML or JSON); the flags above override its fields."))] = None,
     seed: Annotated[str, typer.Option(metavar="N", help=(
-        "Map seed, an integer >= 0: the same spec and seed give the same world."))] = "0",
+        "Map seed, an integer in [0, 2**63-1]: the same spec and seed give the same world."))] = "0",
 ) -> None:
     """Generate one world from a spec and a seed; write it with a preview and print its descriptors."""
     from navstress.world.generate import generate
 
-    seed_v = _integer("--seed", seed, "an integer >= 0")
-    if seed_v < 0:
-        raise SpecError("--seed", seed, "an integer >= 0")
+    seed_v = _bounded_int("--seed", seed, 0, MAX_SEED)
     world_spec = build_spec(spec_file=spec, size=size, cell=cell, subdivisions=subdivisions,
                             deformation=deformation, ground=ground, trees=trees, buildings=buildings,
                             obstruction=obstruction, mix=mix)
@@ -369,6 +457,20 @@ def world_show(
 def _check_file_out(dest: Path) -> None:
     if dest.exists() and dest.is_dir():
         raise SpecError("--output", str(dest), "a file path (this is a directory)")
+
+
+def probe_writable(dest: Path) -> None:
+    """Fail now (OSError naming ``dest``) if a file cannot be created where ``dest`` will be
+    written, before long work whose result would be lost; leaves nothing behind."""
+    parent = dest.parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    try:
+        fd, probe = tempfile.mkstemp(prefix=f".{dest.name}.", suffix=".probe", dir=parent)
+    except OSError as e:
+        raise OSError(e.errno, e.strerror, str(dest)) from None
+    os.close(fd)
+    os.unlink(probe)
 
 
 @world_app.command("export")
@@ -415,7 +517,9 @@ def world_export(
 
         write_mesh(world, output, "glb" if f == "gltf" and output.suffix.lower() == ".glb" else f)
         written = [output]
-    click.echo("wrote " + ", ".join(str(p) for p in written))
+    from navstress._console import literal
+
+    click.echo(literal("wrote " + ", ".join(str(p) for p in written)))
 
 
 # ---- demo ---------------------------------------------------------------------------------
@@ -427,7 +531,7 @@ def demo(
         "Folder for the demo (DIR/demo.yaml, the campaign in DIR/campaign, DIR/report.html). "
         "Run again to resume an interrupted demo."))] = Path("demo-out"),
     workers: Annotated[str | None, typer.Option("--workers", "-j", metavar="N", help=(
-        "Parallel runs, an integer >= 1 (default: all cores)."))] = None,
+        "Parallel runs, an integer in [1, 1024] (default: all cores)."))] = None,
 ) -> None:
     """Run the demo campaign (worlds, missions, faults) and write its HTML report."""
     from navstress.analysis.report import build_report
@@ -437,9 +541,7 @@ def demo(
 
     n_workers = None
     if workers is not None:
-        n_workers = _integer("--workers", workers, "an integer >= 1")
-        if n_workers < 1:
-            raise SpecError("--workers", workers, "an integer >= 1")
+        n_workers = _bounded_int("--workers", workers, 1, MAX_WORKERS)
     if output.exists() and not output.is_dir():
         raise WorldFileError(f"--output={str(output)!r} is invalid: expected a folder; choose another path")
     if output.is_dir():
@@ -475,7 +577,7 @@ def world_drive(
     course: Annotated[str | None, typer.Option(metavar="SEGMENTS", help=(
         "Open-loop course from the mission start: 'v,omega,seconds; ...' (m/s, rad/s, s). Default: 20 m "
         "straight, quarter turn on the spot, 12 m straight, a right curve, 15 m straight."))] = None,
-    seed: Annotated[str, typer.Option(metavar="N", help="Run seed (sensor noise, jitter), an integer >= 0. Default 0.")] = "0",
+    seed: Annotated[str, typer.Option(metavar="N", help="Run seed (sensor noise, jitter), an integer in [0, 2**63-1]. Default 0.")] = "0",
 ) -> None:
     """Drive a scripted course in the simulation and draw where the robot really went."""
     from navstress.run.drive import DEFAULT_COURSE, drive, drive_picture, parse_course
@@ -483,12 +585,11 @@ def world_drive(
 
     world = World.load(world_dir)
     segs = parse_course(course) if course is not None else DEFAULT_COURSE
-    seed_v = _integer("--seed", seed, "an integer >= 0")
-    if seed_v < 0:
-        raise SpecError("--seed", seed, "an integer >= 0")
+    seed_v = _bounded_int("--seed", seed, 0, MAX_SEED)
     dest = output if output is not None else world_dir / "drive.png"
     if dest.exists() and dest.is_dir():
         raise SpecError("--output", str(dest), "a PNG file path, not a directory")
+    probe_writable(dest)
     res = drive(world, segs, seed=seed_v)
     t = res.truth
     dist = float(np.sum(np.hypot(np.diff(t[:, 1]), np.diff(t[:, 2])))) if len(t) > 1 else 0.0
@@ -505,12 +606,17 @@ def world_drive(
 
 # ---- runs ------------------------------------------------------------------------------------
 
-def _navigator_config(path: Path | None) -> dict[str, Any]:
-    if path is None:
+_NAV_CONFIG_HELP = ("Configuration passed to the navigator: a JSON/YAML file, or inline JSON/YAML text "
+                    "such as '{\"command\": [\"./my_nav\"]}'.")
+
+
+def _navigator_config(raw: str | None) -> dict[str, Any]:
+    """``--navigator-config``: a file path or inline JSON/YAML (SpecError naming the flag)."""
+    if raw is None:
         return {}
     from navstress.nav.registry import load_config
 
-    return dict(load_config(path))
+    return dict(load_config(raw, field="--navigator-config"))
 
 
 def _check_navigator(name: str, fault: str | None, config: dict[str, Any]) -> None:
@@ -533,12 +639,11 @@ def run_cmd(
         "Folder for the traces (run-NNN.mcap), records (runs.jsonl) and trajectories.png; must be new or empty."))],
     navigator: Annotated[str, typer.Option(metavar="NAME", help=(
         "Navigator under test, by registered name (see `navstress nav list`).")) ] = "reference-v1",
-    navigator_config: Annotated[Path | None, typer.Option(metavar="FILE", help=(
-        "YAML/JSON configuration passed to the navigator."))] = None,
+    navigator_config: Annotated[str | None, typer.Option(metavar="FILE|TEXT", help=_NAV_CONFIG_HELP)] = None,
     fault: Annotated[str | None, typer.Option(metavar="NAME", help=(
         "Inject a named fault into the navigator (see `navstress nav faults`)."))] = None,
-    runs: Annotated[str, typer.Option(metavar="N", help="Number of runs (each with its own run seed), >= 1. Default 1.")] = "1",
-    seed: Annotated[str, typer.Option(metavar="N", help="Root seed of the run seeds, an integer >= 0. Default 0.")] = "0",
+    runs: Annotated[str, typer.Option(metavar="N", help="Number of runs (each with its own run seed), in [1, 10000]. Default 1.")] = "1",
+    seed: Annotated[str, typer.Option(metavar="N", help="Root seed of the run seeds, an integer in [0, 2**63-1]. Default 0.")] = "0",
     timeout: Annotated[str, typer.Option(metavar="S", help="Simulated-time limit of a run in seconds, > 0. Default 400.")] = "400",
     goal_tolerance: Annotated[str, typer.Option(metavar="M", help="Success radius around the goal in meters, > 0. Default 2.")] = "2",
     lidar: Annotated[bool, typer.Option("--lidar", help=(
@@ -550,12 +655,8 @@ def run_cmd(
     from navstress.run.batch import batch_picture, plan_batch, run_batch
     from navstress.world.world import World
 
-    n = _integer("--runs", runs, "an integer >= 1")
-    if n < 1:
-        raise SpecError("--runs", runs, "an integer >= 1")
-    seed_v = _integer("--seed", seed, "an integer >= 0")
-    if seed_v < 0:
-        raise SpecError("--seed", seed, "an integer >= 0")
+    n = _bounded_int("--runs", runs, 1, MAX_RUNS)
+    seed_v = _bounded_int("--seed", seed, 0, MAX_SEED)
     timeout_v = _number("--timeout", timeout, "a duration in seconds > 0")
     if timeout_v <= 0:
         raise SpecError("--timeout", timeout, "a duration in seconds > 0")
@@ -568,19 +669,25 @@ def run_cmd(
     if output.exists() and (not output.is_dir() or any(output.iterdir())):
         raise WorldFileError(f"--output={str(output)!r} is invalid: expected a new or empty folder; "
                              "choose another path or remove it")
-    tasks = plan_batch(world_dir, output, navigator=navigator, navigator_config=cfg, fault=fault, runs=n,
-                       seed=seed_v, timeout_s=timeout_v, goal_tolerance_m=tol, record_lidar=lidar)
+    created = not output.exists()
     con = _console()
     counts: dict[str, int] = {}
-    with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
-                  TimeRemainingColumn(), TextColumn("{task.fields[counts]}"), console=con) as prog:
-        bar = prog.add_task("runs", total=n, counts="")
+    try:
+        tasks = plan_batch(world_dir, output, navigator=navigator, navigator_config=cfg, fault=fault, runs=n,
+                           seed=seed_v, timeout_s=timeout_v, goal_tolerance_m=tol, record_lidar=lidar)
+        with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
+                      TimeRemainingColumn(), TextColumn("{task.fields[counts]}"), console=con) as prog:
+            bar = prog.add_task("runs", total=n, counts="")
 
-        def done(rec: Any) -> None:
-            counts[rec.outcome] = counts.get(rec.outcome, 0) + 1
-            prog.update(bar, advance=1, counts="  ".join(f"{k}={v}" for k, v in sorted(counts.items())))
+            def done(rec: Any) -> None:
+                counts[rec.outcome] = counts.get(rec.outcome, 0) + 1
+                prog.update(bar, advance=1, counts="  ".join(f"{k}={v}" for k, v in sorted(counts.items())))
 
-        records = run_batch(tasks, output, done)
+            records = run_batch(tasks, output, done)
+    except BaseException:
+        if created and not counts:  # nothing recorded: leave nothing behind
+            shutil.rmtree(output, ignore_errors=True)
+        raise
     from rich.table import Table
 
     table = Table(title=f"{navigator}{' + ' + fault if fault else ''} on {world_dir}")
@@ -625,8 +732,7 @@ def nav_faults() -> None:
 @nav_app.command("check")
 def nav_check(
     name: Annotated[str, typer.Argument(metavar="NAME", help="Registered navigator name, e.g. reference-v1.")],
-    navigator_config: Annotated[Path | None, typer.Option(metavar="FILE", help=(
-        "YAML/JSON configuration passed to the navigator."))] = None,
+    navigator_config: Annotated[str | None, typer.Option(metavar="FILE|TEXT", help=_NAV_CONFIG_HELP)] = None,
 ) -> None:
     """Run the conformance checks on a navigator; exit 1 if any check fails."""
     import warnings

@@ -50,7 +50,10 @@ def analyze_cmd(
 
     if not dt > 0:
         raise SpecError("--dt", dt, "a time step in seconds > 0")
-    a = analyze(directory, params=_params(threshold, k, weights), navigator=navigator, dt=dt)
+    params = _params(threshold, k, weights)
+    if json_out is not None and json_out.is_dir():
+        raise SpecError("--json", str(json_out), "a JSON file path, not a directory")
+    a = analyze(directory, params=params, navigator=navigator, dt=dt)
     con = console()
     con.print(f"campaign {a.name}: {a.done}/{a.planned} runs recorded; "
               + ", ".join(f"{n} {o}" for o, n in a.outcome_counts.items()))
@@ -90,8 +93,14 @@ def analyze_cmd(
     for cr in best:
         con.print(f"descriptor {cr.descriptor}: Spearman rho with level {cr.rho_level:+.2f} over {cr.n} configurations")
     if json_out is not None:
+        text = dumps(a.to_json())
         json_out.parent.mkdir(parents=True, exist_ok=True)
-        json_out.write_text(dumps(a.to_json()), encoding="utf-8")
+        tmp = json_out.with_name(f".{json_out.name}.tmp")  # written whole, then renamed into place
+        try:
+            tmp.write_text(text, encoding="utf-8")
+            tmp.replace(json_out)
+        finally:
+            tmp.unlink(missing_ok=True)
         con.print(f"wrote {json_out}")
 
 
@@ -106,10 +115,16 @@ def report_cmd(
 
     if not dt > 0:
         raise SpecError("--dt", dt, "a time step in seconds > 0")
+    params = _params(threshold, k, weights)
     if out.exists() and out.is_dir():
         raise SpecError("--output", str(out), "an HTML file path, not a directory")
-    path = build_report(directory, out, params=_params(threshold, k, weights), navigator=navigator, dt=dt)
-    typer.echo(f"report: {path.resolve()}")
+    from navstress.cli import probe_writable
+
+    probe_writable(out)  # before the analysis and the figures, not after
+    path = build_report(directory, out, params=params, navigator=navigator, dt=dt)
+    from navstress._console import literal
+
+    typer.echo(literal(f"report: {path.resolve()}"))
 
 
 def register(app: typer.Typer) -> None:

@@ -365,8 +365,11 @@ def build_report(directory: str | Path, out: str | Path, *, params: DifficultyPa
     dest = Path(out)
     dest.parent.mkdir(parents=True, exist_ok=True)
     tmp = dest.with_name(f".{dest.name}.partial")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, dest)
+    try:
+        tmp.write_text(text, encoding="utf-8")
+        os.replace(tmp, dest)
+    finally:
+        tmp.unlink(missing_ok=True)  # nothing partial left behind (a full disk, an interrupt)
     return dest
 
 

@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from navstress._console import console
+from navstress._console import console, literal
 from rich.table import Table
 
 from navstress.campaign.presets import PRESETS, preset_yaml
@@ -45,7 +45,7 @@ def init(
     tmp = out.with_name(f".{out.name}.tmp")
     tmp.write_text(text, encoding="utf-8")
     os.replace(tmp, out)
-    typer.echo(f"wrote {out} (preset {preset})")
+    typer.echo(literal(f"wrote {out} (preset {preset})"))
 
 
 @campaign_app.command("run")
@@ -88,18 +88,18 @@ def run(
     except (KeyboardInterrupt, _Stopped) as err:
         signum = err.signum if isinstance(err, _Stopped) else signal.SIGINT
         signal.signal(signal.SIGTERM, signal.SIG_IGN)  # a second SIGTERM must not cut the message
-        typer.echo(f"stopped by {signal.Signals(signum).name}; nothing recorded is lost; resume with: {resume}",
+        typer.echo(literal(f"stopped by {signal.Signals(signum).name}; nothing recorded is lost; resume with: {resume}"),
                    err=True)
         raise typer.Exit(128 + int(signum)) from None
     finally:
         signal.signal(signal.SIGTERM, old)
-    typer.echo(f"{out}: {res.already_done + res.recorded}/{res.planned} runs recorded "
+    typer.echo(literal(f"{out}: {res.already_done + res.recorded}/{res.planned} runs recorded "
                f"({res.recorded} this session, {res.wall_s:.0f} s, {res.workers} workers); "
-               + format_counts(res.counts, markup=False))
+               + format_counts(res.counts, markup=False)))
     if res.unfinished:
         first, why = next(iter(res.unfinished.items()))
-        typer.echo(f"{len(res.unfinished)} run(s) not recorded: navstress itself failed on each attempt "
-                   f"(e.g. {first}: {why}); fix the cause and resume with: {resume}", err=True)
+        typer.echo(literal(f"{len(res.unfinished)} run(s) not recorded: navstress itself failed on each attempt "
+                   f"(e.g. {first}: {why}); fix the cause and resume with: {resume}"), err=True)
         raise typer.Exit(1)
 
 
@@ -163,10 +163,12 @@ def export(
     """Write the runs table as CSV or Parquet."""
     if fmt not in ("csv", "parquet"):
         raise SpecError("--format", fmt, "csv or parquet")
+    if out is not None and out.is_dir():
+        raise SpecError("--output", str(out), f"a {fmt} file path, not a directory")
     with Store.open(directory) as store:
         path = store.export(fmt, out)  # type: ignore[arg-type]
         n = store.progress()[0]
-    typer.echo(f"wrote {path} ({n} runs)")
+    typer.echo(literal(f"wrote {path} ({n} runs)"))
 
 
 def replay(
@@ -178,9 +180,9 @@ def replay(
     from navstress.campaign.replay import replay as do_replay
 
     r = do_replay(directory, run_id, keep=keep)
-    typer.echo(f"{run_id}: stored {r.stored.outcome} ({r.stored.reason}); replayed {r.new.outcome} ({r.new.reason})")
+    typer.echo(literal(f"{run_id}: stored {r.stored.outcome} ({r.stored.reason}); replayed {r.new.outcome} ({r.new.reason})"))
     if r.identical:
-        typer.echo(f"identical: the new trace has the same bytes as {r.stored_trace} (sha256 {r.new_sha256[:16]})")
+        typer.echo(literal(f"identical: the new trace has the same bytes as {r.stored_trace} (sha256 {r.new_sha256[:16]})"))
         return
     typer.echo(f"DIFFERENT: stored sha256 {r.stored_sha256[:16]}, replayed {r.new_sha256[:16]}; "
                f"record fields that differ: {', '.join(r.record_differences) or 'none'}")

@@ -28,10 +28,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from navstress.errors import SpecError
+from navstress.specfile import parse_text, read_text
 from navstress.world.spec import WorldSpec, _pydantic_to_spec_error, parse_spec
 
 _STRICT = ConfigDict(frozen=True, extra="forbid")
@@ -243,7 +243,7 @@ def parse_campaign(data: Any, *, max_runs: int | None = MAX_PLANNED_RUNS) -> Cam
                                 "check the spelling against `navstress world` options")
             try:
                 rng.expand()
-            except ValueError as e:
+            except (ValueError, OverflowError) as e:  # OverflowError: a range of infinitely many values
                 raise SpecError(f"{where}.sweep.{path}", rng.model_dump(exclude_none=True), str(e)) from None
         try:
             parse_spec(_deep_merge(base_data, exp.overrides))
@@ -272,21 +272,19 @@ def parse_campaign(data: Any, *, max_runs: int | None = MAX_PLANNED_RUNS) -> Cam
 
 def load_campaign(path: str | Path, *, max_runs: int | None = MAX_PLANNED_RUNS) -> tuple[CampaignSpec, str]:
     """Read and validate a campaign YAML/JSON file; returns the spec and the text as given
-    (``max_runs``: see :func:`parse_campaign`)."""
+    (``max_runs``: see :func:`parse_campaign`).
+
+    The file goes through :mod:`navstress.specfile` (UTF-8 text, bounded size, nesting and
+    alias expansion)."""
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except OSError as err:
-        raise SpecError("campaign", str(p), "a readable YAML or JSON file", str(err.strerror)) from None
+    text = read_text(p, field="campaign")
     return parse_campaign_text(text, str(p), max_runs=max_runs), text
 
 
 def parse_campaign_text(text: str, name: str = "campaign", *,
                         max_runs: int | None = MAX_PLANNED_RUNS) -> CampaignSpec:
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as err:
-        raise SpecError("campaign", name, "valid YAML/JSON", str(err).splitlines()[0]) from None
+    """Parse and validate campaign YAML/JSON text (``name`` is what an error names)."""
+    data = parse_text(text, field="campaign", name=name)
     return parse_campaign(data if data is not None else {}, max_runs=max_runs)
 
 

@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import difflib
 import importlib
-import json
 import re
 import warnings
 from collections.abc import Callable, Mapping
@@ -220,40 +219,58 @@ def load_factory(spec: NavigatorSpec) -> NavigatorFactory:
     return obj  # type: ignore[no-any-return]
 
 
-def load_config(config: Mapping[str, Any] | str | Path | None) -> dict[str, Any]:
-    """A navigator configuration as a dict: a mapping, inline JSON ("{...}"), a path to a
-    JSON/YAML file, or None (empty)."""
+def load_config(config: Mapping[str, Any] | str | Path | None, *,
+                field: str = "navigator-config") -> dict[str, Any]:
+    """A navigator configuration as a dict, from a mapping, a path to a JSON/YAML file, inline
+    JSON or YAML text (``'{"command": ["node", "nav.js"]}'``, ``"max_speed: 1.0"``), or None (empty).
+
+    A string names a file when one exists at that path; otherwise it is parsed as inline text.
+    Files and text go through :mod:`navstress.specfile` (UTF-8, bounded size, nesting and alias
+    expansion). Errors are one-line SpecErrors naming ``field``.
+
+        >>> load_config('{"gain": 2}'), load_config("gain: 2"), load_config(None)
+        ({'gain': 2}, {'gain': 2}, {})
+    """
+    from navstress.specfile import load_file, parse_text
+
     if config is None:
         return {}
     if isinstance(config, Mapping):
         return dict(config)
     text_value = str(config)
-    if isinstance(config, str) and text_value.lstrip().startswith("{"):
-        try:
-            data: Any = json.loads(text_value)
-        except json.JSONDecodeError as e:
-            raise SpecError("navigator-config", text_value, "a JSON object or a file path",
-                            f"fix the JSON: {e.msg} at column {e.colno}") from None
+    expected = "a JSON/YAML file path or an inline JSON/YAML mapping"
+    path = Path(text_value) if "\n" not in text_value and text_value.strip() else None
+    try:
+        is_file = path is not None and path.is_file()
+        is_dir = path is not None and path.is_dir()
+    except (OSError, ValueError):  # e.g. a name too long for the file system, or a NUL byte
+        is_file = is_dir = False
+    if is_dir:
+        raise SpecError(field, text_value, expected, "this is a directory")
+    data: Any
+    if is_file:
+        assert path is not None
+        data = load_file(path, field=field)
+    elif isinstance(config, Path):
+        raise SpecError(field, text_value, expected, "no such file")
     else:
-        path = Path(config)
-        if not path.is_file():
-            raise SpecError("navigator-config", text_value, "a JSON/YAML file or inline JSON",
-                            "no such file")
-        text = path.read_text(encoding="utf-8")
-        try:
-            if path.suffix.lower() in (".yaml", ".yml"):
-                import yaml  # type: ignore[import-untyped,unused-ignore]
-
-                data = yaml.safe_load(text)
-            else:
-                data = json.loads(text)
-        except Exception as e:
-            raise SpecError("navigator-config", text_value, "a valid JSON or YAML file",
-                            f"{type(e).__name__}: {e}") from None
-        if data is None:
-            data = {}
+        inline = text_value.strip()
+        if inline.startswith(("{", "[")):
+            try:
+                data = parse_text(inline, field=field, fmt="json")
+            except SpecError as json_err:
+                if '"' in inline:  # meant as JSON: say what is wrong with it
+                    raise SpecError(field, text_value, "an inline JSON mapping or a file path",
+                                    f"fix the JSON: {json_err.fix}") from None
+                data = parse_text(inline, field=field)  # YAML flow style, e.g. {gain: 2}
+        else:
+            data = parse_text(inline, field=field)
+            if isinstance(data, str) or (data is None and inline):
+                raise SpecError(field, text_value, expected, "no such file (and not an inline mapping)")
+    if data is None:
+        data = {}
     if not isinstance(data, dict):
-        raise SpecError("navigator-config", text_value, "a mapping of option names to values",
+        raise SpecError(field, text_value, "a mapping of option names to values",
                         f"got a {type(data).__name__}")
     return data
 

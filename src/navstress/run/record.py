@@ -2,6 +2,14 @@
 
 A RunTask is plain data (picklable, JSON-able): it travels to worker processes and Ray
 workers, and it holds every seed, so any run can be replayed exactly from its record.
+
+Messages are bounded where a record is made: ``reason`` and each of ``errors`` keep at most
+:data:`MAX_MESSAGE_CHARS` characters (head and tail, the cut said in the middle) and ``errors``
+keeps at most :data:`MAX_ERRORS` items, so a navigator's 20 MB message cannot swell the store,
+the exports or the report.
+
+    >>> cap_message("x" * 10 + "y" * 5000 + "z" * 10, 60)
+    'xxxxxxxxxxyyyyyy...[4,988 characters cut]...yyyyyyzzzzzzzzzz'
 """
 
 from __future__ import annotations
@@ -41,6 +49,38 @@ class RunTask:
         return cls(**json.loads(text))
 
 
+#: Most characters kept of one message (a record's reason, each error, each trace event).
+MAX_MESSAGE_CHARS = 2000
+#: Most error messages a record keeps (the first and the last ones, the cut said between them).
+MAX_ERRORS = 20
+
+
+def _cut_marker(n: int) -> str:
+    return f"...[{n:,} characters cut]..."
+
+
+def cap_message(text: str, limit: int = MAX_MESSAGE_CHARS) -> str:
+    """``text`` if it has at most ``limit`` characters, else its head and tail around a marker
+    saying how many characters were cut; the result never exceeds ``limit`` (``limit`` >= 40)."""
+    if len(text) <= limit:
+        return text
+    keep = max(limit - len(_cut_marker(len(text))), 0)
+    marker = _cut_marker(len(text) - keep)
+    tail = keep // 2
+    return text[:keep - tail] + marker + (text[len(text) - tail:] if tail else "")
+
+
+def cap_errors(errors: list[str], limit: int = MAX_ERRORS, chars: int = MAX_MESSAGE_CHARS) -> list[str]:
+    """At most ``limit`` messages, each capped: the first and last ones, and between them one
+    entry saying how many were cut."""
+    out = [cap_message(str(e), chars) for e in errors]
+    if len(out) <= limit:
+        return out
+    head = (limit - 1) - (limit - 1) // 2
+    tail = (limit - 1) // 2
+    return out[:head] + [f"...[{len(out) - head - tail:,} errors cut]..."] + (out[len(out) - tail:] if tail else [])
+
+
 @dataclass(frozen=True)
 class RunRecord:
     """The classified result of one run (one row of the campaign's ``runs`` table)."""
@@ -65,6 +105,10 @@ class RunRecord:
     first_collision_s: float | None
     errors: list[str]
     trace: str | None  # path of the MCAP trace relative to the campaign dir (or absolute), None if none
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "reason", cap_message(str(self.reason)))
+        object.__setattr__(self, "errors", cap_errors(list(self.errors)))
 
     def to_row(self) -> dict[str, Any]:
         row = asdict(self)

@@ -109,7 +109,9 @@ class TraceWriter:
             self.pose(topic, *(float(v) for v in r))
 
     def event(self, t: float, level: str, message: str, name: str = "navstress") -> None:
-        msg = Log(timestamp=_stamp(t), level=LEVELS[level], message=message, name=name)  # type: ignore[arg-type]
+        from navstress.run.record import cap_message  # bounded like the record's messages
+
+        msg = Log(timestamp=_stamp(t), level=LEVELS[level], message=cap_message(message), name=name)  # type: ignore[arg-type]
         self._w.write_message(TOPIC_EVENTS, msg, log_time=_ns(t), publish_time=_ns(t))
 
     def grid(self, topic: str, t: float, values: np.ndarray, origin_xy: tuple[float, float], cell_m: float,

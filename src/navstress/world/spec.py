@@ -13,12 +13,11 @@ Load from a file with :func:`load_spec` (YAML or JSON). Invalid input raises
 
 from __future__ import annotations
 
-import json
 import math
+import os
 from pathlib import Path
 from typing import Any, Literal
 
-import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from navstress.errors import SpecError
@@ -186,6 +185,51 @@ class WorldSpec(BaseModel):
         """(rows, cols) of the height grid: rows along y, cols along x, vertices at cell corners."""
         return (round(self.size_m[1] / self.cell_m) + 1, round(self.size_m[0] / self.cell_m) + 1)
 
+    @property
+    def memory_estimate_bytes(self) -> int:
+        """Peak memory that generating, saving, previewing and simulating a world of this spec
+        needs, estimated from its grid: :data:`BYTES_PER_VERTEX` per terrain grid vertex (the
+        height grid and every array sized by it: generation fields, pads, descriptors, the
+        preview, the simulator's heightfield and lidar height pyramids) plus a fixed base."""
+        rows, cols = self.grid_shape
+        return rows * cols * BYTES_PER_VERTEX + BASE_BYTES
+
+
+#: Measured peak bytes per terrain grid vertex of generate + save + preview + simulation, with a margin.
+BYTES_PER_VERTEX = 200
+#: Memory of a world that does not scale with its grid (interpreter, MuJoCo, obstacles).
+BASE_BYTES = 256 << 20
+#: Default largest memory estimate a WorldSpec may have (GiB); override with NAVSTRESS_MAX_WORLD_GIB.
+DEFAULT_MAX_WORLD_GIB = 8.0
+MAX_WORLD_GIB_ENV = "NAVSTRESS_MAX_WORLD_GIB"
+
+
+def max_world_bytes() -> int:
+    """The memory limit of one world: ``NAVSTRESS_MAX_WORLD_GIB`` GiB, default 8."""
+    raw = os.environ.get(MAX_WORLD_GIB_ENV)
+    if raw is None or not raw.strip():
+        return int(DEFAULT_MAX_WORLD_GIB * (1 << 30))
+    try:
+        gib = float(raw)
+    except ValueError:
+        gib = math.nan
+    if not (gib > 0) or math.isinf(gib):
+        raise SpecError(MAX_WORLD_GIB_ENV, raw, "a number of GiB > 0", f"unset it for the default {DEFAULT_MAX_WORLD_GIB:g}")
+    return int(gib * (1 << 30))
+
+
+def check_memory(spec: WorldSpec) -> WorldSpec:
+    """Refuse (SpecError) a spec whose world would need more than :func:`max_world_bytes`."""
+    need, limit = spec.memory_estimate_bytes, max_world_bytes()
+    if need > limit:
+        rows, cols = spec.grid_shape
+        sx, sy = spec.size_m
+        raise SpecError("size_m", f"{sx:g}x{sy:g} m at cell_m={spec.cell_m:g}",
+                        f"a world needing at most {limit / (1 << 30):.3g} GiB of memory (this grid of "
+                        f"{cols}x{rows} vertices needs about {need / (1 << 30):.3g} GiB)",
+                        f"use a larger cell_m or a smaller map, or raise {MAX_WORLD_GIB_ENV}")
+    return spec
+
 
 def _pydantic_to_spec_error(err: ValidationError, prefix: str = "") -> SpecError:
     e = err.errors(include_url=False)[0]
@@ -229,9 +273,10 @@ _EXPECTED = {
 
 
 def parse_spec(data: dict[str, Any]) -> WorldSpec:
-    """Validate a mapping into a WorldSpec, raising :class:`SpecError` on bad input."""
+    """Validate a mapping into a WorldSpec, raising :class:`SpecError` on bad input (including a
+    world too large for memory, see :func:`check_memory`)."""
     try:
-        return WorldSpec.model_validate(data)
+        return check_memory(WorldSpec.model_validate(data))
     except SpecError:
         raise
     except ValidationError as err:
@@ -239,16 +284,12 @@ def parse_spec(data: dict[str, Any]) -> WorldSpec:
 
 
 def load_spec(path: str | Path) -> WorldSpec:
-    """Read a WorldSpec from a YAML or JSON file."""
+    """Read a WorldSpec from a YAML or JSON file (through :mod:`navstress.specfile`: bounded size,
+    nesting and alias expansion; UTF-8 text only)."""
+    from navstress.specfile import load_file
+
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except OSError as err:
-        raise SpecError("spec", str(p), "a readable YAML or JSON file", str(err.strerror)) from None
-    try:
-        data = json.loads(text) if p.suffix == ".json" else yaml.safe_load(text)
-    except (json.JSONDecodeError, yaml.YAMLError) as err:
-        raise SpecError("spec", str(p), "valid YAML/JSON", str(err).splitlines()[0]) from None
+    data = load_file(p, field="spec")
     if data is None:
         data = {}
     if not isinstance(data, dict):

@@ -19,6 +19,7 @@ import math
 import os
 import shutil
 import tempfile
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -222,7 +223,8 @@ class World:
             return cls(spec=spec, seed=int(meta["seed"]), terrain=Terrain(heights, cell),
                        obstacles=tuple(Obstacle.from_json(o) for o in meta["obstacles"]),
                        mission=Mission.from_json(meta["mission"]), descriptors=dict(meta.get("descriptors", {})))
-        except (KeyError, ValueError, TypeError, OSError, ValidationError) as err:
+        except (KeyError, ValueError, TypeError, OSError, ValidationError, RecursionError, EOFError,
+                zipfile.BadZipFile) as err:
             raise WorldFileError(f"world={str(d)!r} is corrupt: {type(err).__name__}: {err}".splitlines()[0]) from None
 
 
