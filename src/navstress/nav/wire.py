@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import base64
 import json
-import math
 from typing import Any
 
 import numpy as np
@@ -36,12 +35,14 @@ import numpy as np
 from navstress.nav.api import (
     Command,
     Imu,
+    InvalidAnswer,
     LidarScan,
     NavMission,
     Observation,
     Odometry,
     PoseReading,
     Status,
+    check_answer,
 )
 from navstress.robot import RobotSpec
 
@@ -218,27 +219,20 @@ def encode_command_or_status(out: Command | Status) -> dict[str, Any]:
     return {"type": "status", "kind": out.kind, "message": out.message}
 
 
-def _finite(msg: dict[str, Any], key: str) -> float:
-    v = msg.get(key)
-    if isinstance(v, bool) or not isinstance(v, (int, float)):
-        raise WireError(f"field {key!r} must be a number, got {v!r}")
-    f = float(v)
-    if not math.isfinite(f):
-        raise WireError(f"field {key!r} must be finite, got {v!r}")
-    return f
-
-
 def decode_command_or_status(msg: dict[str, Any]) -> Command | Status:
-    """A navigator's answer to ``step``; :class:`WireError` for anything else."""
+    """A navigator's answer to ``step``; :class:`WireError` for anything else.
+
+    The decoded answer goes through :func:`navstress.nav.api.check_answer`, the validation
+    the run loop applies to in-process navigators: one bad answer gets the same reason
+    whichever way it came."""
     kind = msg.get("type")
     if kind == "command":
-        return Command(_finite(msg, "v"), _finite(msg, "omega"))
-    if kind == "status":
-        sk = msg.get("kind")
-        if sk not in ("arrived", "error"):
-            raise WireError(f"status kind must be 'arrived' or 'error', got {sk!r}")
-        message = msg.get("message", "")
-        if not isinstance(message, str):
-            raise WireError(f"status message must be a string, got {message!r}")
-        return Status(sk, message)
-    raise WireError(f"expected a 'command' or 'status' message, got type {kind!r}")
+        answer: Command | Status = Command(msg.get("v"), msg.get("omega"))  # type: ignore[arg-type]
+    elif kind == "status":
+        answer = Status(msg.get("kind"), msg.get("message", ""))  # type: ignore[arg-type]
+    else:
+        raise WireError(f"expected a 'command' or 'status' message, got type {kind!r}")
+    try:
+        return check_answer(answer)
+    except InvalidAnswer as e:
+        raise WireError(str(e)) from None

@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from navstress.nav.api import Command, NavMission, Navigator, Status
+from navstress.nav.api import InvalidAnswer, NavMission, Navigator, Status, check_answer, raised_by_navigator
 from navstress.robot import RobotSpec
 from navstress.run.metrics import drop_jitter, path_length, tortuousness
 from navstress.run.outcome import Classification, RunFacts, classify
@@ -124,7 +124,9 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
         jitter = rng(run_seed, "loop", "control")
         try:
             navigator.reset(mission, robot, seed=derive_seed(run_seed, "navigator"))
-        except Exception as err:  # the stack under test failed; record, don't crash
+        except BaseException as err:  # the stack under test failed (sys.exit included); record, don't crash
+            if not raised_by_navigator(err):
+                raise
             error, nav_failure = f"navigator reset raised {type(err).__name__}: {err}", True
         next_cloud_t = 0.0
         while error is None:
@@ -135,8 +137,14 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
                         clouds.append((scan.t, np.array(scan.points, dtype=np.float32), scan.mount))
                         next_cloud_t = scan.t + LIDAR_TRACE_PERIOD_S
             try:
-                out = navigator.step(obs)
-            except Exception as err:
+                out = check_answer(navigator.step(obs))
+            except InvalidAnswer as err:
+                error, nav_failure = f"navigator returned an invalid answer: {err}", True
+                events.append((sim.t, "error", error))
+                break
+            except BaseException as err:
+                if not raised_by_navigator(err):
+                    raise
                 error, nav_failure = f"navigator raised {type(err).__name__}: {err}", True
                 events.append((sim.t, "error", error))
                 break
@@ -147,10 +155,6 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
                 else:
                     error, nav_failure = out.message or "navigator reported an error", out.infrastructure
                     events.append((sim.t, "error", f"navigator: {error}"))
-                break
-            if not isinstance(out, Command):
-                error, nav_failure = f"navigator returned {type(out).__name__}, not Command or Status", True
-                events.append((sim.t, "error", error))
                 break
             try:
                 sim.command(out)
@@ -176,7 +180,9 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
     finally:
         try:
             navigator.close()
-        except Exception as err:  # close must not lose the run
+        except BaseException as err:  # close must not lose the run
+            if not raised_by_navigator(err):
+                raise
             events.append((sim.t if sim is not None else 0.0, "warning", f"navigator close raised {err!r}"))
 
     if sim is None:  # the world could not be simulated at all
@@ -212,11 +218,15 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
     final_map = _attr_through_wrappers(navigator, "final_map")
     try:
         perceived_arr = np.asarray(perceived(), dtype=np.float64).reshape(-1, 7) if callable(perceived) else None
-    except Exception:
+    except BaseException as err:
+        if not raised_by_navigator(err):
+            raise
         perceived_arr = None
     try:
         fmap = final_map() if callable(final_map) else None
-    except Exception:
+    except BaseException as err:
+        if not raised_by_navigator(err):
+            raise
         fmap = None
     xy = drop_jitter(truth[:, 1:3], 0.02) if len(truth) else np.zeros((0, 2))
     result = RunResult(classification=cls, facts=facts, duration_s=duration, wall_s=time.perf_counter() - wall0,
