@@ -38,6 +38,10 @@ class NavMission:
     start: tuple[float, float, float]  # x, y, yaw as given to the robot's operator
     goal: tuple[float, float]
     goal_tolerance_m: float = 2.0
+    #: The mission area, a geofence the robot's centre must stay inside: ``(xmin, ymin, xmax,
+    #: ymax)`` in the map frame; None when no area is given. Leaving it ends the run as the
+    #: stack's own failure (Fail-Error, "left the mission area").
+    bounds: tuple[float, float, float, float] | None = None
 
 
 @dataclass(frozen=True, eq=False)

@@ -9,7 +9,8 @@ host -> navigator                                      navigator -> host
 ====================================================  =====================================================
 ``{"type":"hello","protocol":1}``                      ``{"type":"hello","protocol":1,"name":"..."}``
 ``{"type":"reset","mission":{..},"robot":{..},         ``{"type":"ok"}``  (or a ``status`` error)
-"seed":N}``
+"seed":N}`` (mission: start, goal, goal_tolerance_m,
+bounds: the geofence [xmin, ymin, xmax, ymax] or null)
 ``{"type":"step","obs":{..}}``                         ``{"type":"command","v":..,"omega":..}`` or
                                                        ``{"type":"status","kind":"arrived"|"error",
                                                        "message":".."}``
@@ -133,6 +134,7 @@ def encode_mission(mission: NavMission) -> dict[str, Any]:
         "start": [float(v) for v in mission.start],
         "goal": [float(v) for v in mission.goal],
         "goal_tolerance_m": float(mission.goal_tolerance_m),
+        "bounds": None if mission.bounds is None else [float(v) for v in mission.bounds],
     }
 
 
@@ -140,7 +142,12 @@ def decode_mission(d: dict[str, Any]) -> NavMission:
     try:
         sx, sy, syaw = (float(v) for v in d["start"])
         gx, gy = (float(v) for v in d["goal"])
-        return NavMission((sx, sy, syaw), (gx, gy), float(d.get("goal_tolerance_m", 2.0)))
+        b = d.get("bounds")
+        bounds = None
+        if b is not None:
+            x0, y0, x1, y1 = (float(v) for v in b)
+            bounds = (x0, y0, x1, y1)
+        return NavMission((sx, sy, syaw), (gx, gy), float(d.get("goal_tolerance_m", 2.0)), bounds)
     except (KeyError, TypeError, ValueError) as e:
         raise WireError(f"invalid mission {d!r}: {e}") from None
 
