@@ -271,3 +271,37 @@ def test_chatty_stderr_costs_little_and_keeps_a_bounded_tail(no_leftover_process
         assert r.classification.outcome.value == "fail-timeout", r.classification.reason  # drove, never arrived
     # generous (a loaded machine), and with a floor: a quiet run may take only a tenth of a second
     assert results["chatty"][1] < 5.0 * max(results["quiet"][1], 0.2), results
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="PR_SET_PDEATHSIG is Linux's")
+@pytest.mark.parametrize(("mode", "dies"), [("setsid-child", False), ("setsid-child-pdeathsig", True)])
+def test_what_a_group_kill_reaches_as_documented(mode: str, dies: bool, tmp_path: Path,
+                                                no_leftover_process: list[int]) -> None:
+    """docs/plugins.md: a helper that leaves the process group (setsid) survives the run unless it
+    uses PR_SET_PDEATHSIG, as recommended."""
+    import os
+    import signal
+
+    pid_file = tmp_path / "helper.pid"
+    nav = ExternalNavigator([sys.executable, str(MISBEHAVING), mode], step_budget_s=1.0,
+                            env={"HELPER_PID_FILE": str(pid_file)})
+    out, _ = run_one_step(nav, no_leftover_process)
+    nav.close()
+    assert isinstance(out, Status) and "no answer within" in out.message
+    pid = int(pid_file.read_text())
+    try:
+        deadline = time.monotonic() + 3.0
+        while _alive(pid) and time.monotonic() < deadline:
+            time.sleep(0.02)
+        assert _alive(pid) is not dies
+    finally:
+        if _alive(pid):
+            os.kill(pid, signal.SIGKILL)  # the escaped helper this test started
