@@ -448,7 +448,10 @@ def serve(navigator: Navigator, inp: IO[bytes], out: IO[bytes], *, name: str = "
     """Serve an in-process navigator over the line protocol until ``close`` or end of input.
 
     Anything the navigator prints on stdout is moved to stderr (stdout carries the protocol).
-    An exception in ``reset``/``step`` is answered as ``status`` error with its message.
+    An exception in ``reset`` is answered as a refused reset (``status`` error with its message).
+    An exception in ``step`` is not turned into the navigator's own ``status`` error (that would
+    be Fail-Error, while the same navigator raising in-process is Fail-Other): it ends the
+    process, its traceback on stderr, and the host classifies the run as a crashed navigator.
     """
 
     def send(msg: dict[str, Any]) -> None:
@@ -472,14 +475,10 @@ def serve(navigator: Navigator, inp: IO[bytes], out: IO[bytes], *, name: str = "
                     send({"type": "status", "kind": "error",
                           "message": f"reset raised {type(e).__name__}: {e}"})
             elif kind == "step":
-                try:
-                    obs = wire.decode_observation(msg["obs"])
-                    with contextlib.redirect_stdout(sys.stderr):
-                        answer = navigator.step(obs)
-                    send(wire.encode_command_or_status(answer))
-                except Exception as e:
-                    send({"type": "status", "kind": "error",
-                          "message": f"step raised {type(e).__name__}: {e}"})
+                obs = wire.decode_observation(msg["obs"])
+                with contextlib.redirect_stdout(sys.stderr):
+                    answer = navigator.step(obs)  # an exception ends the process (docstring)
+                send(wire.encode_command_or_status(answer))
             elif kind == "close":
                 break
             else:

@@ -13,6 +13,7 @@ WHERE: ``init``, ``reset``, ``step`` (or ``close``). MODE:
   loop               an infinite loop (never answers)
   keyboardinterrupt, systemexit, generatorexit   raise that BaseException subclass
   garbage            step returns a string (step only)
+  raise              an ordinary exception (ZeroDivisionError)
 """
 
 from __future__ import annotations
@@ -50,6 +51,8 @@ def attack(mode: str) -> Any:
         raise GeneratorExit
     if mode == "garbage":
         return "full speed ahead"
+    if mode == "raise":
+        raise ZeroDivisionError("planner bug")
     raise ValueError(f"unknown mode {mode!r}")
 
 

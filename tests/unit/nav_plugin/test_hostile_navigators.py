@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -46,8 +47,15 @@ OUT_REASON = {"exit0": "exited with code 0", "exit3": "exited with code 3", "os_
 
 @pytest.fixture(scope="module")
 def world_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The world, after one short mission in this process: the compiled kernels are then in the
+    on-disk cache, so that the workers' wall-clock limits measure runs, not a cold compilation."""
+    from navstress.nav.registry import make_navigator
+    from navstress.run.mission import run_mission
+
     d = tmp_path_factory.mktemp("hostile") / "w"
-    small_world(5, bumpy=False).save(d)
+    w = small_world(5, bumpy=False)
+    w.save(d)
+    run_mission(w, make_navigator("reference-v1"), run_seed=0, timeout_s=0.5)
     return d
 
 
@@ -59,7 +67,12 @@ def hostile_registered() -> object:
 
 
 def external_config(mode: str, where: str) -> dict[str, object]:
-    return {"command": [sys.executable, str(HOSTILE), mode, where], "step_budget_s": 1.0, "reset_budget_s": 2.0}
+    """Short budgets where the navigator hangs (any budget classifies it the same), generous ones
+    elsewhere (a loaded machine may take seconds to start a Python process)."""
+    hang = mode == "loop"
+    return {"command": [sys.executable, str(HOSTILE), mode, where], "step_budget_s": 1.0 if hang else 30.0,
+            "reset_budget_s": 2.0 if hang else 60.0,
+            "env": {"NUMBA_CACHE_DIR": str(Path(tempfile.gettempdir()) / "navstress-test-numba")}}
 
 
 def batch(world_dir: Path, out: Path, navigator: str, cases: list[tuple[str, str]], configure: object,
@@ -139,8 +152,7 @@ def navstress(*args: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run([sys.executable, "-c", CLI, *args], capture_output=True, text=True, timeout=300, env=env)
 
 
-@pytest.mark.parametrize(("mode", "where"), [("exit0", "step"), ("segv", "step"), ("loop", "step"),
-                                             ("os_exit0", "init")])
+@pytest.mark.parametrize(("mode", "where"), [("exit0", "step"), ("segv", "step"), ("loop", "step")])
 def test_cli_run_survives_and_records(mode: str, where: str, world_dir: Path, tmp_path: Path) -> None:
     out = tmp_path / "out"
     limit = HANG_LIMIT_S if mode == "loop" else WALL_LIMIT_S
@@ -154,7 +166,7 @@ def test_cli_run_survives_and_records(mode: str, where: str, world_dir: Path, tm
     assert not list(out.glob(".*.partial"))
 
 
-@pytest.mark.parametrize(("mode", "where"), [("exit0", "step"), ("segv", "step"), ("loop", "step")])
+@pytest.mark.parametrize(("mode", "where"), [("exit0", "step"), ("loop", "step")])
 def test_cli_nav_check_exits_1_naming_the_failure(mode: str, where: str, tmp_path: Path) -> None:
     limit = HANG_LIMIT_S if mode == "loop" else WALL_LIMIT_S
     r = navstress("nav", "check", "hostile-v1", "--wall-limit", str(limit), "--navigator-config",
@@ -167,3 +179,23 @@ def _config_file(tmp_path: Path, cfg: dict[str, str]) -> Path:
     p = tmp_path / "nav.json"
     p.write_text(json.dumps(cfg))
     return p
+
+
+@pytest.mark.parametrize("mode", ["raise", "garbage"])
+def test_served_navigator_raising_in_step_is_classified_as_in_process(mode: str, world_dir: Path) -> None:
+    """`serve` (python -m navstress.nav.external) does not turn an exception into the stack's own
+    Fail-Error: the same navigator gives the same class in process and out of process."""
+    from hostile_nav import Hostile
+    from navstress.nav.external import ExternalNavigator
+    from navstress.run.mission import run_mission
+    from navstress.world.world import World
+
+    w = World.load(world_dir)
+    local = run_mission(w, Hostile({"mode": mode, "where": "step"}), run_seed=1, timeout_s=2.0).classification
+    with ExternalNavigator([sys.executable, str(HOSTILE), mode, "step"], step_budget_s=30.0,
+                           reset_budget_s=60.0) as nav:
+        remote = run_mission(w, nav, run_seed=1, timeout_s=2.0).classification
+    assert local.outcome == remote.outcome
+    assert local.outcome.value == "fail-other"
+    if mode == "raise":
+        assert "ZeroDivisionError: planner bug" in local.reason and "ZeroDivisionError: planner bug" in remote.reason
