@@ -1,10 +1,26 @@
-"""navstress: stress-test robot navigation software in generated virtual worlds."""
+"""navstress: stress-test robot navigation software in generated virtual worlds.
+
+The public facade, imported on first use (``import navstress`` stays cheap):
+``navstress.run_mission(world, navigator, seed=...)`` runs one mission in this process, to
+debug a navigator (see ``docs/plugins.md``).
+"""
 
 import hashlib
 import os
 from pathlib import Path
+from typing import Any
 
 __version__ = "0.1.0"
+__all__ = ["__version__", "cache_dir", "run_mission"]
+
+
+def __getattr__(name: str) -> Any:
+    """The lazily imported part of the facade."""
+    if name == "run_mission":
+        from navstress._facade import run_mission
+
+        return run_mission
+    raise AttributeError(f"module 'navstress' has no attribute {name!r}")
 
 
 def cache_dir() -> Path:

@@ -648,6 +648,9 @@ def run_cmd(
     goal_tolerance: Annotated[str, typer.Option(metavar="M", help="Success radius around the goal in meters, > 0. Default 2.")] = "2",
     lidar: Annotated[bool, typer.Option("--lidar", help=(
         "Also record lidar point clouds in the traces (one full scan per simulated second, map frame).")) ] = False,
+    wall_limit: Annotated[str | None, typer.Option(metavar="S", help=(
+        "Wall-clock limit of one run in real seconds, > 0 (a navigator that hangs is killed and its run "
+        "recorded as Fail-Other). Default: timeout * 2 + 120.")) ] = None,
 ) -> None:
     """Run the navigator on a world's mission, classify each run, write traces and a picture."""
     from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
@@ -663,9 +666,18 @@ def run_cmd(
     tol = _number("--goal-tolerance", goal_tolerance, "a distance in meters > 0")
     if tol <= 0:
         raise SpecError("--goal-tolerance", goal_tolerance, "a distance in meters > 0")
-    World.load(world_dir)  # a clear error for a non-world, before anything is written
+    wall_v = None
+    if wall_limit is not None:
+        wall_v = _number("--wall-limit", wall_limit, "a duration in seconds > 0")
+        if not wall_v > 0:
+            raise SpecError("--wall-limit", wall_limit, "a duration in seconds > 0")
+    from navstress.run.batch import check_buildable, default_wall_limit_s
+
+    world_seed = World.load(world_dir).seed  # a clear error for a non-world, before anything is written
     cfg = _navigator_config(navigator_config)
-    _check_navigator(navigator, fault, cfg)
+    # built in a worker process: a navigator that exits, crashes or hangs there is the runs' to classify
+    check_buildable(_check_navigator, navigator, fault, cfg,
+                    wall_limit_s=wall_v if wall_v is not None else default_wall_limit_s(timeout_v))
     if output.exists() and (not output.is_dir() or any(output.iterdir())):
         raise WorldFileError(f"--output={str(output)!r} is invalid: expected a new or empty folder; "
                              "choose another path or remove it")
@@ -674,7 +686,8 @@ def run_cmd(
     counts: dict[str, int] = {}
     try:
         tasks = plan_batch(world_dir, output, navigator=navigator, navigator_config=cfg, fault=fault, runs=n,
-                           seed=seed_v, timeout_s=timeout_v, goal_tolerance_m=tol, record_lidar=lidar)
+                           seed=seed_v, timeout_s=timeout_v, goal_tolerance_m=tol, record_lidar=lidar,
+                           map_seed=world_seed)
         with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
                       TimeRemainingColumn(), TextColumn("{task.fields[counts]}"), console=con) as prog:
             bar = prog.add_task("runs", total=n, counts="")
@@ -683,7 +696,7 @@ def run_cmd(
                 counts[rec.outcome] = counts.get(rec.outcome, 0) + 1
                 prog.update(bar, advance=1, counts="  ".join(f"{k}={v}" for k, v in sorted(counts.items())))
 
-            records = run_batch(tasks, output, done)
+            records = run_batch(tasks, output, done, wall_limit_s=wall_v)
     except BaseException:
         if created and not counts:  # nothing recorded: leave nothing behind
             shutil.rmtree(output, ignore_errors=True)
@@ -733,18 +746,24 @@ def nav_faults() -> None:
 def nav_check(
     name: Annotated[str, typer.Argument(metavar="NAME", help="Registered navigator name, e.g. reference-v1.")],
     navigator_config: Annotated[str | None, typer.Option(metavar="FILE|TEXT", help=_NAV_CONFIG_HELP)] = None,
+    wall_limit: Annotated[str, typer.Option(metavar="S", help=(
+        "Wall-clock limit of each check in real seconds, > 0: a navigator that hangs fails the check "
+        "it hangs in. Default 300.")) ] = "300",
 ) -> None:
-    """Run the conformance checks on a navigator; exit 1 if any check fails."""
+    """Run the conformance checks on a navigator (in a worker process); exit 1 if any check fails."""
     import warnings
 
-    from navstress.nav.check import check_navigator, format_report
+    from navstress.nav.check import check_in_worker, format_report
     from navstress.nav.registry import validate_config
 
+    wall_v = _number("--wall-limit", wall_limit, "a duration in seconds > 0")
+    if not wall_v > 0:
+        raise SpecError("--wall-limit", wall_limit, "a duration in seconds > 0")
     cfg = _navigator_config(navigator_config)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         validate_config(name, cfg)  # the same up-front check as `campaign run` (one line, exit 2)
-    report = check_navigator(name, cfg or None)
+    report = check_in_worker(name, cfg or None, wall_limit_s=wall_v)
     _console().print(format_report(report))
     if not report.passed:
         raise typer.Exit(1)

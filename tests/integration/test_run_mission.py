@@ -146,3 +146,70 @@ def test_timeouts_off_the_physics_grid_end(timeout: float) -> None:
 class Idle(Raises):
     def step(self, obs: Observation) -> Command | Status:
         return Command(0.0, 0.0)
+
+
+# ---- the mission area (geofence)
+
+class Straight:
+    """Drives straight ahead at 1 m/s whatever it sees, and keeps the mission it was given."""
+
+    def reset(self, mission: NavMission, robot: RobotSpec, *, seed: int) -> None:
+        self.mission = mission
+
+    def step(self, obs: Observation) -> Command | Status:
+        return Command(1.0, 0.0)
+
+    def close(self) -> None:
+        pass
+
+
+@pytest.mark.parametrize("yaw", [0.0, np.pi / 2, np.pi, -np.pi / 2])
+def test_driving_off_the_map_is_the_stacks_own_failure(yaw: float) -> None:
+    """Straight off each edge: Fail-Error 'left the mission area', not the infrastructure's Fail-Other."""
+    from navstress.world import Mission
+
+    w = World.flat(WorldSpec(size_m=(12.0, 12.0)), mission=Mission((6.0, 6.0, yaw), (6.0, 6.0), 1.0))
+    nav = Straight()
+    r = run_mission(w, nav, run_seed=1, timeout_s=30.0)
+    assert r.classification.outcome.value == "fail-error", r.classification.reason
+    assert r.classification.reason.startswith("left the mission area (geofence) at t=")
+    x0, y0, x1, y1 = nav.mission.bounds  # type: ignore[misc]
+    assert (x0, y0, x1, y1) == pytest.approx((0.7, 0.7, 11.3, 11.3))
+    x, y = r.truth[-1, 1:3]
+    assert not (x0 < x < x1 and y0 < y < y1)  # it did leave, and the run stopped right there
+    assert 4.0 < r.duration_s < 8.0
+
+
+def test_bounds_reach_in_process_and_external_navigators() -> None:
+    import json
+    import sys
+
+    from navstress.nav.external import ExternalNavigator
+    from navstress.run.mission import mission_bounds
+    from navstress.sim.config import SimConfig
+
+    w = wall_world()
+    cfg = SimConfig(map_margin_m=1.5)
+    expected = mission_bounds(w, cfg)
+    assert expected == (1.5, 1.5, 28.5, 28.5)
+    local = Straight()
+    run_mission(w, local, run_seed=1, timeout_s=1.0, sim_config=cfg)
+    assert local.mission.bounds == expected
+    script = Path(__file__).resolve().parents[1] / "unit" / "nav_plugin" / "mission_nav.py"
+    with ExternalNavigator([sys.executable, str(script)], step_budget_s=10.0) as remote:
+        r = run_mission(w, remote, run_seed=1, timeout_s=1.0, sim_config=cfg)
+    sent = json.loads(r.facts.error)  # type: ignore[arg-type]
+    assert tuple(sent["bounds"]) == expected
+    assert tuple(sent["goal"]) == w.mission.goal
+
+
+def test_reference_near_the_edge_stays_inside() -> None:
+    """The goal lies beyond the map's edge: reference-v1 approaches it along the edge but keeps
+    inside its geofence (it used to drive off the map)."""
+    from navstress.world import Mission
+
+    w = World.flat(WorldSpec(size_m=(24.0, 12.0)), mission=Mission((3.0, 2.5, 0.0), (18.0, -0.5), 2.0))
+    r = run_mission(w, make_navigator("reference-v1"), run_seed=3, timeout_s=30.0)
+    assert "mission area" not in r.classification.reason, r.classification.reason
+    assert r.truth[:, 2].min() > 0.7
+    assert r.truth[-1, 1] > 12.0  # it did make its way toward the goal

@@ -17,6 +17,7 @@ This module imports nothing from ``navstress.sim`` or ``navstress.world``.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Literal, Protocol, runtime_checkable
 
@@ -25,8 +26,8 @@ import numpy as np
 from navstress.robot import RobotSpec
 
 __all__ = [
-    "Command", "Imu", "LidarScan", "NavMission", "Navigator", "Observation", "Odometry",
-    "PoseReading", "Status",
+    "Command", "Imu", "InvalidAnswer", "LidarScan", "NavMission", "Navigator", "Observation",
+    "Odometry", "PoseReading", "Status", "check_answer", "raised_by_navigator",
 ]
 
 
@@ -37,6 +38,10 @@ class NavMission:
     start: tuple[float, float, float]  # x, y, yaw as given to the robot's operator
     goal: tuple[float, float]
     goal_tolerance_m: float = 2.0
+    #: The mission area, a geofence the robot's centre must stay inside: ``(xmin, ymin, xmax,
+    #: ymax)`` in the map frame; None when no area is given. Leaving it ends the run as the
+    #: stack's own failure (Fail-Error, "left the mission area").
+    bounds: tuple[float, float, float, float] | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -135,3 +140,62 @@ class Navigator(Protocol):
     def step(self, obs: Observation) -> Command | Status: ...
 
     def close(self) -> None: ...
+
+
+STATUS_KINDS = ("arrived", "error")
+
+
+class InvalidAnswer(ValueError):
+    """A navigator's answer to ``step`` that is not a valid Command or Status (says why)."""
+
+
+def _real(obj: str, name: str, value: object) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
+        raise InvalidAnswer(f"{obj}.{name}={value!r:.80} is a {type(value).__name__}, not a number")
+    f = float(value)
+    if not math.isfinite(f):
+        raise InvalidAnswer(f"{obj}.{name}={value!r} is not finite")
+    return f
+
+
+def check_answer(out: object) -> Command | Status:
+    """``out`` checked as an answer to ``step``: a Command with finite numbers, or a Status
+    whose ``kind`` is ``"arrived"`` or ``"error"`` and whose ``message`` is a string.
+
+    The one validation of answers: the run loop applies it to in-process navigators, the line
+    protocol to decoded replies, the conformance checker to both, so that one bad answer gets
+    the same classification and reason whichever way it came. :class:`InvalidAnswer` says
+    what is wrong.
+
+        >>> check_answer(Status("exploded"))  # doctest: +ELLIPSIS
+        Traceback (most recent call last):
+        navstress.nav.api.InvalidAnswer: Status.kind='exploded' is not 'arrived' or 'error'
+    """
+    if isinstance(out, Command):
+        return Command(_real("Command", "v", out.v), _real("Command", "omega", out.omega))
+    if isinstance(out, Status):
+        if not isinstance(out.kind, str) or out.kind not in STATUS_KINDS:
+            raise InvalidAnswer(f"Status.kind={out.kind!r:.80} is not 'arrived' or 'error'")
+        if not isinstance(out.message, str):
+            raise InvalidAnswer(f"Status.message={out.message!r:.80} is a {type(out.message).__name__}, "
+                                "not a string")
+        if not isinstance(out.infrastructure, bool):
+            raise InvalidAnswer(f"Status.infrastructure={out.infrastructure!r:.80} is not a bool")
+        return out
+    raise InvalidAnswer(f"step returned {type(out).__name__} ({out!r:.80}), not a Command or Status")
+
+
+def raised_by_navigator(err: BaseException) -> bool:
+    """Whether ``err``, raised out of a navigator's method, is the navigator's failure (to be
+    classified) rather than a request to stop navstress itself.
+
+    Every ``Exception``, ``SystemExit`` (``sys.exit`` in a plug-in) and ``GeneratorExit`` is the
+    navigator's. ``KeyboardInterrupt`` is the user's Ctrl-C, except in a process that ignores
+    SIGINT (the run and check workers do): there only the navigator can have raised it."""
+    if isinstance(err, (Exception, SystemExit, GeneratorExit)):
+        return True
+    if isinstance(err, KeyboardInterrupt):
+        import signal
+
+        return signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+    return False

@@ -25,7 +25,6 @@ an :class:`~navstress.nav.external.ExternalNavigator` to get a budget enforced.
 from __future__ import annotations
 
 import io
-import math
 import time
 import traceback
 import warnings
@@ -36,9 +35,11 @@ from typing import Any
 
 import numpy as np
 
+from navstress.errors import NavstressError
 from navstress.nav.api import (
     Command,
     Imu,
+    InvalidAnswer,
     LidarScan,
     NavMission,
     Navigator,
@@ -46,6 +47,8 @@ from navstress.nav.api import (
     Odometry,
     PoseReading,
     Status,
+    check_answer,
+    raised_by_navigator,
 )
 from navstress.nav.registry import (
     NavigatorNote,
@@ -183,24 +186,17 @@ class _Invalid(Exception):
 
 
 def _normalise(out: object) -> Answer:
-    """Validate one answer; :class:`_Invalid` says what is wrong."""
-    if isinstance(out, Command):
-        for name in ("v", "omega"):
-            val = getattr(out, name)
-            if isinstance(val, bool) or not isinstance(val, (int, float, np.floating, np.integer)):
-                raise _Invalid(f"Command.{name}={val!r} is a {type(val).__name__}, not a float")
-            if not math.isfinite(float(val)):
-                raise _Invalid(f"Command.{name}={val!r} is not finite")
-        return ("command", float(out.v), float(out.omega))
-    if isinstance(out, Status):
-        if out.kind not in ("arrived", "error"):
-            raise _Invalid(f"Status.kind={out.kind!r} is not 'arrived' or 'error'")
-        if not isinstance(out.message, str):
-            raise _Invalid(f"Status.message={out.message!r} is not a string")
-        if getattr(out, "infrastructure", False):
-            raise _Invalid(f"infrastructure error: {out.message}")
-        return ("status", out.kind, out.message)
-    raise _Invalid(f"step returned {type(out).__name__} ({out!r:.80}), not a Command or Status")
+    """Validate one answer (:func:`~navstress.nav.api.check_answer`, as the run loop does);
+    :class:`_Invalid` says what is wrong."""
+    try:
+        ans = check_answer(out)
+    except InvalidAnswer as e:
+        raise _Invalid(str(e)) from None
+    if isinstance(ans, Command):
+        return ("command", ans.v, ans.omega)
+    if ans.infrastructure:
+        raise _Invalid(f"infrastructure error: {ans.message}")
+    return ("status", ans.kind, ans.message)
 
 
 @dataclass
@@ -230,6 +226,13 @@ def _drive(nav: Navigator, robot: RobotSpec, seed: int, obs: list[Observation]) 
     return run
 
 
+def _reraise_unless_navigator(e: BaseException) -> None:
+    """Re-raise ``e`` unless the navigator raised it (``sys.exit`` in a plug-in is a failed
+    check, not the end of the checker; see :func:`~navstress.nav.api.raised_by_navigator`)."""
+    if not raised_by_navigator(e):
+        raise e
+
+
 def _why(e: BaseException) -> str:
     frames = traceback.extract_tb(e.__traceback__)
     where = f" (at {Path(frames[-1].filename).name}:{frames[-1].lineno})" if frames else ""
@@ -255,8 +258,8 @@ def _safe_close(nav: Navigator | None) -> None:
     if nav is not None:
         try:
             nav.close()
-        except Exception:
-            pass
+        except BaseException as e:
+            _reraise_unless_navigator(e)
 
 
 def check_navigator(
@@ -268,13 +271,23 @@ def check_navigator(
     step_budget_s: float = 0.5,
     robot: RobotSpec | None = None,
     azimuth_steps: int = 360,
+    progress: Callable[[str, list[CheckResult]], None] | None = None,
 ) -> CheckReport:
-    """Run every named check on a registered navigator (by name) or a factory.
+    """Run every named check on a registered navigator (by name) or a factory, in this process
+    (see :func:`check_in_worker` for a navigator that may exit, crash or hang).
 
     ``config`` is passed to the factory (``factory(config=...)``); ``step_budget_s`` is the
-    wall-clock budget per step judged by ``within-budget``.
+    wall-clock budget per step judged by ``within-budget``. ``progress(name, results)`` is
+    called as each check starts, with the results so far.
     """
     notes: list[str] = []
+    results: list[CheckResult] = []
+
+    def phase(name: str) -> None:
+        if progress is not None:
+            progress(name, list(results))
+
+    phase("builds")
     if isinstance(name_or_factory, str):
         spec, note = resolve(name_or_factory)
         if note:
@@ -287,7 +300,6 @@ def check_navigator(
     cfg = load_config(config)
     robot = robot or RobotSpec.model_validate({})
     obs = synthetic_observations(robot, n_steps, azimuth_steps=azimuth_steps)
-    results: list[CheckResult] = []
     times: list[float] = []
     warmup: float | None = None
 
@@ -303,12 +315,14 @@ def check_navigator(
     try:
         nav_a: Navigator = build()
         results.append(CheckResult("builds", True, f"{type(nav_a).__name__} with config {cfg!r}"))
-    except Exception as e:
+    except BaseException as e:
+        _reraise_unless_navigator(e)
         results.append(CheckResult("builds", False, _why(e)))
         skipped(CHECK_NAMES[1:], "the navigator could not be built")
         return CheckReport(label, results, step_budget_s, notes=notes)
 
     # valid-types + resets-cleanly on instance A
+    phase("valid-types")
     run1 = run2 = None
     try:
         run1 = _drive(nav_a, robot, seed, obs)
@@ -318,9 +332,11 @@ def check_navigator(
                   + ", ".join(f"{n} {k}" for k, n in _count(run1.answers).items())
                   if ok else str(run1.invalid))
         results.append(CheckResult("valid-types", ok, detail))
-    except Exception as e:
+    except BaseException as e:
+        _reraise_unless_navigator(e)
         results.append(CheckResult("valid-types", False, "first run " + _why(e)))
     if run1 is not None:
+        phase("resets-cleanly")
         try:
             run2 = _drive(nav_a, robot, seed, obs)
             times += run2.times
@@ -330,12 +346,14 @@ def check_navigator(
                 "second reset, same seed: identical answers" if same else
                 "second reset, same seed, different answers: "
                 + _first_difference(run1.answers, run2.answers)))
-        except Exception as e:
+        except BaseException as e:
+            _reraise_unless_navigator(e)
             results.append(CheckResult("resets-cleanly", False, "second reset/run " + _why(e)))
     else:
         skipped(("resets-cleanly",), "the first run failed")
 
     # deterministic: fresh instances
+    phase("deterministic")
     if run1 is not None:
         nav_b = nav_c = None
         try:
@@ -349,14 +367,16 @@ def check_navigator(
                 times += run4.times
                 other = ("another seed gives different answers" if run4.answers != run1.answers
                          else "another seed gives the same answers")
-            except Exception as e:
+            except BaseException as e:
+                _reraise_unless_navigator(e)
                 other = "another seed " + _why(e)
             results.append(CheckResult(
                 "deterministic", same,
                 (f"fresh instance, seed {seed}: identical answers; {other}" if same else
                  f"fresh instance, seed {seed}, different answers: "
                  + _first_difference(run1.answers, run3.answers))))
-        except Exception as e:
+        except BaseException as e:
+            _reraise_unless_navigator(e)
             results.append(CheckResult("deterministic", False, "fresh instance " + _why(e)))
         finally:
             _safe_close(nav_b)
@@ -365,6 +385,7 @@ def check_navigator(
         skipped(("deterministic",), "the first run failed")
 
     # empty-scan
+    phase("empty-scan")
     nav_d = None
     try:
         nav_d = build()
@@ -374,7 +395,8 @@ def check_navigator(
             "empty-scan", run5.invalid is None,
             "empty scan and a cycle without scans or pose: valid answers"
             if run5.invalid is None else str(run5.invalid)))
-    except Exception as e:
+    except BaseException as e:
+        _reraise_unless_navigator(e)
         results.append(CheckResult("empty-scan", False, _why(e)))
     finally:
         _safe_close(nav_d)
@@ -394,13 +416,15 @@ def check_navigator(
         skipped(("within-budget",), "no step was timed")
 
     # close-idempotent
+    phase("close-idempotent")
     problems = []
     for label_c, nav in (("after a run", nav_a), ("never reset", None)):
         try:
             target: Navigator = nav if nav is not None else build()
             target.close()
             target.close()
-        except Exception as e:
+        except BaseException as e:
+            _reraise_unless_navigator(e)
             problems.append(f"{label_c}: {_why(e)}")
     results.append(CheckResult("close-idempotent", not problems,
                                "close() twice after a run and on a never-reset instance"
@@ -451,3 +475,63 @@ def report_text(report: CheckReport, *, width: int = 110) -> str:
                       file=io.StringIO())
     console.print(format_report(report))
     return console.export_text()
+
+
+# ---------------------------------------------------------------- in a worker process
+
+
+def _check_and_report(name: str, config: dict[str, Any], kwargs: dict[str, Any]) -> CheckReport:
+    """In the worker: :func:`check_navigator`, announcing each check to the parent."""
+    from navstress.isolate import report
+
+    return check_navigator(name, config, progress=lambda n, r: report((n, r)), **kwargs)
+
+
+#: Default wall-clock limit of each check in :func:`check_in_worker` (real seconds).
+CHECK_WALL_LIMIT_S = 300.0
+
+
+def check_in_worker(name: str, config: Mapping[str, Any] | str | Path | None = None, *,
+                    wall_limit_s: float = CHECK_WALL_LIMIT_S, worker: Any = None, **kwargs: Any) -> CheckReport:
+    """:func:`check_navigator` in a worker process (:mod:`navstress.isolate`), as ``navstress
+    nav check`` runs it: a navigator that exits (``sys.exit``, ``os._exit``), crashes its
+    process or hangs longer than ``wall_limit_s`` (real seconds per check) fails that check with the reason;
+    the checks after it are not run. An unknown name or a bad config raises here, as
+    :func:`check_navigator` does. ``worker``: a :class:`navstress.isolate.Worker` to use (and
+    keep) instead of a fresh one (its own limit then applies)."""
+    from navstress.isolate import Worker
+
+    spec, _note = resolve(name)  # bad input raises here, before any process starts
+    cfg = load_config(config)
+    state: dict[str, Any] = {"phase": "builds", "results": []}
+
+    def on_message(msg: Any) -> None:
+        state["phase"], state["results"] = msg
+
+    if worker is not None:
+        status, value = worker.call(_check_and_report, name, cfg, kwargs, on_message=on_message,
+                                    limit_per_message=True)
+    else:
+        with Worker(wall_limit_s) as fresh:
+            status, value = fresh.call(_check_and_report, name, cfg, kwargs, on_message=on_message,
+                                       limit_per_message=True)
+    if status == "ok":
+        done: CheckReport = value
+        return done
+    if status == "raised" and isinstance(value, NavstressError):
+        raise value  # bad input (e.g. a config the factory refuses), as in this process
+    if status == "raised":
+        why = f"raised {type(value).__name__}: {value}"
+    elif status == "died":
+        why = f"the navigator killed the checking process ({value})"
+    else:
+        why = f"the navigator hung: no end within the wall-clock limit ({value:g} s); process killed"
+    current: str = state["phase"]
+    results: list[CheckResult] = list(state["results"])
+    results.append(CheckResult(current, False, f"{why} during this check"))
+    seen = {r.name for r in results}
+    results += [CheckResult(n, False, f"not run: the checking process ended during {current}")
+                for n in CHECK_NAMES if n not in seen]
+    order = {n: i for i, n in enumerate(CHECK_NAMES)}
+    results.sort(key=lambda r: order.get(r.name, len(order)))
+    return CheckReport(spec.id, results, float(kwargs.get("step_budget_s", 0.5)))

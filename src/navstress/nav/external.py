@@ -21,7 +21,6 @@ then kills the whole group and reaps it, so no process is left behind.
 
 from __future__ import annotations
 
-import collections
 import contextlib
 import json
 import math
@@ -49,6 +48,11 @@ __all__ = ["ExternalFailure", "ExternalNavigator", "external_from_config", "serv
 
 MAX_LINE_BYTES = 64 * 1024 * 1024
 """A reply line longer than this (without a newline) is a protocol violation."""
+
+STDERR_TAIL_BYTES = 64 * 1024
+"""How much of the navigator's stderr is kept (the last bytes) for the error message."""
+STDERR_LINE_CHARS = 500
+"""A longer stderr line is cut to this many characters in the error message."""
 
 FailureKind = Literal["exit", "timeout", "protocol", "navigator"]
 
@@ -135,7 +139,9 @@ class ExternalNavigator:
         self.failure: ExternalFailure | None = None
         self.remote_name: str | None = None
         self.step_times_s: list[float] = []
-        self._stderr: collections.deque[str] = collections.deque(maxlen=stderr_lines)
+        self.stderr_lines = int(stderr_lines)
+        self._stderr = bytearray()  # the last STDERR_TAIL_BYTES the process wrote on stderr
+        self._stderr_lock = threading.Lock()
         self._proc: subprocess.Popen[bytes] | None = None
         self.last_pid: int | None = None  # kept after the process is gone (diagnostics)
         self._stderr_thread: threading.Thread | None = None
@@ -227,16 +233,30 @@ class ExternalNavigator:
         self._proc = proc
         self.last_pid = proc.pid
         self._buf = bytearray()
-        self._stderr.clear()
+        self._stderr = bytearray()  # a new one: a reader of a previous process may still append to the old
         self._finalizer = weakref.finalize(self, _kill_group, proc)
         stream = proc.stderr
-        lines = self._stderr
+        fd = stream.fileno()
+        tail, lock = self._stderr, self._stderr_lock
 
         def drain() -> None:
-            for raw in iter(stream.readline, b""):
-                text = raw.decode("utf-8", "replace").rstrip()
-                if text:
-                    lines.append(text)
+            # blocks of up to 64 KiB per system call (a chatty navigator must not slow the run),
+            # of which only a bounded tail is kept for the error message
+            try:
+                while True:
+                    try:
+                        chunk = os.read(fd, 1 << 16)
+                    except OSError:
+                        return
+                    if not chunk:
+                        return
+                    with lock:
+                        tail.extend(chunk)
+                        if len(tail) > STDERR_TAIL_BYTES:
+                            del tail[: len(tail) - STDERR_TAIL_BYTES]
+            finally:
+                with contextlib.suppress(OSError):
+                    stream.close()
 
         self._stderr_thread = threading.Thread(target=drain, name="navstress-ext-stderr",
                                                daemon=True)
@@ -254,9 +274,14 @@ class ExternalNavigator:
     def _stderr_tail(self) -> str:
         if self._stderr_thread is not None:
             self._stderr_thread.join(timeout=0.5)  # let it read what the process left
-        if not self._stderr:
+        with self._stderr_lock:
+            text = bytes(self._stderr).decode("utf-8", "replace")
+        lines = [ln.rstrip() for ln in text.splitlines() if ln.strip()][-self.stderr_lines:]
+        if not lines:
             return "no stderr output"
-        return "last stderr lines: " + " | ".join(self._stderr)
+        return "last stderr lines: " + " | ".join(
+            ln if len(ln) <= STDERR_LINE_CHARS else ln[:STDERR_LINE_CHARS] + f"... ({len(ln)} characters)"
+            for ln in lines)
 
     def _exit_failure(self, what: str) -> None:
         proc = self._proc
@@ -352,7 +377,9 @@ class ExternalNavigator:
                     stream.close()
         if self._stderr_thread is not None:
             self._stderr_thread.join(timeout=1.0)
-        if proc.stderr is not None:
+        # the reader closes stderr when it ends; while it still reads (a process outside the group
+        # holds the pipe open), closing the descriptor here could let it read a reused one
+        if proc.stderr is not None and not (self._stderr_thread is not None and self._stderr_thread.is_alive()):
             with contextlib.suppress(OSError):
                 proc.stderr.close()
         if self._finalizer is not None:
@@ -470,7 +497,10 @@ def serve(navigator: Navigator, inp: IO[bytes], out: IO[bytes], *, name: str = "
     """Serve an in-process navigator over the line protocol until ``close`` or end of input.
 
     Anything the navigator prints on stdout is moved to stderr (stdout carries the protocol).
-    An exception in ``reset``/``step`` is answered as ``status`` error with its message.
+    An exception in ``reset`` is answered as a refused reset (``status`` error with its message).
+    An exception in ``step`` is not turned into the navigator's own ``status`` error (that would
+    be Fail-Error, while the same navigator raising in-process is Fail-Other): it ends the
+    process, its traceback on stderr, and the host classifies the run as a crashed navigator.
     """
 
     def send(msg: dict[str, Any]) -> None:
@@ -494,14 +524,10 @@ def serve(navigator: Navigator, inp: IO[bytes], out: IO[bytes], *, name: str = "
                     send({"type": "status", "kind": "error",
                           "message": f"reset raised {type(e).__name__}: {e}"})
             elif kind == "step":
-                try:
-                    obs = wire.decode_observation(msg["obs"])
-                    with contextlib.redirect_stdout(sys.stderr):
-                        answer = navigator.step(obs)
-                    send(wire.encode_command_or_status(answer))
-                except Exception as e:
-                    send({"type": "status", "kind": "error",
-                          "message": f"step raised {type(e).__name__}: {e}"})
+                obs = wire.decode_observation(msg["obs"])
+                with contextlib.redirect_stdout(sys.stderr):
+                    answer = navigator.step(obs)  # an exception ends the process (docstring)
+                send(wire.encode_command_or_status(answer))
             elif kind == "close":
                 break
             else:

@@ -9,7 +9,8 @@ host -> navigator                                      navigator -> host
 ====================================================  =====================================================
 ``{"type":"hello","protocol":1}``                      ``{"type":"hello","protocol":1,"name":"..."}``
 ``{"type":"reset","mission":{..},"robot":{..},         ``{"type":"ok"}``  (or a ``status`` error)
-"seed":N}``
+"seed":N}`` (mission: start, goal, goal_tolerance_m,
+bounds: the geofence [xmin, ymin, xmax, ymax] or null)
 ``{"type":"step","obs":{..}}``                         ``{"type":"command","v":..,"omega":..}`` or
                                                        ``{"type":"status","kind":"arrived"|"error",
                                                        "message":".."}``
@@ -28,7 +29,6 @@ from __future__ import annotations
 
 import base64
 import json
-import math
 from typing import Any
 
 import numpy as np
@@ -36,12 +36,14 @@ import numpy as np
 from navstress.nav.api import (
     Command,
     Imu,
+    InvalidAnswer,
     LidarScan,
     NavMission,
     Observation,
     Odometry,
     PoseReading,
     Status,
+    check_answer,
 )
 from navstress.robot import RobotSpec
 
@@ -132,6 +134,7 @@ def encode_mission(mission: NavMission) -> dict[str, Any]:
         "start": [float(v) for v in mission.start],
         "goal": [float(v) for v in mission.goal],
         "goal_tolerance_m": float(mission.goal_tolerance_m),
+        "bounds": None if mission.bounds is None else [float(v) for v in mission.bounds],
     }
 
 
@@ -139,7 +142,12 @@ def decode_mission(d: dict[str, Any]) -> NavMission:
     try:
         sx, sy, syaw = (float(v) for v in d["start"])
         gx, gy = (float(v) for v in d["goal"])
-        return NavMission((sx, sy, syaw), (gx, gy), float(d.get("goal_tolerance_m", 2.0)))
+        b = d.get("bounds")
+        bounds = None
+        if b is not None:
+            x0, y0, x1, y1 = (float(v) for v in b)
+            bounds = (x0, y0, x1, y1)
+        return NavMission((sx, sy, syaw), (gx, gy), float(d.get("goal_tolerance_m", 2.0)), bounds)
     except (KeyError, TypeError, ValueError) as e:
         raise WireError(f"invalid mission {d!r}: {e}") from None
 
@@ -218,27 +226,20 @@ def encode_command_or_status(out: Command | Status) -> dict[str, Any]:
     return {"type": "status", "kind": out.kind, "message": out.message}
 
 
-def _finite(msg: dict[str, Any], key: str) -> float:
-    v = msg.get(key)
-    if isinstance(v, bool) or not isinstance(v, (int, float)):
-        raise WireError(f"field {key!r} must be a number, got {v!r}")
-    f = float(v)
-    if not math.isfinite(f):
-        raise WireError(f"field {key!r} must be finite, got {v!r}")
-    return f
-
-
 def decode_command_or_status(msg: dict[str, Any]) -> Command | Status:
-    """A navigator's answer to ``step``; :class:`WireError` for anything else."""
+    """A navigator's answer to ``step``; :class:`WireError` for anything else.
+
+    The decoded answer goes through :func:`navstress.nav.api.check_answer`, the validation
+    the run loop applies to in-process navigators: one bad answer gets the same reason
+    whichever way it came."""
     kind = msg.get("type")
     if kind == "command":
-        return Command(_finite(msg, "v"), _finite(msg, "omega"))
-    if kind == "status":
-        sk = msg.get("kind")
-        if sk not in ("arrived", "error"):
-            raise WireError(f"status kind must be 'arrived' or 'error', got {sk!r}")
-        message = msg.get("message", "")
-        if not isinstance(message, str):
-            raise WireError(f"status message must be a string, got {message!r}")
-        return Status(sk, message)
-    raise WireError(f"expected a 'command' or 'status' message, got type {kind!r}")
+        answer: Command | Status = Command(msg.get("v"), msg.get("omega"))  # type: ignore[arg-type]
+    elif kind == "status":
+        answer = Status(msg.get("kind"), msg.get("message", ""))  # type: ignore[arg-type]
+    else:
+        raise WireError(f"expected a 'command' or 'status' message, got type {kind!r}")
+    try:
+        return check_answer(answer)
+    except InvalidAnswer as e:
+        raise WireError(str(e)) from None

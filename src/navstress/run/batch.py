@@ -2,7 +2,13 @@
 
 Each run gets its own run seed ``derive_seed(seed, "run", i)`` and its own trace; records are
 appended to ``OUT/runs.jsonl`` as each run finishes (flushed and fsync'd: nothing is lost if
-the batch is interrupted), and ``OUT/trajectories.png`` shows all runs over the world.
+the batch is interrupted), and ``OUT/trajectories.png`` shows all runs over the world. Every
+record carries the world's own seed as ``map_seed`` (DESIGN invariant 2).
+
+The runs execute in a worker process (:mod:`navstress.isolate`) with a wall-clock limit per
+run (default ``timeout_s * 2 + 120`` s, as in campaigns): a navigator that exits, crashes its
+process or hangs costs its own run, recorded as Fail-Other with the reason and no trace left
+behind, and the batch goes on in a fresh worker.
 """
 
 from __future__ import annotations
@@ -16,28 +22,110 @@ from typing import Any
 
 import numpy as np
 
+import math
+import time
+
+from navstress.errors import NavstressError
+from navstress.isolate import Worker
 from navstress.run.mission import execute
 from navstress.run.record import RunRecord, RunTask
 from navstress.seeding import derive_seed
 
+#: Default wall-clock limit of one run: ``timeout_s * WALL_FACTOR + WALL_SLACK_S`` real seconds.
+WALL_FACTOR = 2.0
+WALL_SLACK_S = 120.0
+
+
+def default_wall_limit_s(timeout_s: float) -> float:
+    """The wall-clock limit of a run of ``timeout_s`` simulated seconds when none is given."""
+    return timeout_s * WALL_FACTOR + WALL_SLACK_S
+
 
 def plan_batch(world_dir: Path, out: Path, *, navigator: str, navigator_config: dict[str, Any], fault: str | None,
                runs: int, seed: int, timeout_s: float, goal_tolerance_m: float,
-               record_lidar: bool = False) -> list[RunTask]:
+               record_lidar: bool = False, map_seed: int | None = None) -> list[RunTask]:
+    """The tasks of ``runs`` runs on ``world_dir``; ``map_seed``: the world's seed (read from
+    the world when not given)."""
+    if map_seed is None:
+        from navstress.world.world import World
+
+        map_seed = World.load(world_dir).seed
     return [RunTask(run_id=f"run-{i:03d}", world_dir=str(world_dir), run_seed=derive_seed(seed, "run", i),
                     trace_path=str(out / f"run-{i:03d}.mcap"), navigator=navigator,
                     navigator_config=navigator_config, fault=fault, timeout_s=timeout_s,
                     goal_tolerance_m=goal_tolerance_m, run_index=i, experiment="single",
-                    record_lidar=record_lidar)
+                    record_lidar=record_lidar, map_seed=int(map_seed))
             for i in range(runs)]
 
 
-def run_batch(tasks: list[RunTask], out: Path, on_done: Callable[[RunRecord], None] | None = None) -> list[RunRecord]:
+def failure_record(task: RunTask, reason: str, wall_s: float = 0.0) -> RunRecord:
+    """A Fail-Other record for a run that produced no result of its own (its process died, it
+    exceeded the wall-clock limit, it raised out of the run loop)."""
+    return RunRecord(
+        run_id=task.run_id, experiment=task.experiment, config=dict(task.config), map_index=task.map_index,
+        run_index=task.run_index, map_seed=task.map_seed, run_seed=task.run_seed, navigator=task.navigator,
+        fault=task.fault, outcome="fail-other", reason=reason, duration_s=0.0, wall_s=wall_s,
+        goal_distance_m=math.nan, path_length_m=0.0, tortuousness=0.0, collisions=0, first_collision_s=None,
+        errors=[reason], trace=None)
+
+
+def drop_partial_trace(task: RunTask) -> None:
+    """Remove the partial trace a killed run left behind (TraceWriter's ``.NAME.partial``)."""
+    p = Path(task.trace_path)
+    p.with_name(f".{p.name}.partial").unlink(missing_ok=True)
+
+
+def _first_line(text: str) -> str:
+    lines = text.splitlines()
+    return lines[0] if lines else ""
+
+
+def run_isolated(task: RunTask, worker: Worker) -> RunRecord:
+    """``execute(task)`` in ``worker``; whatever goes wrong becomes a Fail-Other record."""
+    t0 = time.perf_counter()
+    try:
+        status, value = worker.call(execute, task)
+    except BaseException:  # Ctrl-C: stop the worker, leave nothing partial
+        worker.close()
+        drop_partial_trace(task)
+        raise
+    wall = time.perf_counter() - t0
+    if status == "ok":
+        rec: RunRecord = value
+        return rec
+    drop_partial_trace(task)
+    if status == "raised":
+        why = f"run raised {type(value).__name__}: {_first_line(str(value))}".rstrip(": ")
+    elif status == "died":
+        why = f"the navigator killed its run's process ({value})"
+    else:
+        why = f"run exceeded wall-clock limit ({value:g} s); its process was killed"
+    return failure_record(task, why, wall)
+
+
+def check_buildable(fn: Callable[..., None], *args: Any, wall_limit_s: float = 120.0) -> None:
+    """``fn(*args)`` (a check that builds the navigator) in a worker process: a
+    :class:`~navstress.errors.NavstressError` it raises is raised here (bad input); a
+    navigator that exits, crashes or hangs while being built is left to the runs to classify."""
+    with Worker(wall_limit_s) as worker:
+        status, value = worker.call(fn, *args)
+    if status == "raised" and isinstance(value, NavstressError):
+        raise value
+
+
+def run_batch(tasks: list[RunTask], out: Path, on_done: Callable[[RunRecord], None] | None = None, *,
+              wall_limit_s: float | None = None) -> list[RunRecord]:
+    """Run ``tasks`` one after the other in a worker process, appending each record to
+    ``out/runs.jsonl``. ``wall_limit_s``: per-run wall-clock limit (default
+    :func:`default_wall_limit_s` of each task's timeout)."""
     out.mkdir(parents=True, exist_ok=True)
     records: list[RunRecord] = []
-    with open(out / "runs.jsonl", "a", encoding="utf-8") as f:
+    limit = wall_limit_s if wall_limit_s is not None else max(
+        (default_wall_limit_s(t.timeout_s) for t in tasks), default=WALL_SLACK_S)
+    preload = ("navstress.run.mission", "navstress.sim.simulation", "navstress.nav.reference")
+    with Worker(limit, preload=preload) as worker, open(out / "runs.jsonl", "a", encoding="utf-8") as f:
         for task in tasks:
-            rec = execute(task)
+            rec = run_isolated(task, worker)
             f.write(json.dumps(asdict(rec), sort_keys=True) + "\n")
             f.flush()
             os.fsync(f.fileno())

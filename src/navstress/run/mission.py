@@ -4,7 +4,8 @@
 
     observe -> navigator.step -> command (applied after the simulated latency) -> advance one
     control period (jittered from the run seed) -> ... until the navigator says arrived or
-    error, the robot flips or leaves the map, or the (simulated) timeout.
+    error, the robot flips or leaves the mission area (the geofence ``NavMission.bounds``),
+    or the (simulated) timeout.
 
 The run is then classified (:mod:`navstress.run.outcome`) and its MCAP trace written
 atomically (:mod:`navstress.run.trace`). :func:`execute` does all of it from a plain
@@ -27,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from navstress.nav.api import Command, NavMission, Navigator, Status
+from navstress.nav.api import InvalidAnswer, NavMission, Navigator, Status, check_answer, raised_by_navigator
 from navstress.robot import RobotSpec
 from navstress.run.metrics import drop_jitter, path_length, tortuousness
 from navstress.run.outcome import Classification, RunFacts, classify
@@ -79,6 +80,17 @@ def control_rate_hz(nav: Navigator) -> float:
     return rate if math.isfinite(rate) and rate > 0 else DEFAULT_CONTROL_RATE_HZ
 
 
+def mission_bounds(world: World, sim_config: Any = None) -> tuple[float, float, float, float]:
+    """The mission area told to the navigator (``NavMission.bounds``): the map less the
+    simulation's ``map_margin_m`` on every side, exactly where the simulation stops a robot
+    whose centre leaves it (before MuJoCo would go unstable at the edge)."""
+    from navstress.sim.config import SimConfig
+
+    m = float((sim_config if sim_config is not None else SimConfig()).map_margin_m)
+    sx, sy = world.terrain.size_m  # the extent the simulation checks
+    return (m, m, float(sx) - m, float(sy) - m)
+
+
 def _true_pose(sim: Any) -> tuple[float, float, float, float, float, float, float]:
     """The chassis pose now, from the free joint's qpos (what the observer records)."""
     import mujoco
@@ -116,15 +128,19 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
     nav_failure = False
     arrived = timed_out = False
     other: list[str] = []
+    left_area: str | None = None
     sim = None
     try:
         sim = Simulation(world, robot, cfg, seed=run_seed)
-        mission = NavMission(start=world.mission.start, goal=world.mission.goal, goal_tolerance_m=goal_tolerance_m)
+        mission = NavMission(start=world.mission.start, goal=world.mission.goal, goal_tolerance_m=goal_tolerance_m,
+                             bounds=mission_bounds(world, cfg))
         period = 1.0 / control_rate_hz(navigator)
         jitter = rng(run_seed, "loop", "control")
         try:
             navigator.reset(mission, robot, seed=derive_seed(run_seed, "navigator"))
-        except Exception as err:  # the stack under test failed; record, don't crash
+        except BaseException as err:  # the stack under test failed (sys.exit included); record, don't crash
+            if not raised_by_navigator(err):
+                raise
             error, nav_failure = f"navigator reset raised {type(err).__name__}: {err}", True
         next_cloud_t = 0.0
         while error is None:
@@ -135,8 +151,14 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
                         clouds.append((scan.t, np.array(scan.points, dtype=np.float32), scan.mount))
                         next_cloud_t = scan.t + LIDAR_TRACE_PERIOD_S
             try:
-                out = navigator.step(obs)
-            except Exception as err:
+                out = check_answer(navigator.step(obs))
+            except InvalidAnswer as err:
+                error, nav_failure = f"navigator returned an invalid answer: {err}", True
+                events.append((sim.t, "error", error))
+                break
+            except BaseException as err:
+                if not raised_by_navigator(err):
+                    raise
                 error, nav_failure = f"navigator raised {type(err).__name__}: {err}", True
                 events.append((sim.t, "error", error))
                 break
@@ -147,10 +169,6 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
                 else:
                     error, nav_failure = out.message or "navigator reported an error", out.infrastructure
                     events.append((sim.t, "error", f"navigator: {error}"))
-                break
-            if not isinstance(out, Command):
-                error, nav_failure = f"navigator returned {type(out).__name__}, not Command or Status", True
-                events.append((sim.t, "error", error))
                 break
             try:
                 sim.command(out)
@@ -176,7 +194,9 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
     finally:
         try:
             navigator.close()
-        except Exception as err:  # close must not lose the run
+        except BaseException as err:  # close must not lose the run
+            if not raised_by_navigator(err):
+                raise
             events.append((sim.t if sim is not None else 0.0, "warning", f"navigator close raised {err!r}"))
 
     if sim is None:  # the world could not be simulated at all
@@ -198,13 +218,17 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
         for c in sim.observer.collisions:
             kind = world.obstacles[c.obstacle].kind if 0 <= c.obstacle < len(world.obstacles) else "?"
             events.append((c.t, "warning", f"collision with obstacle {c.obstacle} ({kind}) at ({c.x:.2f}, {c.y:.2f})"))
-        if sim.stopped is not None:
-            other.append(f"{sim.stopped.reason} at t={sim.stopped.t:.1f} s")
-            events.append((sim.stopped.t, "error", sim.stopped.reason))
+        st = sim.stopped
+        if st is not None and st.kind == "left_map":
+            left_area = f"left the mission area (geofence) at t={st.t:.1f} s, ({st.x:.2f}, {st.y:.2f})"
+            events.append((st.t, "error", left_area))
+        elif st is not None:
+            other.append(f"{st.reason} at t={st.t:.1f} s")
+            events.append((st.t, "error", st.reason))
 
     facts = RunFacts(arrived=arrived, goal_distance_m=goal_d, goal_tolerance_m=goal_tolerance_m,
                      collisions=collisions, first_collision_s=first_col, error=error,
-                     navigator_failure=nav_failure, timed_out=timed_out, other=tuple(other))
+                     navigator_failure=nav_failure, timed_out=timed_out, other=tuple(other), left_area=left_area)
     cls = classify(facts)
     events.sort(key=lambda e: e[0])
     events.append((duration, "info", f"end of run: {cls.outcome.label}: {cls.reason}"))
@@ -212,11 +236,15 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
     final_map = _attr_through_wrappers(navigator, "final_map")
     try:
         perceived_arr = np.asarray(perceived(), dtype=np.float64).reshape(-1, 7) if callable(perceived) else None
-    except Exception:
+    except BaseException as err:
+        if not raised_by_navigator(err):
+            raise
         perceived_arr = None
     try:
         fmap = final_map() if callable(final_map) else None
-    except Exception:
+    except BaseException as err:
+        if not raised_by_navigator(err):
+            raise
         fmap = None
     xy = drop_jitter(truth[:, 1:3], 0.02) if len(truth) else np.zeros((0, 2))
     result = RunResult(classification=cls, facts=facts, duration_s=duration, wall_s=time.perf_counter() - wall0,

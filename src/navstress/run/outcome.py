@@ -1,17 +1,18 @@
 """Run outcomes and their classification.
 
 A run ends for one of a few reasons (the navigator said it arrived or gave up with an
-error, the time ran out, the robot flipped or left the map, the infrastructure failed).
+error, the time ran out, the robot flipped or left the mission area, the infrastructure failed).
 :func:`classify` turns what happened into one :class:`Outcome`.
 
 Severity order (a run with several problems takes the most severe one)::
 
     fail-collision > fail-error > fail-timeout > fail-other > success
 
-Collision first because it is a safety failure whatever else happened; a navigator error
-is an explicit failure the stack itself reported; a timeout means no progress to the goal;
-"other" gathers everything else (ended away from the goal, robot flipped or left the map,
-navigator process died, simulation unstable). Success requires: the navigator ended
+Collision first because it is a safety failure whatever else happened; "error" is a failure
+of the stack itself: an error it reported, or leaving the mission area (the geofence given in
+``NavMission.bounds``: the stack knew it and drove out); a timeout means no progress to the
+goal; "other" gathers everything else (ended away from the goal, robot flipped, navigator
+process died, hung or spoke garbage, simulation unstable). Success requires: the navigator ended
 normally (said "arrived"), no timeout, no error, no collision, and the final *real*
 position within the goal tolerance.
 
@@ -62,7 +63,8 @@ class RunFacts:
     error: str | None = None  # navigator Status("error", msg), or its exception / process failure
     navigator_failure: bool = False  # the error came from the navigator crashing/hanging, not its own verdict
     timed_out: bool = False
-    other: tuple[str, ...] = field(default_factory=tuple)  # flipped, left the map, unstable, ...
+    other: tuple[str, ...] = field(default_factory=tuple)  # flipped, unstable, ...
+    left_area: str | None = None  # the robot left the mission area (the geofence it was told): where and when
 
 
 @dataclass(frozen=True)
@@ -82,6 +84,8 @@ def classify(f: RunFacts) -> Classification:
         # A crashed or hung navigator process is infrastructure: Fail-Other with its reason.
         kind = Outcome.FAIL_OTHER if f.navigator_failure else Outcome.FAIL_ERROR
         problems.append((kind, f.error))
+    if f.left_area is not None:  # the stack drove out of the area it was told: its own failure
+        problems.append((Outcome.FAIL_ERROR, f.left_area))
     if f.timed_out:
         problems.append((Outcome.FAIL_TIMEOUT, f"timeout, {f.goal_distance_m:.1f} m from goal"))
     for reason in f.other:

@@ -14,6 +14,7 @@ import os
 import subprocess
 import sys
 import tempfile
+import time
 from collections.abc import Iterator
 from importlib import metadata
 from pathlib import Path
@@ -92,6 +93,10 @@ def no_leftover_process() -> Iterator[list[int]]:
     before = set(_children_of(os.getpid()))
     yield groups
     for pgid in groups:
+        # SIGKILL is delivered asynchronously: a killed member may take a moment to die
+        deadline = time.monotonic() + 2.0
+        while _group_members(pgid) and time.monotonic() < deadline:
+            time.sleep(0.01)
         assert _group_members(pgid) == [], f"process group {pgid} still has live processes"
     zombies = []
     for pid in set(_children_of(os.getpid())) - before:

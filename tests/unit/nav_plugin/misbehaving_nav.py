@@ -6,6 +6,8 @@ says otherwise), then on the first step:
   segv            kills itself with SIGSEGV
   hang            sleeps (never answers)
   hang-child      starts a grandchild ``sleep`` in its process group, then sleeps
+  setsid-child    starts a grandchild in a new session (escapes the group kill), then sleeps
+  setsid-child-pdeathsig   the same, the grandchild with PR_SET_PDEATHSIG (dies with its parent)
   garbage         prints a line that is not JSON
   nan             answers a command with v = NaN
   wrong-type      answers {"type": "ok"} to a step
@@ -55,6 +57,16 @@ for line in sys.stdin:
             time.sleep(120)
         if mode == "hang-child":
             subprocess.Popen(["sleep", "120"])
+            time.sleep(120)
+        if mode in ("setsid-child", "setsid-child-pdeathsig"):
+            # a helper in a session of its own: out of reach of a process-group kill, unless it
+            # asked the kernel to kill it when its parent dies (PR_SET_PDEATHSIG)
+            code = "import time; time.sleep(120)"
+            if mode == "setsid-child-pdeathsig":
+                code = "import ctypes, time; ctypes.CDLL('libc.so.6').prctl(1, 9); " + code
+            child = subprocess.Popen([sys.executable, "-c", code], start_new_session=True)
+            with open(os.environ["HELPER_PID_FILE"], "w") as f:
+                f.write(str(child.pid))
             time.sleep(120)
         if mode == "garbage":
             send("[planner] arcs evaluated: 20")

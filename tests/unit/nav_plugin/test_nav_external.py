@@ -241,3 +241,67 @@ def test_stdio_example_is_standard_library_only() -> None:
     assert [r["type"] for r in replies] == ["hello", "ok", "command"]
     assert replies[0]["protocol"] == wire.PROTOCOL_VERSION
     assert isinstance(wire.decode_command_or_status(replies[2]), Command)
+
+
+CHATTY = Path(__file__).resolve().parent / "chatty_nav.py"
+
+
+def test_chatty_stderr_costs_little_and_keeps_a_bounded_tail(no_leftover_process: list[int]) -> None:
+    """200 KB of stderr per step: the run ends with its real outcome, within a small factor of a
+    quiet navigator's wall time (stderr is read in blocks, not a byte per system call)."""
+    from navstress.nav.external import STDERR_TAIL_BYTES
+    from navstress.run.mission import run_mission
+    from navstress.world import Mission, World, WorldSpec
+
+    world = World.flat(WorldSpec(size_m=(20.0, 20.0)), mission=Mission((3.0, 3.0, 0.0), (15.0, 3.0), 1.0))
+    results = {}
+    for mode in ("quiet", "chatty", "quiet", "chatty"):  # twice each: the first run also warms up
+        nav = ExternalNavigator([sys.executable, str(CHATTY), mode], step_budget_s=5.0)
+        t0 = time.monotonic()
+        try:
+            r = run_mission(world, nav, run_seed=1, timeout_s=3.0)
+            no_leftover_process.append(nav.last_pid)  # type: ignore[arg-type]
+            assert len(nav._stderr) <= STDERR_TAIL_BYTES
+            assert (len(nav._stderr) > 0) == (mode == "chatty")
+        finally:
+            nav.close()
+        results[mode] = (r, time.monotonic() - t0)
+    for mode in ("quiet", "chatty"):
+        r = results[mode][0]
+        assert r.classification.outcome.value == "fail-timeout", r.classification.reason  # drove, never arrived
+    # generous (a loaded machine), and with a floor: a quiet run may take only a tenth of a second
+    assert results["chatty"][1] < 5.0 * max(results["quiet"][1], 0.2), results
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="PR_SET_PDEATHSIG is Linux's")
+@pytest.mark.parametrize(("mode", "dies"), [("setsid-child", False), ("setsid-child-pdeathsig", True)])
+def test_what_a_group_kill_reaches_as_documented(mode: str, dies: bool, tmp_path: Path,
+                                                no_leftover_process: list[int]) -> None:
+    """docs/plugins.md: a helper that leaves the process group (setsid) survives the run unless it
+    uses PR_SET_PDEATHSIG, as recommended."""
+    import os
+    import signal
+
+    pid_file = tmp_path / "helper.pid"
+    nav = ExternalNavigator([sys.executable, str(MISBEHAVING), mode], step_budget_s=1.0,
+                            env={"HELPER_PID_FILE": str(pid_file)})
+    out, _ = run_one_step(nav, no_leftover_process)
+    nav.close()
+    assert isinstance(out, Status) and "no answer within" in out.message
+    pid = int(pid_file.read_text())
+    try:
+        deadline = time.monotonic() + 3.0
+        while _alive(pid) and time.monotonic() < deadline:
+            time.sleep(0.02)
+        assert _alive(pid) is not dies
+    finally:
+        if _alive(pid):
+            os.kill(pid, signal.SIGKILL)  # the escaped helper this test started

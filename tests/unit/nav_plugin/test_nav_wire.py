@@ -91,11 +91,11 @@ def test_loads_rejects_garbage_with_reason(line: bytes, reason: str) -> None:
 
 
 @pytest.mark.parametrize(("msg", "reason"), [
-    ({"type": "command", "v": "fast", "omega": 0}, "field 'v' must be a number, got 'fast'"),
-    ({"type": "command", "v": True, "omega": 0}, "field 'v' must be a number"),
-    ({"type": "command", "v": 1.0}, "field 'omega' must be a number, got None"),
-    ({"type": "status", "kind": "done"}, "status kind must be 'arrived' or 'error', got 'done'"),
-    ({"type": "status", "kind": "error", "message": 3}, "status message must be a string"),
+    ({"type": "command", "v": "fast", "omega": 0}, "Command.v='fast' is a str, not a number"),
+    ({"type": "command", "v": True, "omega": 0}, "Command.v=True is a bool, not a number"),
+    ({"type": "command", "v": 1.0}, "Command.omega=None is a NoneType, not a number"),
+    ({"type": "status", "kind": "done"}, "Status.kind='done' is not 'arrived' or 'error'"),
+    ({"type": "status", "kind": "error", "message": 3}, "Status.message=3 is a int, not a string"),
     ({"type": "ok"}, "expected a 'command' or 'status' message, got type 'ok'"),
 ])
 def test_bad_answers_rejected_with_reason(msg: dict[str, object], reason: str) -> None:

@@ -37,6 +37,11 @@ __all__ = ["NO_ARC", "ReferenceNavigator"]
 NO_ARC = "no arc elected"
 
 
+#: How far inside the mission area (``NavMission.bounds``) the planner keeps the robot's
+#: centre: room for the error of its own pose estimate.
+GEOFENCE_MARGIN_M = 0.5
+
+
 class ReferenceNavigator:
     """The reference navigation stack under test (module doc). ``config`` defaults to
     :class:`ReferenceConfig`; the footprint comes from the RobotSpec given to :meth:`reset`."""
@@ -108,7 +113,7 @@ class ReferenceNavigator:
             bearing = self._target_bearing(pose)
             spin = self._spin_latch if self._spin_latch != 0 else (1 if bearing >= 0 else -1)
             ev = self.planner.evaluate(self.terrain, pose.x, pose.y, pose.yaw, spin)
-            goal = self._goal_terms(ev, pose)
+            goal = self._geofence(ev, pose, self._goal_terms(ev, pose))
             jit = self._rng.uniform(0.0, self.config.cost_jitter, len(goal)) if self.config.cost_jitter > 0 else None
             idx = -1
             if abs(bearing) <= math.radians(self.config.spin_min_bearing_deg):
@@ -149,6 +154,24 @@ class ReferenceNavigator:
         d = np.hypot(ev.nodes[:, :, 0] - gx, ev.nodes[:, :, 1] - gy).min(axis=1)
         d = np.where(ev.is_spin, math.hypot(pose.x - gx, pose.y - gy) + self.config.turn_in_place_penalty_m, d)
         return self.config.goal_weight * d
+
+    def _geofence(self, ev: ArcEvaluation, pose: Pose, goal: np.ndarray) -> np.ndarray:
+        """``goal`` with an infinite cost for every arc that would take the robot out of the
+        mission area (``NavMission.bounds`` less :data:`GEOFENCE_MARGIN_M` for pose error), or
+        further out when it already is (an arc back inside stays electable). Unchanged when the
+        mission gives no area or no arc reaches its edge."""
+        b = self.mission.bounds
+        if b is None:
+            return goal
+        m = GEOFENCE_MARGIN_M
+        x, y = ev.nodes[:, :, 0], ev.nodes[:, :, 1]
+        out = np.maximum.reduce([b[0] + m - x, x - (b[2] - m), b[1] + m - y, y - (b[3] - m)]).max(axis=1)
+        now = max(b[0] + m - pose.x, pose.x - (b[2] - m), b[1] + m - pose.y, pose.y - (b[3] - m), 0.0)
+        leaving = out > now + 1e-9
+        if not leaving.any():
+            return goal
+        fenced: np.ndarray = np.where(leaving, np.inf, goal)
+        return fenced
 
     def _target_bearing(self, pose: Pose) -> float:
         """Signed angle from the heading to the goal (radians, CCW positive): the side a turn on
