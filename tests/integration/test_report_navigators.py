@@ -139,6 +139,13 @@ def test_every_figure_names_its_navigator_and_no_picture_mixes_them(
     # tables: every difficulty row names its navigator; both navigators are listed
     diff = page.rows["difficulty-table"][1:]
     assert sorted({r["data-navigator"] for r in diff}) == sorted(NAVS)
+    # outcome counts split by navigator (and fault), matching the store
+    html = (tmp_path / "r.html").read_text(encoding="utf-8")
+    for nav in NAVS:
+        for outcome, n in {r.outcome: sum(x.outcome == r.outcome for x in recs if x.navigator == nav)
+                           for r in recs if r.navigator == nav}.items():
+            assert re.search(rf'<tr data-navigator="{nav}" data-fault="nominal">.*?data-field="{outcome}" '
+                             rf'data-value="{n}"', html), (nav, outcome, n)
 
 
 @pytest.mark.parametrize("nav", NAVS)
@@ -150,6 +157,7 @@ def test_report_navigator_filters_figures_and_tables(campaign: tuple[Path, list[
     one = _page(tmp_path / "one.html")
     assert {img["data-navigator"] for img in one.images} == {nav}
     assert {r["data-navigator"] for r in one.rows["difficulty-table"][1:]} == {nav}
+    assert {r["data-navigator"] for r in one.rows["outcome-counts-by-navigator"][1:]} == {nav}
     assert all(nav in f["caption"] for f in one.figures)
     other = [n for n in NAVS if n != nav][0]
     CliRunner().invoke(app, ["report", str(root), "-o", str(tmp_path / "other.html"), "--navigator", other])

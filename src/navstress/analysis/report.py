@@ -123,7 +123,22 @@ def _summary(a: Analysis) -> str:
     rows = "".join(f'<tr><td class="l"><span style="color:{OUTCOME_COLOURS.get(o, "#000")}">&#9632;</span> '
                    f'{_e(OUTCOME_LABELS.get(o, o))}</td><td id="outcome-{_e(o)}" data-value="{n}">{n}</td></tr>'
                    for o, n in a.outcome_counts.items())
-    out.append(f'<table id="outcome-counts"><tr><th class="l">outcome</th><th>runs</th></tr>{rows}</table>')
+    out.append(f'<table id="outcome-counts"><tr><th class="l">outcome (all navigators and faults)</th>'
+               f'<th>runs</th></tr>{rows}</table>')
+    by_nav: dict[tuple[str, str], dict[str, int]] = {}
+    for r in a.records:
+        if a.shows(r.navigator):
+            c = by_nav.setdefault((r.navigator, fault_name(r.fault)), dict.fromkeys(a.outcome_counts, 0))
+            c[r.outcome] = c.get(r.outcome, 0) + 1
+    order = {n: i for i, n in enumerate(a.navigators)}
+    nav_rows = "".join(
+        f'<tr data-navigator="{_e(n)}" data-fault="{_e(f)}"><td class="l">{_e(n)}</td><td class="l">{_e(f)}</td>'
+        + "".join(_cell(o, c.get(o, 0)) for o in a.outcome_counts) + "</tr>"
+        for (n, f), c in sorted(by_nav.items(), key=lambda kv: (order.get(kv[0][0], len(order)), kv[0][1] != NOMINAL,
+                                                              kv[0][1])))
+    nav_heads = "".join(f"<th>{_e(OUTCOME_LABELS.get(o, o))}</th>" for o in a.outcome_counts)
+    out.append(f'<table id="outcome-counts-by-navigator"><tr><th class="l">navigator</th><th class="l">fault</th>'
+               f'{nav_heads}</tr>{nav_rows}</table>')
     exp_rows = "".join(
         f'<tr data-experiment="{_e(e)}"><td class="l">{_e(e)}</td><td data-field="done" data-value="{d}">{d}</td>'
         f'<td data-field="planned" data-value="{p}">{p}</td>'
