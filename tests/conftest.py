@@ -1,14 +1,46 @@
 """Shared fixtures. Helpers live in ``world_fixtures`` (a uniquely named module: several
-``conftest`` modules exist in this tree, so ``from conftest import ...`` would be ambiguous)."""
+``conftest`` modules exist in this tree, so ``from conftest import ...`` would be ambiguous).
+
+Every MCAP trace any test writes is checked (``trace_check``): messages in log-time order in
+the file, a valid summary. Per test under its ``tmp_path``, and once at the end of the session
+under the whole base temporary directory (traces written by module- or session-scoped
+fixtures). A test that writes junk ``*.mcap`` files on purpose is marked ``not_traces``.
+"""
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from pathlib import Path
+
 import pytest
 
+from trace_check import TraceChecker
 from world_fixtures import small_world
 from navstress.world import World
+
+_CHECKER = TraceChecker()
 
 
 @pytest.fixture
 def world() -> World:
     return small_world()
+
+
+@pytest.fixture(autouse=True, scope="session")
+def _every_trace_checked(tmp_path_factory: pytest.TempPathFactory) -> Iterator[None]:
+    yield
+    bad = _CHECKER.check_under(tmp_path_factory.getbasetemp())
+    assert not bad, "traces written by the tests are invalid:\n" + "\n".join(bad)
+
+
+@pytest.fixture(autouse=True)
+def _traces_checked(request: pytest.FixtureRequest) -> Iterator[None]:
+    yield
+    tmp = request.node.funcargs.get("tmp_path") if hasattr(request.node, "funcargs") else None
+    if not isinstance(tmp, Path):
+        return
+    if request.node.get_closest_marker("not_traces") is not None:
+        _CHECKER.ignore_under(tmp)
+        return
+    bad = _CHECKER.check_under(tmp)
+    assert not bad, "traces written by this test are invalid:\n" + "\n".join(bad)

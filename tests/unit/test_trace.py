@@ -5,8 +5,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+
+from mcap.reader import NonSeekingReader
+from trace_check import trace_problems
 
 from navstress.errors import StoreError
 from navstress.run.trace import (TOPIC_MAP, TOPIC_PERCEIVED, TOPIC_TRUTH, TraceWriter, euler, quaternion, read_events,
@@ -69,9 +72,70 @@ def test_atomic_on_failure(tmp_path: Path) -> None:
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.not_traces
 def test_unreadable_trace_is_a_clear_error(tmp_path: Path) -> None:
     with pytest.raises(StoreError, match="does not exist"):
         read_poses(tmp_path / "missing.mcap")
     (tmp_path / "junk.mcap").write_bytes(b"not an mcap file at all")
     with pytest.raises(StoreError, match="unreadable"):
         read_poses(tmp_path / "junk.mcap")
+
+
+_topics = st.sampled_from([TOPIC_TRUTH, TOPIC_PERCEIVED, "events", "lidar", "map"])
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.lists(st.tuples(_topics, st.floats(0.0, 1e4, allow_nan=False)), max_size=60), st.integers(0, 2**32 - 1))
+def test_messages_are_written_in_log_time_order(tmp_path_factory: pytest.TempPathFactory,
+                                                msgs: list[tuple[str, float]], seed: int) -> None:
+    """Whatever order the messages are handed over in (as a run hands them over: topic by
+    topic), the file holds them in log-time order, with a valid summary, byte-identically."""
+    d = tmp_path_factory.mktemp("order")
+
+    def write(path: Path) -> None:
+        with TraceWriter(path) as tw:
+            for topic, t in msgs:
+                if topic in (TOPIC_TRUTH, TOPIC_PERCEIVED):
+                    tw.pose(topic, t, 1.0, 2.0, 0.0, 0.1, 0.0, 0.0)
+                elif topic == "events":
+                    tw.event(t, "info", "x")
+                elif topic == "lidar":
+                    tw.points(t, np.random.default_rng(seed).normal(size=(5, 3)))
+                else:
+                    tw.grid(TOPIC_MAP, t, np.zeros((2, 3)), (0.0, 0.0), 0.5)
+            tw.scene([], (0, 0, 0), (1, 1), (0, 0))
+
+    write(d / "a.mcap")
+    write(d / "b.mcap")
+    assert trace_problems(d / "a.mcap") == []
+    assert (d / "a.mcap").read_bytes() == (d / "b.mcap").read_bytes()
+    with open(d / "a.mcap", "rb") as f:
+        times = [m.log_time for _s, _c, m in NonSeekingReader(f).iter_messages(log_time_order=False)]
+    assert times == sorted(times) and len(times) == len(msgs) + 1
+
+
+def test_trace_with_non_finite_or_negative_pose_times_is_still_valid(tmp_path: Path) -> None:
+    """A navigator's perceived trajectory may hold anything: rows with a NaN, infinite or
+    negative time are left out, the rest is written."""
+    rows = np.array([[0.0, 1, 1, 0, 0, 0, 0], [np.nan, 2, 2, 0, 0, 0, 0], [-1.0, 3, 3, 0, 0, 0, 0],
+                     [np.inf, 4, 4, 0, 0, 0, 0], [0.5, 5, 5, 0, 0, 0, 0]])
+    with TraceWriter(tmp_path / "p.mcap") as tw:
+        tw.poses(TOPIC_PERCEIVED, rows)
+    back = read_poses(tmp_path / "p.mcap", TOPIC_PERCEIVED)
+    assert back[:, 0].tolist() == [0.0, 0.5] and back[:, 1].tolist() == [1.0, 5.0]
+
+
+@pytest.mark.not_traces
+def test_the_trace_check_sees_messages_out_of_order(tmp_path: Path) -> None:
+    """The check every test's traces go through can fail: a file written out of order (as
+    traces were, topic by topic) is reported."""
+    from mcap.writer import Writer as RawWriter
+    with open(tmp_path / "bad.mcap", "wb") as f:
+        w = RawWriter(f)
+        w.start()
+        ch = w.register_channel("/a", "json", w.register_schema("s", "jsonschema", b"{}"))
+        for t in (5, 6, 1, 2):
+            w.add_message(ch, log_time=t, data=b"{}", publish_time=t)
+        w.finish()
+    problems = trace_problems(tmp_path / "bad.mcap")
+    assert problems and "goes back in time" in problems[0]

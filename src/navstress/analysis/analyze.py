@@ -8,7 +8,9 @@ Works on a finished, partial (still running) or empty campaign: configurations w
 run are listed with ``runs == 0`` and level ``"no data"``; :attr:`Analysis.missing` says
 what is not done yet. Difficulty, indeterminism and descriptor correlations use the nominal
 runs of one navigator (``navigator``, default: the spec's first); fault power compares each
-fault with that navigator's nominal runs on the same maps.
+fault with that navigator's nominal runs on the same maps. Given explicitly, ``navigator``
+also restricts what is drawn and listed per run (:meth:`Analysis.shows`): the report then
+shows that navigator alone; by default every navigator is shown, each figure naming its own.
 """
 
 from __future__ import annotations
@@ -97,6 +99,19 @@ class Analysis:
     #: per configuration, (maps whose mission is infeasible a priori, maps generated so far): the
     #: world generator's shortest-path check for the nominal robot (``descriptors.feasible``)
     infeasible: dict[tuple[str, str], tuple[int, int]] = field(default_factory=dict)
+    #: the campaign's navigators, in spec order
+    navigators: list[str] = field(default_factory=list)
+    #: the navigator asked for explicitly (``--navigator``), whose runs alone are shown; None: all
+    only_navigator: str | None = None
+
+    def shows(self, navigator: str) -> bool:
+        """Whether runs of ``navigator`` are drawn and listed (all, unless one was asked for)."""
+        return self.only_navigator is None or navigator == self.only_navigator
+
+    @property
+    def shown_navigators(self) -> list[str]:
+        """The navigators whose runs are drawn and listed, in spec order."""
+        return [n for n in self.navigators if self.shows(n)]
 
     @property
     def missing(self) -> list[tuple[str, str, int, int]]:
@@ -115,7 +130,8 @@ class Analysis:
     def to_json(self) -> dict[str, Any]:
         """A JSON-able summary (numbers only; no trajectories)."""
         return {
-            "campaign": self.name, "navigator": self.navigator, "done": self.done, "planned": self.planned,
+            "campaign": self.name, "navigator": self.navigator, "navigators": self.shown_navigators,
+            "done": self.done, "planned": self.planned,
             "outcomes": self.outcome_counts,
             "difficulty": {"threshold": self.difficulty.params.threshold, "k": self.difficulty.params.k,
                            "weights": list(self.difficulty.params.weights), "notes": list(self.difficulty.notes),
@@ -220,4 +236,5 @@ def analyze(directory: str | Path, *, params: DifficultyParams | None = None, na
     return Analysis(root=root, name=spec.name, navigator=nav, done=done, planned=planned, outcome_counts=counts,
                     per_experiment=per_exp, records=records, stats=stats, nominal=nominal, difficulty=diff,
                     ranges=ranges, overlaps=overlaps, indeterminism=indet, power=power, power_levels=power_levels,
-                    correlations=corr, world_dirs=world_dirs, dt=dt, infeasible=infeasible)
+                    correlations=corr, world_dirs=world_dirs, dt=dt, infeasible=infeasible, navigators=navs,
+                    only_navigator=navigator)

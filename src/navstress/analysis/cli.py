@@ -74,7 +74,8 @@ def analyze_cmd(
     for o in a.overlaps:
         con.print(f"fuzzy threshold in {o.experiment}: {o.a} and {o.b} overlap over {o.lo:g}..{o.hi:g}")
     if a.indeterminism:
-        ti = Table(title="Indeterminism: max distance between repeated runs (mean over maps)")
+        ti = Table(title=f"Indeterminism of {a.navigator} (nominal): max distance between repeated runs "
+                   "(mean over maps)")
         for c in ("class", "configuration", "runs", "maps", "peak m", "time-mean m", "final m"):
             ti.add_column(c)
         for (e, key), cs in a.indeterminism.items():
@@ -82,7 +83,7 @@ def analyze_cmd(
                 ti.add_row(e, key, g, str(cv.n_maps), f"{cv.peak_m:.2f}", f"{cv.mean_m:.2f}", f"{cv.final_m:.2f}")
         con.print(ti)
     if a.power_levels:
-        tp = Table(title="Fault-revealing power per level")
+        tp = Table(title=f"Fault-revealing power per level: faults of {a.navigator}")
         for c in ("level", "fault", "runs", "with collision", "new failures", "nominal runs", "nominal with collision"):
             tp.add_column(c)
         for p in a.power_levels:
@@ -91,7 +92,8 @@ def analyze_cmd(
         con.print(tp)
     best = [cr for cr in a.correlations if cr.rho_level is not None][:3]
     for cr in best:
-        con.print(f"descriptor {cr.descriptor}: Spearman rho with level {cr.rho_level:+.2f} over {cr.n} configurations")
+        con.print(f"descriptor {cr.descriptor}: Spearman rho with level ({a.navigator}) {cr.rho_level:+.2f} "
+                  f"over {cr.n} configurations")
     if json_out is not None:
         text = dumps(a.to_json())
         json_out.parent.mkdir(parents=True, exist_ok=True)

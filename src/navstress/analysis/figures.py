@@ -128,11 +128,14 @@ def _xs(values: list[Any]) -> tuple[list[float], list[str] | None]:
         return [float(i) for i in range(len(values))], [str(v) for v in values]
 
 
-def class_figure(experiment: str, stats: list[Any], levels: dict[tuple[str, str], str], *, dpi: int = 90) -> bytes:
+def class_figure(experiment: str, stats: list[Any], levels: dict[tuple[str, str], str], *, dpi: int = 90,
+                 navigator: str | None = None, fault: str = "nominal") -> bytes:
     """The paper's Fig. 7-9 layout for one experiment class: success rate (95 % CI bars, the
     level marked per point), median duration and median tortuousness of successful runs,
-    against the swept parameter. ``stats``: ConfigStats of the class (nominal runs)."""
-    items = [s for s in stats if s.experiment == experiment]
+    against the swept parameter. ``stats``: ConfigStats (one navigator's nominal runs); with
+    ``navigator``, only its rows are drawn and the title names it and ``fault``."""
+    items = [s for s in stats if s.experiment == experiment
+             and (navigator is None or (s.navigator == navigator and s.fault == fault))]
     param = next(iter(items[0].params), "configuration") if items else "configuration"
     xs, ticks = _xs([s.params.get(param, s.config_key) for s in items])
     fig = _figure(11.0, 3.4, dpi)
@@ -161,7 +164,8 @@ def class_figure(experiment: str, stats: list[Any], levels: dict[tuple[str, str]
     axes[0].axhline(25, color="#d7191c", lw=0.8, ls=":")
     if seen:
         axes[0].legend(fontsize=8, loc="best")
-    fig.suptitle(f"{experiment}: difficulty against {param}", fontsize=11)
+    who = f" ({navigator}, {fault} runs)" if navigator is not None else ""
+    fig.suptitle(f"{experiment}: difficulty against {param}{who}", fontsize=11)
     return png_bytes(fig)
 
 
@@ -190,22 +194,25 @@ def indeterminism_figure(title: str, curves: dict[str, dict[str, Any]], *, dpi: 
     return png_bytes(fig)
 
 
-def fault_power_figure(level_powers: list[Any], *, dpi: int = 90) -> bytes:
-    """Fig. 12: runs with collisions per difficulty level, faulty navigator beside nominal."""
+def fault_power_figure(level_powers: list[Any], *, dpi: int = 90, navigator: str | None = None) -> bytes:
+    """Fig. 12: runs with collisions per difficulty level, faulty navigator beside nominal
+    (the title names ``navigator``, whose faults and nominal runs these are)."""
     fig = _figure(7.5, 3.6, dpi)
     ax = fig.subplots()
     labels = [f"{p.level or 'no level'}\n{p.fault}" for p in level_powers]
     x = np.arange(len(level_powers), dtype=float)
-    ax.bar(x - 0.2, [p.collisions for p in level_powers], 0.4, color="#d7191c", label="faulty: runs with collision")
+    who = f"{navigator} " if navigator else ""
+    ax.bar(x - 0.2, [p.collisions for p in level_powers], 0.4, color="#d7191c",
+           label=f"{who}faulty: runs with collision")
     ax.bar(x + 0.2, [p.nominal_collisions for p in level_powers], 0.4, color="#1a9641",
-           label="nominal: runs with collision")
+           label=f"{who}nominal: runs with collision")
     for xi, p in zip(x, level_powers):
         ax.text(xi - 0.2, p.collisions, f"{p.collisions}/{p.runs}", ha="center", va="bottom", fontsize=8)
         ax.text(xi + 0.2, p.nominal_collisions, f"{p.nominal_collisions}/{p.nominal_runs}", ha="center",
                 va="bottom", fontsize=8)
     ax.set_xticks(x, labels)
     ax.set_ylabel("runs with a collision")
-    ax.set_title("Fault-revealing power per difficulty level", fontsize=10)
+    ax.set_title(f"Fault-revealing power per difficulty level{': ' + navigator if navigator else ''}", fontsize=10)
     ax.legend(fontsize=8)
     ax.grid(True, axis="y", alpha=0.3)
     return png_bytes(fig)

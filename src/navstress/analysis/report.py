@@ -8,6 +8,11 @@ ranges per class (fuzzy thresholds), per-class figures, indeterminism, fault pow
 descriptor correlations, and one section per configuration (every map with all its runs
 colour-coded by outcome, one real-vs-perceived picture and the final perceived map).
 
+Every figure and table says which navigator (and fault) it shows: per-configuration pictures
+are drawn per map and per (navigator, fault), never mixing runs of two navigators, and their
+titles and captions name both; figures carry ``data-navigator`` and ``data-fault``. With
+``navigator`` given (``report --navigator X``), tables and figures show that navigator alone.
+
 Every number a test may check carries stable attributes: summary values have ids
 (``runs-done``, ``runs-planned``, ``outcome-<outcome>``); table rows carry
 ``data-experiment``, ``data-config``, ``data-navigator``, ``data-fault`` and cells
@@ -73,9 +78,10 @@ def _cell(field: str, value: Any, text: str | None = None, cls: str = "") -> str
     return f'<td{c} data-field="{field}" data-value="{_e(_dv(value))}">{_e(text if text is not None else value)}</td>'
 
 
-def _img(png: bytes, name: str, alt: str) -> str:
+def _img(png: bytes, name: str, alt: str, navigator: str | None = None, fault: str | None = None) -> str:
     b64 = base64.b64encode(png).decode("ascii")
-    return f'<img class="figure" data-figure="{_e(name)}" alt="{_e(alt)}" src="data:image/png;base64,{b64}">'
+    who = "".join(f' data-{k}="{_e(v)}"' for k, v in (("navigator", navigator), ("fault", fault)) if v is not None)
+    return f'<img class="figure" data-figure="{_e(name)}"{who} alt="{_e(alt)}" src="data:image/png;base64,{b64}">'
 
 
 def _level_badge(level: str) -> str:
@@ -97,7 +103,9 @@ def _row_attrs(s: ConfigStats) -> str:
 def _summary(a: Analysis) -> str:
     out = [f'<h1>Campaign <span id="campaign-name">{_e(a.name)}</span></h1>',
            f'<p class="note">Directory <code>{_e(a.root)}</code>; report written {_e(time.strftime("%Y-%m-%d %H:%M"))}; '
-           f'difficulty, indeterminism and correlations use the nominal runs of <b>{_e(a.navigator)}</b>.</p>',
+           f'difficulty, indeterminism and correlations use the nominal runs of <b id="difficulty-navigator">'
+           f'{_e(a.navigator)}</b>; runs shown: <span id="shown-navigators">{_e(", ".join(a.shown_navigators))}'
+           '</span>.</p>',
            '<h2 id="summary">Summary</h2>',
            f'<p>Runs recorded: <b id="runs-done" data-value="{a.done}">{a.done}</b> of '
            f'<b id="runs-planned" data-value="{a.planned}">{a.planned}</b> planned.</p>']
@@ -115,7 +123,22 @@ def _summary(a: Analysis) -> str:
     rows = "".join(f'<tr><td class="l"><span style="color:{OUTCOME_COLOURS.get(o, "#000")}">&#9632;</span> '
                    f'{_e(OUTCOME_LABELS.get(o, o))}</td><td id="outcome-{_e(o)}" data-value="{n}">{n}</td></tr>'
                    for o, n in a.outcome_counts.items())
-    out.append(f'<table id="outcome-counts"><tr><th class="l">outcome</th><th>runs</th></tr>{rows}</table>')
+    out.append(f'<table id="outcome-counts"><tr><th class="l">outcome (all navigators and faults)</th>'
+               f'<th>runs</th></tr>{rows}</table>')
+    by_nav: dict[tuple[str, str], dict[str, int]] = {}
+    for r in a.records:
+        if a.shows(r.navigator):
+            c = by_nav.setdefault((r.navigator, fault_name(r.fault)), dict.fromkeys(a.outcome_counts, 0))
+            c[r.outcome] = c.get(r.outcome, 0) + 1
+    order = {n: i for i, n in enumerate(a.navigators)}
+    nav_rows = "".join(
+        f'<tr data-navigator="{_e(n)}" data-fault="{_e(f)}"><td class="l">{_e(n)}</td><td class="l">{_e(f)}</td>'
+        + "".join(_cell(o, c.get(o, 0)) for o in a.outcome_counts) + "</tr>"
+        for (n, f), c in sorted(by_nav.items(), key=lambda kv: (order.get(kv[0][0], len(order)), kv[0][1] != NOMINAL,
+                                                              kv[0][1])))
+    nav_heads = "".join(f"<th>{_e(OUTCOME_LABELS.get(o, o))}</th>" for o in a.outcome_counts)
+    out.append(f'<table id="outcome-counts-by-navigator"><tr><th class="l">navigator</th><th class="l">fault</th>'
+               f'{nav_heads}</tr>{nav_rows}</table>')
     exp_rows = "".join(
         f'<tr data-experiment="{_e(e)}"><td class="l">{_e(e)}</td><td data-field="done" data-value="{d}">{d}</td>'
         f'<td data-field="planned" data-value="{p}">{p}</td>'
@@ -142,6 +165,8 @@ def _difficulty(a: Analysis) -> str:
         out.append(f'<p class="note">Note: {_e(n)}</p>')
     rows = []
     for s in a.stats:
+        if not a.shows(s.navigator):
+            continue
         lev = a.level(s.experiment, s.config_key)
         rate = s.success_rate
         rows.append(
@@ -191,14 +216,16 @@ def _class_figures(a: Analysis) -> str:
         if not any(s.runs for s in a.nominal if s.experiment == e):
             out.append(f'<p class="note">{_e(e)}: no run recorded yet.</p>')
             continue
-        out.append(f"<h3>{_e(e)}</h3>" + _img(class_figure(e, a.nominal, levels), f"class-{e}",
-                                               f"success rate, duration and tortuousness of {e}"))
+        out.append(f"<h3>{_e(e)}: nominal runs of {_e(a.navigator)}</h3>"
+                   + _img(class_figure(e, a.nominal, levels, navigator=a.navigator), f"class-{e}",
+                          f"success rate, duration and tortuousness of {e}, nominal runs of {a.navigator}",
+                          a.navigator, NOMINAL))
     return "\n".join(out)
 
 
 def _indeterminism(a: Analysis) -> str:
     out = ['<h2 id="indeterminism">Indeterminism (Q2)</h2>',
-           f'<p class="note">For the repeated runs on one map, at each time t (step {a.dt:g} s) the maximum distance '
+           f'<p class="note">Nominal runs of <b>{_e(a.navigator)}</b>. For the repeated runs on one map, at each time t (step {a.dt:g} s) the maximum distance '
            'between their real positions (a run that has ended keeps its last position), averaged over the maps of '
            'a configuration, for all, successful and unsuccessful runs (a map counts with 2+ runs of the group).</p>']
     if not a.indeterminism:
@@ -207,36 +234,41 @@ def _indeterminism(a: Analysis) -> str:
     rows = []
     for (e, k), cs in a.indeterminism.items():
         for g, c in cs.items():
-            rows.append(f'<tr data-experiment="{_e(e)}" data-config="{_e(k)}" data-group="{_e(g)}">'
-                        f'<td class="l">{_e(e)}</td><td class="l">{_e(k)}</td><td class="l">{_e(g)}</td>'
+            rows.append(f'<tr data-experiment="{_e(e)}" data-config="{_e(k)}" data-group="{_e(g)}" '
+                        f'data-navigator="{_e(a.navigator)}" data-fault="{NOMINAL}">'
+                        f'<td class="l">{_e(e)}</td><td class="l">{_e(k)}</td><td class="l">{_e(a.navigator)}</td>'
+                        f'<td class="l">{_e(g)}</td>'
                         + _cell("n-maps", c.n_maps) + _cell("n-runs", c.n_runs)
                         + _cell("peak", c.peak_m, _fmt(c.peak_m, 2)) + _cell("mean", c.mean_m, _fmt(c.mean_m, 2))
                         + _cell("final", c.final_m, _fmt(c.final_m, 2)) + "</tr>")
     out.append('<table id="indeterminism-table"><tr><th class="l">class</th><th class="l">configuration</th>'
-               '<th class="l">runs</th><th>maps</th><th>runs</th><th>peak [m]</th><th>time mean [m]</th>'
+               '<th class="l">navigator</th><th class="l">runs</th><th>maps</th><th>runs</th><th>peak [m]</th><th>time mean [m]</th>'
                '<th>final [m]</th></tr>' + "".join(rows) + "</table>")
     for e in dict.fromkeys(k[0] for k in a.indeterminism):
         curves = {k: cs for (ee, k), cs in a.indeterminism.items() if ee == e}
-        out.append(_img(indeterminism_figure(e, curves), f"indeterminism-{e}", f"indeterminism curves of {e}"))
+        out.append(_img(indeterminism_figure(f"{e} ({a.navigator}, nominal)", curves), f"indeterminism-{e}",
+                        f"indeterminism curves of {e}, nominal runs of {a.navigator}", a.navigator, NOMINAL))
     return "\n".join(out)
 
 
 def _fault_power(a: Analysis) -> str:
     out = ['<h2 id="fault-power">Fault-revealing power (Q3)</h2>',
-           '<p class="note">Runs of each faulty navigator with a collision, and failures of a kind the nominal '
+           f'<p class="note">Faults injected into <b>{_e(a.navigator)}</b>. Runs of each faulty navigator with a collision, '
+           'and failures of a kind the nominal '
            'navigator did not show on the same map ("new failures"), with the nominal figures beside them.</p>']
     if not a.power:
         out.append('<p class="note" id="fault-power-empty">No faulty run recorded.</p>')
         return "\n".join(out)
     rows = "".join(
-        f'<tr data-experiment="{_e(p.experiment)}" data-config="{_e(p.config_key)}" data-fault="{_e(p.fault)}">'
-        f'<td class="l">{_e(p.experiment)}</td><td class="l">{_e(p.config_key)}</td><td class="l">{_e(p.fault)}</td>'
+        f'<tr data-experiment="{_e(p.experiment)}" data-config="{_e(p.config_key)}" data-fault="{_e(p.fault)}" '
+        f'data-navigator="{_e(p.navigator)}"><td class="l">{_e(p.experiment)}</td><td class="l">{_e(p.config_key)}</td>'
+        f'<td class="l">{_e(p.navigator)}</td><td class="l">{_e(p.fault)}</td>'
         f'<td class="l">{_level_badge(p.level or NO_DATA)}</td>' + _cell("runs", p.runs) + _cell("collisions", p.collisions)
         + _cell("collision-share", p.collision_share, _fmt(None if p.collision_share is None else 100 * p.collision_share, 1))
         + _cell("new-failures", p.new_failures) + _cell("nominal-runs", p.nominal_runs)
         + _cell("nominal-collisions", p.nominal_collisions) + "</tr>" for p in a.power)
     out.append('<table id="fault-power-table"><tr><th class="l">class</th><th class="l">configuration</th>'
-               '<th class="l">fault</th><th class="l">level</th><th>runs</th><th>with collision</th><th>%</th>'
+               '<th class="l">navigator</th><th class="l">fault</th><th class="l">level</th><th>runs</th><th>with collision</th><th>%</th>'
                '<th>new failures</th><th>nominal runs</th><th>nominal with collision</th></tr>' + rows + "</table>")
     lrows = "".join(
         f'<tr data-level="{_e(p.level)}" data-fault="{_e(p.fault)}"><td class="l">{_level_badge(p.level or NO_DATA)}</td>'
@@ -247,13 +279,15 @@ def _fault_power(a: Analysis) -> str:
     out.append('<table id="fault-power-levels"><tr><th class="l">level</th><th class="l">fault</th><th>configs</th>'
                '<th>runs</th><th>with collision</th><th>new failures</th><th>nominal runs</th>'
                '<th>nominal with collision</th></tr>' + lrows + "</table>")
-    out.append(_img(fault_power_figure(a.power_levels), "fault-power", "collisions per difficulty level"))
+    out.append(_img(fault_power_figure(a.power_levels, navigator=a.navigator), "fault-power",
+                    f"collisions per difficulty level, faults of {a.navigator}", a.navigator))
     return "\n".join(out)
 
 
 def _correlations(a: Analysis, top: int = 15) -> str:
     out = ['<h2 id="descriptors">Which a-priori descriptor predicts difficulty</h2>',
-           '<p class="note">Spearman rank correlation across configurations between each world descriptor (mean over '
+           f'<p class="note">Levels and failure rates of the nominal runs of <b>{_e(a.navigator)}</b>. '
+           'Spearman rank correlation across configurations between each world descriptor (mean over '
            'the maps) and the level (easy 0, challenging 1, very difficult 2), and with the failure rate. Strongest '
            'first.</p>']
     cs = [c for c in a.correlations if c.rho_level is not None or c.rho_failure is not None][:top]
@@ -268,24 +302,39 @@ def _correlations(a: Analysis, top: int = 15) -> str:
     return "\n".join(out)
 
 
+def _run_name(rec: RunRecord) -> str:
+    """How a run is named in titles and captions: map, run, navigator and fault."""
+    return f"m{rec.map_index} r{rec.run_index} {rec.navigator} {fault_name(rec.fault)}"
+
+
 def _track(rec: RunRecord, root: Path, cache: TrajectoryCache, max_points: int, perceived: bool = False) -> RunTrack | None:
     tp = trace_path(root, rec)
     truth = cache.get(tp, TOPIC_TRUTH)
     if truth is None:
         return None
     per = cache.get(tp, TOPIC_PERCEIVED) if perceived else None
-    label = f"m{rec.map_index} r{rec.run_index} {fault_name(rec.fault)}"
-    return RunTrack(label, rec.outcome, cache.thin(truth, max_points),
+    return RunTrack(_run_name(rec), rec.outcome, cache.thin(truth, max_points),
                     None if per is None else cache.thin(per, max_points))
+
+
+def _groups(recs: list[RunRecord], navigators: list[str]) -> list[tuple[str, str]]:
+    """The (navigator, fault) pairs among ``recs``: navigators in spec order, nominal first."""
+    pairs = {(r.navigator, fault_name(r.fault)) for r in recs}
+    order = {n: i for i, n in enumerate(navigators)}
+    return sorted(pairs, key=lambda p: (order.get(p[0], len(order)), p[1] != NOMINAL, p[1], p[0]))
 
 
 def _configs(a: Analysis, cache: TrajectoryCache, max_points: int) -> str:
     from navstress.world.world import World
 
-    out = ['<h2 id="configurations">Configurations</h2>']
+    shown = ", ".join(a.shown_navigators)
+    out = ['<h2 id="configurations">Configurations</h2>',
+           f'<p class="note">Every map with its runs, one picture per navigator and fault (runs of {_e(shown)}), '
+           'colour-coded by outcome; then, per navigator, one run in detail.</p>']
     by_cfg: dict[tuple[str, str], list[RunRecord]] = {}
     for r in a.records:
-        by_cfg.setdefault((r.experiment, config_key(r)), []).append(r)
+        if a.shows(r.navigator):
+            by_cfg.setdefault((r.experiment, config_key(r)), []).append(r)
     keys = list(dict.fromkeys([s.key for s in a.stats]))
     for key in keys:
         e, k = key
@@ -298,32 +347,45 @@ def _configs(a: Analysis, cache: TrajectoryCache, max_points: int) -> str:
             continue
         worlds: dict[int, World] = {}
         figs = []
+        groups = _groups(recs, a.navigators)
         for m, wdir in a.world_dirs.get(key, []):
-            mrecs = [r for r in recs if r.map_index == m]
-            if not mrecs:
+            if not any(r.map_index == m for r in recs):
                 continue
             try:
                 worlds[m] = World.load(wdir)
             except Exception as err:  # a world still being written, or removed
                 figs.append(f'<p class="note">map m{m}: world not readable ({_e(type(err).__name__)})</p>')
                 continue
-            tracks = [t for t in (_track(r, a.root, cache, max_points) for r in mrecs) if t is not None]
-            counts = ", ".join(f"{sum(r.outcome == o for r in mrecs)} {OUTCOME_LABELS[o]}"
-                               for o in OUTCOME_LABELS if any(r.outcome == o for r in mrecs))
-            png = world_runs_png_bytes(worlds[m], tracks, title=f"{e} / {k} / map m{m}: {len(mrecs)} runs")
-            figs.append(f'<figure>{_img(png, f"map-{e}-{k}-m{m}", f"runs on map m{m}")}'
-                        f'<figcaption>map m{m} (seed {mrecs[0].map_seed}): {_e(counts)}</figcaption></figure>')
-        # one run in detail: the first nominal failure if any, else the first run with a trace
-        nominal = [r for r in recs if fault_name(r.fault) == NOMINAL]
-        pick = next((r for r in nominal if r.outcome != Outcome.SUCCESS.value and r.map_index in worlds), None) or \
-            next((r for r in recs if r.map_index in worlds and trace_path(a.root, r) is not None), None)
-        if pick is not None:
+            for nav, fault in groups:
+                mrecs = [r for r in recs if r.map_index == m and r.navigator == nav and fault_name(r.fault) == fault]
+                if not mrecs:
+                    continue
+                tracks = [t for t in (_track(r, a.root, cache, max_points) for r in mrecs) if t is not None]
+                counts = ", ".join(f"{sum(r.outcome == o for r in mrecs)} {OUTCOME_LABELS[o]}"
+                                   for o in OUTCOME_LABELS if any(r.outcome == o for r in mrecs))
+                who = f"{nav}, {fault}"
+                png = world_runs_png_bytes(worlds[m], tracks,
+                                           title=f"{e} / {k} / map m{m}: {who}: {len(mrecs)} runs")
+                figs.append(f'<figure data-navigator="{_e(nav)}" data-fault="{_e(fault)}" data-map="{m}">'
+                            f'{_img(png, f"map-{e}-{k}-m{m}-{nav}-{fault}", f"runs of {who} on map m{m}", nav, fault)}'
+                            f'<figcaption>map m{m} (seed {mrecs[0].map_seed}), <b>{_e(nav)}</b> ({_e(fault)}): '
+                            f'{_e(counts)}</figcaption></figure>')
+        # per navigator, one run in detail: its first nominal failure if any, else its first run with a trace
+        for nav in dict.fromkeys(n for n, _f in groups):
+            nrecs = [r for r in recs if r.navigator == nav]
+            nominal = [r for r in nrecs if fault_name(r.fault) == NOMINAL]
+            pick = next((r for r in nominal if r.outcome != Outcome.SUCCESS.value and r.map_index in worlds), None) or \
+                next((r for r in nrecs if r.map_index in worlds and trace_path(a.root, r) is not None), None)
+            if pick is None:
+                continue
+            fault = fault_name(pick.fault)
             tr = _track(pick, a.root, cache, max_points, perceived=True)
             w = worlds[pick.map_index]
-            name = f"m{pick.map_index} r{pick.run_index} {fault_name(pick.fault)}"
+            name = _run_name(pick)
             if tr is not None:
                 png = world_runs_png_bytes(w, [tr], perceived=True, title=f"real vs perceived: {name}")
-                figs.append(f'<figure>{_img(png, f"perceived-{e}-{k}", "real vs perceived trajectory")}'
+                figs.append(f'<figure data-navigator="{_e(nav)}" data-fault="{_e(fault)}" data-map="{pick.map_index}">'
+                            f'{_img(png, f"perceived-{e}-{k}-{nav}", f"real vs perceived trajectory of {name}", nav, fault)}'
                             f'<figcaption>{_e(name)}: {_e(OUTCOME_LABELS.get(pick.outcome, pick.outcome))} '
                             f'\u2013 {_e(pick.reason)}</figcaption></figure>')
             tp = trace_path(a.root, pick)
@@ -333,7 +395,8 @@ def _configs(a: Analysis, cache: TrajectoryCache, max_points: int) -> str:
                 grid = None
             if grid is not None:
                 png = perceived_map_png_bytes(w, grid[0], grid[1], grid[2], tr, title=f"final perceived map: {name}")
-                figs.append(f'<figure>{_img(png, f"navmap-{e}-{k}", "final perceived map")}'
+                figs.append(f'<figure data-navigator="{_e(nav)}" data-fault="{_e(fault)}" data-map="{pick.map_index}">'
+                            f'{_img(png, f"navmap-{e}-{k}-{nav}", f"final perceived map of {name}", nav, fault)}'
                             f'<figcaption>{_e(name)}: the navigator\'s map at the end (pink: never seen)'
                             '</figcaption></figure>')
         out.append('<div class="maps">' + "".join(figs) + "</div></section>")

@@ -38,6 +38,7 @@ from pathlib import Path
 from types import TracebackType
 from typing import IO, Any, Literal
 
+from navstress import _files
 from navstress.campaign.plan import Plan, plan
 from navstress.campaign.spec import CampaignSpec, parse_campaign_text
 from navstress.errors import SpecError, StoreError
@@ -186,6 +187,7 @@ class Store:
         p = plan(spec, d)
         tmp = d / _TMP_DB
         try:
+            _files.create_file(tmp)  # SQLite's own 0644 ignores the umask; its -wal/-shm copy this mode
             con = sqlite3.connect(tmp, isolation_level=None)
             try:
                 _schema(con)

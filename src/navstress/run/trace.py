@@ -6,8 +6,12 @@ Open a trace in Foxglove to see the run: ``/truth/pose`` and ``/perceived/pose``
 ``/world/terrain`` (``foxglove.Grid``: ground heights), ``/nav/map`` (``foxglove.Grid``: the
 navigator's final perceived elevation map, NaN = unknown), optionally ``/lidar``
 (``foxglove.PointCloud``, world frame). All timestamps are *simulated* time, so the same
-seeds give a byte-identical file. The file is written under a temporary name and renamed
-into place when complete (DESIGN invariant 4).
+seeds give a byte-identical file. Each message's log time is the simulated time of what it
+shows (a pose's measurement time, a scan's time), and messages are written to the file in
+log-time order whatever order they were handed over in (``mcap doctor
+--strict-message-order`` is clean): the writer buffers them and writes them sorted (stable,
+by log time then order of submission) when the file is closed. The file is written under a
+temporary name and renamed into place when complete (DESIGN invariant 4).
 
 The analysis reads trajectories back with :func:`read_poses`.
 """
@@ -96,12 +100,19 @@ class TraceWriter:
         self._f: IO[bytes] = open(self._tmp, "wb")
         self._w = Writer(self._f, compression=CompressionType.ZSTD)
         self._w._writer.add_metadata("navstress.run", {k: str(v) for k, v in (metadata or {}).items()})
+        self._pending: list[tuple[int, int, str, Any]] = []  # (log_time, submission order, topic, message)
+
+    def _put(self, topic: str, msg: Any, log_time: int) -> None:
+        """Queue one message; :meth:`close` writes the queue in log-time order."""
+        self._pending.append((log_time, len(self._pending), topic, msg))
 
     # -- messages ----------------------------------------------------------------------
     def pose(self, topic: str, t: float, x: float, y: float, z: float, yaw: float, pitch: float, roll: float) -> None:
+        if not (math.isfinite(t) and t >= 0.0):  # a navigator's perceived trajectory may hold anything
+            return
         msg = PoseInFrame(timestamp=_stamp(t), frame_id=FRAME,
                           pose=Pose(position=Vector3(x=x, y=y, z=z), orientation=quaternion(yaw, pitch, roll)))
-        self._w.write_message(topic, msg, log_time=_ns(t), publish_time=_ns(t))
+        self._put(topic, msg, _ns(t))
 
     def poses(self, topic: str, rows: np.ndarray) -> None:
         """Many poses at once: ``rows`` (N, 7) = t, x, y, z, yaw, pitch, roll."""
@@ -112,7 +123,7 @@ class TraceWriter:
         from navstress.run.record import cap_message  # bounded like the record's messages
 
         msg = Log(timestamp=_stamp(t), level=LEVELS[level], message=cap_message(message), name=name)  # type: ignore[arg-type]
-        self._w.write_message(TOPIC_EVENTS, msg, log_time=_ns(t), publish_time=_ns(t))
+        self._put(TOPIC_EVENTS, msg, _ns(t))
 
     def grid(self, topic: str, t: float, values: np.ndarray, origin_xy: tuple[float, float], cell_m: float,
              field: str = "elevation") -> None:
@@ -124,7 +135,7 @@ class TraceWriter:
                    column_count=cols, cell_size=Vector2(x=cell_m, y=cell_m), row_stride=cols * 4, cell_stride=4,
                    fields=[PackedElementField(name=field, offset=0, type=PackedElementField.FLOAT32)],
                    data=v.tobytes())
-        self._w.write_message(topic, msg, log_time=_ns(t), publish_time=_ns(t))
+        self._put(topic, msg, _ns(t))
 
     def points(self, t: float, pts: np.ndarray) -> None:
         """A lidar point cloud in the map frame, (N, 3)."""
@@ -133,7 +144,7 @@ class TraceWriter:
                          pose=Pose(position=Vector3(), orientation=Quaternion(w=1.0)), point_stride=12,
                          fields=[PackedElementField(name=n, offset=4 * i, type=PackedElementField.FLOAT32)
                                  for i, n in enumerate("xyz")], data=p.tobytes())
-        self._w.write_message(TOPIC_LIDAR, msg, log_time=_ns(t), publish_time=_ns(t))
+        self._put(TOPIC_LIDAR, msg, _ns(t))
 
     def scene(self, obstacles: list[dict[str, Any]], start: tuple[float, float, float], goal: tuple[float, float],
               ground_z: tuple[float, float]) -> None:
@@ -151,11 +162,16 @@ class TraceWriter:
                                  size=Vector3(x=1, y=1, z=1), color=Color(r=1.0, g=0.2, b=0.1, a=1.0))]
         ent = SceneEntity(timestamp=_stamp(0.0), frame_id=FRAME, id="world", frame_locked=True,
                           cubes=cubes, spheres=marks)
-        self._w.write_message(TOPIC_SCENE, SceneUpdate(entities=[ent]), log_time=0, publish_time=0)
+        self._put(TOPIC_SCENE, SceneUpdate(entities=[ent]), 0)
 
     # -- lifecycle ---------------------------------------------------------------------
     def close(self) -> Path:
-        """Finish the file and move it into place atomically; returns the final path."""
+        """Write the queued messages in log-time order, finish the file and move it into place
+        atomically; returns the final path."""
+        self._pending.sort(key=lambda m: (m[0], m[1]))
+        for log_time, _seq, topic, msg in self._pending:
+            self._w.write_message(topic, msg, log_time=log_time, publish_time=log_time)
+        self._pending.clear()
         self._w.finish()  # type: ignore[no-untyped-call]
         self._f.flush()
         os.fsync(self._f.fileno())
@@ -165,6 +181,7 @@ class TraceWriter:
 
     def abort(self) -> None:
         """Drop the partial file (used when the run itself could not be recorded)."""
+        self._pending.clear()
         try:
             self._f.close()
         finally:

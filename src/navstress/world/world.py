@@ -18,7 +18,6 @@ import json
 import math
 import os
 import shutil
-import tempfile
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -27,6 +26,7 @@ from typing import Any
 import numpy as np
 from pydantic import ValidationError
 
+from navstress import _files
 from navstress.errors import WorldFileError
 from navstress.world.spec import WorldSpec
 
@@ -189,7 +189,7 @@ class World:
             raise WorldFileError(f"output={str(dest)!r} exists and is not a world directory; "
                                  "choose a new path or remove it")
         dest.parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=f".{dest.name}.", dir=dest.parent))
+        tmp = _files.temp_dir_beside(dest)  # with the umask's mode: other users may read worlds
         try:
             with open(tmp / WORLD_JSON, "w", encoding="utf-8") as f:
                 json.dump(self.to_json(), f, indent=1, sort_keys=True, allow_nan=False)

@@ -115,6 +115,7 @@ def test_killed_mid_transaction_leaves_nothing(tmp_path: Path) -> None:
         assert s.con.execute("PRAGMA integrity_check").fetchone()[0] == "ok"
 
 
+@pytest.mark.not_traces
 def test_cleanup_partials(tmp_path: Path) -> None:
     with Store.create(tmp_path, SPEC, TEXT) as s:
         t = s.plan().tasks[0]

@@ -1,0 +1,85 @@
+"""Files navstress writes for others to read: modes that follow the process umask.
+
+``tempfile.mkstemp`` and ``mkdtemp`` create owner-only files (0600) and directories (0700)
+whatever the umask, which breaks a Gazebo container running as another user or Ray nodes
+with another uid. Every writer goes through these helpers, which give new files
+``0o666 & ~umask`` and new directories ``0o777 & ~umask``, as ``open`` and ``mkdir`` would.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+import threading
+from pathlib import Path
+
+_LOCK = threading.Lock()
+_SWAPPED: list[int] = []  # the umask read by swapping, once (only where /proc cannot tell)
+
+
+def umask() -> int:
+    """The process umask, read without changing it where Linux tells (``/proc/self/status``);
+    elsewhere read once by setting a restrictive one and restoring it, under a lock."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    with _LOCK:
+        if not _SWAPPED:
+            old = os.umask(0o077)  # a racing thread meanwhile creates owner-only files, never wider ones
+            os.umask(old)
+            _SWAPPED.append(old)
+        return _SWAPPED[0]
+
+
+def file_mode() -> int:
+    """Mode of a new regular file: ``0o666 & ~umask``."""
+    return 0o666 & ~umask()
+
+
+def dir_mode() -> int:
+    """Mode of a new directory: ``0o777 & ~umask``."""
+    return 0o777 & ~umask()
+
+
+def apply_file_mode(path: str | os.PathLike[str]) -> None:
+    """Give ``path`` (a file some library created with its own mode) the umask's file mode."""
+    os.chmod(path, file_mode())
+
+
+def write_atomic(path: str | os.PathLike[str], data: bytes | str) -> None:
+    """Write ``data`` to ``path`` via a unique temporary file in the same folder (fsynced, with
+    the umask's mode), then rename it into place; nothing is left behind on failure."""
+    dest = Path(path)
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    raw = data.encode("utf-8") if isinstance(data, str) else data
+    fd, tmp = tempfile.mkstemp(prefix=f".{dest.name}.", suffix=".tmp", dir=dest.parent)
+    try:
+        os.fchmod(fd, file_mode())
+        with os.fdopen(fd, "wb") as f:
+            f.write(raw)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, dest)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def temp_dir_beside(dest: str | os.PathLike[str]) -> Path:
+    """A new hidden directory next to ``dest`` (to be renamed onto it), with the umask's mode."""
+    d = Path(dest)
+    d.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{d.name}.", dir=d.parent))
+    os.chmod(tmp, dir_mode())
+    return tmp
+
+
+def create_file(path: str | os.PathLike[str]) -> None:
+    """Create an empty file at ``path`` with the umask's mode (before a library such as SQLite,
+    which would use its own fixed mode, opens it)."""
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT, 0o666)  # the OS applies the umask
+    os.close(fd)
