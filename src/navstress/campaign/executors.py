@@ -39,7 +39,7 @@ from typing import Any, Literal
 from navstress.campaign.plan import MapJob, Plan
 from navstress.campaign.spec import CampaignSpec, load_campaign
 from navstress.campaign.store import OUTCOMES, Store, disk_full, is_disk_full
-from navstress.errors import GenerationError, NavigatorError, NavstressError, SpecError, WorldFileError
+from navstress.errors import GenerationError, NavigatorError, SpecError, WorldFileError
 from navstress.run.record import RunRecord, RunTask
 
 RecordCallback = Callable[[RunRecord], None]

@@ -135,7 +135,7 @@ class GlobalConfig(ReferenceConfig):
 _TYPE_WORDS = {
     "float_parsing": "a number", "float_type": "a number", "finite_number": "a finite number",
     "int_parsing": "an integer", "int_type": "an integer", "int_from_float": "an integer",
-    "bool_parsing": "true or false", "bool_type": "true or false", "literal_error": "one of the listed values",
+    "bool_parsing": "true or false", "bool_type": "true or false",
 }
 
 
