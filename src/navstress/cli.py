@@ -7,7 +7,9 @@
 
 Every user error (a :class:`~navstress.errors.NavstressError` or a bad flag) prints ONE line on
 stderr, ``error: <field>=<value> is invalid: expected ...; fix``, exits with code 2 and writes
-nothing.
+nothing. So does an ``OSError`` met while a command works (a read-only or full disk, a
+permission, a folder where a file is expected): the line names the path the user gave and what
+to do (:func:`os_error_line`). Text a user or a navigator wrote is printed literally.
 """
 
 from __future__ import annotations
