@@ -187,6 +187,7 @@ class Worker:
                 self._kill()
                 return "limit", limit_s
             mpc.wait([self._conn, self._proc.sentinel], timeout=remaining)
+            kind = "none"
             if self._conn.poll():
                 try:
                     kind, value = self._conn.recv()
@@ -204,7 +205,11 @@ class Worker:
                     if kind == "ready":
                         return "ok", None
                     return kind, value
-            if not self._proc.is_alive():
+            if kind == "" and self._proc.is_alive():  # the pipe broke under a live worker
+                self._proc.join(0.5)
+            if not self._proc.is_alive() or kind == "":
+                if self._proc.is_alive():
+                    self._proc.kill()
                 self._proc.join(1.0)
                 code = self._proc.exitcode
                 self._conn.close()

@@ -75,6 +75,8 @@ def test_run_writes_traces_records_and_picture(box_ahead: Path, tmp_path: Path) 
     (("--fault", "nope"), "unknown fault 'nope'"),
     (("--runs", "0"), "--runs='0' is invalid"),
     (("--timeout", "-1"), "--timeout='-1' is invalid"),
+    (("--wall-limit", "0"), "--wall-limit='0' is invalid"),
+    (("--wall-limit", "nan"), "--wall-limit='nan' is invalid"),
 ])
 def test_run_bad_input_writes_nothing(box_ahead: Path, tmp_path: Path, args: tuple[str, ...], needle: str) -> None:
     out = tmp_path / "out"
@@ -87,3 +89,10 @@ def test_run_bad_input_writes_nothing(box_ahead: Path, tmp_path: Path, args: tup
 def test_run_on_a_non_world(tmp_path: Path) -> None:
     r = cli("run", str(tmp_path), "-o", str(tmp_path / "out"))
     assert r.returncode == 2 and "not a world directory" in r.stderr
+
+
+@pytest.mark.parametrize("value", ["0", "-3", "inf", "soon"])
+def test_nav_check_bad_wall_limit_is_one_line_exit_2(value: str) -> None:
+    r = cli("nav", "check", "reference-v1", "--wall-limit", value)
+    assert r.returncode == 2
+    assert f"--wall-limit={value!r} is invalid" in r.stderr and r.stderr.strip().count("\n") == 0
