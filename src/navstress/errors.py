@@ -33,6 +33,10 @@ class SpecError(NavstressError, ValueError):
             msg += f"; {fix}"
         super().__init__(msg)
 
+    def __reduce__(self) -> tuple[Any, ...]:
+        # picklable with its fields (it crosses process boundaries: worker processes, Ray)
+        return (type(self), (self.field, self.value, self.expected, self.fix))
+
 
 class GenerationError(NavstressError):
     """A world could not be generated as specified (e.g. obstruction target unreachable)."""
