@@ -56,7 +56,10 @@ def write_atomic(path: str | os.PathLike[str], data: bytes | str) -> None:
     dest = Path(path)
     dest.parent.mkdir(parents=True, exist_ok=True)
     raw = data.encode("utf-8") if isinstance(data, str) else data
-    fd, tmp = tempfile.mkstemp(prefix=f".{dest.name}.", suffix=".tmp", dir=dest.parent)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{dest.name}.", suffix=".tmp", dir=dest.parent)
+    except OSError as e:  # name the file the user asked for, not our temporary one
+        raise OSError(e.errno, e.strerror, str(dest)) from None
     try:
         os.fchmod(fd, file_mode())
         with os.fdopen(fd, "wb") as f:
@@ -73,7 +76,10 @@ def temp_dir_beside(dest: str | os.PathLike[str]) -> Path:
     """A new hidden directory next to ``dest`` (to be renamed onto it), with the umask's mode."""
     d = Path(dest)
     d.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{d.name}.", dir=d.parent))
+    try:
+        tmp = Path(tempfile.mkdtemp(prefix=f".{d.name}.", dir=d.parent))
+    except OSError as e:  # name the directory the user asked for, not our temporary one
+        raise OSError(e.errno, e.strerror, str(d)) from None
     os.chmod(tmp, dir_mode())
     return tmp
 
@@ -83,3 +89,27 @@ def create_file(path: str | os.PathLike[str]) -> None:
     which would use its own fixed mode, opens it)."""
     fd = os.open(path, os.O_WRONLY | os.O_CREAT, 0o666)  # the OS applies the umask
     os.close(fd)
+
+
+def probe_writable(dest: str | os.PathLike[str]) -> None:
+    """Raise the OSError (naming ``dest``) that writing a file at ``dest`` would meet, now,
+    before long work whose result would be lost; leaves nothing behind."""
+    d = Path(dest)
+    parent = d.parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    try:
+        fd, probe = tempfile.mkstemp(prefix=f".{d.name}.", suffix=".probe", dir=parent)
+    except OSError as e:
+        raise OSError(e.errno, e.strerror, str(d)) from None
+    os.close(fd)
+    os.unlink(probe)
+
+
+def fsync_dir(path: str | os.PathLike[str]) -> None:
+    """Make a rename inside directory ``path`` durable."""
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)

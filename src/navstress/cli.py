@@ -20,7 +20,6 @@ import os
 import re
 import shutil
 import sys
-import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Annotated, Any
@@ -30,7 +29,7 @@ import typer
 from typer import _click as click
 from typer.core import TyperGroup
 
-from navstress import __version__
+from navstress import __version__, _files
 from navstress.errors import NavstressError, SpecError, WorldFileError
 
 EXIT_USAGE = 2
@@ -464,15 +463,7 @@ def _check_file_out(dest: Path) -> None:
 def probe_writable(dest: Path) -> None:
     """Fail now (OSError naming ``dest``) if a file cannot be created where ``dest`` will be
     written, before long work whose result would be lost; leaves nothing behind."""
-    parent = dest.parent
-    while not parent.exists() and parent != parent.parent:
-        parent = parent.parent
-    try:
-        fd, probe = tempfile.mkstemp(prefix=f".{dest.name}.", suffix=".probe", dir=parent)
-    except OSError as e:
-        raise OSError(e.errno, e.strerror, str(dest)) from None
-    os.close(fd)
-    os.unlink(probe)
+    _files.probe_writable(dest)
 
 
 @world_app.command("export")

@@ -73,12 +73,18 @@ def trajectories_png(world: World, tracks: list[RunTrack], path: str | Path, *, 
     try:
         draw_world(ax, world, legend=False)
         draw_tracks(ax, tracks, perceived=perceived)
-        ax.legend(loc="upper left", fontsize=8, framealpha=0.85)
+        legend(ax, loc="upper left", fontsize=8, framealpha=0.85)
         if title:
             ax.set_title(title, fontsize=10, loc="left")
         return save_png(fig, path)
     finally:
         plt.close(fig)
+
+
+def legend(ax: Any, **kw: Any) -> None:
+    """``ax.legend(**kw)`` when something is labelled (matplotlib warns on stderr otherwise)."""
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(**kw)
 
 
 def save_png(fig: "object", path: str | Path) -> Path:
@@ -163,7 +169,7 @@ def class_figure(experiment: str, stats: list[Any], levels: dict[tuple[str, str]
     axes[0].set_ylim(-5, 105)
     axes[0].axhline(25, color="#d7191c", lw=0.8, ls=":")
     if seen:
-        axes[0].legend(fontsize=8, loc="best")
+        legend(axes[0], fontsize=8, loc="best")
     who = f" ({navigator}, {fault} runs)" if navigator is not None else ""
     fig.suptitle(f"{experiment}: difficulty against {param}{who}", fontsize=11)
     return png_bytes(fig)
@@ -186,7 +192,7 @@ def indeterminism_figure(title: str, curves: dict[str, dict[str, Any]], *, dpi: 
         ax.set_xlabel("time t [s]")
         ax.grid(True, alpha=0.3)
         if n:
-            ax.legend(fontsize=7)
+            legend(ax, fontsize=7)
         else:
             ax.text(0.5, 0.5, "no map with 2+ such runs", ha="center", va="center", transform=ax.transAxes,
                     color="#777777")
@@ -213,7 +219,7 @@ def fault_power_figure(level_powers: list[Any], *, dpi: int = 90, navigator: str
     ax.set_xticks(x, labels)
     ax.set_ylabel("runs with a collision")
     ax.set_title(f"Fault-revealing power per difficulty level{': ' + navigator if navigator else ''}", fontsize=10)
-    ax.legend(fontsize=8)
+    legend(ax, fontsize=8)
     ax.grid(True, axis="y", alpha=0.3)
     return png_bytes(fig)
 
@@ -228,7 +234,7 @@ def world_runs_png_bytes(world: World, tracks: list[RunTrack], *, title: str | N
     draw_world(ax, world, legend=False)
     draw_tracks(ax, tracks, perceived=perceived)
     if tracks:
-        ax.legend(loc="upper left", fontsize=7, framealpha=0.85)
+        legend(ax, loc="upper left", fontsize=7, framealpha=0.85)
     if title:
         ax.set_title(title, fontsize=9, loc="left")
     return png_bytes(fig)

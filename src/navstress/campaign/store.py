@@ -203,7 +203,7 @@ class Store:
                 con.close()
             _fsync_path(tmp)
             os.replace(tmp, d / DB_NAME)
-            _fsync_dir(d)
+            _files.fsync_dir(d)
         finally:
             for name in _CREATION_LEFTOVERS[1:]:
                 (d / name).unlink(missing_ok=True)
@@ -553,14 +553,6 @@ def _atomic_write(path: Path, text: str) -> None:
         f.flush()
         os.fsync(f.fileno())
     os.replace(tmp, path)
-
-
-def _fsync_dir(path: Path) -> None:
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
 
 
 def _fsync_path(path: Path) -> None:

@@ -81,7 +81,9 @@ def _first_line(text: str) -> str:
 
 
 def run_isolated(task: RunTask, worker: Worker) -> RunRecord:
-    """``execute(task)`` in ``worker``; whatever goes wrong becomes a Fail-Other record."""
+    """``execute(task)`` in ``worker``; whatever goes wrong with the navigator (its process
+    died, it hung, something raised out of the run) becomes a Fail-Other record. An OSError
+    (full disk, permissions) or a NavstressError is navstress's own failure: raised here."""
     t0 = time.perf_counter()
     try:
         status, value = worker.call(execute, task)
@@ -94,6 +96,10 @@ def run_isolated(task: RunTask, worker: Worker) -> RunRecord:
         rec: RunRecord = value
         return rec
     drop_partial_trace(task)
+    if status == "raised" and isinstance(value, (OSError, NavstressError)):
+        # navstress's own machinery failed (a full disk, an unreadable world), not the navigator
+        # (execute() classifies whatever the navigator raises): stop with that error, record nothing
+        raise value
     if status == "raised":
         why = f"run raised {type(value).__name__}: {_first_line(str(value))}".rstrip(": ")
     elif status == "died":

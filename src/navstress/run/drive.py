@@ -95,7 +95,7 @@ def drive_picture(world: World, res: DriveResult, path: str | Path, title: str) 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from navstress.analysis.figures import save_png
+    from navstress.analysis.figures import legend, save_png
     from navstress.world.export.images import draw_world
 
     fig, ax = plt.subplots(figsize=(8.2, 7.2), dpi=110)
@@ -108,7 +108,7 @@ def drive_picture(world: World, res: DriveResult, path: str | Path, title: str) 
                     label="wheel odometry (from the start pose)", zorder=6)
         for k, (_t, x, y, _o) in enumerate(res.collisions):
             ax.plot(x, y, "X", color="black", ms=11, zorder=8, label="collision" if k == 0 else None)
-        ax.legend(loc="upper left", fontsize=8, framealpha=0.85)
+        legend(ax, loc="upper left", fontsize=8, framealpha=0.85)
         ax.set_title(title, fontsize=10, loc="left")
         return save_png(fig, path)
     finally:
