@@ -7,6 +7,7 @@ completes), replay identity, export, the CLI sub-app, and the Ray executor on a 
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import sqlite3
@@ -24,6 +25,7 @@ from navstress.campaign.cli import campaign_app, replay as replay_cmd
 from navstress.campaign.executors import run_campaign
 from navstress.campaign.replay import replay
 from navstress.campaign.store import Store, read_export
+import loopback
 
 HELPERS = str(Path(__file__).resolve().parents[1] / "unit" / "campaign")
 if HELPERS not in sys.path:
@@ -168,19 +170,41 @@ def test_crashing_and_hanging_navigators_are_classified(tmp_path: Path) -> None:
     assert _partials(tmp_path / "out") == []
 
 
+_RAY_CAMPAIGN = """
+import json, os, sys
+import ray
+from loopback import listening_addresses
+from navstress.campaign.executors import run_campaign
+os.environ.setdefault("RAY_AUTH_MODE", "disabled")
+ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False,
+         runtime_env={"env_vars": {"PYTHONPATH": os.environ["PYTHONPATH"]}})
+try:
+    listening = listening_addresses()
+    res = run_campaign(sys.argv[1], sys.argv[2], executor="ray")
+finally:
+    ray.shutdown()
+print(json.dumps({"recorded": res.recorded, "planned": res.planned, "workers": res.workers,
+                  "listening": listening}))
+"""
+
+
+@pytest.mark.skipif(not loopback.available(), reason="needs a network namespace (unshare -rn)")
 def test_ray_executor_on_local_cluster(tmp_path: Path) -> None:
-    ray = pytest.importorskip("ray", reason="ray is not installed (pip extra 'ray'; the 'test' extra installs it)")
+    """A real local Ray cluster, started inside a network namespace that has only loopback:
+    every server of the cluster listens on 127.0.0.1 and nothing can reach outside."""
+    pytest.importorskip("ray", reason="ray is not installed (pip extra 'ray'; the 'test' extra installs it)")
     spec = _write(tmp_path / "spec.yaml", _spec(
         experiments=[{"name": "flat", "sweep": {"obstacles.obstruction.tree": {"values": [0]}}}],
         runs_per_map=2, navigators=[{"name": "reference-v1"}, MISBEHAVING[0]], timeout_s=30.0))
-    os.environ.setdefault("RAY_AUTH_MODE", "disabled")
-    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False,
-             runtime_env={"env_vars": {"PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}})
-    try:
-        res = run_campaign(spec, tmp_path / "out", executor="ray")
-    finally:
-        ray.shutdown()
-    assert res.recorded == res.planned == 4 and res.workers == 2
+    tests = Path(__file__).resolve().parents[1]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tests.parent / "src"), HELPERS, str(tests),
+                                                        os.environ.get("PYTHONPATH", "")])}
+    p = subprocess.run(loopback.loopback_only([sys.executable, "-c", _RAY_CAMPAIGN, str(spec), str(tmp_path / "out")]),
+                       env=env, capture_output=True, text=True, timeout=400)
+    assert p.returncode == 0, p.stderr[-3000:]
+    res = json.loads(p.stdout.strip().splitlines()[-1])
+    assert res["recorded"] == res["planned"] == 4 and res["workers"] == 2
+    assert res["listening"] and all(loopback.is_loopback(a) for a in res["listening"]), res["listening"]
     with Store.open(tmp_path / "out") as s:
         recs = s.records()
         local_plan = [t.run_id for t in s.plan().tasks]

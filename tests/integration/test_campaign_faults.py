@@ -26,6 +26,7 @@ import yaml
 
 from navstress.campaign.executors import run_campaign
 from navstress.campaign.store import Store
+import loopback
 
 pytestmark = pytest.mark.slow
 
@@ -244,6 +245,7 @@ def test_full_disk_stops_then_resumes(tmp_path: Path) -> None:
 # ---- Ray: never joins a cluster by accident; one line when it cannot join the one given ----------
 
 
+@pytest.mark.skipif(not loopback.available(), reason="needs a network namespace (unshare -rn)")
 def test_ray_without_address_starts_its_own_cluster(tmp_path: Path) -> None:
     """RAY_ADDRESS points elsewhere (a dead address): `--executor ray` with no address must not
     follow it but start its own local cluster, with a token of its own."""
@@ -254,8 +256,9 @@ def test_ray_without_address_starts_its_own_cluster(tmp_path: Path) -> None:
             "print('recorded', res.recorded, res.planned)\n")
     env = {k: v for k, v in ENV.items() if k not in ("RAY_AUTH_MODE", "RAY_AUTH_TOKEN")}
     env["RAY_ADDRESS"] = "127.0.0.1:1"
-    p = subprocess.run([sys.executable, "-c", code, str(spec), str(tmp_path / "out")], env=env,
-                       capture_output=True, text=True, timeout=300)
+    # in a network namespace with only loopback: the cluster it starts is reachable on 127.0.0.1 only
+    p = subprocess.run(loopback.loopback_only([sys.executable, "-c", code, str(spec), str(tmp_path / "out")]),
+                       env=env, capture_output=True, text=True, timeout=300)
     assert p.returncode == 0 and "recorded 2 2" in p.stdout, p.stderr[-2000:]
     _assert_complete(tmp_path / "out")
 
