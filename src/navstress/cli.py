@@ -30,6 +30,7 @@ from typer import _click as click
 from typer.core import TyperGroup
 
 from navstress import __version__, _files
+from navstress.campaign.spec import MAX_WORKERS
 from navstress.errors import NavstressError, SpecError, WorldFileError
 
 EXIT_USAGE = 2
@@ -185,8 +186,6 @@ def _integer(flag: str, raw: str, expected: str) -> int:
 MAX_SEED = 2**63 - 1
 #: Most runs one `navstress run` makes (a campaign is the tool for more).
 MAX_RUNS = 10_000
-#: Most parallel workers a flag asks for.
-MAX_WORKERS = 1024
 
 
 def _bounded_int(flag: str, raw: str, lo: int, hi: int) -> int:

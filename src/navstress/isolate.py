@@ -32,7 +32,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-__all__ = ["Worker", "describe_exit", "registered_targets", "report"]
+__all__ = ["Worker", "describe_exit", "die_with_parent", "registered_targets", "report"]
 
 _conn: mpc.Connection | None = None  # the worker's end of its pipe (set in the worker only)
 
@@ -76,7 +76,9 @@ def report(message: Any) -> None:
         _conn.send(("message", message))
 
 
-def _die_with_parent(parent_pid: int) -> None:
+def die_with_parent(parent_pid: int) -> None:
+    """In a worker process: die when ``parent_pid`` does (PR_SET_PDEATHSIG on Linux, plus a
+    watch thread), so a killed parent leaves no orphan writing files behind it."""
     if sys.platform.startswith("linux"):
         try:
             import ctypes
@@ -100,7 +102,7 @@ def _die_with_parent(parent_pid: int) -> None:
 def _worker_main(conn: mpc.Connection, parent_pid: int, targets: dict[str, Any], preload: tuple[str, ...]) -> None:
     """Receive ``(fn, args)``, answer ``("ok", value)`` or ``("raised", exception)``; None ends."""
     global _conn
-    _die_with_parent(parent_pid)
+    die_with_parent(parent_pid)
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's business
     import importlib
 

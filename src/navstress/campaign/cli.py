@@ -23,6 +23,7 @@ from rich.table import Table
 from navstress.campaign.presets import PRESETS, preset_yaml
 from navstress.campaign.progress import CampaignProgress, format_counts
 from navstress.campaign.store import OUTCOMES, Store
+from navstress.campaign.spec import MAX_WORKERS
 from navstress.errors import SpecError
 
 campaign_app = typer.Typer(no_args_is_help=True, rich_markup_mode=None,
@@ -52,7 +53,7 @@ def init(
 def run(
     spec: Annotated[Path, typer.Argument(help="Campaign spec (YAML).")],
     out: Annotated[Path, typer.Option("--output", "-o", help="Campaign directory (created, or resumed).")],
-    workers: Annotated[int | None, typer.Option("--workers", "-j", help="Parallel runs (default: all cores).")] = None,
+    workers: Annotated[int | None, typer.Option("--workers", "-j", help="Parallel runs, in [1, 1024] (default: all cores).")] = None,
     executor: Annotated[str, typer.Option("--executor", help="local (process pool) or ray.")] = "local",
     ray_address: Annotated[str | None, typer.Option("--ray-address", help="Ray cluster address (default: start a local one).")] = None,
     wall_limit: Annotated[float | None, typer.Option("--wall-limit", help="Per-run wall-clock limit in seconds (default timeout_s*2+120).")] = None,
@@ -70,8 +71,8 @@ def run(
 
     if executor not in ("local", "ray"):
         raise SpecError("--executor", executor, "local or ray")
-    if workers is not None and workers < 1:
-        raise SpecError("--workers", workers, "an integer >= 1")
+    if workers is not None and not 1 <= workers <= MAX_WORKERS:
+        raise SpecError("--workers", workers, f"an integer in [1, {MAX_WORKERS}]")
     if wall_limit is not None and not wall_limit > 0:
         raise SpecError("--wall-limit", wall_limit, "seconds > 0")
     resume = f"navstress campaign run {_quote(spec)} -o {_quote(out)}" + (" --yes" if yes else "")

@@ -27,7 +27,6 @@ import os
 import shutil
 import signal
 import sys
-import threading
 import time
 import traceback
 from collections import deque
@@ -40,6 +39,7 @@ from navstress.campaign.plan import MapJob, Plan
 from navstress.campaign.spec import CampaignSpec, load_campaign
 from navstress.campaign.store import OUTCOMES, Store, disk_full, is_disk_full
 from navstress.errors import GenerationError, NavigatorError, SpecError, WorldFileError
+from navstress.isolate import describe_exit, die_with_parent
 from navstress.run.record import RunRecord, RunTask
 
 RecordCallback = Callable[[RunRecord], None]
@@ -234,18 +234,6 @@ class Recorder:
         return [t for t in tasks if self.failed(t, kind, result.reason)]
 
 
-def describe_exit(code: int | None) -> str:
-    """'exit code 3' / 'signal SIGSEGV' for a process exit status."""
-    if code is None:
-        return "unknown status"
-    if code < 0:
-        try:
-            return f"signal {signal.Signals(-code).name}"
-        except ValueError:
-            return f"signal {-code}"
-    return f"exit code {code}"
-
-
 # ---- driver ----------------------------------------------------------------------------------
 
 
@@ -429,27 +417,6 @@ class WorkQueue:
 # ---- local executor --------------------------------------------------------------------------
 
 
-def _die_with_parent(parent_pid: int) -> None:
-    if sys.platform.startswith("linux"):
-        try:
-            import ctypes
-
-            libc = ctypes.CDLL("libc.so.6", use_errno=True)
-            libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
-        except OSError:
-            pass
-    if os.getppid() != parent_pid:
-        os._exit(1)
-
-    def watch() -> None:
-        while True:
-            time.sleep(0.5)
-            if os.getppid() != parent_pid:
-                os._exit(1)
-
-    threading.Thread(target=watch, daemon=True).start()
-
-
 def warm_up() -> float:
     """Run a 0.5 s mission on a small flat world so that this process's JIT and imports are done.
 
@@ -474,7 +441,7 @@ def warm_up() -> float:
 def _worker_main(conn: mpc.Connection, parent_pid: int, targets: dict[str, str], warm: bool) -> None:
     """Worker loop: receive ("world", MapJob) or ("run", RunTask); answer ("started", None) when it
     begins, then ("ok"|"error", value)."""
-    _die_with_parent(parent_pid)
+    die_with_parent(parent_pid)
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the driver's business
     register_targets(targets)
     if warm:

@@ -40,6 +40,8 @@ _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 MAX_CONFIGS_PER_EXPERIMENT = 10_000
 #: Most runs a campaign may plan unless the user accepts more (``campaign run --yes``).
 MAX_PLANNED_RUNS = 100_000
+#: Most parallel workers a campaign (or the demo) may be given.
+MAX_WORKERS = 1024
 #: Wall seconds per run assumed by the size estimate of a refused plan (a rough order of magnitude).
 ESTIMATED_WALL_S_PER_RUN = 10.0
 

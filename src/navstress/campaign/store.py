@@ -152,6 +152,7 @@ class Store:
         if d.exists() and not d.is_dir():
             raise StoreError(f"output={str(d)!r} exists and is not a directory; choose another -o")
         d.mkdir(parents=True, exist_ok=True)
+        cls._refuse_foreign(d)  # before the lock file: a folder of something else is left as it was
         lock = cls._take_lock(d)
         try:
             db = d / DB_NAME
@@ -162,10 +163,7 @@ class Store:
                     raise StoreError(f"output={str(d)!r} holds campaign {store.spec.name!r} made from a different "
                                      f"spec ({d / SPEC_NAME}); resume with that spec, or choose a new -o")
                 return store
-            extra = sorted(p.name for p in d.iterdir() if p.name not in _OUR_NAMES)
-            if extra:
-                raise StoreError(f"output={str(d)!r} is a non-empty directory that is not a campaign "
-                                 f"(holds {extra[:3]}); choose a new or empty -o")
+            cls._refuse_foreign(d)
             try:
                 cls._build(d, spec, spec_text)
             except (OSError, sqlite3.Error) as err:
@@ -207,6 +205,16 @@ class Store:
         finally:
             for name in _CREATION_LEFTOVERS[1:]:
                 (d / name).unlink(missing_ok=True)
+
+    @staticmethod
+    def _refuse_foreign(d: Path) -> None:
+        """StoreError when ``d`` holds no campaign but files of something else."""
+        if (d / DB_NAME).exists():
+            return
+        extra = sorted(p.name for p in d.iterdir() if p.name not in _OUR_NAMES)
+        if extra:
+            raise StoreError(f"output={str(d)!r} is a non-empty directory that is not a campaign "
+                             f"(holds {extra[:3]}); choose a new or empty -o")
 
     @classmethod
     def open(cls, root: str | Path) -> "Store":

@@ -85,6 +85,20 @@ def test_foreign_files_still_refused(tmp_path: Path) -> None:
     with pytest.raises(Exception, match="not a campaign"):
         Store.create(tmp_path, SPEC, TEXT)
     assert (tmp_path / "notes.txt").read_text() == "mine"
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".campaign.sqlite.tmp-journal", "notes.txt"]  # no .lock
+
+
+@pytest.mark.parametrize("workers", ["0", "-1", "1025", str(10**9)])
+def test_campaign_run_workers_out_of_range_is_one_line(tmp_path: Path, workers: str) -> None:
+    from typer.testing import CliRunner
+
+    from navstress.cli import app
+
+    spec = tmp_path / "s.yaml"
+    spec.write_text(TEXT)
+    res = CliRunner().invoke(app, ["campaign", "run", str(spec), "-o", str(tmp_path / "out"), "-j", workers])
+    assert res.exit_code == 2 and "--workers" in res.output and "[1, 1024]" in res.output, res.output
+    assert not (tmp_path / "out").exists()
 
 
 # ---- configs validated before anything runs -----------------------------------------------------
