@@ -184,6 +184,9 @@ def _integer(flag: str, raw: str, expected: str) -> int:
 
 #: Largest seed a flag takes (seeds are stored as signed 64-bit integers).
 MAX_SEED = 2**63 - 1
+#: Longest simulated run (one day, as a campaign spec's timeout_s) and longest wall-clock limit.
+MAX_TIMEOUT_S = 86_400.0
+MAX_WALL_S = 30 * 86_400.0
 #: Most runs one `navstress run` makes (a campaign is the tool for more).
 MAX_RUNS = 10_000
 
@@ -636,7 +639,7 @@ def run_cmd(
         "Inject a named fault into the navigator (see `navstress nav faults`)."))] = None,
     runs: Annotated[str, typer.Option(metavar="N", help="Number of runs (each with its own run seed), in [1, 10000]. Default 1.")] = "1",
     seed: Annotated[str, typer.Option(metavar="N", help="Root seed of the run seeds, an integer in [0, 2**63-1]. Default 0.")] = "0",
-    timeout: Annotated[str, typer.Option(metavar="S", help="Simulated-time limit of a run in seconds, > 0. Default 400.")] = "400",
+    timeout: Annotated[str, typer.Option(metavar="S", help="Simulated-time limit of a run in seconds, in (0, 86400]. Default 400.")] = "400",
     goal_tolerance: Annotated[str, typer.Option(metavar="M", help="Success radius around the goal in meters, > 0. Default 2.")] = "2",
     lidar: Annotated[bool, typer.Option("--lidar", help=(
         "Also record lidar point clouds in the traces (one full scan per simulated second, map frame).")) ] = False,
@@ -652,17 +655,17 @@ def run_cmd(
 
     n = _bounded_int("--runs", runs, 1, MAX_RUNS)
     seed_v = _bounded_int("--seed", seed, 0, MAX_SEED)
-    timeout_v = _number("--timeout", timeout, "a duration in seconds > 0")
-    if timeout_v <= 0:
-        raise SpecError("--timeout", timeout, "a duration in seconds > 0")
+    timeout_v = _number("--timeout", timeout, f"a duration in seconds in (0, {MAX_TIMEOUT_S:g}]")
+    if not 0 < timeout_v <= MAX_TIMEOUT_S:
+        raise SpecError("--timeout", timeout, f"a duration in seconds in (0, {MAX_TIMEOUT_S:g}]")
     tol = _number("--goal-tolerance", goal_tolerance, "a distance in meters > 0")
     if tol <= 0:
         raise SpecError("--goal-tolerance", goal_tolerance, "a distance in meters > 0")
     wall_v = None
     if wall_limit is not None:
-        wall_v = _number("--wall-limit", wall_limit, "a duration in seconds > 0")
-        if not wall_v > 0:
-            raise SpecError("--wall-limit", wall_limit, "a duration in seconds > 0")
+        wall_v = _number("--wall-limit", wall_limit, f"a duration in seconds in (0, {MAX_WALL_S:g}]")
+        if not 0 < wall_v <= MAX_WALL_S:
+            raise SpecError("--wall-limit", wall_limit, f"a duration in seconds in (0, {MAX_WALL_S:g}]")
     from navstress.run.batch import check_buildable, default_wall_limit_s
 
     world_seed = World.load(world_dir).seed  # a clear error for a non-world, before anything is written
@@ -748,9 +751,9 @@ def nav_check(
     from navstress.nav.check import check_in_worker, format_report
     from navstress.nav.registry import validate_config
 
-    wall_v = _number("--wall-limit", wall_limit, "a duration in seconds > 0")
-    if not wall_v > 0:
-        raise SpecError("--wall-limit", wall_limit, "a duration in seconds > 0")
+    wall_v = _number("--wall-limit", wall_limit, f"a duration in seconds in (0, {MAX_WALL_S:g}]")
+    if not 0 < wall_v <= MAX_WALL_S:
+        raise SpecError("--wall-limit", wall_limit, f"a duration in seconds in (0, {MAX_WALL_S:g}]")
     cfg = _navigator_config(navigator_config)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

@@ -188,7 +188,8 @@ class Worker:
             if remaining <= 0:
                 self._kill()
                 return "limit", limit_s
-            mpc.wait([self._conn, self._proc.sentinel], timeout=remaining)
+            # at most an hour per wait: poll() refuses timeouts past ~24 days; the loop goes on
+            mpc.wait([self._conn, self._proc.sentinel], timeout=min(remaining, 3600.0))
             kind = "none"
             if self._conn.poll():
                 try:

@@ -73,8 +73,8 @@ def run(
         raise SpecError("--executor", executor, "local or ray")
     if workers is not None and not 1 <= workers <= MAX_WORKERS:
         raise SpecError("--workers", workers, f"an integer in [1, {MAX_WORKERS}]")
-    if wall_limit is not None and not wall_limit > 0:
-        raise SpecError("--wall-limit", wall_limit, "seconds > 0")
+    if wall_limit is not None and not 0 < wall_limit <= 30 * 86_400:
+        raise SpecError("--wall-limit", wall_limit, "seconds in (0, 2592000]")
     resume = f"navstress campaign run {_quote(spec)} -o {_quote(out)}" + (" --yes" if yes else "")
 
     def on_term(signum: int, frame: object) -> None:

@@ -40,6 +40,7 @@ from navstress.campaign.spec import CampaignSpec, load_campaign
 from navstress.campaign.store import OUTCOMES, Store, disk_full, is_disk_full
 from navstress.errors import GenerationError, NavigatorError, SpecError, WorldFileError
 from navstress.isolate import describe_exit, die_with_parent
+from navstress.run.batch import drop_partial_trace, failure_record
 from navstress.run.record import RunRecord, RunTask
 
 RecordCallback = Callable[[RunRecord], None]
@@ -118,25 +119,6 @@ def attempt_world(job: MapJob) -> str | Infra | None:
         if is_disk_full(err):
             return Infra("disk-full", _line(err))
         return Infra("error", f"world generation failed: {_line(err)}")
-
-
-def failure_record(task: RunTask, reason: str, wall_s: float = 0.0) -> RunRecord:
-    """A Fail-Other record for a run that produced no result of its own (crash, limit, no world)."""
-    return RunRecord(
-        run_id=task.run_id, experiment=task.experiment, config=dict(task.config), map_index=task.map_index,
-        run_index=task.run_index, map_seed=task.map_seed, run_seed=task.run_seed, navigator=task.navigator,
-        fault=task.fault, outcome="fail-other", reason=reason, duration_s=0.0, wall_s=wall_s,
-        goal_distance_m=math.nan, path_length_m=0.0, tortuousness=0.0, collisions=0, first_collision_s=None,
-        errors=[reason], trace=None)
-
-
-def drop_partial_trace(task: RunTask) -> None:
-    """Remove the partial trace a killed run left behind (TraceWriter's ``.NAME.partial``)."""
-    p = Path(task.trace_path)
-    try:
-        p.with_name(f".{p.name}.partial").unlink(missing_ok=True)
-    except OSError:  # its folder is gone or not a folder: there is no partial trace either
-        pass
 
 
 def attempt_run(task: RunTask) -> RunRecord | Infra:

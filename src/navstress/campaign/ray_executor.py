@@ -31,12 +31,11 @@ from navstress.campaign.executors import (
     WorkQueue,
     attempt_run,
     attempt_world,
-    drop_partial_trace,
-    failure_record,
     register_targets,
 )
 from navstress.campaign.plan import MapJob, Plan
 from navstress.errors import SpecError
+from navstress.run.batch import drop_partial_trace, failure_record
 from navstress.run.record import RunRecord, RunTask
 
 

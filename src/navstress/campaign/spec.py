@@ -69,6 +69,18 @@ class Range(BaseModel):
             raise ValueError(f"stop ({self.stop:g}) must be >= start ({self.start:g})")
         return self
 
+    def count(self) -> int:
+        """How many values the range has, without expanding it (ValueError when the start,
+        stop and step give infinitely many or a number too large to count)."""
+        if self.values is not None:
+            return len(self.values)
+        assert self.start is not None and self.stop is not None and self.step is not None
+        q = (self.stop - self.start) / self.step
+        if not math.isfinite(q) or q > 1e15:
+            raise ValueError(f"the range has about {q:.3g} values: too many to count (at most "
+                             f"{MAX_CONFIGS_PER_EXPERIMENT}); use a larger step or a narrower range")
+        return max(0, math.floor(q + 1e-9) + 1)
+
     def expand(self) -> list[Any]:
         """The sampled values; integers stay integers when start and step are whole.
 
@@ -77,7 +89,7 @@ class Range(BaseModel):
         if self.values is not None:
             return list(self.values)
         assert self.start is not None and self.stop is not None and self.step is not None
-        n = math.floor((self.stop - self.start) / self.step + 1e-9) + 1
+        n = self.count()
         if n > MAX_CONFIGS_PER_EXPERIMENT:
             raise ValueError(f"the range has {n} values (at most {MAX_CONFIGS_PER_EXPERIMENT})")
         whole = float(self.start).is_integer() and float(self.step).is_integer()
@@ -187,8 +199,7 @@ def planned_runs(spec: CampaignSpec) -> int:
     for exp in spec.experiments:
         n = 1
         for rng in exp.sweep.values():
-            n *= len(rng.values) if rng.values is not None else max(
-                0, math.floor((rng.stop - rng.start) / rng.step + 1e-9) + 1)  # type: ignore[operator]
+            n *= rng.count()
         total += n * spec.maps_per_config * spec.runs_per_map * len(spec.navigators) * len(spec.faults_of(exp))
     return total
 
@@ -245,7 +256,7 @@ def parse_campaign(data: Any, *, max_runs: int | None = MAX_PLANNED_RUNS) -> Cam
                                 "check the spelling against `navstress world` options")
             try:
                 rng.expand()
-            except (ValueError, OverflowError) as e:  # OverflowError: a range of infinitely many values
+            except ValueError as e:
                 raise SpecError(f"{where}.sweep.{path}", rng.model_dump(exclude_none=True), str(e)) from None
         try:
             parse_spec(_deep_merge(base_data, exp.overrides))

@@ -335,7 +335,8 @@ class ExternalNavigator:
                 return None
             wlist = [win] if len(data) else []
             try:
-                readable, writable, _ = select.select([rout], wlist, [], remaining)
+                # at most an hour per select (a huge budget must not overflow it); the loop goes on
+                readable, writable, _ = select.select([rout], wlist, [], min(remaining, 3600.0))
             except InterruptedError:
                 continue
             if writable:

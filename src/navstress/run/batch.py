@@ -60,7 +60,8 @@ def plan_batch(world_dir: Path, out: Path, *, navigator: str, navigator_config: 
 
 def failure_record(task: RunTask, reason: str, wall_s: float = 0.0) -> RunRecord:
     """A Fail-Other record for a run that produced no result of its own (its process died, it
-    exceeded the wall-clock limit, it raised out of the run loop)."""
+    exceeded the wall-clock limit, it raised out of the run loop); used by `navstress run` and
+    by the campaign executors."""
     return RunRecord(
         run_id=task.run_id, experiment=task.experiment, config=dict(task.config), map_index=task.map_index,
         run_index=task.run_index, map_seed=task.map_seed, run_seed=task.run_seed, navigator=task.navigator,
@@ -72,7 +73,10 @@ def failure_record(task: RunTask, reason: str, wall_s: float = 0.0) -> RunRecord
 def drop_partial_trace(task: RunTask) -> None:
     """Remove the partial trace a killed run left behind (TraceWriter's ``.NAME.partial``)."""
     p = Path(task.trace_path)
-    p.with_name(f".{p.name}.partial").unlink(missing_ok=True)
+    try:
+        p.with_name(f".{p.name}.partial").unlink(missing_ok=True)
+    except OSError:  # its folder is gone or not a folder: there is no partial trace either
+        pass
 
 
 def _first_line(text: str) -> str:
