@@ -433,6 +433,13 @@ def sphere_terrain_contacts(cx: float, cy: float, cz: float, r: float, hf: np.nd
                     b[0], b[1], b[2] = c[0], c[1], c[2]
                     c[0], c[1], c[2] = xa, yb, h10
                 qx, qy, qz, inside = _closest_on_triangle(cx, cy, cz, a, b, c)
+                if inside:
+                    # a centre behind this face's plane (a steep neighbouring face) cannot have its
+                    # closest surface point inside the face: judge that point by its distance alone
+                    fx = (b[1] - a[1]) * (c[2] - a[2]) - (b[2] - a[2]) * (c[1] - a[1])
+                    fy = (b[2] - a[2]) * (c[0] - a[0]) - (b[0] - a[0]) * (c[2] - a[2])
+                    fz = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+                    inside = (cx - qx) * fx + (cy - qy) * fy + (cz - qz) * fz >= 0.0
                 if not inside:  # edge/vertex point: a candidate only as the deepest point of all
                     ddx, ddy, ddz = cx - qx, cy - qy, cz - qz
                     pen = r - (ddx * ddx + ddy * ddy + ddz * ddz) ** 0.5

@@ -8,7 +8,7 @@ import math
 import mujoco
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import example, given, settings, strategies as st
 
 from navstress.errors import SpecError
 from navstress.nav.api import Command
@@ -267,6 +267,7 @@ def test_advance_in_pieces_gives_the_same_run(cuts: set[int], seed: int, doubled
 
 @settings(max_examples=6, deadline=None)
 @given(seed=st.integers(0, 2**31))
+@example(seed=15965788)  # a centre behind a steep neighbouring face's plane (was 0.67 m deep instead of 0.17)
 def test_sphere_terrain_contacts_find_the_surface_distance(seed: int) -> None:
     """Brute force: the deepest analytic contact is the sphere radius minus the distance from the
     centre to the triangulated surface, sampled densely with Terrain.height_at (within 3 mm)."""
