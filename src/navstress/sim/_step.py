@@ -158,8 +158,16 @@ def contact_field_address(d: mujoco.MjData) -> int:
     gap = names.index("contact") - names.index("qpos")
     base = ncon_address(d)
     words = np.ctypeslib.as_array((ctypes.c_uint64 * 1024).from_address(base))
-    hits = [h for h in np.flatnonzero(words[:-1] == d.qpos.ctypes.data) if words[h + 1] == d.qvel.ctypes.data]
-    if len(hits) != 1:  # (the ``buffer`` field before it holds the same address)
+    # the qpos value must be followed, at their offsets, by the addresses of the other arrays
+    # that mjData exposes (a lone qpos/qvel pair can also occur elsewhere in memory by chance,
+    # and the ``buffer`` field before it holds the same address as qpos)
+    q = names.index("qpos")
+    checks = [(names.index(f) - q, getattr(d, f).ctypes.data) for f in
+              ("qvel", "qacc_warmstart", "ctrl", "qfrc_applied", "xfrc_applied", "mocap_pos")
+              if f in names and getattr(d, f).size > 0]
+    hits = [h for h in np.flatnonzero(words == d.qpos.ctypes.data)
+            if all(h + off < len(words) and words[h + off] == addr for off, addr in checks)]
+    if len(hits) != 1:
         raise SimulationError(f"MuJoCo {mujoco.__version__}: cannot locate mjData.qpos ({len(hits)} candidates)")
     return int(base + 8 * (int(hits[0]) + gap))
 

@@ -59,6 +59,23 @@ def test_raw_contact_reads_match_the_bindings() -> None:
     assert np.array_equal(fr, c.friction) and np.array_equal(geom, c.geom)
 
 
+def test_contact_field_is_found_in_every_new_mjdata() -> None:
+    """The pointer scan finds exactly one mjData.qpos in every MjData (a paper-slice run once
+    met two candidates when only qpos and qvel were matched): the same field offset each time,
+    holding the contacts the bindings show."""
+    sim = Simulation(bumpy(), config=NOLIDAR, seed=0, start=(10.0, 10.0, 0.5))
+    offsets = set()
+    for _ in range(200):
+        d = mujoco.MjData(sim.model)
+        offsets.add(K.contact_field_address(d) - K.ncon_address(d))
+    assert len(offsets) == 1
+    sim.advance(1.0)
+    d = sim.data
+    assert K.contact_field_address(d) - K.ncon_address(d) in offsets
+    pos, _frame, _fr, _geom = K._read_contacts(K._read_ptr(K.contact_field_address(d)), d.ncon)
+    assert d.ncon >= 3 and np.array_equal(pos, d.contact.pos)
+
+
 def _pool_world(seed: int, n: int) -> tuple[list[Obstacle], np.ndarray]:
     g = np.random.default_rng(seed)
     obs = [Obstacle("tree", float(x), float(y), float(yaw), (float(a), float(b), 4.0), 0.0)
