@@ -44,6 +44,7 @@ from scipy import ndimage
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
+import navstress._jit  # noqa: F401  (numba's cache directory, before any @njit(cache=True))
 from navstress.robot import RobotSpec
 from navstress.world.spec import WorldSpec
 from navstress.world.terrain import slope_deg
