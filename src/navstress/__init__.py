@@ -6,9 +6,9 @@ runs one mission in this process, to debug a navigator (see ``docs/plugins.md``)
 set by :mod:`navstress._jit`, which every compiled module imports first.
 """
 
-import os
-from pathlib import Path
 from typing import Any
+
+from navstress._paths import cache_dir
 
 __version__ = "0.1.0"
 __all__ = ["__version__", "cache_dir", "run_mission"]
@@ -17,16 +17,7 @@ __all__ = ["__version__", "cache_dir", "run_mission"]
 def __getattr__(name: str) -> Any:
     """The lazily imported part of the facade."""
     if name == "run_mission":
-        from navstress._facade import run_mission
+        from navstress._facade import run_mission  # local: the facade runs missions (numba, MuJoCo)
 
         return run_mission
     raise AttributeError(f"module 'navstress' has no attribute {name!r}")
-
-
-def cache_dir() -> Path:
-    """Where navstress keeps what it builds: ``$NAVSTRESS_CACHE_DIR``, else
-    ``$XDG_CACHE_HOME/navstress``, else ``~/.cache/navstress``."""
-    if os.environ.get("NAVSTRESS_CACHE_DIR"):
-        return Path(os.environ["NAVSTRESS_CACHE_DIR"])
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "navstress"

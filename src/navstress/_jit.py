@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numba
 
-from navstress import cache_dir
+from navstress._paths import cache_dir
 
 
 def numba_cache_dir() -> str | None:

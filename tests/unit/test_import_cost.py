@@ -40,7 +40,7 @@ def _probe(module: str) -> dict[str, list[str]]:
 
 
 @pytest.mark.parametrize("module", ["navstress", "navstress.nav.api", "navstress.nav", "navstress.errors",
-                                    "navstress.robot"])
+                                    "navstress.robot", "navstress.cli"])
 def test_import_pulls_no_heavy_module(module: str) -> None:
     got = _probe(module)
     assert got["heavy"] == [], f"import {module} pulled {got['heavy']}"
@@ -97,3 +97,14 @@ def test_every_cached_kernel_module_sets_the_numba_cache_first(path: Path) -> No
     compiled code imports navstress._jit before its first decorator."""
     assert _imports_jit_first(ast.parse(path.read_text(encoding="utf-8"))), \
         f"{path.relative_to(SRC)}: add `import navstress._jit` before the first @njit(cache=True)"
+
+
+def test_help_imports_no_command_module() -> None:
+    """``navstress --help`` lists every command from the mount table, importing none of them."""
+    code = ("import sys; from navstress.cli import main; sys.argv = ['navstress', '--help']\n"
+            "try:\n    main()\nexcept SystemExit:\n    pass\n"
+            "print(sorted(m for m in sys.modules if m.startswith('navstress.cli.') or m in "
+            f"{HEAVY!r}))")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert proc.stdout.strip().splitlines()[-1] == "[]", proc.stdout
