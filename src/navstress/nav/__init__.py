@@ -25,7 +25,7 @@ from navstress.nav.api import (
 )
 from navstress.nav.registry import list_navigators, make_navigator, register, unregister
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # for the type checker only: __getattr__ imports these on first use
     from navstress.nav.check import CheckReport, check_navigator, format_report
     from navstress.nav.external import ExternalNavigator
     from navstress.nav.faults import FaultyNavigator, apply_fault, list_faults
