@@ -6,12 +6,14 @@ from __future__ import annotations
 import os
 from collections.abc import Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-if TYPE_CHECKING:
-    from navstress.nav.api import Navigator
-    from navstress.run.mission import RunResult
-    from navstress.world.world import World
+from navstress.nav.api import Navigator
+from navstress.nav.registry import make_navigator
+from navstress.run.mission import RunResult
+from navstress.run.mission import run_mission as loop
+from navstress.run.trace import TraceWriter
+from navstress.world.world import World
 
 
 def run_mission(world: World | str | os.PathLike[str], navigator: Navigator | str, *, seed: int = 0,
@@ -35,11 +37,6 @@ def run_mission(world: World | str | os.PathLike[str], navigator: Navigator | st
         >>> result.classification.outcome.label, result.facts.goal_distance_m < 2.0
         ('Success', True)
     """
-    from navstress.nav.registry import make_navigator
-    from navstress.run.mission import run_mission as loop
-    from navstress.run.trace import TraceWriter
-    from navstress.world.world import World
-
     w = world if isinstance(world, World) else World.load(Path(world))
     nav = make_navigator(navigator, navigator_config, fault=fault) if isinstance(navigator, str) else navigator
     tw = None

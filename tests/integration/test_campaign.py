@@ -21,7 +21,7 @@ import pytest
 import yaml
 from typer.testing import CliRunner
 
-from navstress.campaign.cli import campaign_app, replay as replay_cmd
+from navstress.cli.campaign import campaign_app, replay as replay_cmd
 from navstress.campaign.executors import run_campaign
 from navstress.campaign.replay import replay
 from navstress.campaign.store import Store, read_export

@@ -15,6 +15,7 @@ shows that navigator alone; by default every navigator is shown, each figure nam
 
 from __future__ import annotations
 
+import json
 import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -29,6 +30,7 @@ from navstress.analysis.difficulty import (LEVEL_RANK, LEVELS, Difficulty, Diffi
 from navstress.analysis.fault_power import FaultPower, LevelPower, by_level, fault_power
 from navstress.analysis.indeterminism import Curve, config_curves
 from navstress.analysis.stats import (NOMINAL, ConfigStats, config_key, config_stats, fault_name, planned_configs)
+from navstress.campaign.store import Store
 from navstress.errors import NavstressError, SpecError
 from navstress.run.outcome import Outcome
 from navstress.run.record import RunRecord
@@ -159,8 +161,6 @@ class Analysis:
 
 def infeasible_maps(world_dirs: list[Path]) -> tuple[int, int]:
     """(maps flagged infeasible before simulation, maps present) among ``world_dirs``."""
-    import json
-
     bad = seen = 0
     for d in world_dirs:
         try:
@@ -183,8 +183,6 @@ def analyze(directory: str | Path, *, params: DifficultyParams | None = None, na
             dt: float = 1.0, cache: TrajectoryCache | None = None, confidence: float = 0.95,
             interval: str = "wilson", is_reference: Callable[[ConfigStats], bool] | None = None) -> Analysis:
     """Analyse the campaign in ``directory`` (read only; see module doc)."""
-    from navstress.campaign.store import Store
-
     root = Path(directory)
     cache = cache or TrajectoryCache()
     with Store.open(root) as store:

@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from scipy.stats import rankdata
 
 #: Bookkeeping entries of World.descriptors that say nothing about difficulty.
 SKIP_PREFIXES = ("placement_", "traversability.", "obstruction_target_pct", "infeasible_reason")
@@ -62,7 +63,6 @@ def spearman(x: list[float], y: list[float]) -> float | None:
     """Spearman's rho (average ranks for ties); None for fewer than 3 pairs or a constant side."""
     if len(x) != len(y) or len(x) < 3:
         return None
-    from scipy.stats import rankdata
 
     rx, ry = rankdata(x), rankdata(y)
     if np.ptp(rx) == 0 or np.ptp(ry) == 0:

@@ -29,9 +29,11 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from sklearn.cluster import KMeans
 
 from navstress.analysis.stats import ConfigStats
 from navstress.errors import SpecError
+from navstress.world.spec import parse_spec
 
 EASY = "easy"
 CHALLENGING = "challenging"
@@ -124,8 +126,6 @@ def assign_levels(stats: list[ConfigStats], is_reference: Callable[[ConfigStats]
             labels = np.zeros(len(clustered), dtype=int)
             notes.append("fewer distinct points than clusters: every clustered configuration is easy")
         else:
-            from sklearn.cluster import KMeans
-
             k = min(p.k, distinct)
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
@@ -149,8 +149,6 @@ def assign_levels(stats: list[ConfigStats], is_reference: Callable[[ConfigStats]
 
 def is_flat_empty(world: dict[str, Any]) -> bool:
     """Whether a WorldSpec mapping describes flat ground without obstacles (the reference)."""
-    from navstress.world.spec import parse_spec
-
     spec = parse_spec(world)
     g = spec.ground
     flat = (g.amplitude_m == 0) if g.model == "fractal" else (g.deformation == 0)

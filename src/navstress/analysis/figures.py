@@ -1,102 +1,23 @@
-"""Pictures a person looks at: runs drawn over their world.
-
-    trajectories_png(world, [RunTrack(...), ...], "runs.png")
-
-Colours follow the outcome everywhere in navstress: success green, collision red, error
-orange, timeout purple, other grey.
+"""The report's pictures (PNG bytes): difficulty per class, indeterminism, fault power, runs over
+their world and a navigator's perceived map. Runs are drawn with :mod:`navstress.run.figures`
+(its outcome colours everywhere in navstress).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from pathlib import Path
+import io
 from typing import Any
 
 import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.collections import PolyCollection
+from matplotlib.colors import ListedColormap
+from matplotlib.figure import Figure
+from matplotlib.patches import Patch
 
+from navstress.run.figures import RunTrack, draw_tracks, legend
+from navstress.world.export.images import draw_world
 from navstress.world.world import World
-
-OUTCOME_COLOURS = {
-    "success": "#1a9641",
-    "fail-collision": "#d7191c",
-    "fail-error": "#f08a24",
-    "fail-timeout": "#7b3294",
-    "fail-other": "#6b6b6b",
-}
-OUTCOME_LABELS = {"success": "Success", "fail-collision": "Fail-Collision", "fail-error": "Fail-Error",
-                  "fail-timeout": "Fail-TimeOut", "fail-other": "Fail-Other"}
-
-
-@dataclass(frozen=True)
-class RunTrack:
-    """One run to draw: its real trajectory (N, >=3: t, x, y, ...), outcome, optional perceived one."""
-
-    label: str
-    outcome: str
-    truth: np.ndarray
-    perceived: np.ndarray | None = None
-    collision_xy: tuple[float, float] | None = None
-
-
-def draw_tracks(ax: "object", tracks: list[RunTrack], *, perceived: bool = False) -> None:
-    """Overlay tracks on an axes that already shows the world (see ``draw_world``)."""
-    seen: set[str] = set()
-    for tr in tracks:
-        col = OUTCOME_COLOURS.get(tr.outcome, "#000000")
-        lab = OUTCOME_LABELS.get(tr.outcome, tr.outcome)
-        if len(tr.truth):
-            ax.plot(tr.truth[:, 1], tr.truth[:, 2], "-", color=col, lw=1.6, alpha=0.9,  # type: ignore[attr-defined]
-                    label=None if lab in seen else lab, zorder=6)
-            ax.plot(tr.truth[-1, 1], tr.truth[-1, 2], "o", color=col, ms=5, mec="white", mew=0.8, zorder=7)  # type: ignore[attr-defined]
-            seen.add(lab)
-        if perceived and tr.perceived is not None and len(tr.perceived):
-            ax.plot(tr.perceived[:, 1], tr.perceived[:, 2], "--", color="#2b83ba", lw=1.2,  # type: ignore[attr-defined]
-                    label=None if "perceived" in seen else "perceived (navigator's belief)", zorder=6)
-            seen.add("perceived")
-        if tr.collision_xy is not None:
-            ax.plot(*tr.collision_xy, "X", color="#d7191c", ms=10, mec="black", mew=0.8, zorder=8,  # type: ignore[attr-defined]
-                    label=None if "collision" in seen else "collision")
-            seen.add("collision")
-
-
-def trajectories_png(world: World, tracks: list[RunTrack], path: str | Path, *, title: str | None = None,
-                     perceived: bool = False, dpi: int = 110) -> Path:
-    """Write a PNG of ``world`` with every track overlaid, colour-coded by outcome."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from navstress.world.export.images import draw_world
-
-    fig, ax = plt.subplots(figsize=(8.2, 7.2), dpi=dpi)
-    try:
-        draw_world(ax, world, legend=False)
-        draw_tracks(ax, tracks, perceived=perceived)
-        legend(ax, loc="upper left", fontsize=8, framealpha=0.85)
-        if title:
-            ax.set_title(title, fontsize=10, loc="left")
-        return save_png(fig, path)
-    finally:
-        plt.close(fig)
-
-
-def legend(ax: Any, **kw: Any) -> None:
-    """``ax.legend(**kw)`` when something is labelled (matplotlib warns on stderr otherwise)."""
-    if ax.get_legend_handles_labels()[0]:
-        ax.legend(**kw)
-
-
-def save_png(fig: "object", path: str | Path) -> Path:
-    """Lay out and write ``fig`` as a PNG atomically (a partial file never takes the name)."""
-    fig.tight_layout()  # type: ignore[attr-defined]
-    out = Path(path)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(f".{out.name}.partial")
-    fig.savefig(tmp, format="png")  # type: ignore[attr-defined]
-    tmp.replace(out)
-    return out
-
 
 # ---- analysis pictures (PNG bytes, for the HTML report) --------------------------------------
 
@@ -109,9 +30,6 @@ LEVEL_STYLE: dict[str, tuple[str, str]] = {  # level -> (marker, colour)
 
 
 def _figure(w: float, h: float, dpi: int) -> Any:
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
     fig = Figure(figsize=(w, h), dpi=dpi, layout="constrained")
     FigureCanvasAgg(fig)
     return fig
@@ -119,8 +37,6 @@ def _figure(w: float, h: float, dpi: int) -> Any:
 
 def png_bytes(fig: Any) -> bytes:
     """Render a matplotlib Figure to PNG bytes."""
-    import io
-
     buf = io.BytesIO()
     fig.savefig(buf, format="png")
     return buf.getvalue()
@@ -227,8 +143,6 @@ def fault_power_figure(level_powers: list[Any], *, dpi: int = 90, navigator: str
 def world_runs_png_bytes(world: World, tracks: list[RunTrack], *, title: str | None = None, perceived: bool = False,
                          dpi: int = 80) -> bytes:
     """``world`` (hillshaded terrain, obstacles, start, goal) with ``tracks`` overlaid."""
-    from navstress.world.export.images import draw_world
-
     fig = _figure(6.0, 5.6, dpi)
     ax = fig.subplots()
     draw_world(ax, world, legend=False)
@@ -245,10 +159,6 @@ def perceived_map_png_bytes(world: World, grid: np.ndarray, origin_xy: tuple[flo
     """The navigator's final perceived elevation map: known cells coloured by height, unknown
     (NaN) cells in a flat pink so that a person can see why no arc was elected; the real
     obstacles outlined and the run's real trajectory on top."""
-    from matplotlib.collections import PolyCollection
-    from matplotlib.colors import ListedColormap
-    from matplotlib.patches import Patch
-
     fig = _figure(6.0, 5.6, dpi)
     ax = fig.subplots()
     g = np.asarray(grid, dtype=np.float64)

@@ -34,13 +34,14 @@ from typing import Any
 
 from navstress.analysis.analyze import Analysis, TrajectoryCache, analyze, trace_path
 from navstress.analysis.difficulty import NO_DATA, DifficultyParams
-from navstress.analysis.figures import (LEVEL_STYLE, OUTCOME_COLOURS, OUTCOME_LABELS, RunTrack, class_figure,
-                                        fault_power_figure, indeterminism_figure, perceived_map_png_bytes,
-                                        world_runs_png_bytes)
+from navstress.analysis.figures import (LEVEL_STYLE, class_figure, fault_power_figure, indeterminism_figure,
+                                        perceived_map_png_bytes, world_runs_png_bytes)
 from navstress.analysis.stats import NOMINAL, ConfigStats, config_key, fault_name, params_text
+from navstress.run.figures import OUTCOME_COLOURS, OUTCOME_LABELS, RunTrack
 from navstress.run.outcome import Outcome
 from navstress.run.record import RunRecord
 from navstress.run.trace import TOPIC_MAP, TOPIC_PERCEIVED, TOPIC_TRUTH, read_grid
+from navstress.world.world import World
 
 _CSS = """
 body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;margin:0 auto;max-width:1200px;padding:1em 2em;
@@ -325,8 +326,6 @@ def _groups(recs: list[RunRecord], navigators: list[str]) -> list[tuple[str, str
 
 
 def _configs(a: Analysis, cache: TrajectoryCache, max_points: int) -> str:
-    from navstress.world.world import World
-
     shown = ", ".join(a.shown_navigators)
     out = ['<h2 id="configurations">Configurations</h2>',
            f'<p class="note">Every map with its runs, one picture per navigator and fault (runs of {_e(shown)}), '

@@ -9,6 +9,7 @@ See docs/plugins.md.
 
 from __future__ import annotations
 
+import importlib
 from typing import TYPE_CHECKING, Any
 
 from navstress.nav.api import (
@@ -24,7 +25,7 @@ from navstress.nav.api import (
 )
 from navstress.nav.registry import list_navigators, make_navigator, register, unregister
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # for the type checker only: __getattr__ imports these on first use
     from navstress.nav.check import CheckReport, check_navigator, format_report
     from navstress.nav.external import ExternalNavigator
     from navstress.nav.faults import FaultyNavigator, apply_fault, list_faults
@@ -45,10 +46,9 @@ _LAZY = {
 
 
 def __getattr__(name: str) -> Any:
-    """Import the checker, faults and external adapter only when first used."""
+    """Import the checker, faults and external adapter only when first used (this package runs
+    on `import navstress.nav.api`, the contract, which must stay cheap)."""
     module = _LAZY.get(name)
     if module is None:
         raise AttributeError(f"module 'navstress.nav' has no attribute {name!r}")
-    import importlib
-
     return getattr(importlib.import_module(module), name)

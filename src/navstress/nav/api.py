@@ -18,6 +18,7 @@ This module imports nothing from ``navstress.sim`` or ``navstress.world``.
 from __future__ import annotations
 
 import math
+import signal
 from dataclasses import dataclass, field
 from typing import Literal, Protocol, runtime_checkable
 
@@ -195,7 +196,5 @@ def raised_by_navigator(err: BaseException) -> bool:
     if isinstance(err, (Exception, SystemExit, GeneratorExit)):
         return True
     if isinstance(err, KeyboardInterrupt):
-        import signal
-
         return signal.getsignal(signal.SIGINT) is signal.SIG_IGN
     return False

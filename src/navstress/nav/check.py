@@ -34,8 +34,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from rich.console import Console, Group
+from rich.table import Table
+from rich.text import Text
 
 from navstress.errors import NavstressError
+from navstress.isolate import Worker
+from navstress.isolate import report as report_to_parent
 from navstress.nav.api import (
     Command,
     Imu,
@@ -447,10 +452,6 @@ def _count(answers: list[Answer]) -> dict[str, int]:
 
 def format_report(report: CheckReport) -> Any:
     """A rich renderable (table + verdict) for ``rich.console.Console().print``."""
-    from rich.console import Group
-    from rich.table import Table
-    from rich.text import Text
-
     table = Table(title=f"navigator conformance: {report.navigator}", title_justify="left")
     table.add_column("check", no_wrap=True)
     table.add_column("result", no_wrap=True)
@@ -469,8 +470,6 @@ def format_report(report: CheckReport) -> Any:
 
 def report_text(report: CheckReport, *, width: int = 110) -> str:
     """:func:`format_report` rendered to plain text."""
-    from rich.console import Console
-
     console = Console(width=width, record=True, color_system=None, force_terminal=False,
                       file=io.StringIO())
     console.print(format_report(report))
@@ -482,9 +481,7 @@ def report_text(report: CheckReport, *, width: int = 110) -> str:
 
 def _check_and_report(name: str, config: dict[str, Any], kwargs: dict[str, Any]) -> CheckReport:
     """In the worker: :func:`check_navigator`, announcing each check to the parent."""
-    from navstress.isolate import report
-
-    return check_navigator(name, config, progress=lambda n, r: report((n, r)), **kwargs)
+    return check_navigator(name, config, progress=lambda n, r: report_to_parent((n, r)), **kwargs)
 
 
 #: Default wall-clock limit of each check in :func:`check_in_worker` (real seconds).
@@ -499,8 +496,6 @@ def check_in_worker(name: str, config: Mapping[str, Any] | str | Path | None = N
     the checks after it are not run. An unknown name or a bad config raises here, as
     :func:`check_navigator` does. ``worker``: a :class:`navstress.isolate.Worker` to use (and
     keep) instead of a fresh one (its own limit then applies)."""
-    from navstress.isolate import Worker
-
     spec, _note = resolve(name)  # bad input raises here, before any process starts
     cfg = load_config(config)
     state: dict[str, Any] = {"phase": "builds", "results": []}

@@ -42,6 +42,7 @@ from typing import IO, Any, Literal
 from navstress.errors import NavigatorError, SpecError
 from navstress.nav import wire
 from navstress.nav.api import Command, NavMission, Navigator, Observation, Status
+from navstress.nav.registry import make_navigator
 from navstress.robot import RobotSpec
 
 __all__ = ["ExternalFailure", "ExternalNavigator", "external_from_config", "serve"]
@@ -541,8 +542,6 @@ def serve(navigator: Navigator, inp: IO[bytes], out: IO[bytes], *, name: str = "
 
 def main(argv: Sequence[str] | None = None) -> int:
     """``python -m navstress.nav.external NAME [CONFIG]``: serve a registered navigator."""
-    from navstress.nav.registry import make_navigator
-
     args = list(sys.argv[1:] if argv is None else argv)
     if not args or args[0] in ("-h", "--help") or len(args) > 2:
         print("usage: python -m navstress.nav.external NAVIGATOR [CONFIG_JSON_OR_PATH]",

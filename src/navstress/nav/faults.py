@@ -20,6 +20,7 @@ All randomness (``dropped-scans``) is drawn from a generator derived from the ru
 from __future__ import annotations
 
 import collections
+import difflib
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
@@ -188,7 +189,7 @@ def _unknown_as_free(cfg: dict[str, Any]) -> dict[str, Any]:
 
 
 def _permissive_slope(cfg: dict[str, Any]) -> dict[str, Any]:
-    from navstress.nav.reference.config import ReferenceConfig
+    from navstress.nav.reference.config import ReferenceConfig  # local: nav.reference compiles numba kernels
 
     current = float(cfg.get("max_slope_deg", ReferenceConfig.model_fields["max_slope_deg"].default))
     return {**cfg, "max_slope_deg": min(2.0 * current, 89.0)}
@@ -237,8 +238,6 @@ def get_fault(name: str) -> Fault:
     try:
         return _FAULTS[name]
     except (KeyError, TypeError):
-        import difflib
-
         close = difflib.get_close_matches(str(name), list(_FAULTS), n=1, cutoff=0.5)
         hint = f" Did you mean {close[0]!r}?" if close else ""
         raise NavigatorError(

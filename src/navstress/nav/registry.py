@@ -39,6 +39,8 @@ from typing import Any
 
 from navstress.errors import NavigatorError, SpecError
 from navstress.nav.api import Navigator
+from navstress.nav.faults import apply_fault
+from navstress.specfile import load_file, parse_text
 
 __all__ = [
     "ENTRY_POINT_GROUP", "NavigatorFactory", "NavigatorNote", "NavigatorSpec", "load_config",
@@ -231,8 +233,6 @@ def load_config(config: Mapping[str, Any] | str | Path | None, *,
         >>> load_config('{"gain": 2}'), load_config("gain: 2"), load_config(None)
         ({'gain': 2}, {'gain': 2}, {})
     """
-    from navstress.specfile import load_file, parse_text
-
     if config is None:
         return {}
     if isinstance(config, Mapping):
@@ -349,13 +349,23 @@ def make_navigator(
     factory = load_factory(spec)
     cfg = load_config(config)
     if fault is not None:
-        from navstress.nav.faults import apply_fault
-
         factory = apply_fault(factory, fault, navigator=spec.id)
     return call_factory(factory, cfg, name=spec.id)
 
 
+def build_and_close(name: str, fault: str | None, config: Mapping[str, Any]) -> None:
+    """Validate ``config``, build the navigator ``name`` (under ``fault``) and close it: raises
+    what building it raises (``navstress run`` calls this in a worker process, before a run)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        validate_config(name, config, fault=fault)
+        nav = make_navigator(name, config or None, fault=fault)
+    nav.close()
+
+
 # ---------------------------------------------------------------- built-in factories
+# _LOCAL: navstress.nav.reference is imported inside these functions: it compiles numba kernels,
+# and this module is loaded by `import navstress.nav.api` (the contract stays cheap to import).
 # (declared as entry points in navstress's own pyproject.toml; the reference classes take a
 # ReferenceConfig object, the registry hands factories a mapping: these adapt.)
 
@@ -363,7 +373,7 @@ def make_navigator(
 def reference_v1(*, config: Mapping[str, Any] | None = None) -> Navigator:
     """``reference-v1``: :class:`~navstress.nav.reference.ReferenceNavigator` with its
     :class:`~navstress.nav.reference.config.ReferenceConfig` parsed from ``config``."""
-    from navstress.nav.reference import ReferenceNavigator, parse_config
+    from navstress.nav.reference import ReferenceNavigator, parse_config  # local: numba kernels, see _LOCAL
 
     return ReferenceNavigator(parse_config(dict(config or {})))
 
@@ -371,19 +381,19 @@ def reference_v1(*, config: Mapping[str, Any] | None = None) -> Navigator:
 def reference_global_v1(*, config: Mapping[str, Any] | None = None) -> Navigator:
     """``reference-global-v1``: :class:`~navstress.nav.reference.GlobalNavigator` with a
     :class:`~navstress.nav.reference.config.GlobalConfig` parsed from ``config``."""
-    from navstress.nav.reference import GlobalConfig, GlobalNavigator, parse_config
+    from navstress.nav.reference import GlobalConfig, GlobalNavigator, parse_config  # local: see _LOCAL
 
     return GlobalNavigator(parse_config(dict(config or {}), cls=GlobalConfig))
 
 
 def _validate_reference(config: Mapping[str, Any]) -> None:
-    from navstress.nav.reference import parse_config
+    from navstress.nav.reference import parse_config  # local: see _LOCAL
 
     parse_config(dict(config))
 
 
 def _validate_reference_global(config: Mapping[str, Any]) -> None:
-    from navstress.nav.reference import GlobalConfig, parse_config
+    from navstress.nav.reference import GlobalConfig, parse_config  # local: see _LOCAL
 
     parse_config(dict(config), cls=GlobalConfig)
 

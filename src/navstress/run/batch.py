@@ -14,7 +14,9 @@ behind, and the batch goes on in a fresh worker.
 from __future__ import annotations
 
 import json
+import math
 import os
+import time
 from collections.abc import Callable
 from dataclasses import asdict
 from pathlib import Path
@@ -22,14 +24,14 @@ from typing import Any
 
 import numpy as np
 
-import math
-import time
-
 from navstress.errors import NavstressError
 from navstress.isolate import Worker
+from navstress.run.figures import RunTrack, trajectories_png
 from navstress.run.mission import execute
 from navstress.run.record import RunRecord, RunTask
+from navstress.run.trace import TOPIC_PERCEIVED, read_poses
 from navstress.seeding import derive_seed
+from navstress.world.world import World
 
 #: Default wall-clock limit of one run: ``timeout_s * WALL_FACTOR + WALL_SLACK_S`` real seconds.
 WALL_FACTOR = 2.0
@@ -47,8 +49,6 @@ def plan_batch(world_dir: Path, out: Path, *, navigator: str, navigator_config: 
     """The tasks of ``runs`` runs on ``world_dir``; ``map_seed``: the world's seed (read from
     the world when not given)."""
     if map_seed is None:
-        from navstress.world.world import World
-
         map_seed = World.load(world_dir).seed
     return [RunTask(run_id=f"run-{i:03d}", world_dir=str(world_dir), run_seed=derive_seed(seed, "run", i),
                     trace_path=str(out / f"run-{i:03d}.mcap"), navigator=navigator,
@@ -146,10 +146,6 @@ def run_batch(tasks: list[RunTask], out: Path, on_done: Callable[[RunRecord], No
 
 
 def batch_picture(world_dir: Path, records: list[RunRecord], path: Path, title: str) -> Path:
-    from navstress.analysis.figures import RunTrack, trajectories_png
-    from navstress.run.trace import TOPIC_PERCEIVED, read_poses
-    from navstress.world.world import World
-
     world = World.load(world_dir)
     tracks = []
     for r in records:

@@ -19,6 +19,10 @@ import numpy as np
 
 from navstress.errors import SpecError
 from navstress.nav.api import Command
+from navstress.run.figures import legend, save_png, world_axes
+from navstress.sim.config import SimConfig
+from navstress.sim.simulation import Simulation
+from navstress.world.export.images import draw_world
 from navstress.world.world import World
 
 #: 20 m straight, a left quarter turn, 12 m straight, a right half turn on the move, 15 m straight.
@@ -60,9 +64,6 @@ class DriveResult:
 
 def drive(world: World, course: list[tuple[float, float, float]], *, seed: int = 0, lidar: bool = True) -> DriveResult:
     """Play ``course`` open loop from the mission start in the real simulation."""
-    from navstress.sim.config import SimConfig
-    from navstress.sim.simulation import Simulation
-
     sim = Simulation(world, config=SimConfig(lidar_enabled=lidar), seed=seed)
     x0, y0, yaw0 = world.mission.start
     c, s = math.cos(yaw0), math.sin(yaw0)
@@ -90,26 +91,16 @@ def drive(world: World, course: list[tuple[float, float, float]], *, seed: int =
 
 
 def drive_picture(world: World, res: DriveResult, path: str | Path, title: str) -> Path:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from navstress.analysis.figures import legend, save_png
-    from navstress.world.export.images import draw_world
-
-    fig, ax = plt.subplots(figsize=(8.2, 7.2), dpi=110)
-    try:
-        draw_world(ax, world, legend=False)
-        if len(res.truth):
-            ax.plot(res.truth[:, 1], res.truth[:, 2], "-", color="#d7191c", lw=2.0, label="real path", zorder=6)
-        if len(res.odometry):
-            ax.plot(res.odometry[:, 0], res.odometry[:, 1], "--", color="#2b83ba", lw=1.5,
-                    label="wheel odometry (from the start pose)", zorder=6)
-        for k, (_t, x, y, _o) in enumerate(res.collisions):
-            ax.plot(x, y, "X", color="black", ms=11, zorder=8, label="collision" if k == 0 else None)
-        legend(ax, loc="upper left", fontsize=8, framealpha=0.85)
-        ax.set_title(title, fontsize=10, loc="left")
-        return save_png(fig, path)
-    finally:
-        plt.close(fig)
+    """Write a PNG of the real path and the odometry path over ``world``."""
+    fig, ax = world_axes(figsize=(8.2, 7.2), dpi=110)
+    draw_world(ax, world, legend=False)
+    if len(res.truth):
+        ax.plot(res.truth[:, 1], res.truth[:, 2], "-", color="#d7191c", lw=2.0, label="real path", zorder=6)
+    if len(res.odometry):
+        ax.plot(res.odometry[:, 0], res.odometry[:, 1], "--", color="#2b83ba", lw=1.5,
+                label="wheel odometry (from the start pose)", zorder=6)
+    for k, (_t, x, y, _o) in enumerate(res.collisions):
+        ax.plot(x, y, "X", color="black", ms=11, zorder=8, label="collision" if k == 0 else None)
+    legend(ax, loc="upper left", fontsize=8, framealpha=0.85)
+    ax.set_title(title, fontsize=10, loc="left")
+    return save_png(fig, path)

@@ -26,15 +26,22 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import mujoco
 import numpy as np
+from scipy.spatial.transform import Rotation, Slerp
 
+from navstress.errors import NavstressError, SimulationError
 from navstress.nav.api import InvalidAnswer, NavMission, Navigator, Status, check_answer, raised_by_navigator
+from navstress.nav.registry import make_navigator
 from navstress.robot import RobotSpec
 from navstress.run.metrics import drop_jitter, path_length, tortuousness
 from navstress.run.outcome import Classification, RunFacts, classify
 from navstress.run.record import RunRecord, RunTask
 from navstress.run.trace import TOPIC_MAP, TOPIC_PERCEIVED, TOPIC_TERRAIN, TOPIC_TRUTH, TraceWriter
 from navstress.seeding import derive_seed, rng
+from navstress.sim.config import SimConfig
+from navstress.sim.sensors import euler_from_mat
+from navstress.sim.simulation import Simulation
 from navstress.world.world import World
 
 DEFAULT_CONTROL_RATE_HZ = 10.0
@@ -84,8 +91,6 @@ def mission_bounds(world: World, sim_config: Any = None) -> tuple[float, float, 
     """The mission area told to the navigator (``NavMission.bounds``): the map less the
     simulation's ``map_margin_m`` on every side, exactly where the simulation stops a robot
     whose centre leaves it (before MuJoCo would go unstable at the edge)."""
-    from navstress.sim.config import SimConfig
-
     m = float((sim_config if sim_config is not None else SimConfig()).map_margin_m)
     sx, sy = world.terrain.size_m  # the extent the simulation checks
     return (m, m, float(sx) - m, float(sy) - m)
@@ -93,10 +98,6 @@ def mission_bounds(world: World, sim_config: Any = None) -> tuple[float, float, 
 
 def _true_pose(sim: Any) -> tuple[float, float, float, float, float, float, float]:
     """The chassis pose now, from the free joint's qpos (what the observer records)."""
-    import mujoco
-
-    from navstress.sim.sensors import euler_from_mat
-
     q = sim.data.qpos
     rot = np.zeros(9)
     mujoco.mju_quat2Mat(rot, q[3:7])
@@ -115,10 +116,6 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
     (``stop_on_collision``: the operator's emergency stop), so Fail-Collision runs keep the
     time and place of their first collision.
     """
-    from navstress.errors import NavstressError, SimulationError
-    from navstress.sim.config import SimConfig
-    from navstress.sim.simulation import Simulation
-
     robot = robot or RobotSpec()
     cfg = sim_config if sim_config is not None else SimConfig()
     wall0 = time.perf_counter()
@@ -260,8 +257,6 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
 def _to_map_frame(pts: np.ndarray, mount: tuple[float, float, float], truth: np.ndarray, t: float) -> np.ndarray:
     """Sensor-frame points into the map frame with the TRUE pose at ``t`` (interpolated between
     observer samples, 10 Hz: a few cm off while turning; for visualisation only)."""
-    from scipy.spatial.transform import Rotation, Slerp
-
     ts = truth[:, 0]
     k = int(np.clip(np.searchsorted(ts, t), 1, len(ts) - 1)) if len(ts) > 1 else 0
     if len(ts) > 1:
@@ -301,14 +296,11 @@ def execute(task: RunTask) -> RunRecord:
     for an unusable task (a world directory that cannot be loaded, an unknown navigator or
     fault): those are campaign errors, caught and recorded by the executors.
     """
-    from navstress.nav.registry import make_navigator
-
     wall0 = time.perf_counter()
     world = World.load(task.world_dir)
     nav = make_navigator(task.navigator, task.navigator_config or None, fault=task.fault)
     sim_cfg = None
     if task.sim_overrides:
-        from navstress.sim.config import SimConfig
         sim_cfg = SimConfig(**task.sim_overrides)
     meta = {k: str(v) for k, v in {
         "run_id": task.run_id, "run_seed": task.run_seed, "map_seed": task.map_seed, "world_seed": world.seed,

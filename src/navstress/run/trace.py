@@ -47,6 +47,7 @@ from mcap_protobuf.decoder import DecoderFactory
 from mcap_protobuf.writer import Writer
 
 from navstress.errors import StoreError
+from navstress.run.record import cap_message
 
 FRAME = "map"
 TOPIC_TRUTH = "/truth/pose"
@@ -120,8 +121,6 @@ class TraceWriter:
             self.pose(topic, *(float(v) for v in r))
 
     def event(self, t: float, level: str, message: str, name: str = "navstress") -> None:
-        from navstress.run.record import cap_message  # bounded like the record's messages
-
         msg = Log(timestamp=_stamp(t), level=LEVELS[level], message=cap_message(message), name=name)  # type: ignore[arg-type]
         self._put(TOPIC_EVENTS, msg, _ns(t))
 

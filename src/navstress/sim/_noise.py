@@ -34,6 +34,7 @@ import math
 import numpy as np
 from numba import njit
 
+import navstress._jit  # noqa: F401  (numba's cache directory, before any @njit(cache=True))
 from navstress.errors import SpecError
 
 __all__ = ["LAYERS", "R", "default_spare", "standard_normals", "noisy_points"]

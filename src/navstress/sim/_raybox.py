@@ -24,6 +24,7 @@ import math
 import numpy as np
 from numba import njit
 
+import navstress._jit  # noqa: F401  (numba's cache directory, before any @njit(cache=True))
 from navstress.sim._raycast import _ray_box, count_finite, rotation_error, terrain_kernel
 
 INF = np.inf

@@ -34,6 +34,7 @@ from numba import carray, types  # type: ignore[attr-defined]
 from numba.core import cgutils
 from numba.extending import intrinsic
 
+import navstress._jit  # noqa: F401  (numba's cache directory, before any @njit(cache=True))
 from navstress.errors import SimulationError
 from navstress.sim.model import fill_obstacle_slots
 

@@ -31,6 +31,7 @@ import mujoco
 import numba
 import numpy as np
 
+import navstress._jit  # noqa: F401  (numba's cache directory, before any @njit(cache=True))
 from navstress.errors import SimulationError
 from navstress.robot import RobotSpec
 from navstress.sim.config import SimConfig

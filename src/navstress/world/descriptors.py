@@ -36,7 +36,7 @@ All lengths in meters, angles in degrees, obstruction in percent of the map area
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numba
 import numpy as np
@@ -44,13 +44,12 @@ from scipy import ndimage
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
+import navstress._jit  # noqa: F401  (numba's cache directory, before any @njit(cache=True))
 from navstress.robot import RobotSpec
 from navstress.world.spec import WorldSpec
 from navstress.world.terrain import slope_deg
+from navstress.world.placement import PlacementResult
 from navstress.world.world import Mission, Obstacle, Terrain, World
-
-if TYPE_CHECKING:
-    from navstress.world.placement import PlacementResult
 
 MAX_SLOPE_DEG = 25.0
 ROUGHNESS_SIGMA_M = 1.0

@@ -44,6 +44,7 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
+import navstress._jit  # noqa: F401  (numba's cache directory, before any @njit(cache=True))
 from navstress.errors import GenerationError
 from navstress.seeding import rng
 from navstress.world.spec import ObstacleType, WorldSpec

@@ -21,6 +21,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from navstress.errors import SpecError
+from navstress.specfile import load_file
 
 _STRICT = ConfigDict(frozen=True, extra="forbid")
 
@@ -286,8 +287,6 @@ def parse_spec(data: dict[str, Any]) -> WorldSpec:
 def load_spec(path: str | Path) -> WorldSpec:
     """Read a WorldSpec from a YAML or JSON file (through :mod:`navstress.specfile`: bounded size,
     nesting and alias expansion; UTF-8 text only)."""
-    from navstress.specfile import load_file
-
     p = Path(path)
     data = load_file(p, field="spec")
     if data is None:

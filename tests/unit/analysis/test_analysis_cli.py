@@ -1,4 +1,5 @@
-"""The analyze/report commands as the root CLI mounts them (register(app))."""
+"""The analyze/report commands as their module defines them (navstress.cli.analysis.app, which the
+root CLI mounts), without the root's error handling."""
 
 from __future__ import annotations
 
@@ -10,14 +11,12 @@ import typer
 from analysis_synth import make_store, record
 from typer.testing import CliRunner
 
-from navstress.analysis.cli import register
+from navstress.cli.analysis import app as analysis_app
 from navstress.errors import SpecError, StoreError
 
 
 def _app() -> typer.Typer:
-    app = typer.Typer()
-    register(app)
-    return app
+    return analysis_app
 
 
 def test_analyze_json_and_report(tmp_path: Path) -> None:
@@ -46,5 +45,5 @@ def test_bad_inputs_raise_navstress_errors(tmp_path: Path) -> None:
     assert isinstance(r.exception, SpecError) and "threshold" in str(r.exception)
     assert not (tmp_path / "r.html").exists()
     with pytest.raises(SpecError, match="dt"):
-        from navstress.analysis.cli import analyze_cmd
+        from navstress.cli.analysis import analyze_cmd
         analyze_cmd(tmp_path / "c", dt=0.0)

@@ -19,6 +19,7 @@ import math
 import numba as nb
 import numpy as np
 
+import navstress._jit  # noqa: F401  (numba's cache directory, before any @njit(cache=True))
 from navstress.nav.api import NavMission
 from navstress.nav.reference.config import GlobalConfig, ReferenceConfig
 from navstress.nav.reference.navigator import ReferenceNavigator

@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numba as nb
 import numpy as np
 
+import navstress._jit  # noqa: F401  (numba's cache directory, before any @njit(cache=True))
 from navstress.nav.reference.config import ReferenceConfig
 from navstress.nav.reference.terrain_map import TerrainMap, cell_ground
 from navstress.robot import RobotSpec

@@ -39,6 +39,7 @@ from llvmlite import ir
 from numba.core import cgutils
 from numba.extending import intrinsic
 
+import navstress._jit  # noqa: F401  (numba's cache directory, before any @njit(cache=True))
 from navstress.nav.reference.pose import Pose
 
 __all__ = ["TerrainMap", "step_threshold"]

@@ -16,18 +16,25 @@ from __future__ import annotations
 
 import io
 import math
+import shutil
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.cm import ScalarMappable
+from matplotlib.collections import PolyCollection
+from matplotlib.colors import LightSource, LinearSegmentedColormap, Normalize
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.patches import Circle, FancyArrow, Patch
+from PIL import Image
+from PIL.PngImagePlugin import PngInfo
 
 from navstress.world.export._grid import write_atomic
 from navstress.world.world import Terrain, World
-
-if TYPE_CHECKING:
-    from matplotlib.axes import Axes
-    from matplotlib.cm import ScalarMappable
 
 _Z_MIN, _Z_MAX, _CELL = "navstress:z_min", "navstress:z_max", "navstress:cell_m"
 
@@ -52,9 +59,6 @@ def heightmap_png_bytes(heights: np.ndarray, cell_m: float) -> tuple[bytes, floa
 
     A flat grid (z_min == z_max) encodes as all zeros.
     """
-    from PIL import Image
-    from PIL.PngImagePlugin import PngInfo
-
     h = np.asarray(heights, dtype=np.float64)
     if h.ndim != 2 or h.size == 0 or not np.all(np.isfinite(h)):
         raise ValueError("heights must be a non-empty 2-D array of finite values")
@@ -82,8 +86,6 @@ def write_heightmap_png(terrain: Terrain, path: str | Path) -> HeightmapInfo:
 
 def read_heightmap_png(path: str | Path) -> tuple[np.ndarray, float, float]:
     """Read a PNG written by :func:`write_heightmap_png`: (heights rows along +y, z_min, z_max)."""
-    from PIL import Image
-
     with Image.open(path) as img:
         text: dict[str, Any] = dict(getattr(img, "text", {}))
         q = np.array(img, dtype=np.float64)
@@ -109,8 +111,6 @@ def _kind_colour(kind: str, kinds: list[str]) -> str:
 
 
 def _terrain_cmap() -> Any:
-    from matplotlib.colors import LinearSegmentedColormap
-
     # light sand (low) -> olive -> brown (high): quiet enough for the obstacles to stand out
     return LinearSegmentedColormap.from_list(
         "navstress_ground", ["#eef0e2", "#d9d3a8", "#c2a878", "#9b7a55", "#6e5440"])
@@ -143,12 +143,6 @@ def world_title(world: World) -> str:
 def draw_world(ax: Axes, world: World, *, legend: bool = True, hillshade: bool = True) -> ScalarMappable:
     """Draw ``world`` top-down on ``ax`` (x right, y up, meters); returns the terrain mappable
     (for a colour bar). Later code can plot trajectories on the same ``ax``."""
-    from matplotlib.cm import ScalarMappable
-    from matplotlib.collections import PolyCollection
-    from matplotlib.colors import LightSource, Normalize
-    from matplotlib.lines import Line2D
-    from matplotlib.patches import Circle, FancyArrow, Patch
-
     terrain = world.terrain
     h = terrain.heights.astype(np.float64)
     sx, sy = terrain.size_m
@@ -219,9 +213,6 @@ def draw_world(ax: Axes, world: World, *, legend: bool = True, hillshade: bool =
 
 def preview_png_bytes(world: World, *, dpi: int = 110) -> bytes:
     """Render the preview of ``world`` to PNG bytes (Agg backend; no display needed)."""
-    from matplotlib.figure import Figure
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-
     sx, sy = world.size_m
     aspect = sy / sx
     fig = Figure(figsize=(9.5, max(4.0, 7.0 * aspect)), dpi=dpi, layout="constrained")
@@ -243,3 +234,21 @@ def write_preview(world: World, path: str | Path, *, dpi: int = 110) -> Path:
     p = Path(path)
     write_atomic(p, preview_png_bytes(world, dpi=dpi))
     return p
+
+
+#: The preview written beside a world by ``navstress world generate``.
+PREVIEW = "preview.png"
+
+
+def save_with_preview(world: World, out: Path) -> None:
+    """Save ``world`` to ``out`` with its preview (``PREVIEW``) so that either both appear or
+    nothing does (the preview is rendered first)."""
+    png = preview_png_bytes(world)  # render first: a failure here writes nothing
+    existed = out.exists()
+    try:
+        world.save(out)
+        write_atomic(out / PREVIEW, png)
+    except BaseException:
+        if not existed:  # a world without its preview is partial output: take it back
+            shutil.rmtree(out, ignore_errors=True)
+        raise

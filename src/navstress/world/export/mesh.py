@@ -20,8 +20,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import trimesh
+from trimesh.exchange.gltf import export_gltf
 
 from navstress.world.export._grid import write_atomic
+from navstress.world.export.images import _terrain_cmap
 from navstress.world.world import Obstacle, Terrain, World
 
 #: The root transform of glTF exports (rotation of -90 degrees about x).
@@ -46,11 +49,6 @@ def terrain_faces(rows: int, cols: int) -> np.ndarray:
 
 def terrain_mesh(terrain: Terrain) -> Any:
     """The terrain as a ``trimesh.Trimesh`` (vertices in world coordinates, coloured by height)."""
-    import trimesh
-    from matplotlib import colormaps  # noqa: F401  (ensures the colormap registry is loaded)
-
-    from navstress.world.export.images import _terrain_cmap
-
     h = terrain.heights.astype(np.float64)
     rows, cols = h.shape
     ys, xs = np.meshgrid(np.arange(rows) * terrain.cell_m, np.arange(cols) * terrain.cell_m, indexing="ij")
@@ -64,8 +62,6 @@ def terrain_mesh(terrain: Terrain) -> Any:
 
 def obstacle_mesh(o: Obstacle) -> Any:
     """One obstacle as a box ``trimesh.Trimesh`` (8 vertices, 12 faces)."""
-    import trimesh
-
     c, s = math.cos(o.yaw), math.sin(o.yaw)
     tf = np.array([[c, -s, 0.0, o.x], [s, c, 0.0, o.y], [0.0, 0.0, 1.0, o.z + o.size[2] / 2],
                    [0.0, 0.0, 0.0, 1.0]])
@@ -77,8 +73,6 @@ def obstacle_mesh(o: Obstacle) -> Any:
 
 def world_meshes(world: World) -> dict[str, Any]:
     """Named meshes: ``terrain`` and ``obstacles_<kind>`` (all boxes of a kind concatenated)."""
-    import trimesh
-
     out: dict[str, Any] = {"terrain": terrain_mesh(world.terrain)}
     for kind in sorted({o.kind for o in world.obstacles}):
         boxes = [obstacle_mesh(o) for o in world.obstacles if o.kind == kind]
@@ -88,8 +82,6 @@ def world_meshes(world: World) -> dict[str, Any]:
 
 def world_scene(world: World, *, y_up: bool = False) -> Any:
     """A ``trimesh.Scene`` of the world; ``y_up`` adds the :data:`Z_UP_TO_Y_UP` transform."""
-    import trimesh
-
     scene = trimesh.Scene()
     tf = Z_UP_TO_Y_UP if y_up else np.eye(4)
     for name, mesh in world_meshes(world).items():
@@ -102,16 +94,12 @@ def mesh_bytes(world: World, fmt: str) -> bytes:
     if fmt not in MESH_FORMATS:
         raise ValueError(f"format={fmt!r}: expected one of {MESH_FORMATS}")
     if fmt == "obj":
-        import trimesh
-
         merged = trimesh.util.concatenate(list(world_meshes(world).values()))
         data = merged.export(file_type="obj", include_color=True, include_normals=False)  # type: ignore[no-untyped-call, call-arg]
         return data.encode("utf-8") if isinstance(data, str) else bytes(data)
     scene = world_scene(world, y_up=True)
     if fmt == "glb":
         return bytes(scene.export(file_type="glb"))
-    from trimesh.exchange.gltf import export_gltf
-
     files = export_gltf(scene, embed_buffers=True)  # type: ignore[no-untyped-call]
     return bytes(files["model.gltf"])
 

@@ -1,4 +1,4 @@
-"""``navstress campaign init|run|status|export`` and ``navstress replay`` (mounted by navstress.cli).
+"""``navstress campaign init|run|status|export``, ``navstress replay`` and ``navstress demo``.
 
     navstress campaign init --preset demo -o demo.yaml
     navstress campaign run demo.yaml -o demo-campaign --workers 2
@@ -13,21 +13,29 @@ the root CLI prints them on one line and exits 2.
 from __future__ import annotations
 
 import os
+import shlex
+import signal
 from pathlib import Path
 from typing import Annotated
 
 import typer
-from navstress._console import console, literal
 from rich.table import Table
 
+from navstress._console import console, literal
+from navstress.analysis.report import build_report
+from navstress.campaign.executors import run_campaign
 from navstress.campaign.presets import PRESETS, preset_yaml
 from navstress.campaign.progress import CampaignProgress, format_counts
-from navstress.campaign.store import OUTCOMES, Store
+from navstress.campaign.replay import replay as do_replay
 from navstress.campaign.spec import MAX_WORKERS
-from navstress.errors import SpecError
+from navstress.campaign.store import OUTCOMES, Store
+from navstress.cli._common import bounded_int
+from navstress.errors import SpecError, WorldFileError
 
+app = typer.Typer(rich_markup_mode=None)
 campaign_app = typer.Typer(no_args_is_help=True, rich_markup_mode=None,
                            help="Plan, run, follow and export campaigns of many runs.")
+app.add_typer(campaign_app, name="campaign")
 
 
 @campaign_app.command("init")
@@ -65,10 +73,6 @@ def run(
     Exit 0 when every planned run is recorded, 1 when some runs stayed pending after repeated
     failures of the machinery (run again to retry them), 2 for a bad spec or directory or a
     full disk, 130 on Ctrl-C and 143 on SIGTERM (run the same command again to resume)."""
-    import signal
-
-    from navstress.campaign.executors import run_campaign
-
     if executor not in ("local", "ray"):
         raise SpecError("--executor", executor, "local or ray")
     if workers is not None and not 1 <= workers <= MAX_WORKERS:
@@ -114,8 +118,6 @@ class _Stopped(BaseException):
 
 
 def _quote(p: Path) -> str:
-    import shlex
-
     return shlex.quote(str(p))
 
 
@@ -178,8 +180,6 @@ def replay(
     keep: Annotated[Path | None, typer.Option("--keep", help="Keep the new trace at this path.")] = None,
 ) -> None:
     """Re-run one run from its recorded seeds; exit 0 if the new trace is byte-identical, 1 if not."""
-    from navstress.campaign.replay import replay as do_replay
-
     r = do_replay(directory, run_id, keep=keep)
     typer.echo(literal(f"{run_id}: stored {r.stored.outcome} ({r.stored.reason}); replayed {r.new.outcome} ({r.new.reason})"))
     if r.identical:
@@ -188,3 +188,48 @@ def replay(
     typer.echo(f"DIFFERENT: stored sha256 {r.stored_sha256[:16]}, replayed {r.new_sha256[:16]}; "
                f"record fields that differ: {', '.join(r.record_differences) or 'none'}")
     raise typer.Exit(1)
+
+
+app.command("replay")(replay)
+
+
+# ---- demo ---------------------------------------------------------------------------------
+
+
+@app.command("demo")
+def demo(
+    output: Annotated[Path, typer.Option("--output", "-o", metavar="DIR", help=(
+        "Folder for the demo (DIR/demo.yaml, the campaign in DIR/campaign, DIR/report.html). "
+        "Run again to resume an interrupted demo."))] = Path("demo-out"),
+    workers: Annotated[str | None, typer.Option("--workers", "-j", metavar="N", help=(
+        "Parallel runs, an integer in [1, 1024] (default: all cores)."))] = None,
+) -> None:
+    """Run the demo campaign (worlds, missions, faults) and write its HTML report."""
+    n_workers = None
+    if workers is not None:
+        n_workers = bounded_int("--workers", workers, 1, MAX_WORKERS)
+    if output.exists() and not output.is_dir():
+        raise WorldFileError(f"--output={str(output)!r} is invalid: expected a folder; choose another path")
+    if output.is_dir():
+        ours = {"demo.yaml", "campaign", "report.html"}
+        others = [p.name for p in output.iterdir() if p.name not in ours and not p.name.startswith(".")]
+        if others:
+            raise WorldFileError(f"--output={str(output)!r} is invalid: expected a new folder or a previous demo "
+                                 f"(it holds {others[0]!r}); choose another path or remove it")
+    output.mkdir(parents=True, exist_ok=True)
+    spec_path = output / "demo.yaml"
+    text = preset_yaml("demo")
+    if not spec_path.exists() or spec_path.read_text(encoding="utf-8") != text:
+        tmp = spec_path.with_name(".demo.yaml.tmp")
+        tmp.write_text(text, encoding="utf-8")
+        tmp.replace(spec_path)
+    con = console()
+    con.print(f"demo campaign: {spec_path} -> {output / 'campaign'}")
+    with CampaignProgress() as bar:
+        res = run_campaign(spec_path, output / "campaign", workers=n_workers, on_start=bar.on_start,
+                           on_record=bar.on_record)
+    con.print(f"{res.already_done + res.recorded}/{res.planned} runs recorded in {res.wall_s:.0f} s with "
+              f"{res.workers} workers: " + format_counts(res.counts, markup=False))
+    con.print("writing the report ...")
+    report = build_report(output / "campaign", output / "report.html")
+    con.print(f"report: {report.resolve()}")

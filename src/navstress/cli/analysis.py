@@ -1,7 +1,4 @@
-"""``navstress analyze DIR`` and ``navstress report DIR -o report.html`` (mounted by navstress.cli).
-
-    from navstress.analysis.cli import register
-    register(app)   # adds the two commands to the root typer app
+"""``navstress analyze DIR`` and ``navstress report DIR -o report.html``.
 
 User errors raise :class:`~navstress.errors.NavstressError` subclasses (the root CLI prints
 them on one line and exits 2).
@@ -13,9 +10,17 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
+from rich.table import Table
 
+from navstress._console import console, literal
+from navstress.analysis.analyze import analyze
 from navstress.analysis.difficulty import DifficultyParams
+from navstress.analysis.report import build_report
+from navstress.analysis.stats import dumps, params_text
+from navstress.cli._common import probe_writable
 from navstress.errors import SpecError
+
+app = typer.Typer(rich_markup_mode=None)
 
 
 def _params(threshold: float, k: int, weights: str) -> DifficultyParams:
@@ -42,12 +47,6 @@ def analyze_cmd(
     dt: Dt = 1.0,
 ) -> None:
     """Print the campaign's difficulty levels, indeterminism and fault power."""
-    from navstress._console import console
-    from rich.table import Table
-
-    from navstress.analysis.analyze import analyze
-    from navstress.analysis.stats import dumps, params_text
-
     if not dt > 0:
         raise SpecError("--dt", dt, "a time step in seconds > 0")
     params = _params(threshold, k, weights)
@@ -113,23 +112,15 @@ def report_cmd(
     dt: Dt = 1.0,
 ) -> None:
     """Write one self-contained HTML report (figures embedded) of a campaign."""
-    from navstress.analysis.report import build_report
-
     if not dt > 0:
         raise SpecError("--dt", dt, "a time step in seconds > 0")
     params = _params(threshold, k, weights)
     if out.exists() and out.is_dir():
         raise SpecError("--output", str(out), "an HTML file path, not a directory")
-    from navstress.cli import probe_writable
-
     probe_writable(out)  # before the analysis and the figures, not after
     path = build_report(directory, out, params=params, navigator=navigator, dt=dt)
-    from navstress._console import literal
-
     typer.echo(literal(f"report: {path.resolve()}"))
 
 
-def register(app: typer.Typer) -> None:
-    """Add ``analyze`` and ``report`` to the root ``navstress`` app."""
-    app.command("analyze")(analyze_cmd)
-    app.command("report")(report_cmd)
+app.command("analyze")(analyze_cmd)
+app.command("report")(report_cmd)

@@ -1,0 +1,53 @@
+"""What the command modules share: flag limits, flag parsers, the navigator-config flag, and
+checks of output paths made before any work."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from navstress import _files
+from navstress._flags import bounded_int, integer, number
+from navstress.errors import SpecError, WorldFileError
+from navstress.nav.registry import load_config
+from navstress.world.world import is_world_dir
+
+__all__ = ["MAX_RUNS", "MAX_SEED", "MAX_TIMEOUT_S", "MAX_WALL_S", "NAV_CONFIG_HELP", "bounded_int",
+           "check_file_out", "check_out_dir", "integer", "load_navigator_config", "number", "probe_writable"]
+
+#: Largest seed a flag takes (seeds are stored as signed 64-bit integers).
+MAX_SEED = 2**63 - 1
+#: Longest simulated run (one day, as a campaign spec's timeout_s) and longest wall-clock limit.
+MAX_TIMEOUT_S = 86_400.0
+MAX_WALL_S = 30 * 86_400.0
+#: Most runs one `navstress run` makes (a campaign is the tool for more).
+MAX_RUNS = 10_000
+
+NAV_CONFIG_HELP = ("Configuration passed to the navigator: a JSON/YAML file, or inline JSON/YAML text "
+                   "such as '{\"command\": [\"./my_nav\"]}'.")
+
+
+def load_navigator_config(raw: str | None) -> dict[str, Any]:
+    """``--navigator-config``: a file path or inline JSON/YAML (SpecError naming the flag)."""
+    if raw is None:
+        return {}
+    return dict(load_config(raw, field="--navigator-config"))
+
+
+def check_out_dir(path: Path, flag: str = "--output") -> None:
+    """A new path or an existing world directory (which will be replaced), else WorldFileError."""
+    if path.exists() and not is_world_dir(path):
+        raise WorldFileError(f"{flag}={str(path)!r} is invalid: expected a new path or an existing world "
+                             "directory (it exists and is not a world); choose another path or remove it")
+
+
+def check_file_out(dest: Path) -> None:
+    """A file path, not a directory (SpecError naming --output)."""
+    if dest.exists() and dest.is_dir():
+        raise SpecError("--output", str(dest), "a file path (this is a directory)")
+
+
+def probe_writable(dest: Path) -> None:
+    """Fail now (OSError naming ``dest``) if a file cannot be created where ``dest`` will be
+    written, before long work whose result would be lost; leaves nothing behind."""
+    _files.probe_writable(dest)

@@ -1,0 +1,95 @@
+"""``navstress run``: several runs of one navigator on one world, each in a worker process."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+from rich.table import Table
+
+from navstress._console import console
+from navstress.cli._common import (MAX_RUNS, MAX_SEED, MAX_TIMEOUT_S, MAX_WALL_S, NAV_CONFIG_HELP, bounded_int,
+                                   load_navigator_config, number)
+from navstress.errors import SpecError, WorldFileError
+from navstress.nav.registry import build_and_close
+from navstress.run.batch import batch_picture, check_buildable, default_wall_limit_s, plan_batch, run_batch
+from navstress.world.world import World
+
+app = typer.Typer(rich_markup_mode=None)
+
+
+@app.command("run")
+def run_cmd(
+    world_dir: Annotated[Path, typer.Argument(metavar="WORLD_DIR", help="A world directory (navstress world generate).")],
+    output: Annotated[Path, typer.Option("--output", "-o", metavar="OUT", help=(
+        "Folder for the traces (run-NNN.mcap), records (runs.jsonl) and trajectories.png; must be new or empty."))],
+    navigator: Annotated[str, typer.Option(metavar="NAME", help=(
+        "Navigator under test, by registered name (see `navstress nav list`).")) ] = "reference-v1",
+    navigator_config: Annotated[str | None, typer.Option(metavar="FILE|TEXT", help=NAV_CONFIG_HELP)] = None,
+    fault: Annotated[str | None, typer.Option(metavar="NAME", help=(
+        "Inject a named fault into the navigator (see `navstress nav faults`)."))] = None,
+    runs: Annotated[str, typer.Option(metavar="N", help="Number of runs (each with its own run seed), in [1, 10000]. Default 1.")] = "1",
+    seed: Annotated[str, typer.Option(metavar="N", help="Root seed of the run seeds, an integer in [0, 2**63-1]. Default 0.")] = "0",
+    timeout: Annotated[str, typer.Option(metavar="S", help="Simulated-time limit of a run in seconds, in (0, 86400]. Default 400.")] = "400",
+    goal_tolerance: Annotated[str, typer.Option(metavar="M", help="Success radius around the goal in meters, > 0. Default 2.")] = "2",
+    lidar: Annotated[bool, typer.Option("--lidar", help=(
+        "Also record lidar point clouds in the traces (one full scan per simulated second, map frame).")) ] = False,
+    wall_limit: Annotated[str | None, typer.Option(metavar="S", help=(
+        "Wall-clock limit of one run in real seconds, > 0 (a navigator that hangs is killed and its run "
+        "recorded as Fail-Other). Default: timeout * 2 + 120.")) ] = None,
+) -> None:
+    """Run the navigator on a world's mission, classify each run, write traces and a picture."""
+    n = bounded_int("--runs", runs, 1, MAX_RUNS)
+    seed_v = bounded_int("--seed", seed, 0, MAX_SEED)
+    timeout_v = number("--timeout", timeout, f"a duration in seconds in (0, {MAX_TIMEOUT_S:g}]")
+    if not 0 < timeout_v <= MAX_TIMEOUT_S:
+        raise SpecError("--timeout", timeout, f"a duration in seconds in (0, {MAX_TIMEOUT_S:g}]")
+    tol = number("--goal-tolerance", goal_tolerance, "a distance in meters > 0")
+    if tol <= 0:
+        raise SpecError("--goal-tolerance", goal_tolerance, "a distance in meters > 0")
+    wall_v = None
+    if wall_limit is not None:
+        wall_v = number("--wall-limit", wall_limit, f"a duration in seconds in (0, {MAX_WALL_S:g}]")
+        if not 0 < wall_v <= MAX_WALL_S:
+            raise SpecError("--wall-limit", wall_limit, f"a duration in seconds in (0, {MAX_WALL_S:g}]")
+    world_seed = World.load(world_dir).seed  # a clear error for a non-world, before anything is written
+    cfg = load_navigator_config(navigator_config)
+    # built in a worker process: a navigator that exits, crashes or hangs there is the runs' to classify
+    check_buildable(build_and_close, navigator, fault, cfg,
+                    wall_limit_s=wall_v if wall_v is not None else default_wall_limit_s(timeout_v))
+    if output.exists() and (not output.is_dir() or any(output.iterdir())):
+        raise WorldFileError(f"--output={str(output)!r} is invalid: expected a new or empty folder; "
+                             "choose another path or remove it")
+    created = not output.exists()
+    con = console()
+    counts: dict[str, int] = {}
+    try:
+        tasks = plan_batch(world_dir, output, navigator=navigator, navigator_config=cfg, fault=fault, runs=n,
+                           seed=seed_v, timeout_s=timeout_v, goal_tolerance_m=tol, record_lidar=lidar,
+                           map_seed=world_seed)
+        with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
+                      TimeRemainingColumn(), TextColumn("{task.fields[counts]}"), console=con) as prog:
+            bar = prog.add_task("runs", total=n, counts="")
+
+            def done(rec: Any) -> None:
+                counts[rec.outcome] = counts.get(rec.outcome, 0) + 1
+                prog.update(bar, advance=1, counts="  ".join(f"{k}={v}" for k, v in sorted(counts.items())))
+
+            records = run_batch(tasks, output, done, wall_limit_s=wall_v)
+    except BaseException:
+        if created and not counts:  # nothing recorded: leave nothing behind
+            shutil.rmtree(output, ignore_errors=True)
+        raise
+    table = Table(title=f"{navigator}{' + ' + fault if fault else ''} on {world_dir}")
+    for col in ("run", "outcome", "sim s", "wall s", "goal m", "path m", "reason"):
+        table.add_column(col)
+    for r in records:
+        table.add_row(r.run_id, r.outcome, f"{r.duration_s:.1f}", f"{r.wall_s:.1f}", f"{r.goal_distance_m:.2f}",
+                      f"{r.path_length_m:.1f}", r.reason)
+    con.print(table)
+    pic = batch_picture(world_dir, records, output / "trajectories.png",
+                        f"{navigator}{' + ' + fault if fault else ''}: {n} run(s) on {world_dir.name}")
+    con.print(f"traces and records in {output}/, picture: {pic}")

@@ -1,0 +1,220 @@
+"""``navstress world generate|show|export|drive`` (the ``world`` group)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Annotated, Any
+
+import numpy as np
+import typer
+from rich.table import Table
+from typer import _click as click
+
+from navstress._console import console, literal
+from navstress.cli._common import (MAX_SEED, bounded_int, check_file_out, check_out_dir, probe_writable)
+from navstress.errors import SpecError
+from navstress.run.drive import DEFAULT_COURSE, drive, drive_picture, parse_course
+from navstress.sim.model import world_to_mjcf
+from navstress.world.export._grid import write_atomic
+from navstress.world.export.images import PREVIEW, obstruction_pct, save_with_preview, write_heightmap_png, write_preview
+from navstress.world.export.mesh import write_mesh
+from navstress.world.export.sdf import write_sdf
+from navstress.world.flags import build_spec
+from navstress.world.generate import generate
+from navstress.world.world import World
+
+EXPORT_FORMATS = ("mjcf", "sdf", "gltf", "glb", "obj", "png")
+
+app = typer.Typer(rich_markup_mode=None)
+world_app = typer.Typer(no_args_is_help=True, rich_markup_mode=None,
+                        help="Generate, inspect and export worlds (terrain, obstacles, mission).")
+app.add_typer(world_app, name="world")
+
+
+def _descriptor_table(world: Any, title: str) -> Any:
+    t = Table(title=title, show_header=True, header_style="bold", title_justify="left")
+    t.add_column("descriptor")
+    t.add_column("value", justify="right")
+    spec = world.spec
+    g = spec.ground
+    rows: list[tuple[str, str]] = [
+        ("size", f"{spec.size_m[0]:g} m x {spec.size_m[1]:g} m (cell {spec.cell_m:g} m)"),
+        ("seed", str(world.seed)),
+        ("ground", f"subdivide s={g.subdivisions} d={g.deformation:g} m" if g.model == "subdivide"
+         else f"fractal amp={g.amplitude_m:g} m wavelength={g.wavelength_m:g} m octaves={g.octaves}"),
+        ("obstruction", f"{obstruction_pct(world):.2f} %"),
+    ]
+    ms = world.mission
+    rows.append(("mission", f"({ms.start[0]:g}, {ms.start[1]:g}) -> ({ms.goal[0]:g}, {ms.goal[1]:g}), "
+                            f"{ms.straight_distance_m:.1f} m"))
+    d = world.descriptors
+    if d.get("obstruction_target_pct"):
+        target = sum(d["obstruction_target_pct"].values())
+        rows[3] = ("obstruction", f"{rows[3][1]} (target {target:g} %)")
+    counts: dict[str, int] = {}
+    for o in world.obstacles:
+        counts[o.kind] = counts.get(o.kind, 0) + 1
+    rows.insert(4, ("obstacles", ", ".join(f"{n} {k}{'s' if n != 1 else ''}" for k, n in sorted(counts.items()))
+                    or "none"))
+    if "height_min_m" in d:
+        rows.append(("height", f"{_fmt(d['height_min_m'])} .. {_fmt(d['height_max_m'])} m "
+                               f"(std {_fmt(d.get('height_std_m'))} m)"))
+    for key, val in sorted(d.items()):
+        if key.startswith(_HIDDEN):
+            continue
+        rows.append((key, _fmt(val)))
+    for k, v in rows:
+        t.add_row(k, v)
+    return t
+
+
+_HIDDEN = ("placement_", "traversability", "obstruction_", "n_obstacles", "height_m", "height_min", "height_max",
+           "height_std")
+
+
+def _fmt(v: Any) -> str:
+    if isinstance(v, float):
+        return f"{v:.4g}"
+    if isinstance(v, dict):
+        return ", ".join(f"{k}={_fmt(x)}" for k, x in v.items()) or "-"
+    if v is None:
+        return "-"
+    return str(v)
+
+
+_M = "M"
+_PCT = "PCT"
+
+
+@world_app.command("generate")
+def world_generate(
+    output: Annotated[Path, typer.Option("--output", "-o", metavar="DIR", help=(
+        "World directory to write (world.json, terrain.npz, preview.png). Must be new or an "
+        "existing world directory, which is replaced."))],
+    size: Annotated[str | None, typer.Option(metavar="M|WxH", help=(
+        "Map size in meters: one side M for a square map or WxH; each in [10, 2000], a whole "
+        "multiple of --cell. Default 100."))] = None,
+    cell: Annotated[str | None, typer.Option(metavar=_M, help=(
+        "Terrain cell size in meters, in [0.05, 2]. Default 0.4."))] = None,
+    subdivisions: Annotated[str | None, typer.Option("--subdivisions", "-s", metavar="S", help=(
+        "Ground subdivisions s, an integer in [0, 10]: 2**s+1 control vertices per side "
+        "(small s: large smooth bumps; large s: small sharp ones). Default 0."))] = None,
+    deformation: Annotated[str | None, typer.Option("--deformation", "-d", metavar=_M, help=(
+        "Ground deformation d in meters, in [0, 50]: scale of the vertical displacement of the "
+        "control vertices. Default 0 (flat)."))] = None,
+    ground: Annotated[str | None, typer.Option(metavar="subdivide|fractal", help=(
+        "Ground model: 'subdivide' (the paper's, uses -s/-d) or 'fractal' (multi-octave "
+        "noise; set its parameters in a --spec file). Default subdivide."))] = None,
+    trees: Annotated[str | None, typer.Option(metavar=_PCT, help=(
+        "Percent of the map area covered by trees (1 m x 1 m x 5 m boxes), in [0, 100). Default 0."))] = None,
+    buildings: Annotated[str | None, typer.Option(metavar=_PCT, help=(
+        "Percent of the map area covered by buildings (9 m x 9 m x 8 m boxes), in [0, 100). "
+        "Above about 28% placement may not find room. Default 0."))] = None,
+    obstruction: Annotated[str | None, typer.Option(metavar=_PCT, help=(
+        "Total obstruction percent in [0, 100), split between types by --mix. Not with "
+        "--trees/--buildings."))] = None,
+    mix: Annotated[str | None, typer.Option(metavar="TYPE=W,...", help=(
+        "Weights splitting --obstruction between obstacle types, e.g. trees=3,buildings=1 "
+        "(weights >= 0; 'tree'/'trees' and 'building'/'buildings' both accepted)."))] = None,
+    spec: Annotated[Path | None, typer.Option("--spec", metavar="FILE", help=(
+        "WorldSpec file (YAML or JSON); the flags above override its fields."))] = None,
+    seed: Annotated[str, typer.Option(metavar="N", help=(
+        "Map seed, an integer in [0, 2**63-1]: the same spec and seed give the same world."))] = "0",
+) -> None:
+    """Generate one world from a spec and a seed; write it with a preview and print its descriptors."""
+    seed_v = bounded_int("--seed", seed, 0, MAX_SEED)
+    world_spec = build_spec(spec_file=spec, size=size, cell=cell, subdivisions=subdivisions,
+                            deformation=deformation, ground=ground, trees=trees, buildings=buildings,
+                            obstruction=obstruction, mix=mix)
+    check_out_dir(output)
+    world = generate(world_spec, seed_v)
+    save_with_preview(world, output)
+    con = console()
+    con.print(_descriptor_table(world, f"world {output}"))
+    con.print(f"wrote {output}/ (world.json, terrain.npz, {PREVIEW})")
+
+
+@world_app.command("show")
+def world_show(
+    world_dir: Annotated[Path, typer.Argument(metavar="DIR", help="A world directory.")],
+    output: Annotated[Path | None, typer.Option("--output", "-o", metavar="FILE", help=(
+        "Where to write the preview PNG. Default: DIR/preview.png."))] = None,
+) -> None:
+    """Print a world's descriptors and write its top-down preview PNG."""
+    world = World.load(world_dir)
+    dest = output if output is not None else world_dir / PREVIEW
+    check_file_out(dest)
+    write_preview(world, dest)
+    con = console()
+    con.print(_descriptor_table(world, f"world {world_dir}"))
+    con.print(f"wrote {dest}")
+
+
+
+@world_app.command("export")
+def world_export(
+    world_dir: Annotated[Path, typer.Argument(metavar="DIR", help="A world directory.")],
+    fmt: Annotated[str, typer.Option("--format", "-f", metavar="|".join(EXPORT_FORMATS), help=(
+        "mjcf: standalone MuJoCo model (heightfield + boxes, no robot); sdf: Gazebo SDF world "
+        "(writes FILE and FILE-stem_heightmap.png beside it, resampled to a 2^n+1 square); "
+        "gltf/glb: mesh scene (y-up); obj: mesh (z-up world coordinates); png: 16-bit heightmap "
+        "(height range in its text chunks)."))],
+    output: Annotated[Path, typer.Option("--output", "-o", metavar="FILE", help="File to write.")],
+) -> None:
+    """Export a world to another tool's format."""
+    f = fmt.lower()
+    if f not in EXPORT_FORMATS:
+        raise SpecError("--format", fmt, f"one of {', '.join(EXPORT_FORMATS)}")
+    check_file_out(output)
+    world = World.load(world_dir)
+    if f == "mjcf":
+        write_atomic(output, world_to_mjcf(world).encode("utf-8"))
+        written = [output]
+    elif f == "sdf":
+        r = write_sdf(world, output)
+        written = [r.sdf_path, r.heightmap_path]
+        rows, cols = world.terrain.heights.shape
+        if (rows, cols) != (r.heightmap_side, r.heightmap_side):
+            click.echo(f"note: heightmap resampled from {cols}x{rows} to {r.heightmap_side}x{r.heightmap_side} "
+                       "(Gazebo needs a square 2^n+1 image)")
+    elif f == "png":
+        info = write_heightmap_png(world.terrain, output)
+        written = [output]
+        click.echo(f"heightmap {info.width}x{info.height}, 0..65535 = {info.z_min:.4g}..{info.z_max:.4g} m")
+    else:
+        write_mesh(world, output, "glb" if f == "gltf" and output.suffix.lower() == ".glb" else f)
+        written = [output]
+    click.echo(literal("wrote " + ", ".join(str(p) for p in written)))
+
+
+@world_app.command("drive")
+def world_drive(
+    world_dir: Annotated[Path, typer.Argument(metavar="DIR", help="A world directory.")],
+    output: Annotated[Path | None, typer.Option("--output", "-o", metavar="FILE", help=(
+        "Picture of the real path and the odometry path over the world (default DIR/drive.png)."))] = None,
+    course: Annotated[str | None, typer.Option(metavar="SEGMENTS", help=(
+        "Open-loop course from the mission start: 'v,omega,seconds; ...' (m/s, rad/s, s). Default: 20 m "
+        "straight, quarter turn on the spot, 12 m straight, a right curve, 15 m straight."))] = None,
+    seed: Annotated[str, typer.Option(metavar="N", help="Run seed (sensor noise, jitter), an integer in [0, 2**63-1]. Default 0.")] = "0",
+) -> None:
+    """Drive a scripted course in the simulation and draw where the robot really went."""
+    world = World.load(world_dir)
+    segs = parse_course(course) if course is not None else DEFAULT_COURSE
+    seed_v = bounded_int("--seed", seed, 0, MAX_SEED)
+    dest = output if output is not None else world_dir / "drive.png"
+    if dest.exists() and dest.is_dir():
+        raise SpecError("--output", str(dest), "a PNG file path, not a directory")
+    probe_writable(dest)
+    res = drive(world, segs, seed=seed_v)
+    t = res.truth
+    dist = float(np.sum(np.hypot(np.diff(t[:, 1]), np.diff(t[:, 2])))) if len(t) > 1 else 0.0
+    odo_err = (math.hypot(res.odometry[-1, 0] - t[-1, 1], res.odometry[-1, 1] - t[-1, 2])
+               if len(res.odometry) and len(t) else 0.0)
+    con = console()
+    con.print(f"drove {dist:.1f} m in {res.sim_s:.1f} s simulated ({res.real_time_factor:.0f}x real time); "
+              f"odometry off by {odo_err:.2f} m at the end; collisions: {len(res.collisions)}"
+              + (f"; stopped: {res.stopped}" if res.stopped else ""))
+    pic = drive_picture(world, res, dest, f"scripted drive on {world_dir.name}: {dist:.0f} m, "
+                        f"{len(res.collisions)} collision(s)")
+    con.print(f"picture: {pic}")

@@ -1,0 +1,100 @@
+"""Pictures of runs drawn over their world (``navstress run``, ``navstress world drive``, and
+the report's maps, which :mod:`navstress.analysis.figures` draws with these pieces).
+
+    trajectories_png(world, [RunTrack(...), ...], "runs.png")
+
+Colours follow the outcome everywhere in navstress: success green, collision red, error
+orange, timeout purple, other grey. Figures are drawn on an Agg canvas of their own (no
+pyplot, no global backend set).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from navstress.world.export.images import draw_world
+from navstress.world.world import World
+
+OUTCOME_COLOURS = {
+    "success": "#1a9641",
+    "fail-collision": "#d7191c",
+    "fail-error": "#f08a24",
+    "fail-timeout": "#7b3294",
+    "fail-other": "#6b6b6b",
+}
+OUTCOME_LABELS = {"success": "Success", "fail-collision": "Fail-Collision", "fail-error": "Fail-Error",
+                  "fail-timeout": "Fail-TimeOut", "fail-other": "Fail-Other"}
+
+
+@dataclass(frozen=True)
+class RunTrack:
+    """One run to draw: its real trajectory (N, >=3: t, x, y, ...), outcome, optional perceived one."""
+
+    label: str
+    outcome: str
+    truth: np.ndarray
+    perceived: np.ndarray | None = None
+    collision_xy: tuple[float, float] | None = None
+
+
+def draw_tracks(ax: Any, tracks: list[RunTrack], *, perceived: bool = False) -> None:
+    """Overlay tracks on an axes that already shows the world (see ``draw_world``)."""
+    seen: set[str] = set()
+    for tr in tracks:
+        col = OUTCOME_COLOURS.get(tr.outcome, "#000000")
+        lab = OUTCOME_LABELS.get(tr.outcome, tr.outcome)
+        if len(tr.truth):
+            ax.plot(tr.truth[:, 1], tr.truth[:, 2], "-", color=col, lw=1.6, alpha=0.9,
+                    label=None if lab in seen else lab, zorder=6)
+            ax.plot(tr.truth[-1, 1], tr.truth[-1, 2], "o", color=col, ms=5, mec="white", mew=0.8, zorder=7)
+            seen.add(lab)
+        if perceived and tr.perceived is not None and len(tr.perceived):
+            ax.plot(tr.perceived[:, 1], tr.perceived[:, 2], "--", color="#2b83ba", lw=1.2,
+                    label=None if "perceived" in seen else "perceived (navigator's belief)", zorder=6)
+            seen.add("perceived")
+        if tr.collision_xy is not None:
+            ax.plot(*tr.collision_xy, "X", color="#d7191c", ms=10, mec="black", mew=0.8, zorder=8,
+                    label=None if "collision" in seen else "collision")
+            seen.add("collision")
+
+
+def world_axes(figsize: tuple[float, float] = (8.2, 7.2), dpi: int = 110) -> tuple[Figure, Any]:
+    """A figure on its own Agg canvas and its one axes."""
+    fig = Figure(figsize=figsize, dpi=dpi)
+    FigureCanvasAgg(fig)
+    return fig, fig.subplots()
+
+
+def trajectories_png(world: World, tracks: list[RunTrack], path: str | Path, *, title: str | None = None,
+                     perceived: bool = False, dpi: int = 110) -> Path:
+    """Write a PNG of ``world`` with every track overlaid, colour-coded by outcome."""
+    fig, ax = world_axes(dpi=dpi)
+    draw_world(ax, world, legend=False)
+    draw_tracks(ax, tracks, perceived=perceived)
+    legend(ax, loc="upper left", fontsize=8, framealpha=0.85)
+    if title:
+        ax.set_title(title, fontsize=10, loc="left")
+    return save_png(fig, path)
+
+
+def legend(ax: Any, **kw: Any) -> None:
+    """``ax.legend(**kw)`` when something is labelled (matplotlib warns on stderr otherwise)."""
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(**kw)
+
+
+def save_png(fig: Figure, path: str | Path) -> Path:
+    """Lay out and write ``fig`` as a PNG atomically (a partial file never takes the name)."""
+    fig.tight_layout()
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_name(f".{out.name}.partial")
+    fig.savefig(tmp, format="png")
+    tmp.replace(out)
+    return out

@@ -1,0 +1,111 @@
+"""A WorldSpec from command-line flags (``navstress world generate``): an optional spec file with
+flag values overriding its fields; an invalid value names the flag that set it.
+
+    >>> build_spec(size="40", trees="5").size_m
+    (40.0, 40.0)
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+from navstress._flags import integer, number
+from navstress.errors import SpecError
+from navstress.world.spec import WorldSpec, load_spec, parse_spec
+
+_KIND_ALIASES = {"trees": "tree", "buildings": "building"}
+
+
+def parse_mix(raw: str) -> dict[str, float]:
+    """``"trees=3,buildings=1"`` -> ``{"tree": 3.0, "building": 1.0}`` (plural names accepted)."""
+    expected = "comma-separated TYPE=WEIGHT pairs with weights >= 0"
+    fix = "e.g. --mix trees=1,buildings=1"
+    out: dict[str, float] = {}
+    for part in raw.split(","):
+        name, sep, weight = part.partition("=")
+        name = name.strip().lower()
+        if not sep or not name:
+            raise SpecError("--mix", raw, expected, fix)
+        try:
+            w = float(weight)
+        except ValueError:
+            raise SpecError("--mix", raw, expected, fix) from None
+        if not w >= 0 or math.isinf(w):
+            raise SpecError("--mix", raw, expected, fix)
+        key = _KIND_ALIASES.get(name, name)
+        if key in out:
+            raise SpecError("--mix", raw, f"{expected}, each type once", fix)
+        out[key] = w
+    return out
+
+
+# spec field (prefix) -> flag that sets it
+_FIELD_FLAGS = {
+    "size_m": "--size", "cell_m": "--cell", "ground.subdivisions": "--subdivisions",
+    "ground.deformation": "--deformation", "ground.model": "--ground",
+    "obstacles.obstruction.tree": "--trees", "obstacles.obstruction.building": "--buildings",
+    "obstacles.total": "--obstruction", "obstacles.mix": "--mix",
+}
+
+
+def build_spec(*, spec_file: Path | None = None, size: str | None = None, cell: str | None = None,
+               subdivisions: str | None = None, deformation: str | None = None, ground: str | None = None,
+               trees: str | None = None, buildings: str | None = None, obstruction: str | None = None,
+               mix: str | None = None) -> WorldSpec:
+    """The WorldSpec from an optional spec file with flags overriding it (raises SpecError
+    naming the flag when a flag value is the culprit)."""
+    data: dict[str, Any] = load_spec(spec_file).model_dump(mode="python") if spec_file else {}
+    given: set[str] = set()
+    if size is not None:
+        parts = size.lower().split("x")
+        if len(parts) > 2:
+            raise SpecError("--size", size, "a map side M or WxH in meters")
+        vals = [number("--size", p, "a map side M or WxH in meters") for p in parts]
+        data["size_m"] = (vals[0], vals[-1])
+        given.add("--size")
+    if cell is not None:
+        data["cell_m"] = number("--cell", cell, "a cell size in meters")
+        given.add("--cell")
+    g = dict(data.get("ground", {}))
+    if subdivisions is not None:
+        g["subdivisions"] = integer("--subdivisions", subdivisions, "an integer >= 0")
+        given.add("--subdivisions")
+    if deformation is not None:
+        g["deformation"] = number("--deformation", deformation, "a displacement scale in meters >= 0")
+        given.add("--deformation")
+    if ground is not None:
+        g["model"] = ground
+        given.add("--ground")
+    data["ground"] = g
+    o = dict(data.get("obstacles", {}))
+    per_type = {k: v for k, v in (("tree", trees), ("building", buildings)) if v is not None}
+    if per_type and obstruction is not None:
+        raise SpecError("--obstruction", obstruction, "either --trees/--buildings or --obstruction with --mix",
+                        "not both")
+    if per_type:
+        obs = dict(o.get("obstruction", {})) if o.get("total") is None else {}
+        for kind, raw in per_type.items():
+            flag = "--trees" if kind == "tree" else "--buildings"
+            obs[kind] = number(flag, raw, "a percentage in [0, 100)")
+            given.add(flag)
+        o.update(obstruction=obs, total=None, mix=None)
+    if obstruction is not None:
+        o.update(total=number("--obstruction", obstruction, "a percentage in [0, 100)"), obstruction={})
+        given.add("--obstruction")
+    if mix is not None:
+        if o.get("total") is None:
+            raise SpecError("--mix", mix, "to be used with --obstruction (a total to split)",
+                            "add --obstruction PCT or use --trees/--buildings")
+        o["mix"] = parse_mix(mix)
+        given.add("--mix")
+    data["obstacles"] = o
+    try:
+        return parse_spec(data)
+    except SpecError as e:
+        for prefix, flag in _FIELD_FLAGS.items():
+            flagged = flag in given or (flag == "--mix" and "--obstruction" in given)
+            if flagged and (e.field == prefix or e.field.startswith(prefix + ".")):
+                raise SpecError(flag, e.value, e.expected, e.fix) from None
+        raise
