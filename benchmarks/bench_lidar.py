@@ -194,7 +194,7 @@ def main() -> None:
     }
     print(f"# lidar benchmark  ({platform.processor() or platform.machine()}, numba, 1 core, "
           f"{n} poses, best of {rep}; baseline {a.baseline})")
-    print(f"# native terrain walk: {native.STATUS}; 'numba walk' = the same scan with Lidar(simd=False)")
+    print(f"# native terrain walk: {native.status()}; 'numba walk' = the same scan with Lidar(simd=False)")
     print(f"{'world':16s} {'rays':>8s} {'ms/scan':>8s} {'Mrays/s':>8s} | {'baseline':>8s} {'speedup':>7s}"
           f" | {'numba walk':>8s} {'x':>7s} | {'per-ray ms':>10s} {'x':>5s} | {'naive ms':>9s} {'x':>5s}")
     for name, w in worlds.items():

@@ -174,7 +174,7 @@ def main() -> None:
         "s4d2": generate(WorldSpec.model_validate({"ground": {"subdivisions": 4, "deformation": 2.0}}), 1),
     }
     print(f"bench_sim: {a.seconds:g} s scripted course, timestep {SimConfig().timestep_s * 1e3:g} ms, one core; "
-          f"native terrain walk {native.STATUS}")
+          f"native terrain walk {native.status()}")
     base = load_baseline(a.baseline)
     for name, w in worlds.items():
         oh = overhead(w, base, min(a.seconds, 60.0))

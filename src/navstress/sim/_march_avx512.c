@@ -1,10 +1,13 @@
 /* The lidar's terrain cell walk for one channel, eight rays at a time (AVX-512).
  *
- * Built on first use by navstress.sim.native (a C compiler is needed; without one, or on a CPU
- * without AVX-512F/DQ/VL, navstress uses the numba walk in _raycast.terrain_kernel instead).
- * It computes exactly what that numba walk computes, operation for operation in IEEE double
- * precision (no fused multiply-adds: compiled with -ffp-contract=off), so both give
- * bit-identical ranges; tests check that on random scenes.
+ * The native twin of navstress.sim._raycast.walk_cells: it computes exactly what that numba walk
+ * computes, operation for operation in IEEE double precision (no fused multiply-adds: compiled
+ * with -ffp-contract=off), so both give bit-identical ranges; tests/unit/sim/test_native.py
+ * checks that on random scenes, and fails instead of skipping with NAVSTRESS_REQUIRE_NATIVE=1
+ * (.ci/run sets it where the CPU has AVX-512F/DQ/VL and a C compiler exists). Change the two
+ * together. Built at first use by navstress.sim.native (a C compiler is needed; without one, or
+ * on a CPU without AVX-512F/DQ/VL, navstress uses the numba walk) and called by address from
+ * _raycast.terrain_kernel.
  *
  * Queue (structure of arrays, rows of Q with stride qs; ray q = column of the channel):
  *   Q[0] t (march start), Q[1] tmx, Q[2] tmy (where the ray leaves its start cell in x / y),

@@ -255,13 +255,13 @@ def body_scan_ranges(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarr
                      mnx: np.ndarray, grad_max: float, boxes: np.ndarray, qpos: np.ndarray, mount: np.ndarray,
                      cos_el: np.ndarray, sin_el: np.ndarray, cos_az: np.ndarray, sin_az: np.ndarray,
                      max_range: float, min_range: float, plane_march: bool, out: np.ndarray,
-                     rot: np.ndarray, origin: np.ndarray, simd: bool) -> int:
+                     rot: np.ndarray, origin: np.ndarray, walk: int) -> int:
     """One scan's ranges (terrain, then boxes) from a body pose ``qpos[:7]`` = (x, y, z, qw, qx,
     qy, qz) with the sensor at ``mount`` in the body frame and oriented as the body; returns the
     number of returns, or -1 (nothing computed) if the pose is not finite or not a rotation.
 
     One compiled call instead of the pose arithmetic, validation, terrain kernel, box pass and
-    count made separately from Python (each call pays the dispatcher); ``simd`` as in
+    count made separately from Python (each call pays the dispatcher); ``walk`` as in
     :func:`~navstress.sim._raycast.terrain_kernel`. ``rot`` (3, 3) and
     ``origin`` (3,) receive the sensor pose: ``rot`` with the formula of MuJoCo's
     ``mju_quat2Mat`` (MuJoCo's build contracts some products into fused multiply-adds, so
@@ -290,6 +290,6 @@ def body_scan_ranges(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarr
     if not (ok and rotation_error(rot) <= 1e-6):  # (a NaN rotation fails the comparison)
         return -1
     terrain_kernel(h, cell, mip, mipf, moff, mnx, grad_max, origin, rot, cos_el, sin_el, cos_az, sin_az,
-                   max_range, plane_march, out, simd)
+                   max_range, plane_march, out, walk)
     box_pass(boxes, origin, rot, cos_el, sin_el, cos_az, sin_az, max_range, min_range, out)
     return count_finite(out)

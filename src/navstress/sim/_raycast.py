@@ -10,14 +10,19 @@ walls under the map edge (extending down without a base). Faces are two-sided, a
 Boxes are rows ``[x, y, yaw, hx, hy, zb, zt, cos(yaw), sin(yaw)]`` (centre, yaw, half sides,
 bottom, top), also two-sided (a ray starting inside a box hits where it leaves it, as ``mj_ray`` does).
 
+Two terrain marches, each written once: :func:`march_terrain`, one ray from any start through
+the max/min mipmap (blocks the ray passes over are skipped; cell exits recomputed from the
+origin), for rays that plane marching cannot take; and :func:`walk_cells`, the plain cell walk
+(exits stepped incrementally) that :func:`terrain_kernel` runs for plane-marched columns. They
+round differently (ranges within ~1e-12 m of each other), so neither replaces the other without
+changing results. ``_march_avx512.c`` is the native twin of :func:`walk_cells` (a channel's
+queue of walks at a time, the same IEEE operations: bit-identical), called through its address
+(:func:`_call_native_walk`; the ``walk`` argument of :func:`terrain_kernel`).
+
 Speed notes (measured, see docs/performance.md): a call to another ``@njit`` function that takes
-arrays costs atomic reference-count updates per call, even when inlined by numba; in the hot
-loops of :func:`scan_kernel` the plane march is therefore written out and the helpers it uses
-(:func:`_cell_hit`, :func:`_ray_box`) take scalars only. Level 0 of the mipmap is read from the
-four corner heights (which the cell test needs anyway) rather than from the mipmap array.
-With ``simd``, :func:`terrain_kernel` queues each channel's walks for the native AVX-512 walk
-(``_march_avx512.c``, called by symbol name through :func:`_march_channel_native`), which
-repeats the walk below operation for operation: bit-identical ranges.
+arrays costs atomic reference-count updates per call, even when inlined by numba; the helpers
+that the hot loops call per cell (:func:`_cell_hit`, :func:`_ray_box`) take scalars only;
+:func:`walk_cells` (inlined, two arrays) measured as fast as the walk written out in the loop.
 """
 
 from __future__ import annotations
@@ -28,36 +33,31 @@ from typing import Any
 import numpy as np
 from llvmlite import ir
 from numba import njit, types
-from numba.core import cgutils
 from numba.extending import intrinsic
 
 import navstress._jit  # noqa: F401  (numba's cache directory, before any @njit(cache=True))
-from navstress.sim import native
 
 INF = np.inf
-# the AVX-512 walk of the terrain marches is usable (navstress.sim.native); kernels take it as the
-# ``simd`` argument, never as this global (numba would freeze its value into the cached code)
-NATIVE = native.AVAILABLE
 
 
 @intrinsic
-def _march_channel_native(typingctx: Any, h: Any, w: Any, ncx: Any, ncy: Any, oz: Any, oxc: Any, oyc: Any,
-                          nq: Any, q: Any, qi: Any, qs: Any, r: Any) -> Any:  # pragma: no cover - compile time
-    """``nv_march_channel`` (``_march_avx512.c``) with array addresses as int64."""
+def _call_native_walk(typingctx: Any, fn: Any, h: Any, w: Any, ncx: Any, ncy: Any, oz: Any, oxc: Any, oyc: Any,
+                      nq: Any, q: Any, qi: Any, qs: Any, r: Any) -> Any:  # pragma: no cover - compile time
+    """Call the native walk ``nv_march_channel`` (``_march_avx512.c``) at address ``fn``, array
+    addresses as int64. The address is an argument, not a linked symbol: the compiled (and
+    cached) kernels need nothing registered before they load, and the walk is built only when
+    a lidar asks for it (:func:`navstress.sim.native.load`)."""
     i64, f64, ptr = ir.IntType(64), ir.DoubleType(), ir.IntType(8).as_pointer()
     kinds = (ptr, i64, i64, i64, f64, f64, f64, i64, ptr, ptr, i64, ptr)
 
     def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
-        fn = cgutils.get_or_insert_function(  # type: ignore[no-untyped-call]
-            builder.module, ir.FunctionType(ir.VoidType(), list(kinds)), native.SYMBOL)
-        builder.call(fn, [builder.inttoptr(v, ptr) if k is ptr else v for v, k in zip(args, kinds)])
+        fnty = ir.FunctionType(ir.VoidType(), list(kinds))
+        target = builder.inttoptr(args[0], fnty.as_pointer())
+        builder.call(target, [builder.inttoptr(v, ptr) if k is ptr else v for v, k in zip(args[1:], kinds)])
         return context.get_dummy_value()
 
-    sig = types.void(*[types.int64 if k is not f64 else types.float64 for k in kinds])
+    sig = types.void(types.int64, *[types.int64 if k is not f64 else types.float64 for k in kinds])
     return sig, codegen
-
-
-TWO_PI = 2.0 * math.pi
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -365,14 +365,66 @@ def cast_rays_kernel(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarr
         out[r] = best if best <= max_range else INF
 
 
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def walk_cells(h: np.ndarray, mipf: np.ndarray, ncx: int, ncy: int, oz: float, oxc: float, oyc: float,
+               t: float, tmx: float, tmy: float, tdx: float, tdy: float, dx: float, dy: float, dz: float,
+               tend: float, cx: int, cy: int, sx: int, sy: int) -> float:
+    """First terrain hit (t, or inf if none by ``tend`` or the map's edge) of one ray's plain cell walk.
+
+    Ray (oxc + t dx, oyc + t dy, oz + t dz), x, y in cell units, above the terrain at the start
+    ``t`` in cell (cx, cy); it leaves that cell at ``tmx`` in x and ``tmy`` in y and crosses a
+    cell in ``tdx = |1/dx|``, ``tdy = |1/dy|``; ``sx``, ``sy`` (+-1) step the cells. The walk
+    visits the cells in order, stepping the exits incrementally (one add on the loop's dependency
+    chain), and runs the exact test (:func:`_cell_hit`, or the plane of a flat cell) only where
+    the ray comes down to the cell's max height (``mipf`` level 0). No mipmap block skipping:
+    :func:`terrain_kernel` starts the walks where the channel below hit, so they are short.
+
+    ``nv_march_channel`` in ``_march_avx512.c`` is this walk's native twin (a channel's queue of
+    walks, eight rays at a time, the same IEEE operations): change both together; the tests
+    compare them to the bit wherever the CPU has AVX-512 (``NAVSTRESS_REQUIRE_NATIVE=1``).
+    """
+    desc = dz < 0.0
+    while True:
+        te = min(tmx, tmy, tend)
+        zlow = oz + dz * (te if desc else t)
+        ci = cy * ncx + cx
+        cmax = float(mipf[ci, 0])
+        if zlow <= cmax:  # the ray may meet the surface in this cell: exact test
+            h00 = np.float64(h[cy, cx])
+            h10 = np.float64(h[cy, cx + 1])
+            h01 = np.float64(h[cy + 1, cx])
+            h11 = np.float64(h[cy + 1, cx + 1])
+            if float(mipf[ci, 1]) == cmax:  # a flat cell: the plane z = cmax
+                ts = max(t, (h00 - oz) / dz) if desc else t
+                if ts <= te:
+                    return ts
+            tcell = _cell_hit(h00, h10, h01, h11, cx, cy, oxc, oyc, oz, dx, dy, dz, t, te, 1.0)
+            if tcell <= te:
+                return tcell
+        if te >= tend:
+            return INF
+        stx = tmx <= tmy
+        sty = tmy <= tmx
+        if stx:  # incremental: one add on the loop's dependency chain
+            cx += sx
+            tmx += tdx
+        if sty:
+            cy += sy
+            tmy += tdy
+        if cx < 0 or cx >= ncx or cy < 0 or cy >= ncy:
+            return INF
+        t = te
+
+
 @njit(cache=True, nogil=True, error_model="numpy")
 def terrain_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray, moff: np.ndarray, mnx: np.ndarray,
                   grad_max: float, origin: np.ndarray, rot: np.ndarray, cos_el: np.ndarray, sin_el: np.ndarray,
                   cos_az: np.ndarray, sin_az: np.ndarray, max_range: float, plane_march: bool,
-                  out: np.ndarray, simd: bool = False) -> None:
+                  out: np.ndarray, walk: int = 0) -> None:
     """Terrain-only ranges of one scan: out[channel, azimuth] = first terrain hit (inf: none
-    within max_range; no min_range filter). Channels ascending in elevation. ``simd``: each
-    channel's cell walks run in the native AVX-512 walk (only when :data:`NATIVE`; bit-identical).
+    within max_range; no min_range filter). Channels ascending in elevation. ``walk``: the
+    address of the native walk (:func:`navstress.sim.native.load`), which then replaces
+    :func:`walk_cells` (bit-identical); 0 (default): :func:`walk_cells`.
 
     Per azimuth column, all channels lie in one plane through the sensor's z axis. The terrain
     is marched lowest channel first: channel k+1 starts where channel k hit or was proven clear
@@ -386,9 +438,9 @@ def terrain_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray
     columns, then the next. A column's channels depend on each other through p (a serial chain
     of divisions and loads); consecutive marches of one channel over neighbouring columns are
     independent and alike, so the CPU overlaps them and predicts their branches. Each march is
-    a plain cell walk (the per-cell max of ``mipf`` level 0 decides whether the exact test
-    runs): marches start where the channel below hit, so they are short, and the mipmap's block
-    skipping measured slower than the plain walk here. A march also starts no earlier than where
+    a plain cell walk (:func:`walk_cells`, for the rays that the bounds here do not settle;
+    with ``walk``, a channel's walks are queued for the native twin instead): marches start where the channel below hit, so they are short, and the
+    mipmap's block skipping measured slower than the plain walk here. A march also starts no earlier than where
     a descending ray comes down to the highest terrain point and ends where a rising ray climbs
     above it (1e-6 m of margin): 40 % fewer cells walked on the s=4 d=2 benchmark world.
     """
@@ -466,10 +518,11 @@ def terrain_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray
     # the native walk's queue (rows: t, tmx, tmy, tdx, tdy, dx, dy, dz, tend / cx, cy, sx, sy)
     # (rows padded to an odd stride: rows 4 KiB apart would share L1 sets)
     qs = naz + 9
-    qd = np.empty((9, qs) if simd else (0, 0))
-    qi = np.empty((4, qs) if simd else (0, 0), np.int64)
-    qr = np.empty(qs if simd else 0)
-    qa = np.empty(naz if simd else 0, np.int64)
+    nat = walk != 0
+    qd = np.empty((9, qs) if nat else (0, 0))
+    qi = np.empty((4, qs) if nat else (0, 0), np.int64)
+    qr = np.empty(qs if nat else 0)
+    qa = np.empty(naz if nat else 0, np.int64)
     gtop = gmax + 1e-6  # (a margin above the highest point: the clips below stay conservative)
     for k in range(nch):
         ce = cos_el[k]
@@ -530,10 +583,7 @@ def terrain_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray
                 continue
             if not tstart < max_range:
                 continue
-            # march_terrain(..., above=True) from tstart, written out (a call would add array
-            # reference counting per ray), without the mipmap's block skipping, and with the
-            # cell exits stepped incrementally (t += 1/|d|: ranges within ~1e-12 m of
-            # march_terrain's recomputed exits, measured)
+            # the ray is above the terrain at tstart: walk it unless the bounds below settle it
             dx = sdx[a]
             dy = sdy[a]
             dz = rz
@@ -556,7 +606,9 @@ def terrain_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray
                 # the walk ends where the ray leaves the map or range, or climbs above the highest
                 # terrain point (no hit beyond; the ray is then clear up to thi all the same)
                 tend = min(thi, (gtop - oz) / dz) if dz > 0.0 else thi
-                if simd:  # queued for the native walk (below), which computes the same th, tc
+                sx = 1 if dx > 0.0 else -1
+                sy = 1 if dy > 0.0 else -1
+                if walk != 0:  # queued for the native walk (below), which computes the same th
                     qa[nq] = a
                     qd[0, nq] = t
                     qd[1, nq] = stmx[a]
@@ -569,271 +621,21 @@ def terrain_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray
                     qd[8, nq] = tend
                     qi[0, nq] = cx
                     qi[1, nq] = cy
-                    qi[2, nq] = 1 if dx > 0.0 else -1
-                    qi[3, nq] = 1 if dy > 0.0 else -1
+                    qi[2, nq] = sx
+                    qi[3, nq] = sy
                     nq += 1
                     continue
-                sx = 1 if dx > 0.0 else -1
-                sy = 1 if dy > 0.0 else -1
-                tmx = stmx[a]  # where the ray leaves the cell in x
-                tmy = stmy[a]
-                tdx = abs(idx)  # t per cell in x (with dx = 0: tmx stays inf)
-                tdy = abs(idy)
-                desc = dz < 0.0
-                while True:
-                    te = min(tmx, tmy, tend)
-                    zlow = oz + dz * (te if desc else t)
-                    ci = cy * ncx + cx
-                    cmax = float(mipf[ci, 0])
-                    if zlow <= cmax:  # the ray may meet the surface in this cell: exact test
-                        h00 = np.float64(h[cy, cx])
-                        h10 = np.float64(h[cy, cx + 1])
-                        h01 = np.float64(h[cy + 1, cx])
-                        h11 = np.float64(h[cy + 1, cx + 1])
-                        if float(mipf[ci, 1]) == cmax:  # a flat cell: the plane z = cmax
-                            ts = max(t, (h00 - oz) / dz) if desc else t
-                            if ts <= te:
-                                th = ts
-                                tc = ts
-                                break
-                        tcell = _cell_hit(h00, h10, h01, h11, cx, cy, oxc, oyc, oz, dx, dy, dz, t, te, 1.0)
-                        if tcell <= te:
-                            th = tcell
-                            tc = tcell
-                            break
-                    if te >= tend:
-                        break
-                    stx = tmx <= tmy
-                    sty = tmy <= tmx
-                    if stx:  # incremental: one add on the loop's dependency chain (not an
-                        cx += sx  # int->float conversion, a subtraction and a product)
-                        tmx += tdx
-                    if sty:
-                        cy += sy
-                        tmy += tdy
-                    if cx < 0 or cx >= ncx or cy < 0 or cy >= ncy:
-                        break
-                    t = te
+                th = walk_cells(h, mipf, ncx, ncy, oz, oxc, oyc, t, stmx[a], stmy[a], abs(idx), abs(idy), dx, dy, dz,
+                                tend, cx, cy, sx, sy)
             out[k, a] = th
             pcl[a] = max(p_clear, min(th, tc) * rl)
         if nq > 0:
-            _march_channel_native(h.ctypes.data, ncx + 1, ncx, ncy, oz, oxc, oyc, nq, qd.ctypes.data,  # type: ignore[call-arg]
-                                  qi.ctypes.data, qs, qr.ctypes.data)
-            for q in range(nq):  # (a hit is <= thi; no hit: clear up to thi, as in the walk above)
+            _call_native_walk(walk, h.ctypes.data, ncx + 1, ncx, ncy, oz, oxc, oyc, nq,  # type: ignore[call-arg]
+                              qd.ctypes.data, qi.ctypes.data, qs, qr.ctypes.data)
+            for q in range(nq):  # (a hit is <= thi; no hit: clear up to thi)
                 a = qa[q]
                 out[k, a] = qr[q]
                 pcl[a] = max(pcl[a], min(qr[q], sthi[a]) * srl[a])
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
-def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray, moff: np.ndarray, mnx: np.ndarray,
-                grad_max: float, boxes: np.ndarray, origin: np.ndarray, rot: np.ndarray,
-                cos_el: np.ndarray, sin_el: np.ndarray, cos_az: np.ndarray, sin_az: np.ndarray,
-                max_range: float, min_range: float, plane_march: bool, out: np.ndarray) -> None:
-    """One scan: out[channel, azimuth] = range (inf: no return). Channels ascending in elevation.
-
-    The terrain ranges come from :func:`terrain_kernel` (one plane per azimuth column, lowest
-    channel first). Boxes come from world-heading sector bins (built per scan), each tested only
-    on the contiguous channel range whose world slope can reach it, nearer than the terrain hit.
-
-    :class:`~navstress.sim.lidar.Lidar` calls this with no boxes (terrain only) and then the
-    faster box-major :func:`navstress.sim._raybox.box_pass`; the per-column box code here is kept
-    as the independent all-in-one reference that tests and ``benchmarks/bench_lidar_boxes.py``
-    compare ``box_pass`` against (bit-identical).
-    """
-    nch = cos_el.shape[0]
-    naz = cos_az.shape[0]
-    ox, oy, oz = origin[0], origin[1], origin[2]
-    ncx = h.shape[1] - 1
-    ncy = h.shape[0] - 1
-    icell = 1.0 / cell
-    tr = np.empty((nch, naz))
-    terrain_kernel(h, cell, mip, mipf, moff, mnx, grad_max, origin, rot, cos_el, sin_el, cos_az, sin_az,
-                  max_range, plane_march, tr)
-    # ---- per-scan box preparation: distances, reachable slopes, heading intervals, bins --
-    nb = boxes.shape[0]
-    nsec = 360
-    sec_w = 2.0 * math.pi / nsec
-    dmin = np.empty(nb)
-    mlo = np.empty(nb)
-    mhi = np.empty(nb)
-    alo = np.empty(nb)
-    ahi = np.empty(nb)
-    for i in range(nb):
-        c = boxes[i, 7]
-        s = boxes[i, 8]
-        px = ox - boxes[i, 0]
-        py = oy - boxes[i, 1]
-        lx = abs(c * px + s * py)
-        ly = abs(-s * px + c * py)
-        hx = boxes[i, 3]
-        hy = boxes[i, 4]
-        qx = max(lx - hx, 0.0)
-        qy = max(ly - hy, 0.0)
-        dn = math.sqrt(qx * qx + qy * qy)
-        df = math.sqrt((lx + hx) ** 2 + (ly + hy) ** 2)
-        dmin[i] = dn
-        if dn > max_range:
-            continue
-        cb = boxes[i, 5] - oz
-        ct = boxes[i, 6] - oz
-        if dn <= 0.0:
-            mlo[i] = -INF if cb < 0.0 else cb / df
-            mhi[i] = INF if ct >= 0.0 else ct / df
-        else:
-            mlo[i] = cb / df if cb >= 0.0 else cb / dn
-            mhi[i] = ct / dn if ct >= 0.0 else ct / df
-        mlo[i] -= 1e-9 * (1.0 + abs(mlo[i]))
-        mhi[i] += 1e-9 * (1.0 + abs(mhi[i]))
-        rc = math.sqrt(px * px + py * py)
-        rad = math.sqrt(hx * hx + hy * hy)
-        if rc <= rad * 1.000001 + 1e-9:
-            alo[i] = -4.0 * math.pi  # all headings
-            ahi[i] = 4.0 * math.pi
-        else:
-            th = math.atan2(-py, -px)
-            dl = min(rad / math.sqrt(rc * rc - rad * rad), math.pi) + 1e-9  # tan(asin) >= asin
-            alo[i] = th - dl
-            ahi[i] = th + dl
-    counts = np.zeros(nsec + 1, np.int64)
-    for i in range(nb):
-        if dmin[i] > max_range:
-            continue
-        q0 = int(math.floor(alo[i] / sec_w))
-        q1 = min(int(math.floor(ahi[i] / sec_w)), q0 + nsec - 1)
-        for q in range(q0, q1 + 1):
-            counts[(q % nsec) + 1] += 1
-    for q in range(nsec):
-        counts[q + 1] += counts[q]
-    nbinned = counts[nsec]
-    fill = counts[:nsec].copy()
-    bins = np.empty(counts[nsec], np.int64)
-    for i in range(nb):
-        if dmin[i] > max_range:
-            continue
-        q0 = int(math.floor(alo[i] / sec_w))
-        q1 = min(int(math.floor(ahi[i] / sec_w)), q0 + nsec - 1)
-        for q in range(q0, q1 + 1):
-            qq = q % nsec
-            bins[fill[qq]] = i
-            fill[qq] += 1
-    for q in range(nsec):  # sort each bin by dmin (insertion sort: bins are short)
-        for e in range(counts[q] + 1, counts[q + 1]):
-            i = bins[e]
-            f = e - 1
-            while f >= counts[q] and dmin[bins[f]] > dmin[i]:
-                bins[f + 1] = bins[f]
-                f -= 1
-            bins[f + 1] = i
-    # ---- columns: boxes over the terrain ranges ---------------------------------------
-    if nbinned == 0:  # no box within range: the terrain ranges are the scan
-        for k in range(nch):
-            for a in range(naz):
-                r = tr[k, a]
-                out[k, a] = r if (min_range <= r <= max_range) else INF
-        return
-    stamp = np.full(nb, -1, np.int64)
-    dirs = np.empty((nch, 3))
-    slope = np.empty(nch)
-    hxy = np.empty(nch)
-    best = np.empty(nch)
-    uwx, uwy, uwz = rot[0, 2], rot[1, 2], rot[2, 2]
-    for a in range(naz):
-        ca = cos_az[a]
-        sa = sin_az[a]
-        awx = rot[0, 0] * ca + rot[0, 1] * sa
-        awy = rot[1, 0] * ca + rot[1, 1] * sa
-        awz = rot[2, 0] * ca + rot[2, 1] * sa
-        reach = 0.0
-        for k in range(nch):
-            ce = cos_el[k]
-            se = sin_el[k]
-            rx = ce * awx + se * uwx
-            ry = ce * awy + se * uwy
-            rz = ce * awz + se * uwz
-            dirs[k, 0] = rx
-            dirs[k, 1] = ry
-            dirs[k, 2] = rz
-            hh = math.sqrt(rx * rx + ry * ry)
-            hxy[k] = hh
-            slope[k] = rz / hh if hh > 0.0 else (INF if rz > 0.0 else -INF)
-            best[k] = tr[k, a]
-            reach = max(reach, min(best[k], max_range) * hh)
-        # boxes: candidates from the sectors spanned by the column's headings, nearest first.
-        # Headings vary monotonically with elevation (while no ray is vertical); slopes do for
-        # moderate tilts: checked, else every sector and channel is a candidate (still exact).
-        if nbinned > 0:  # (no box within range: nothing to do)
-            ordered = hxy[0] > 1e-9
-            for k in range(1, nch):
-                if slope[k] < slope[k - 1] or hxy[k] <= 1e-9:
-                    ordered = False
-            if ordered:
-                th0 = math.atan2(dirs[0, 1], dirs[0, 0])
-                th1 = math.atan2(dirs[nch - 1, 1], dirs[nch - 1, 0])
-                d = (th1 - th0 + math.pi) % TWO_PI - math.pi
-                lo = min(th0, th0 + d) - 1e-9
-                hi = max(th0, th0 + d) + 1e-9
-                q0 = int(math.floor(lo / sec_w))
-                q1 = int(math.floor(hi / sec_w))
-            else:
-                lo = -math.pi
-                hi = 3.0 * math.pi
-                q0 = 0
-                q1 = nsec - 1
-            for q in range(q0, q1 + 1):
-                qq = q % nsec
-                for e in range(counts[qq], counts[qq + 1]):
-                    i = bins[e]
-                    if dmin[i] > reach:
-                        break
-                    if stamp[i] == a:
-                        continue
-                    stamp[i] = a
-                    # heading overlap of the box's interval with the column's
-                    w0 = alo[i] - lo  # the box's heading interval, shifted to start in [lo, lo + 2 pi)
-                    if w0 < 0.0:
-                        w0 += TWO_PI
-                        if w0 < 0.0:
-                            w0 += TWO_PI
-                    elif w0 >= TWO_PI:
-                        w0 -= TWO_PI
-                    if w0 > hi - lo and w0 + (ahi[i] - alo[i]) < TWO_PI:
-                        continue
-                    # channels whose world slope lies in [mlo, mhi] (slopes ascend with k)
-                    if ordered:  # binary searches (written out: no array passed to a helper in the loop)
-                        v = mlo[i]
-                        lo_ = 0
-                        hi_ = nch
-                        while lo_ < hi_:
-                            mid = (lo_ + hi_) >> 1
-                            if slope[mid] < v:
-                                lo_ = mid + 1
-                            else:
-                                hi_ = mid
-                        k0 = lo_
-                        v = math.nextafter(mhi[i], INF)
-                        hi_ = nch
-                        while lo_ < hi_:
-                            mid = (lo_ + hi_) >> 1
-                            if slope[mid] < v:
-                                lo_ = mid + 1
-                            else:
-                                hi_ = mid
-                        k1 = lo_ - 1
-                    else:
-                        k0 = 0
-                        k1 = nch - 1
-                    b0, b1, b3, b4 = boxes[i, 0], boxes[i, 1], boxes[i, 3], boxes[i, 4]
-                    b5, b6, b7, b8 = boxes[i, 5], boxes[i, 6], boxes[i, 7], boxes[i, 8]
-                    for k in range(k0, k1 + 1):
-                        if dmin[i] > best[k] * hxy[k]:
-                            continue
-                        tb = _ray_box(b0, b1, b7, b8, b3, b4, b5, b6, ox, oy, oz, dirs[k, 0], dirs[k, 1], dirs[k, 2])
-                        if tb < best[k]:
-                            best[k] = tb
-        for k in range(nch):
-            r = best[k]
-            out[k, a] = r if (min_range <= r <= max_range) else INF
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

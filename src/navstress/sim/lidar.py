@@ -230,19 +230,19 @@ class Lidar:
     ``plane_march=False`` marches every ray from the sensor (a slower, independent path used
     as the baseline in benchmarks; same results). ``simd``: walk the terrain marches with the
     native AVX-512 walk (:mod:`navstress.sim.native`; bit-identical ranges); None (default) uses
-    it when it is available, False never, True requires it.
+    it when it is available, False never, True requires it. The first lidar of a process that
+    may use it builds it (:func:`navstress.sim.native.load`); ``simd`` can be set later too.
     """
 
     def __init__(self, scene: LidarScene, config: LidarConfig = LidarConfig(), *, plane_march: bool = True,
                  simd: bool | None = None) -> None:
         if not isinstance(config, LidarConfig):
             raise SpecError("config", config, "a LidarConfig")
-        if simd and not _raycast.NATIVE:
-            raise SpecError("simd", simd, "False or None: the native walk is " + native.STATUS)
+        self._walk = 0  # address of the native walk, 0: the numba walk
+        self.simd = native.available() if simd is None else simd
         self.scene = scene
         self.config = config
         self.plane_march = plane_march
-        self.simd = _raycast.NATIVE if simd is None else bool(simd)
         el = config.elevations_rad
         az = config.azimuths_rad
         self._cos_el, self._sin_el = np.cos(el), np.sin(el)
@@ -251,6 +251,21 @@ class Lidar:
         self._out = np.empty((config.channels, config.azimuth_steps), np.float64)
         self._rot = np.empty((3, 3))  # the last body scan's sensor pose
         self._origin = np.empty(3)
+
+    @property
+    def simd(self) -> bool:
+        """Whether scans walk the terrain with the native walk."""
+        return self._walk != 0
+
+    @simd.setter
+    def simd(self, on: bool) -> None:
+        if not on:
+            self._walk = 0
+            return
+        nat = native.load()
+        if not nat.address:
+            raise SpecError("simd", on, "False or None: the native walk is " + nat.status)
+        self._walk = nat.address
 
     def ranges(self, origin: np.ndarray, rotation: np.ndarray) -> np.ndarray:
         """Noise-free ranges, (channels, azimuth_steps) float32, inf where there is no return."""
@@ -263,7 +278,7 @@ class Lidar:
         # bit-identical to scan_kernel with the boxes (min_range applies to the nearer hit)
         _raycast.terrain_kernel(s.heights, s.cell_m, s.mip, s.mipf, s.mip_offsets, s.mip_widths, s.grad_max,
                                 o, r, self._cos_el, self._sin_el, self._cos_az, self._sin_az,
-                                float(c.max_range_m), self.plane_march, self._out, self.simd)
+                                float(c.max_range_m), self.plane_march, self._out, self._walk)
         _raybox.box_pass(s.boxes, o, r, self._cos_el, self._sin_el, self._cos_az, self._sin_az,
                          float(c.max_range_m), float(c.min_range_m), self._out)
         return self._out
@@ -293,7 +308,7 @@ class Lidar:
                                      s.boxes, q, m, self._cos_el,
                                      self._sin_el, self._cos_az, self._sin_az, float(c.max_range_m),
                                      float(c.min_range_m), self.plane_march, self._out, self._rot, self._origin,
-                                     self.simd)
+                                     self._walk)
         if n < 0:
             raise SpecError("qpos", q[:7].tolist(), "a finite position and a unit quaternion (w, x, y, z)")
         return self._points(n, rng)

@@ -1,22 +1,23 @@
-"""The optional native lidar walk: ``_march_avx512.c``, built on first use.
+"""The optional native lidar walk: ``_march_avx512.c``, built at first use, never at import.
 
-The lidar's terrain cell walk (``_raycast.terrain_kernel``) can hand each channel's marches to a
-small C function that walks eight rays at a time with AVX-512 (``nv_march_channel``). It gives
-bit-identical ranges to the numba walk (same IEEE operations, no fused multiply-adds), so runs
-are the same with or without it; it only makes rough-terrain scans faster (docs/performance.md).
+The lidar's terrain cell walk (``_raycast.walk_cells``) has a native twin, a small C function
+that walks eight rays at a time with AVX-512 (``nv_march_channel``). It gives bit-identical
+ranges to the numba walk (same IEEE operations, no fused multiply-adds), so runs are the same
+with or without it; it only makes rough-terrain scans faster (docs/performance.md).
 
-On first use the C file is compiled with the system's C compiler (``$CC``, else ``cc``) into a
-cache directory (``$NAVSTRESS_CACHE_DIR``, else ``$XDG_CACHE_HOME/navstress``, else
-``~/.cache/navstress``), named by a hash of the source and the compiler, written atomically
-(parallel workers may build at once). The library is used when the CPU has AVX-512F/DQ/VL;
-otherwise, without a compiler, on another architecture, or with ``NAVSTRESS_NATIVE=0``, the
-numba walk runs and :data:`STATUS` says why. Either way the symbol is registered with LLVM (a
-stub that is never called when the walk is off), so the compiled kernels link and cache alike.
+:func:`load` (called by the first :class:`~navstress.sim.lidar.Lidar` of a process) compiles the
+C file with the system's C compiler (``$CC``, else ``cc``) into a cache directory
+(``$NAVSTRESS_CACHE_DIR``, else ``$XDG_CACHE_HOME/navstress``, else ``~/.cache/navstress``),
+named by a hash of the source and the compiler, written atomically (parallel workers may build
+at once), and returns the function's address, which the kernels take as an argument. The walk
+is used when the CPU has AVX-512F/DQ/VL; otherwise, without a compiler, on another architecture,
+or with ``NAVSTRESS_NATIVE=0``, the numba walk runs and the status says why.
 """
 
 from __future__ import annotations
 
 import ctypes
+import functools
 import hashlib
 import os
 import shlex
@@ -24,17 +25,20 @@ import shutil
 import subprocess
 import tempfile
 from pathlib import Path
-
-from llvmlite import binding as llvm
+from typing import NamedTuple
 
 from navstress import cache_dir
 
-SYMBOL = "nv_march_channel"
 SOURCE = Path(__file__).with_name("_march_avx512.c")
 FLAGS = ("-O3", "-ffp-contract=off", "-fno-math-errno", "-fPIC", "-shared")
+CPU_FLAGS = ("avx512f", "avx512dq", "avx512vl")  # what the C walk needs (its nv_march_ok checks the same)
 
-_STUB_TYPE = ctypes.CFUNCTYPE(None, *([ctypes.c_void_p] * 12))
-_stub = _STUB_TYPE(lambda *a: None)  # kept alive: LLVM holds its address
+
+class Native(NamedTuple):
+    """The native walk in this process: ``address`` of ``nv_march_channel`` (0: off) and why."""
+
+    address: int
+    status: str
 
 
 def build(cc: str | None = None, out_dir: Path | None = None) -> Path:
@@ -65,20 +69,33 @@ def build(cc: str | None = None, out_dir: Path | None = None) -> Path:
     return lib
 
 
-def _load() -> tuple[bool, str]:
+_LIBS: list[ctypes.CDLL] = []  # loaded libraries stay referenced (their code is called by address)
+
+
+@functools.cache
+def load() -> Native:
+    """The native walk of this process: built and loaded on the first call, then remembered."""
     if os.environ.get("NAVSTRESS_NATIVE", "1").strip().lower() in ("0", "false", "no", "off"):
-        return False, "off (NAVSTRESS_NATIVE=0)"
+        return Native(0, "off (NAVSTRESS_NATIVE=0)")
     try:
         path = build()
         lib = ctypes.CDLL(str(path))
         if not lib.nv_march_ok():
-            return False, "off (this CPU lacks AVX-512F/DQ/VL)"
-        llvm.load_library_permanently(str(path))
-        return True, f"on ({path})"
+            return Native(0, "off (this CPU lacks AVX-512F/DQ/VL)")
+        _LIBS.append(lib)
+        address = ctypes.cast(lib.nv_march_channel, ctypes.c_void_p).value
+        if not address:
+            return Native(0, f"off ({path} has no nv_march_channel)")
+        return Native(int(address), f"on ({path})")
     except (OSError, RuntimeError, subprocess.SubprocessError) as err:
-        return False, f"off ({err})"
+        return Native(0, f"off ({err})")
 
 
-AVAILABLE, STATUS = _load()
-if not AVAILABLE:
-    llvm.add_symbol(SYMBOL, ctypes.cast(_stub, ctypes.c_void_p).value)
+def available() -> bool:
+    """Whether the native walk runs in this process (builds it on the first call)."""
+    return load().address != 0
+
+
+def status() -> str:
+    """``on (library path)`` or ``off (why)`` (builds it on the first call)."""
+    return load().status

@@ -11,9 +11,13 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from navstress.errors import NavstressError, SpecError
+from navstress.sim import _raybox
+from navstress.sim._raycast import _ray_box
 from navstress.sim.lidar import Lidar, LidarConfig, LidarScene, build_scene, cast_rays
+from navstress.world.generate import generate
 from navstress.world.spec import WorldSpec
 from navstress.world.world import Obstacle, Terrain, World
+from oracles.scan import scan_kernel
 
 # ---------------------------------------------------------------------------------------------
 # helpers: random scenes, brute force (every triangle), MuJoCo model of the same scene
@@ -249,8 +253,6 @@ _HILLY: list[World] = []
 
 def _hilly_world() -> World:
     """A 40 m s=4 d=2 world with trees and buildings (generated once)."""
-    from navstress.world.generate import generate
-
     if not _HILLY:
         spec = WorldSpec.model_validate({"size_m": [40.0, 40.0], "ground": {"subdivisions": 4, "deformation": 2.0},
                                          "obstacles": {"obstruction": {"tree": 6, "building": 4}}})
@@ -259,8 +261,6 @@ def _hilly_world() -> World:
 
 
 def test_scan_on_generated_hilly_world_equals_per_ray() -> None:
-    from navstress.world.generate import generate
-
     spec = WorldSpec.model_validate({"size_m": [40.0, 40.0], "ground": {"subdivisions": 4, "deformation": 2.0},
                                      "obstacles": {"obstruction": {"tree": 6, "building": 4}}})
     w = generate(spec, seed=5)
@@ -276,8 +276,6 @@ def test_scan_on_generated_hilly_world_equals_per_ray() -> None:
 def test_scan_at_default_fidelity_equals_per_ray() -> None:
     """The benchmark setting (100 m map, 0.4 m cells, trees on s=4 d=2 ground, 32 x 360 scan,
     sensor tilted to the ground) against casting every ray on its own."""
-    from navstress.world.generate import generate
-
     spec = WorldSpec.model_validate({"ground": {"subdivisions": 4, "deformation": 2.0},
                                      "obstacles": {"obstruction": {"tree": 6}}})
     w = generate(spec, seed=1)
@@ -297,8 +295,6 @@ def test_float32_mipmap_is_exact() -> None:
 
 def test_scan_matches_mujoco_multiray_on_generated_world() -> None:
     """A whole (coarse) scan on a hilly world with trees and buildings against mj_multiRay."""
-    from navstress.world.generate import generate
-
     spec = WorldSpec.model_validate({"size_m": [30.0, 30.0], "ground": {"subdivisions": 3, "deformation": 1.5},
                                      "obstacles": {"obstruction": {"tree": 8, "building": 8}}})
     w = generate(spec, seed=11)
@@ -576,13 +572,10 @@ def _kernel_args(lidar: Lidar) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.n
 def terrain_then_boxes(sc: LidarScene, cfg: LidarConfig, origin: np.ndarray, rot: np.ndarray,
                        plane_march: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """(terrain-only ranges before any filter, terrain + box_pass result)."""
-    from navstress.sim import _raybox, _raycast
-
     lidar = Lidar(sc, cfg, plane_march=plane_march)
     terr = np.empty((cfg.channels, cfg.azimuth_steps))
-    _raycast.scan_kernel(sc.heights, sc.cell_m, sc.mip, sc.mipf, sc.mip_offsets, sc.mip_widths, sc.grad_max,
-                         np.zeros((0, 9)), origin, rot, *_kernel_args(lidar), cfg.max_range_m, -math.inf,
-                         plane_march, terr)
+    scan_kernel(sc.heights, sc.cell_m, sc.mip, sc.mipf, sc.mip_offsets, sc.mip_widths, sc.grad_max,
+                np.zeros((0, 9)), origin, rot, *_kernel_args(lidar), cfg.max_range_m, -math.inf, plane_march, terr)
     out = terr.copy()
     _raybox.box_pass(sc.boxes, origin, rot, *_kernel_args(lidar), cfg.max_range_m, cfg.min_range_m, out)
     return terr, out
@@ -591,13 +584,10 @@ def terrain_then_boxes(sc: LidarScene, cfg: LidarConfig, origin: np.ndarray, rot
 def all_in_one(sc: LidarScene, cfg: LidarConfig, origin: np.ndarray, rot: np.ndarray,
                plane_march: bool = True) -> np.ndarray:
     """scan_kernel with the boxes (the path before box_pass)."""
-    from navstress.sim import _raycast
-
     lidar = Lidar(sc, cfg)
     out = np.empty((cfg.channels, cfg.azimuth_steps))
-    _raycast.scan_kernel(sc.heights, sc.cell_m, sc.mip, sc.mipf, sc.mip_offsets, sc.mip_widths, sc.grad_max,
-                         sc.boxes, origin, rot, *_kernel_args(lidar), cfg.max_range_m, cfg.min_range_m,
-                         plane_march, out)
+    scan_kernel(sc.heights, sc.cell_m, sc.mip, sc.mipf, sc.mip_offsets, sc.mip_widths, sc.grad_max,
+                sc.boxes, origin, rot, *_kernel_args(lidar), cfg.max_range_m, cfg.min_range_m, plane_march, out)
     return out
 
 
@@ -605,8 +595,6 @@ def boxes_brute_force(sc: LidarScene, cfg: LidarConfig, origin: np.ndarray, rot:
                       terr: np.ndarray) -> np.ndarray:
     """min(terrain, every box) per ray with the kernel's own direction arithmetic and the scalar
     _ray_box (run as Python: IEEE double, same operations), then the range filter."""
-    from navstress.sim._raycast import _ray_box
-
     ray_box = _ray_box.py_func
     el, az = cfg.elevations_rad, cfg.azimuths_rad
     ce, se, ca, sa = np.cos(el), np.sin(el), np.cos(az), np.sin(az)
@@ -680,8 +668,6 @@ def test_box_pass_equals_all_in_one_and_brute_force(seed: int, tilt: float, kind
 
 def test_box_pass_equals_all_in_one_on_generated_worlds() -> None:
     """Trees and buildings on flat and hilly generated worlds, default 32 x 360 scans."""
-    from navstress.world.generate import generate
-
     for ground in ({}, {"subdivisions": 4, "deformation": 2.0}):
         spec = WorldSpec.model_validate({"size_m": [60.0, 60.0], "ground": ground,
                                          "obstacles": {"obstruction": {"tree": 8, "building": 6}}})

@@ -1,10 +1,14 @@
-"""The native (AVX-512) terrain walk: bit-identical to the numba walk, built on first use, and a
-clear fallback when it cannot be built or used."""
+"""The native (AVX-512) terrain walk: bit-identical to the numba walk, built on first use (never
+at import), called with the kernels' queue, and a clear fallback when it cannot be built or used.
+Where it cannot run here its tests skip, or fail with NAVSTRESS_REQUIRE_NATIVE=1 (native_gate)."""
 
 from __future__ import annotations
 
+import ctypes
 import math
 import os
+import re
+import shlex
 import subprocess
 import sys
 import textwrap
@@ -16,14 +20,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from native_gate import REQUIRE, require_compiler, require_native
 from navstress.errors import SpecError
-from navstress.sim import SimConfig, Simulation, native
+from navstress.sim import SimConfig, Simulation, _raycast, native
 from navstress.sim.lidar import Lidar, LidarConfig, LidarScene, build_scene
 from navstress.world.generate import generate
 from navstress.world.spec import WorldSpec
 from navstress.world.world import Terrain
-
-needs_native = pytest.mark.skipif(not native.AVAILABLE, reason=f"native walk {native.STATUS}")
 
 
 def rot_zyx(yaw: float, pitch: float, roll: float) -> np.ndarray:
@@ -44,11 +47,11 @@ def assert_same_bits(sc: LidarScene, cfg: LidarConfig, origin: np.ndarray, rot: 
     assert not diff.any(), (np.argwhere(diff)[:5], ref[diff][:5], fast[diff][:5])
 
 
-@needs_native
 @settings(max_examples=80, deadline=None)
 @given(st.integers(0, 2**32 - 1), st.sampled_from([0.0, 0.05, 0.3, 0.8]), st.sampled_from([0.0, 0.2, 1.0, 3.0]))
 def test_native_walk_is_bit_identical_on_random_scenes(seed: int, tilt: float, relief: float) -> None:
     """Random relief (flat maps, flat tops, steep grids), boxes and tilts: the same ranges to the bit."""
+    require_native()
     g = np.random.default_rng(seed)
     rows, cols = int(g.integers(10, 40)), int(g.integers(10, 40))
     cell = float(g.uniform(0.3, 1.0))
@@ -69,9 +72,9 @@ def test_native_walk_is_bit_identical_on_random_scenes(seed: int, tilt: float, r
                      origin, rot)
 
 
-@needs_native
 def test_native_walk_is_bit_identical_at_default_fidelity() -> None:
     """The benchmark setting: 100 m, 0.4 m cells, s=4 d=2 ground with trees, 32 x 360 and 32 x 1024."""
+    require_native()
     w = generate(WorldSpec.model_validate({"ground": {"subdivisions": 4, "deformation": 2.0},
                                            "obstacles": {"obstruction": {"tree": 6}}}), seed=1)
     sc = build_scene(w)
@@ -84,9 +87,9 @@ def test_native_walk_is_bit_identical_at_default_fidelity() -> None:
             assert_same_bits(sc, LidarConfig(azimuth_steps=az), origin, rot)
 
 
-@needs_native
 def test_simulation_runs_are_the_same_with_and_without_the_native_walk() -> None:
     """Same seed, lidar on, rough ground: every scan's points are bit-identical either way."""
+    require_native()
     w = generate(WorldSpec.model_validate({"size_m": [40.0, 40.0], "ground": {"subdivisions": 4, "deformation": 2.0}}),
                  seed=3)
     runs = []
@@ -105,22 +108,18 @@ def test_simulation_runs_are_the_same_with_and_without_the_native_walk() -> None
 
 
 def test_lidar_refuses_simd_when_the_native_walk_is_off(monkeypatch: pytest.MonkeyPatch) -> None:
-    from navstress.sim import _raycast
-
-    monkeypatch.setattr(_raycast, "NATIVE", False)
+    monkeypatch.setattr(native, "load", lambda: native.Native(0, "off (switched off for this test)"))
     with pytest.raises(SpecError, match=r"^simd=True .*native walk is"):
         Lidar(LidarScene(np.zeros((5, 5), np.float32), 1.0, np.zeros((0, 7))), simd=True)
 
 
 def test_build_is_cached(tmp_path: Path) -> None:
-    if native.AVAILABLE or native.STATUS.startswith("off (this CPU"):
-        a = native.build(out_dir=tmp_path)
-        assert a.exists() and a.parent == tmp_path
-        mtime = a.stat().st_mtime_ns
-        assert native.build(out_dir=tmp_path) == a and a.stat().st_mtime_ns == mtime  # not rebuilt
-        assert [p.name for p in tmp_path.iterdir()] == [a.name]  # no temporary files left
-    else:
-        pytest.skip(f"no working C compiler here: {native.STATUS}")
+    require_compiler()
+    a = native.build(out_dir=tmp_path)
+    assert a.exists() and a.parent == tmp_path
+    mtime = a.stat().st_mtime_ns
+    assert native.build(out_dir=tmp_path) == a and a.stat().st_mtime_ns == mtime  # not rebuilt
+    assert [p.name for p in tmp_path.iterdir()] == [a.name]  # no temporary files left
 
 
 def test_build_errors_name_the_compiler(tmp_path: Path) -> None:
@@ -147,8 +146,8 @@ def test_without_the_native_walk_scans_still_work(tmp_path: Path, env: dict[str,
         import numpy as np
         from navstress.sim import native
         from navstress.sim.lidar import Lidar, LidarScene
-        print(native.AVAILABLE)
-        print(native.STATUS)
+        print(native.available())
+        print(native.status())
         sc = LidarScene(np.zeros((30, 30), np.float32), 0.5, np.zeros((0, 7)))
         lid = Lidar(sc)
         print(lid.simd, int(np.isfinite(lid.ranges(np.array([7.0, 7.0, 1.0]), np.eye(3))).sum()))
@@ -178,3 +177,163 @@ def test_numba_cache_lives_in_a_directory_per_source_tree(tmp_path: Path) -> Non
     mine = tmp_path / "mine"
     out = _fresh_python("import numba, navstress; print(numba.config.CACHE_DIR)", NUMBA_CACHE_DIR=str(mine))
     assert out.strip() == str(mine)
+
+
+# ---------------------------------------------------------------------------------------------
+# built at first use, not at import; called by address with the kernels' queue
+# ---------------------------------------------------------------------------------------------
+
+
+def test_importing_the_simulator_runs_no_compiler_the_first_lidar_does(tmp_path: Path) -> None:
+    """A fresh process imports navstress.sim (config, lidar, kernels) without compiling anything;
+    the first Lidar builds the native walk (here with a stand-in compiler that logs its call)."""
+    log = tmp_path / "cc.log"
+    cc = tmp_path / "cc"
+    cc.write_text(f"#!/bin/sh\necho \"$@\" >> {log}\nexit 1\n")
+    cc.chmod(0o755)
+    out = _fresh_python(f"""
+        import sys
+        from pathlib import Path
+        import numpy as np
+        import navstress.sim, navstress.sim.config, navstress.sim.lidar, navstress.sim.native
+        print(Path({str(log)!r}).exists())
+        from navstress.sim.lidar import Lidar, LidarScene
+        lid = Lidar(LidarScene(np.zeros((5, 5), np.float32), 1.0, np.zeros((0, 7))))
+        print(Path({str(log)!r}).exists(), lid.simd)
+        print(navstress.sim.native.status())
+    """, CC=str(cc), NAVSTRESS_CACHE_DIR=str(tmp_path / "cache"), NUMBA_CACHE_DIR=str(numba.config.CACHE_DIR))
+    at_import, at_first_lidar, status = out.strip().splitlines()
+    assert at_import == "False"
+    assert at_first_lidar == "True False" and status.startswith(f"off ({cc} failed to build _march_avx512.c")
+
+
+PROBE_C = r"""
+#include <math.h>
+#include <stdint.h>
+double seen_d[3];
+int64_t seen_i[4];
+float seen_h;
+/* nv_march_channel's signature: records its scalars, checks each queued ray's rows against each
+   other, and answers R[q] = -(q + 1.5) (NaN for a row that is not a walk's) */
+void probe(const float *h, int64_t W, int64_t ncx, int64_t ncy, double oz, double oxc, double oyc,
+           int64_t nq, const double *Q, const int64_t *I, int64_t qs, double *R) {
+    seen_d[0] = oz; seen_d[1] = oxc; seen_d[2] = oyc;
+    seen_i[0] = W; seen_i[1] = ncx; seen_i[2] = ncy; seen_i[3] = qs;
+    seen_h = h[W + 1];
+    for (int64_t q = 0; q < nq; q++) {
+        double dx = Q[5 * qs + q], dy = Q[6 * qs + q];
+        int64_t cx = I[q], cy = I[qs + q], sx = I[2 * qs + q], sy = I[3 * qs + q];
+        int ok = sx == (dx > 0.0 ? 1 : -1) && sy == (dy > 0.0 ? 1 : -1) && cx >= 0 && cx < ncx && cy >= 0 &&
+                 cy < ncy && Q[3 * qs + q] == (dx != 0.0 ? fabs(1.0 / dx) : 0.0) &&
+                 Q[4 * qs + q] == (dy != 0.0 ? fabs(1.0 / dy) : 0.0);
+        R[q] = ok ? -((double)q + 1.5) : NAN;
+    }
+}
+"""
+
+
+def test_the_kernel_hands_its_queue_to_the_native_walk_by_address(tmp_path: Path) -> None:
+    """Any CPU: a probe with the native walk's signature, called by address, receives the scene's
+    scalars and a consistent queue; its answers land on the queued rays, in queue order, and
+    every other ray keeps the numba walk's range."""
+    require_compiler()
+    cc = shlex.split(os.environ.get("CC") or "cc")
+    lib_path = tmp_path / "probe.so"
+    (tmp_path / "probe.c").write_text(PROBE_C)
+    subprocess.run([*cc, "-O1", "-fPIC", "-shared", "-o", str(lib_path), str(tmp_path / "probe.c")], check=True)
+    lib = ctypes.CDLL(str(lib_path))
+    address = ctypes.cast(lib.probe, ctypes.c_void_p).value
+    assert address
+    w = generate(WorldSpec.model_validate({"size_m": [40.0, 40.0], "ground": {"subdivisions": 4, "deformation": 2.0}}),
+                 seed=3)
+    sc = build_scene(w)
+    cfg = LidarConfig(azimuth_steps=90)
+    lid = Lidar(sc, cfg, simd=False)
+    origin, rot = np.array([20.0, 20.0, w.terrain.height_at(20.0, 20.0) + 0.9]), rot_zyx(0.3, 0.05, -0.04)
+    ref, out = np.empty((2, cfg.channels, cfg.azimuth_steps))
+    for walk, dest in ((0, ref), (address, out)):
+        _raycast.terrain_kernel(sc.heights, sc.cell_m, sc.mip, sc.mipf, sc.mip_offsets, sc.mip_widths, sc.grad_max,
+                                origin, rot, lid._cos_el, lid._sin_el, lid._cos_az, lid._sin_az, cfg.max_range_m, True,
+                                dest, walk)
+    assert not np.isnan(out).any(), "a queued row was inconsistent"
+    queued = out < 0
+    assert queued.sum() > cfg.azimuth_steps  # the walks of many channels went to the probe
+    for k in range(cfg.channels):
+        n = int(queued[k].sum())
+        assert np.array_equal(out[k][queued[k]], -(np.arange(n) + 1.5))
+    # the rays the kernel settled without a walk: the same ranges as with the numba walk
+    assert (~queued).any() and np.array_equal(bits(out[~queued]), bits(ref[~queued]))
+    assert (ctypes.c_double * 3).in_dll(lib, "seen_d")[:] == [origin[2], origin[0] * (1.0 / sc.cell_m),
+                                                             origin[1] * (1.0 / sc.cell_m)]
+    ncy, ncx = sc.heights.shape[0] - 1, sc.heights.shape[1] - 1
+    assert (ctypes.c_int64 * 4).in_dll(lib, "seen_i")[:] == [ncx + 1, ncx, ncy, cfg.azimuth_steps + 9]
+    assert ctypes.c_float.in_dll(lib, "seen_h").value == sc.heights[1, 1]
+
+
+# ---------------------------------------------------------------------------------------------
+# NAVSTRESS_REQUIRE_NATIVE: a native walk that cannot run fails its tests instead of skipping
+# ---------------------------------------------------------------------------------------------
+
+GATED_TEST = """
+from native_gate import require_native
+
+
+def test_gated():
+    require_native()
+"""
+
+
+@pytest.mark.parametrize("off", [{"NAVSTRESS_NATIVE": "0"}, {"NAVSTRESS_NATIVE": "1", "CC": "no-such-cc"}])
+@pytest.mark.parametrize("require", ["1", None])
+def test_require_native_turns_the_skip_into_a_failure(tmp_path: Path, off: dict[str, str], require: str | None) -> None:
+    """A pytest run of a gated test in a process whose native walk is off: skipped, or failed
+    (naming why) with NAVSTRESS_REQUIRE_NATIVE=1."""
+    (tmp_path / "test_gated.py").write_text(GATED_TEST)
+    env = {k: v for k, v in os.environ.items() if k != REQUIRE}
+    env.update(off, NAVSTRESS_CACHE_DIR=str(tmp_path / "cache"),
+               PYTHONPATH=os.pathsep.join([str(Path(__file__).parent), env.get("PYTHONPATH", "")]))
+    if require is not None:
+        env[REQUIRE] = require
+    r = subprocess.run([sys.executable, "-m", "pytest", "-q", "-rfs", "-p", "no:cacheprovider", "-p", "no:xdist",
+                        "test_gated.py"], cwd=tmp_path, capture_output=True, text=True, env=env, timeout=600)
+    if require == "1":
+        assert r.returncode == 1 and "1 failed" in r.stdout, r.stdout[-2000:]
+        assert f"{REQUIRE}=1 but native walk off (" in r.stdout
+    else:
+        assert r.returncode == 0 and "1 skipped" in r.stdout, r.stdout[-2000:]
+
+
+REPO = Path(__file__).resolve().parents[3]
+
+
+def test_ci_requires_the_native_walk_exactly_where_it_can_run(tmp_path: Path) -> None:
+    """.ci/native-required (which makes .ci/run set NAVSTRESS_REQUIRE_NATIVE=1): every CPU flag
+    the C walk needs, a C compiler and the walk not switched off; any one missing: not required."""
+    script = REPO / ".ci" / "native-required"
+    assert "if .ci/native-required; then\n    export NAVSTRESS_REQUIRE_NATIVE=1" in (REPO / ".ci" / "run").read_text()
+
+    def required(flags: list[str], **env: str) -> bool:
+        info = tmp_path / "cpuinfo"
+        info.write_text("processor\t: 0\nflags\t\t: fpu sse2 avx2 " + " ".join(flags) + " avx512cd\n")
+        e = {k: v for k, v in os.environ.items() if k not in ("CC", "NAVSTRESS_NATIVE")}
+        r = subprocess.run([str(script), str(info)], capture_output=True, text=True, env={**e, **env}, timeout=60)
+        assert r.returncode in (0, 1) and r.stdout.startswith("native walk "), r.stdout + r.stderr
+        return r.returncode == 0
+
+    flags = list(native.CPU_FLAGS)
+    assert required(flags, CC=sys.executable)
+    assert required(flags, CC=f"{sys.executable} -O2", NAVSTRESS_NATIVE="1")
+    for missing in flags:
+        assert not required([f for f in flags if f != missing] + [missing + "x"], CC=sys.executable)
+    assert not required(flags, CC="no-such-cc")
+    for off in ("0", "off", "No"):
+        assert not required(flags, CC=sys.executable, NAVSTRESS_NATIVE=off)
+
+
+def test_the_cpu_flags_agree_in_the_c_walk_native_and_ci() -> None:
+    """The flags the C walk checks and compiles for, native.CPU_FLAGS and .ci/native-required."""
+    c = native.SOURCE.read_text()
+    checked = re.findall(r'__builtin_cpu_supports\("(\w+)"\)', c)
+    (target,) = re.findall(r'__attribute__\(\(target\("([\w,]+)"\)\)\)', c)
+    (ci,) = re.findall(r"for f in ([\w ]+); do", (REPO / ".ci" / "native-required").read_text())
+    assert checked == target.split(",") == ci.split() == list(native.CPU_FLAGS)

@@ -9,7 +9,8 @@ from hypothesis import given, settings, strategies as st
 from scipy.spatial.transform import Rotation
 
 from navstress.sim.observer import Observer
-from navstress.sim.sensors import ImuSensor, PoseSensor, WheelOdometry, euler_from_mat
+from navstress.sim.sensors import euler_from_mat
+from oracles.sensors import ImuSensor, PoseSensor, WheelOdometry
 
 
 @settings(max_examples=50, deadline=None)

@@ -18,7 +18,7 @@ from navstress.sim import _step as K
 from navstress.sim.model import ObstaclePool, build_model
 from navstress.sim.observer import Observer
 from navstress.seeding import rng
-from navstress.sim.sensors import ImuSensor, PoseSensor, WheelOdometry
+from oracles.sensors import ImuSensor, PoseSensor, WheelOdometry
 from navstress.world.world import Obstacle
 
 from sim_worlds import bumpy, flat, rough
