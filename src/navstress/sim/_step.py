@@ -47,6 +47,8 @@ DONE, LIDAR, CONTACT, LEFT_MAP, FLIPPED, UNSTABLE, FLUSH = 0, 1, 2, 4, 8, 16, 32
 ODOM, IMU, POSE, SCAN, OBSERVER = 0, 1, 2, 3, 4
 NSENSORS = 5
 NO_CMD = np.iinfo(np.int64).max  # STATE.cmd_k when no command is pending
+# MuJoCo warnings that mean the physics went unstable (MuJoCo would reset the state)
+BAD_WARNINGS = (mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL, mujoco.mjtWarning.mjWARN_BADQACC)
 # rows of the pre-drawn standard-normal noise array (7 values per IMU sample, 6 per pose sample)
 IMU_NOISE, POSE_NOISE = 0, 1
 NOISE_BATCH = 42 * 16  # a multiple of 7 and 6: a row is used up exactly
@@ -65,6 +67,9 @@ STATE = np.dtype([
     ("odom_t", _F), ("odom_v", _F), ("odom_w", _F),  # last odometry sample time, speed, yaw rate
     ("imu_bias", _F), ("imu_t", _F),  # IMU yaw bias (random walk) and last sample time
     ("n_imu", _I), ("n_pose", _I),  # next unused value of the noise rows IMU_NOISE / POSE_NOISE
+    ("next_k", _I, (NSENSORS,)),  # step at which each sensor fires next (rows ODOM ... OBSERVER)
+    ("jitter_idx", _I, (NSENSORS,)),  # next unused column of SensorArrays.jitter (its width: used up)
+    ("nsamples", _I, (NSENSORS,)),  # rows of SensorArrays.samples recorded since the last flush
     ("touching", _I),  # size of the touching set (CollisionArrays.previous)
     ("ncontact", _I),  # obstacles the bumper touched after the last step
     ("starts", _I), ("nevent", _I),  # contact starts / collision events not yet flushed
@@ -73,6 +78,8 @@ STATE = np.dtype([
 PARAMS = np.dtype([
     ("model", _I), ("data", _I), ("ncon_addr", _I), ("contact_field", _I),  # mjabi.Addresses
     ("chassis", _I), ("bumper", _I), ("terrain", _I),  # body, geom, geom ids
+    ("wheel_body", _I, (4,)), ("wheel_qpos", _I, (4,)), ("wheel_dof", _I, (4,)),  # FL, RL, FR, RR
+    ("warning_ids", _I, (len(BAD_WARNINGS),)),  # BAD_WARNINGS
     ("dt", _F),  # time step (s)
     ("dv", _F), ("dw", _F),  # speed / yaw-rate change per step at the acceleration limits
     ("skid", _F), ("kp", _F), ("ki", _F),  # skid factor, yaw-rate PI gains
@@ -83,12 +90,14 @@ PARAMS = np.dtype([
     ("cos_flip", _F),  # up-vector z below which the robot has flipped
     ("debounce", _F),  # collision debounce (s)
     ("odom_radius", _F), ("odom_track", _F),  # odometry wheel radius and (calibrated) track
+    ("period", _F, (NSENSORS,)),  # nominal sensor periods (s)
     ("jitter", _I), ("rate_jitter", _F),  # sensor rate jitter on, its relative amplitude
     ("noise", _I),  # sensor noise on
     ("imu_att", _F), ("imu_rate", _F), ("imu_drift", _F),  # IMU noise
     ("pose_pos", _F), ("pose_att", _F),  # pose noise
     ("warn0", _I),  # MuJoCo's bad-qpos/qvel/qacc warning count at the start
     ("pool_every", _I), ("pool_contype", _I), ("park_z", _F),  # obstacle pool refill (0: no pool)
+    ("hfield_x0", _F), ("hfield_y0", _F), ("hfield_dx", _F), ("hfield_dy", _F),  # WheelContactArrays.hfield grid
 ], align=True)
 STATE_FIELDS: frozenset[str] = frozenset(STATE.names or ())
 PARAMS_FIELDS: frozenset[str] = frozenset(PARAMS.names or ())
@@ -125,7 +134,6 @@ class MjArrays(NamedTuple):
     xpos: np.ndarray
     xmat: np.ndarray
     warning: np.ndarray  # d.warning.number
-    warning_ids: np.ndarray  # the warnings that mean instability (bad qpos/qvel/qacc)
     mocap_pos: np.ndarray
     mocap_quat: np.ndarray
     geom_size: np.ndarray
@@ -138,22 +146,15 @@ class MjArrays(NamedTuple):
 class RobotArrays(NamedTuple):
     """Indices of the robot in the model (:class:`~navstress.sim.model.RobotModel`)."""
 
-    wheel_body: np.ndarray  # (4,) FL, RL, FR, RR
-    wheel_qpos: np.ndarray  # (4,)
-    wheel_dof: np.ndarray  # (4,)
     wheel_of_geom: np.ndarray  # (ngeom,) wheel index or -1
     obstacle_of_geom: np.ndarray  # (ngeom,) obstacle index or -1 (pool slots change it)
 
 
 class SensorArrays(NamedTuple):
-    """Sensor schedule and buffers; rows ODOM, IMU, POSE, SCAN, OBSERVER."""
+    """Sensor buffers (the schedule is in STATE/PARAMS); rows ODOM, IMU, POSE, SCAN, OBSERVER."""
 
-    next_k: np.ndarray  # (5,) step at which each sensor fires next
-    period: np.ndarray  # (5,) nominal period (s)
     jitter: np.ndarray  # (5, B) pre-drawn uniforms of the rate jitter
-    jitter_idx: np.ndarray  # (5,) next unused column of ``jitter`` (B: used up)
-    samples: np.ndarray  # (5, S, 7) recorded readings, see _fire
-    nsamples: np.ndarray  # (5,) rows recorded
+    samples: np.ndarray  # (5, S, 7) recorded readings (STATE.nsamples rows), see _fire
     noise: np.ndarray  # (2, NOISE_BATCH) pre-drawn standard normals, rows IMU_NOISE, POSE_NOISE
 
 
@@ -170,8 +171,7 @@ class WheelContactArrays(NamedTuple):
     """Analytic wheel contacts (:func:`_add_wheel_contacts`); no wheel geoms: off."""
 
     wheel_geom: np.ndarray  # wheel geoms (empty: MuJoCo's collision makes the contacts)
-    hfield: np.ndarray  # terrain heights (rows y, columns x)
-    grid: np.ndarray  # x0, y0, dx, dy, wheel radius
+    hfield: np.ndarray  # terrain heights (rows y, columns x; grid in PARAMS.hfield_*)
     template: np.ndarray  # raw bytes of a MuJoCo wheel-ground contact (mjabi.CF float64)
     scratch: np.ndarray  # (4, 7) contacts of one wheel
 
@@ -215,16 +215,15 @@ def contact_template(m: mujoco.MjModel, d0: mujoco.MjData, wheel_geoms: np.ndarr
 
 @numba.njit(cache=True)
 def _add_wheel_contacts(maddr: int, daddr: int, xpos: np.ndarray, wbody: np.ndarray, wgeom: np.ndarray,
-                        terrain: int, hf: np.ndarray, grid: np.ndarray, tmpl: np.ndarray,
-                        cbuf: np.ndarray) -> int:  # pragma: no cover - compiled
+                        terrain: int, hf: np.ndarray, x0: float, y0: float, dx: float, dy: float, r: float,
+                        tmpl: np.ndarray, cbuf: np.ndarray) -> int:  # pragma: no cover - compiled
     """Add every wheel's sphere-terrain contacts (:func:`sphere_terrain_contacts`) to MuJoCo's
     contact list, copying ``tmpl`` (a MuJoCo wheel-ground contact) for the other fields."""
     ti = tmpl.view(np.int32)
     added = 0
     for w in range(wgeom.shape[0]):  # no wheel geoms given: MuJoCo's collision makes the contacts
         b = wbody[w]
-        nc = sphere_terrain_contacts(xpos[b, 0], xpos[b, 1], xpos[b, 2], grid[4], hf, grid[0], grid[1], grid[2],
-                                     grid[3], cbuf)
+        nc = sphere_terrain_contacts(xpos[b, 0], xpos[b, 1], xpos[b, 2], r, hf, x0, y0, dx, dy, cbuf)
         for k in range(nc):
             nx, ny, nz = cbuf[k, 4], cbuf[k, 5], cbuf[k, 6]
             tmpl[CF_DIST] = cbuf[k, 0]
@@ -534,8 +533,8 @@ def _fire(k: int, s: Any, p: Any, qpos: np.ndarray, qvel: np.ndarray, wqpos: np.
     (t, x, y, z, yaw, pitch, roll) with their noise, as ``ImuSensor.read``/``PoseSensor.read``
     compute it from the same standard normals (``noise``, pre-drawn in order); observer
     (t, x, y, z, yaw, pitch, roll), true."""
-    next_k, period, jit, jit_idx = sens.next_k, sens.period, sens.jitter, sens.jitter_idx
-    samples, nsamp, noise = sens.samples, sens.nsamples, sens.noise
+    next_k, period, jit, jit_idx = s.next_k, p.period, sens.jitter, s.jitter_idx
+    samples, nsamp, noise = sens.samples, s.nsamples, sens.noise
     status = DONE
     t = k * p.dt
     noisy = p.noise != 0
@@ -642,28 +641,28 @@ def _steps(k_stop: int, s: Any, p: Any, mj: MjArrays, rb: RobotArrays, pool: Poo
     maddr, daddr, ncon_addr, con_field = p.model, p.data, p.ncon_addr, p.contact_field
     chassis, bumper = p.chassis, p.bumper
     qpos, qvel, xpos = mj.qpos, mj.qvel, mj.xpos
-    wbody, obstacle_of_geom, contact_out = rb.wheel_body, rb.obstacle_of_geom, col.current
+    wbody, wqpos, obstacle_of_geom, contact_out = p.wheel_body, p.wheel_qpos, rb.obstacle_of_geom, col.current
     pool_every = p.pool_every
     while True:
         k = s.k
-        st = _fire(k, s, p, qpos, qvel, rb.wheel_qpos, sens)
+        st = _fire(k, s, p, qpos, qvel, wqpos, sens)
         if st != DONE or k >= k_stop:
             return st
         # ---- one physics step
         if k >= s.cmd_k:  # the pending command takes effect at the start of its step
             s.tv, s.tw = s.cmd_v, s.cmd_w
             s.cmd_k = NO_CMD
-        _drive(s, p, qpos, qvel, mj.ctrl, rb.wheel_qpos)
+        _drive(s, p, qpos, qvel, mj.ctrl, wqpos)
         if pool_every > 0 and k % pool_every == 0:
             fill_obstacle_slots(qpos[0], qpos[1], pool, obstacle_of_geom, mj.mocap_pos, mj.mocap_quat, mj.geom_size,
                                 mj.geom_rbound, mj.geom_aabb, mj.bvh_aabb, mj.geom_contype, p.park_z, p.pool_contype)
         fwd_position_collision(maddr, daddr)
-        _add_wheel_contacts(maddr, daddr, xpos, wbody, wc.wheel_geom, p.terrain, wc.hfield, wc.grid, wc.template,
-                            wc.scratch)
+        _add_wheel_contacts(maddr, daddr, xpos, wbody, wc.wheel_geom, p.terrain, wc.hfield, p.hfield_x0,
+                            p.hfield_y0, p.hfield_dx, p.hfield_dy, p.wheel_radius, wc.template, wc.scratch)
         cf, ci = contacts(ncon_addr, con_field)
         if cf.shape[0] > 0:
             _align_wheel_contacts(cf, ci, rb.wheel_of_geom, qvel, mj.xmat[chassis], xpos[chassis], xpos, wbody,
-                                  rb.wheel_dof, p.mu, p.friction_floor, p.slip_eps)
+                                  p.wheel_dof, p.mu, p.friction_floor, p.slip_eps)
         fwd_position_constraints(maddr, daddr)
         mj_fwdVelocity(maddr, daddr)
         mj_step2(maddr, daddr)
@@ -675,7 +674,7 @@ def _steps(k_stop: int, s: Any, p: Any, mj: MjArrays, rb: RobotArrays, pool: Poo
             return UNSTABLE
         if k % 50 == 0:
             tot = 0
-            for w in mj.warning_ids:
+            for w in p.warning_ids:
                 tot += mj.warning[w]
             if tot != p.warn0:
                 return UNSTABLE

@@ -34,8 +34,6 @@ from navstress.world.world import World
 _SENSORS = ("odom", "imu", "pose", "lidar", "observer")  # the order of the _step sensor rows
 _JITTER_BATCH = 64  # rate-jitter uniforms drawn at a time from each sensor's timing generator
 _SAMPLES = 64  # raw sensor samples buffered in the compiled loop between flushes
-_BAD_WARNINGS = (mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL,
-                 mujoco.mjtWarning.mjWARN_BADQACC)
 
 
 class Simulation:
@@ -83,9 +81,9 @@ class Simulation:
         nrow, ncol = int(m.hfield_nrow[0]), int(m.hfield_ncol[0])
         hf = m.geom_pos[terrain][2] + hsz[2] * m.hfield_data.astype(np.float64).reshape(nrow, ncol)
         grid = np.array([m.geom_pos[terrain][0] - hsz[0], m.geom_pos[terrain][1] - hsz[1], 2 * hsz[0] / (ncol - 1),
-                         2 * hsz[1] / (nrow - 1), robot.wheel_radius_m])
-        self._wheel_arrays = K.WheelContactArrays(
-            wgeoms.astype(np.int64) if cfg.analytic_wheel_contacts else np.zeros(0, np.int64), hf, grid, tmpl,
+                         2 * hsz[1] / (nrow - 1)])  # x0, y0, dx, dy of hf
+        wheel_arrays = K.WheelContactArrays(
+            wgeoms.astype(np.int64) if cfg.analytic_wheel_contacts else np.zeros(0, np.int64), hf, tmpl,
             np.zeros((4, 7)))
         mujoco.mj_forward(m, d)
         self._timing = [rng(seed, "sim", "timing", n) for n in _SENSORS]
@@ -98,17 +96,14 @@ class Simulation:
         self._lidar: Lidar | None = None
         self._lidar_gen = rng(seed, "sim", "noise", "lidar")
         rates = [cfg.odom_rate_hz, cfg.imu_rate_hz, cfg.pose_rate_hz, 0.0, cfg.observer_rate_hz]
-        self._next = np.zeros(K.NSENSORS, np.int64)
+        next_k = np.zeros(K.NSENSORS, np.int64)
         if cfg.lidar_enabled:
             self._lidar = Lidar(build_scene(world), cfg.lidar)
             rates[K.SCAN] = float(cfg.lidar.rate_hz)
         else:
-            self._next[K.SCAN] = np.iinfo(np.int64).max  # never due
-        self._period = np.array([1.0 / r if r > 0 else 1.0 for r in rates])
+            next_k[K.SCAN] = np.iinfo(np.int64).max  # never due
         self._jit = np.zeros((K.NSENSORS, _JITTER_BATCH))
-        self._jit_idx = np.full(K.NSENSORS, _JITTER_BATCH, np.int64)  # drawn on first use
         self._samples = np.zeros((K.NSENSORS, _SAMPLES, 7))
-        self._nsamp = np.zeros(K.NSENSORS, np.int64)
         self.observer = Observer(cfg.collision_debounce_s)
         self._contact_buf = np.zeros(64, np.int64)
         self._contact_prev = np.zeros(64, np.int64)
@@ -117,20 +112,24 @@ class Simulation:
         # compiled-loop state and constants (named records, see _step.STATE / PARAMS) and arrays
         r = robot
         wheel_angles = d.qpos[rm.wheel_qpos]
-        self._state = K.new_state(cmd_k=K.NO_CMD, n_imu=K.NOISE_BATCH, n_pose=K.NOISE_BATCH,  # drawn on first use
-                                  ref=wheel_angles, odom_a=wheel_angles)
-        # one-element views of the fields Python reads or writes every cycle (a view reads ~4x
-        # faster than a field of the record); the rest through self._state[0]
+        self._state = K.new_state(cmd_k=K.NO_CMD, ref=wheel_angles, odom_a=wheel_angles, next_k=next_k,
+                                  # noise and jitter rows: drawn on first use
+                                  n_imu=K.NOISE_BATCH, n_pose=K.NOISE_BATCH, jitter_idx=_JITTER_BATCH)
+        # views of the fields Python reads or writes every cycle (a view reads ~4x faster than a
+        # field of the record); the rest through self._state
         st = self._state
         self._sk, self._cmd_k, self._cmd_v, self._cmd_w = st["k"], st["cmd_k"], st["cmd_v"], st["cmd_w"]
         self._touching, self._starts, self._nevent = st["touching"], st["starts"], st["nevent"]
+        self._jit_idx, self._nsamp = st["jitter_idx"][0], st["nsamples"][0]
         warn = d.warning.number
-        bad = np.array([int(w) for w in _BAD_WARNINGS], np.int64)
+        bad = [int(w) for w in K.BAD_WARNINGS]
         pool = self._pool
         adr = mjabi.addresses(m, d)
         self._params = K.new_params(
             model=adr.model, data=adr.data, ncon_addr=adr.ncon, contact_field=adr.contact_field,
             chassis=rm.chassis_body, bumper=rm.bumper_geom, terrain=terrain,
+            wheel_body=rm.wheel_bodies, wheel_qpos=rm.wheel_qpos, wheel_dof=rm.wheel_dofs, warning_ids=bad,
+            period=[1.0 / r if r > 0 else 1.0 for r in rates],
             dt=self._dt, dv=r.max_accel_mps2 * self._dt, dw=r.max_yaw_accel_rps2 * self._dt,
             skid=cfg.skid_factor, kp=cfg.yaw_kp, ki=cfg.yaw_ki,
             half_track=r.track_m / 2, wheel_radius=r.wheel_radius_m, hold=cfg.wheel_hold_gain,
@@ -143,16 +142,16 @@ class Simulation:
             pose_pos=cfg.pose_pos_std_m, pose_att=cfg.pose_att_std_rad,
             warn0=int(sum(int(warn[w]) for w in bad)),
             pool_every=max(1, int(round(0.1 / self._dt))) if pool is not None else 0,
-            pool_contype=OBSTACLE_BIT, park_z=PARK_Z_M)
+            pool_contype=OBSTACLE_BIT, park_z=PARK_Z_M,
+            hfield_x0=grid[0], hfield_y0=grid[1], hfield_dx=grid[2], hfield_dy=grid[3])
         self._arrays = K.loop_arrays(
-            K.MjArrays(d.qpos, d.qvel, d.ctrl, d.xpos, d.xmat, warn, bad, d.mocap_pos, d.mocap_quat, m.geom_size,
+            K.MjArrays(d.qpos, d.qvel, d.ctrl, d.xpos, d.xmat, warn, d.mocap_pos, d.mocap_quat, m.geom_size,
                        m.geom_rbound, m.geom_aabb, m.bvh_aabb, m.geom_contype),
-            K.RobotArrays(rm.wheel_bodies, rm.wheel_qpos, rm.wheel_dofs, rm.wheel_of_geom, rm.obstacle_of_geom),
+            K.RobotArrays(rm.wheel_of_geom, rm.obstacle_of_geom),
             pool.arrays if pool is not None else empty_pool_arrays(),
-            K.SensorArrays(self._next, self._period, self._jit, self._jit_idx, self._samples, self._nsamp,
-                           self._noise),
+            K.SensorArrays(self._jit, self._samples, self._noise),
             K.CollisionArrays(self._contact_buf, self._contact_prev, self._last_touch, self._event_buf),
-            self._wheel_arrays)
+            wheel_arrays)
         # readings since the last observe()
         self._scans: list[LidarScan] = []
         self._mount = (robot.lidar.x_m, robot.lidar.y_m, robot.lidar.z_m)
@@ -214,7 +213,7 @@ class Simulation:
 
     # ---- internals --------------------------------------------------------------------
     def _warnings(self) -> int:
-        return sum(int(self.data.warning[w].number) for w in _BAD_WARNINGS)
+        return sum(int(self.data.warning[w].number) for w in K.BAD_WARNINGS)
 
     def _run(self, k_end: int) -> None:
         """Step until step ``k_end`` (or a stop), handling what the compiled loop hands back."""
