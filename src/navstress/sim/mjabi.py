@@ -25,6 +25,7 @@ Written for MuJoCo 4.0.
 from __future__ import annotations
 
 import ctypes
+import functools
 import glob
 import os
 from typing import Any, NamedTuple
@@ -34,7 +35,7 @@ import llvmlite.ir as ir
 import mujoco
 import numba
 import numpy as np
-from mujoco.introspect import structs
+from mujoco.introspect import ast_nodes, structs
 from numba import carray, types  # type: ignore[attr-defined]
 from numba.core import cgutils
 from numba.extending import intrinsic
@@ -78,24 +79,63 @@ def ncon_address(d: mujoco.MjData) -> int:
     return int(td.ctypes.data + td.shape[0] * td.strides[0])
 
 
-def contact_field_address(d: mujoco.MjData) -> int:
-    """Address of the pointer field ``d->contact``: found by locating the ``qpos`` field (its value,
-    followed at their field offsets by the addresses of other arrays ``mjData`` exposes: a lone
-    qpos/qvel pair can also occur elsewhere in memory by chance, and the ``buffer`` field before
-    it holds the same address as qpos), then ``contact``'s distance from it per
-    ``mujoco.introspect``."""
-    names = [f.name for f in structs.STRUCTS["mjData"].fields]
-    q = names.index("qpos")
-    gap = names.index("contact") - q
-    base = ncon_address(d)
-    words = np.ctypeslib.as_array((ctypes.c_uint64 * 1024).from_address(base))
-    checks = [(names.index(f) - q, getattr(d, f).ctypes.data) for f in _QPOS_NEIGHBOURS
-              if f in names and getattr(d, f).size > 0]
-    hits = [h for h in np.flatnonzero(words == d.qpos.ctypes.data)
-            if all(h + off < len(words) and words[h + off] == addr for off, addr in checks)]
+def _words_upper_bound(fields: list[Any]) -> int:
+    """At most how many 8-byte words ``fields`` (consecutive mjData fields of scalars, pointers
+    and arrays of scalars) span."""
+    words = 0
+    for f in fields:
+        t = f.type
+        if isinstance(t, ast_nodes.ArrayType) and isinstance(t.inner_type, ast_nodes.ValueType) \
+                and t.inner_type.name in _SCALARS:
+            words += int(np.prod(t.extents))
+        elif isinstance(t, ast_nodes.PointerType) or (isinstance(t, ast_nodes.ValueType) and t.name in _SCALARS):
+            words += 1
+        else:
+            raise SimulationError(f"MuJoCo {mujoco.__version__}: mjData.{f.name} ({t}) between ncon and qpos "
+                                  "has a size navstress.sim.mjabi cannot bound")
+    return words
+
+
+# scalar types of at most 8 bytes
+_SCALARS = {"int", "mjtBool", "mjtByte", "mjtNum", "mjtSize", "float", "double", "size_t", "uintptr_t", "uint64_t",
+            "char", "unsigned char"}
+_FIELDS = structs.STRUCTS["mjData"].fields
+_NAMES = [f.name for f in _FIELDS]
+_QPOS = _NAMES.index("qpos")
+_CONTACT_GAP = _NAMES.index("contact") - _QPOS  # pointer fields from qpos to contact
+
+
+@functools.cache
+def _qpos_max_word() -> int:
+    """At most how many words after ``ncon`` the ``qpos`` field lies: the scan window ends inside
+    mjData (reading past its end met stale copies of its pointers in the heap: a second candidate)."""
+    return _words_upper_bound(_FIELDS[_NAMES.index("ncon"):_QPOS])
+
+
+def find_qpos_field(words: np.ndarray, qpos: int, neighbours: list[tuple[int, int]], last: int) -> int:
+    """Index in ``words`` (mjData's memory from ``ncon`` on, as uint64) of the ``qpos`` field: the
+    one word at index <= ``last`` that holds ``qpos`` and, ``off`` words further for each
+    (``off``, ``address``) of ``neighbours``, that address. SimulationError unless exactly one."""
+    hits = [int(h) for h in np.flatnonzero(words[:last + 1] == qpos)
+            if all(h + off < len(words) and words[h + off] == adr for off, adr in neighbours)]
     if len(hits) != 1:
         raise SimulationError(f"MuJoCo {mujoco.__version__}: cannot locate mjData.qpos ({len(hits)} candidates)")
-    return int(base + 8 * (int(hits[0]) + gap))
+    return hits[0]
+
+
+def contact_field_address(d: mujoco.MjData) -> int:
+    """Address of the pointer field ``d->contact``: found by locating the ``qpos`` field (its value,
+    followed at their field offsets by the addresses of other arrays ``mjData`` exposes: the
+    ``buffer`` field before it holds the same address as qpos), within mjData (the fields from
+    ``ncon`` to ``qpos`` bound where it can be), then ``contact``'s distance from it per
+    ``mujoco.introspect``."""
+    checks = [(_NAMES.index(f) - _QPOS, getattr(d, f).ctypes.data) for f in _QPOS_NEIGHBOURS
+              if f in _NAMES and getattr(d, f).size > 0]
+    last = _qpos_max_word()
+    n = last + max([_CONTACT_GAP] + [off for off, _ in checks]) + 1
+    base = ncon_address(d)
+    words = np.ctypeslib.as_array((ctypes.c_uint64 * n).from_address(base))
+    return int(base + 8 * (find_qpos_field(words, d.qpos.ctypes.data, checks, last) + _CONTACT_GAP))
 
 
 class Addresses(NamedTuple):

@@ -10,6 +10,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pytest
+from hypothesis import assume, given, settings, strategies as st
 
 import navstress
 from navstress.errors import SimulationError
@@ -146,3 +147,50 @@ def test_only_mjabi_knows_mujocos_abi(what: str) -> None:
     assert pat.search(abi.read_text())
     offenders = [str(p.relative_to(SRC)) for p in sorted(SRC.rglob("*.py")) if p != abi and pat.search(p.read_text())]
     assert offenders == []
+
+
+QPOS, NEIGHBOURS = 0x7F0000001000, [(1, 0x7F0000002000), (5, 0x7F0000003000), (40, 0x7F0000004000)]
+
+
+def _memory(seed: int, at: list[int]) -> np.ndarray:
+    """Random words with the qpos pattern (value, then the neighbours' addresses) at ``at``, and
+    the qpos value alone (as mjData.buffer holds it) before the first."""
+    words = np.random.default_rng(seed).integers(1, 2**62, 1000, dtype=np.int64).astype(np.uint64)
+    cells = [{x, *(x + off for off, _ in NEIGHBOURS)} for x in at]
+    assume(all(not (c & e) for i, c in enumerate(cells) for e in cells[i + 1:]))
+    for x in at:
+        words[x] = QPOS
+        for off, adr in NEIGHBOURS:
+            words[x + off] = adr
+    if min(at) > 0:
+        words[min(at) - 1] = QPOS
+    return words
+
+
+@settings(max_examples=60, deadline=None)
+@given(real=st.integers(0, 30), copies=st.lists(st.integers(31, 900), max_size=3), other=st.integers(0, 30),
+       seed=st.integers(0, 2**31))
+def test_qpos_scan_finds_the_field_and_ignores_copies_beyond_it(real: int, copies: list[int], other: int,
+                                                                seed: int) -> None:
+    """The qpos field is the one word within the window's first ``last`` words holding qpos and,
+    at their offsets, the neighbouring arrays' addresses: copies of that pattern further on (stale
+    heap memory past mjData's end once gave a second candidate) are not candidates; a second one
+    within reach, or none, is an error."""
+    assert mjabi.find_qpos_field(_memory(seed, [real, *copies]), QPOS, NEIGHBOURS, 30) == real
+    with pytest.raises(SimulationError, match="0 candidates"):
+        mjabi.find_qpos_field(_memory(seed, [real, *copies]), QPOS + 8, NEIGHBOURS, 30)
+    assume(other != real)
+    with pytest.raises(SimulationError, match="2 candidates"):
+        mjabi.find_qpos_field(_memory(seed, [real, other, *copies]), QPOS, NEIGHBOURS, 30)
+
+
+def test_qpos_window_lies_within_mjdata() -> None:
+    """The scan reads from ncon up to contact (and the checked neighbours) of the real qpos field
+    only: the window's first ``last`` words cover the real field, and the real field's offset
+    leaves the contact pointer inside the window."""
+    d = _contacts_sim().data
+    last = mjabi._qpos_max_word()
+    field = mjabi.contact_field_address(d)
+    qpos_word = (field - mjabi.ncon_address(d)) // 8 - mjabi._CONTACT_GAP
+    assert 0 <= qpos_word <= last
+    assert mjabi.read_ptr(field) == d.contact.dist.ctypes.data
