@@ -11,221 +11,196 @@ drive firmware, the obstacle pool refill (every ``pool_every`` steps), the stage
 buffers, IMU and pose noise from standard normals that Python pre-draws from the sensors'
 generators in batches (Python turns the last rows into readings, see ``Simulation._flush``).
 
-MuJoCo's C functions are called by symbol from the loaded ``libmujoco`` (numba intrinsics, so the
-code caches), with the ``mjModel*``/``mjData*`` addresses of the Python objects. ``mjData.ncon``
-and the ``mjContact`` array are read in place: their layout (MuJoCo 4.0: ``ncon`` right after
-``timer``, 608-byte contacts) is checked against the Python bindings by :func:`check_layout`.
+What the loop keeps between calls is named:
+
+* :data:`STATE`, a record (numpy structured dtype, one field a line) of what the loop changes:
+  step count, pending command, drive firmware, odometry, IMU bias, collision counters;
+* :data:`PARAMS`, a record of the constants of a run (gains, limits, noise levels, addresses);
+* the arrays, in named groups (:class:`MjArrays`, :class:`RobotArrays`,
+  :class:`~navstress.sim.model.PoolArrays`, :class:`SensorArrays`, :class:`CollisionArrays`,
+  :class:`WheelContactArrays`) that :func:`loop_arrays` flattens and :func:`run_steps` regroups
+  (numba dispatches a flat argument list several microseconds faster than tuples).
+
+Adding a state variable is one line in :data:`STATE` (zero at the start; give another start value
+in :func:`new_state`); a constant, one line in :data:`PARAMS` (then :func:`new_params` demands it).
+MuJoCo's C ABI (calls by symbol, contact layout, addresses) is :mod:`navstress.sim.mjabi`'s.
 """
 
 from __future__ import annotations
 
-import ctypes
 import math
-import glob
-import os
-from typing import Any
+from typing import Any, NamedTuple
 
-import llvmlite.binding as llvm
-import llvmlite.ir as ir
 import mujoco
 import numba
 import numpy as np
-from numba import carray, types  # type: ignore[attr-defined]
-from numba.core import cgutils
-from numba.extending import intrinsic
 
 import navstress._jit  # noqa: F401  (numba's cache directory, before any @njit(cache=True))
 from navstress.errors import SimulationError
-from navstress.sim.model import fill_obstacle_slots
-
-_LIBS = sorted(glob.glob(os.path.join(os.path.dirname(mujoco.__file__), "libmujoco.so*")))
-if _LIBS:
-    llvm.load_library_permanently(_LIBS[0])
-
-# mjContact layout (bytes): size, pos, frame, friction, geom[2]
-CON_SIZE, CON_POS, CON_FRAME, CON_FRICTION, CON_GEOM, CON_EXCLUDE, CON_EFC = 608, 8, 32, 112, 564, 596, 600
-_CF, _CI = CON_SIZE // 8, CON_SIZE // 4  # contact stride in float64 / int32 units
+from navstress.sim.mjabi import (CF_DIST, CF_FRAME, CF_FRICTION, CF_POS, CI_EFC, CI_EXCLUDE, CI_GEOM, CI_GEOM1, CI_GEOM2,
+                                 add_contact, contact_row, contacts, fwd_position_collision,
+                                 fwd_position_constraints, mj_fwdVelocity, mj_step2)
+from navstress.sim.model import PoolArrays, fill_obstacle_slots
 
 # status bits returned by run_steps
 DONE, LIDAR, CONTACT, LEFT_MAP, FLIPPED, UNSTABLE, FLUSH = 0, 1, 2, 4, 8, 16, 32
 # sensor rows of the schedule arrays (the order in which sensors fire within a step)
 ODOM, IMU, POSE, SCAN, OBSERVER = 0, 1, 2, 3, 4
 NSENSORS = 5
-# int state I[...]
-# I_TOUCHING: size of the touching set; I_STARTS/I_NEVENT: contact starts / events not yet flushed;
-# I_CMDK: step at which the pending command (F_CMDV, F_CMDW) takes effect (NO_CMD: none);
-# I_NOISE: sensor noise on; I_NIMU/I_NPOSE: next unused value of the noise rows IMU_NOISE/POSE_NOISE
-I_K, I_TOUCHING, I_NCONTACT, I_WARN0, I_JITTER, I_STARTS, I_NEVENT, I_CMDK, I_NOISE, I_NIMU, I_NPOSE = range(11)
-NI = 11
-NO_CMD = np.iinfo(np.int64).max
+NO_CMD = np.iinfo(np.int64).max  # STATE.cmd_k when no command is pending
+# MuJoCo warnings that mean the physics went unstable (MuJoCo would reset the state)
+BAD_WARNINGS = (mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL, mujoco.mjtWarning.mjWARN_BADQACC)
 # rows of the pre-drawn standard-normal noise array (7 values per IMU sample, 6 per pose sample)
 IMU_NOISE, POSE_NOISE = 0, 1
 NOISE_BATCH = 42 * 16  # a multiple of 7 and 6: a row is used up exactly
-# float state F[...] (drive firmware state and the constants of a run)
-(F_TV, F_TW, F_V, F_W, F_YAWI, F_REF, F_DT, F_DV, F_DW, F_SKID, F_KP, F_KI, F_HALFTRACK, F_RADIUS, F_HOLD,
- F_MU, F_FLOOR, F_EPS, F_MAXSPEED, F_SX, F_SY, F_MARGIN, F_COSFLIP, F_RATEJIT, F_UPZ, F_DEBOUNCE) = (
-    0, 1, 2, 3, 4, 5, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28)
-# wheel odometry state: x, y, yaw, previous angles (4), previous t, v, omega, wheel radius, track
-F_OX, F_OY, F_OYAW, F_OA, F_OT, F_OV, F_OW, F_OR, F_OTRACK = 29, 30, 31, 32, 36, 37, 38, 39, 40
-# pending command (clamped); IMU yaw bias and last sample time; IMU and pose noise parameters
-F_CMDV, F_CMDW, F_IBIAS, F_IT, F_IATT, F_IRATE, F_IDRIFT, F_PPOS, F_PATT = range(41, 50)
-NF = 50
+
+_I, _F = np.int64, np.float64
+STATE = np.dtype([
+    ("k", _I),  # physics steps done
+    ("cmd_k", _I),  # step at which the pending command takes effect (NO_CMD: none)
+    ("cmd_v", _F), ("cmd_w", _F),  # the pending command (clamped to the speed limits)
+    ("tv", _F), ("tw", _F),  # the command in effect (drive firmware targets)
+    ("v", _F), ("w", _F),  # ramped speed and yaw rate
+    ("yaw_i", _F),  # yaw-rate PI integral
+    ("ref", _F, (4,)),  # wheel angle references (each wheel tracks its integrated speed command)
+    ("odom_x", _F), ("odom_y", _F), ("odom_yaw", _F),  # wheel odometry pose
+    ("odom_a", _F, (4,)),  # wheel angles at the last odometry sample (FL, RL, FR, RR)
+    ("odom_t", _F), ("odom_v", _F), ("odom_w", _F),  # last odometry sample time, speed, yaw rate
+    ("imu_bias", _F), ("imu_t", _F),  # IMU yaw bias (random walk) and last sample time
+    ("n_imu", _I), ("n_pose", _I),  # next unused value of the noise rows IMU_NOISE / POSE_NOISE
+    ("next_k", _I, (NSENSORS,)),  # step at which each sensor fires next (rows ODOM ... OBSERVER)
+    ("jitter_idx", _I, (NSENSORS,)),  # next unused column of SensorArrays.jitter (its width: used up)
+    ("nsamples", _I, (NSENSORS,)),  # rows of SensorArrays.samples recorded since the last flush
+    ("touching", _I),  # size of the touching set (CollisionArrays.previous)
+    ("ncontact", _I),  # obstacles the bumper touched after the last step
+    ("starts", _I), ("nevent", _I),  # contact starts / collision events not yet flushed
+    ("up_z", _F),  # z of the chassis up-vector after the last step
+], align=True)
+PARAMS = np.dtype([
+    ("model", _I), ("data", _I), ("ncon_addr", _I), ("contact_field", _I),  # mjabi.Addresses
+    ("chassis", _I), ("bumper", _I), ("terrain", _I),  # body, geom, geom ids
+    ("wheel_body", _I, (4,)), ("wheel_qpos", _I, (4,)), ("wheel_dof", _I, (4,)),  # FL, RL, FR, RR
+    ("warning_ids", _I, (len(BAD_WARNINGS),)),  # BAD_WARNINGS
+    ("dt", _F),  # time step (s)
+    ("dv", _F), ("dw", _F),  # speed / yaw-rate change per step at the acceleration limits
+    ("skid", _F), ("kp", _F), ("ki", _F),  # skid factor, yaw-rate PI gains
+    ("half_track", _F), ("wheel_radius", _F), ("hold", _F),  # drive geometry, wheel-angle hold gain
+    ("mu", _F), ("friction_floor", _F), ("slip_eps", _F),  # skid-steer friction rewrite
+    ("max_speed", _F),  # body speed above which the physics is unstable
+    ("size_x", _F), ("size_y", _F), ("margin", _F),  # map size, margin of the left-map stop
+    ("cos_flip", _F),  # up-vector z below which the robot has flipped
+    ("debounce", _F),  # collision debounce (s)
+    ("odom_radius", _F), ("odom_track", _F),  # odometry wheel radius and (calibrated) track
+    ("period", _F, (NSENSORS,)),  # nominal sensor periods (s)
+    ("jitter", _I), ("rate_jitter", _F),  # sensor rate jitter on, its relative amplitude
+    ("noise", _I),  # sensor noise on
+    ("imu_att", _F), ("imu_rate", _F), ("imu_drift", _F),  # IMU noise
+    ("pose_pos", _F), ("pose_att", _F),  # pose noise
+    ("warn0", _I),  # MuJoCo's bad-qpos/qvel/qacc warning count at the start
+    ("pool_every", _I), ("pool_contype", _I), ("park_z", _F),  # obstacle pool refill (0: no pool)
+    ("hfield_x0", _F), ("hfield_y0", _F), ("hfield_dx", _F), ("hfield_dy", _F),  # WheelContactArrays.hfield grid
+], align=True)
+STATE_FIELDS: frozenset[str] = frozenset(STATE.names or ())
+PARAMS_FIELDS: frozenset[str] = frozenset(PARAMS.names or ())
 
 
-def _void_mj(name: str) -> Any:
-    """A numba intrinsic calling ``void name(const mjModel*, mjData*)`` with two addresses."""
-
-    @intrinsic
-    def call(typingctx: Any, m: Any, d: Any) -> Any:  # pragma: no cover - compile time
-        def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
-            ptr = ir.IntType(8).as_pointer()
-            fn = cgutils.get_or_insert_function(  # type: ignore[no-untyped-call]
-                builder.module, ir.FunctionType(ir.VoidType(), [ptr, ptr]), name)
-            builder.call(fn, [builder.inttoptr(args[0], ptr), builder.inttoptr(args[1], ptr)])
-            return context.get_dummy_value()
-
-        return types.void(types.int64, types.int64), codegen
-
-    return call
+def new_state(**values: Any) -> np.ndarray:
+    """A one-record :data:`STATE` array: the fields given, zero elsewhere."""
+    unknown = set(values) - STATE_FIELDS
+    if unknown:
+        raise TypeError(f"not STATE fields: {sorted(unknown)}")
+    s = np.zeros(1, STATE)
+    for name, v in values.items():
+        s[name] = v
+    return s
 
 
-# mj_fwdPosition's stages, so that the contacts can be changed between collision and constraints
-# (the composition is bit-identical to mj_fwdPosition in MuJoCo 4.0; checked by a test)
-mj_kinematics = _void_mj("mj_kinematics")
-mj_comPos = _void_mj("mj_comPos")
-mj_camlight = _void_mj("mj_camlight")
-mj_flex = _void_mj("mj_flex")
-mj_tendon = _void_mj("mj_tendon")
-mj_crb = _void_mj("mj_crb")
-mj_factorM = _void_mj("mj_factorM")
-mj_collision = _void_mj("mj_collision")
-mj_transmission = _void_mj("mj_transmission")
-mj_makeConstraint = _void_mj("mj_makeConstraint")
-mj_projectConstraint = _void_mj("mj_projectConstraint")
-mj_fwdVelocity = _void_mj("mj_fwdVelocity")
-mj_step2 = _void_mj("mj_step2")
+def new_params(**values: Any) -> np.ndarray:
+    """A one-record :data:`PARAMS` array; every field must be given."""
+    if set(values) != PARAMS_FIELDS:
+        raise TypeError(f"PARAMS fields missing: {sorted(PARAMS_FIELDS - set(values))}, "
+                        f"unknown: {sorted(set(values) - PARAMS_FIELDS)}")
+    p = np.zeros(1, PARAMS)
+    for name, v in values.items():
+        p[name] = v
+    return p
 
 
-def _add_contact(typingctx: Any, m: Any, d: Any, con: Any) -> Any:  # pragma: no cover - compile time
-    """``int mj_addContact(const mjModel*, mjData*, const mjContact*)`` with three addresses."""
+class MjArrays(NamedTuple):
+    """Views of the mjModel / mjData arrays the loop reads or writes."""
 
-    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
-        ptr = ir.IntType(8).as_pointer()
-        fn = cgutils.get_or_insert_function(  # type: ignore[no-untyped-call]
-            builder.module, ir.FunctionType(ir.IntType(32), [ptr, ptr, ptr]), "mj_addContact")
-        r = builder.call(fn, [builder.inttoptr(a, ptr) for a in args])
-        return builder.sext(r, ir.IntType(64))
-
-    return types.int64(types.int64, types.int64, types.int64), codegen
-
-
-mj_addContact: Any = intrinsic(_add_contact)
-
-
-def _ptr(dtype: Any) -> Any:
-    @intrinsic
-    def cast(typingctx: Any, addr: Any) -> Any:  # pragma: no cover - compile time
-        def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
-            ty = context.get_value_type(types.CPointer(dtype))  # type: ignore[no-untyped-call]
-            return builder.inttoptr(args[0], ty)
-
-        return types.CPointer(dtype)(types.int64), codegen  # type: ignore[no-untyped-call]
-
-    return cast
+    qpos: np.ndarray
+    qvel: np.ndarray
+    ctrl: np.ndarray
+    xpos: np.ndarray
+    xmat: np.ndarray
+    warning: np.ndarray  # d.warning.number
+    mocap_pos: np.ndarray
+    mocap_quat: np.ndarray
+    geom_size: np.ndarray
+    geom_rbound: np.ndarray
+    geom_aabb: np.ndarray
+    bvh_aabb: np.ndarray
+    geom_contype: np.ndarray
 
 
-_f64ptr = _ptr(types.float64)
-_i32ptr = _ptr(types.int32)
-_i64ptr = _ptr(types.int64)
+class RobotArrays(NamedTuple):
+    """Indices of the robot in the model (:class:`~navstress.sim.model.RobotModel`)."""
+
+    wheel_of_geom: np.ndarray  # (ngeom,) wheel index or -1
+    obstacle_of_geom: np.ndarray  # (ngeom,) obstacle index or -1 (pool slots change it)
 
 
-@numba.njit(cache=True)
-def _read_ptr(addr: int) -> int:  # pragma: no cover - compiled
-    return int(carray(_i64ptr(addr), (1,))[0])
+class SensorArrays(NamedTuple):
+    """Sensor buffers (the schedule is in STATE/PARAMS); rows ODOM, IMU, POSE, SCAN, OBSERVER."""
+
+    jitter: np.ndarray  # (5, B) pre-drawn uniforms of the rate jitter
+    samples: np.ndarray  # (5, S, 7) recorded readings (STATE.nsamples rows), see _fire
+    noise: np.ndarray  # (2, NOISE_BATCH) pre-drawn standard normals, rows IMU_NOISE, POSE_NOISE
 
 
-def ncon_address(d: mujoco.MjData) -> int:
-    """Address of ``d->ncon`` (the int right after the ``timer`` array)."""
-    td = d.timer.duration
-    return int(td.ctypes.data + td.shape[0] * td.strides[0])
+class CollisionArrays(NamedTuple):
+    """Collision bookkeeping (:func:`contact_events`)."""
+
+    current: np.ndarray  # obstacles touched after this step
+    previous: np.ndarray  # the touching set (STATE.touching entries)
+    last_touch: np.ndarray  # per obstacle: time last touched (-inf: never)
+    events: np.ndarray  # (E, 4) collision events (t, x, y, obstacle), STATE.nevent rows
 
 
-def contact_field_address(d: mujoco.MjData) -> int:
-    """Address of the pointer field ``d->contact``: mjData's 100th pointer field after ``qpos``
-    (``mujoco.introspect`` checks that), found by locating the ``qpos`` field's value."""
-    from mujoco.introspect import structs
+class WheelContactArrays(NamedTuple):
+    """Analytic wheel contacts (:func:`_add_wheel_contacts`); no wheel geoms: off."""
 
-    names = [f.name for f in structs.STRUCTS["mjData"].fields]
-    gap = names.index("contact") - names.index("qpos")
-    base = ncon_address(d)
-    words = np.ctypeslib.as_array((ctypes.c_uint64 * 1024).from_address(base))
-    # the qpos value must be followed, at their offsets, by the addresses of the other arrays
-    # that mjData exposes (a lone qpos/qvel pair can also occur elsewhere in memory by chance,
-    # and the ``buffer`` field before it holds the same address as qpos)
-    q = names.index("qpos")
-    checks = [(names.index(f) - q, getattr(d, f).ctypes.data) for f in
-              ("qvel", "qacc_warmstart", "ctrl", "qfrc_applied", "xfrc_applied", "mocap_pos")
-              if f in names and getattr(d, f).size > 0]
-    hits = [h for h in np.flatnonzero(words == d.qpos.ctypes.data)
-            if all(h + off < len(words) and words[h + off] == addr for off, addr in checks)]
-    if len(hits) != 1:
-        raise SimulationError(f"MuJoCo {mujoco.__version__}: cannot locate mjData.qpos ({len(hits)} candidates)")
-    return int(base + 8 * (int(hits[0]) + gap))
+    wheel_geom: np.ndarray  # wheel geoms (empty: MuJoCo's collision makes the contacts)
+    hfield: np.ndarray  # terrain heights (rows y, columns x; grid in PARAMS.hfield_*)
+    template: np.ndarray  # raw bytes of a MuJoCo wheel-ground contact (mjabi.CF float64)
+    scratch: np.ndarray  # (4, 7) contacts of one wheel
 
 
-@numba.njit(cache=True)
-def _read_ncon(addr: int) -> int:  # pragma: no cover - compiled
-    return int(carray(_i32ptr(addr), (1,))[0])
+GROUPS = (MjArrays, RobotArrays, PoolArrays, SensorArrays, CollisionArrays, WheelContactArrays)
+# where each group ends in run_steps' flat argument list
+_E_MJ = len(MjArrays._fields)
+_E_ROBOT = _E_MJ + len(RobotArrays._fields)
+_E_POOL = _E_ROBOT + len(PoolArrays._fields)
+_E_SENSORS = _E_POOL + len(SensorArrays._fields)
+_E_COLLISIONS = _E_SENSORS + len(CollisionArrays._fields)
+_E_WHEELS = _E_COLLISIONS + len(WheelContactArrays._fields)
 
 
-@numba.njit(cache=True)
-def _read_contacts(addr: int, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover
-    cf = carray(_f64ptr(addr), (n * _CF,))
-    ci = carray(_i32ptr(addr), (n * _CI,))
-    pos, frame, fr, geom = np.zeros((n, 3)), np.zeros((n, 9)), np.zeros((n, 5)), np.zeros((n, 2), np.int64)
-    for i in range(n):
-        for a in range(3):
-            pos[i, a] = cf[i * _CF + CON_POS // 8 + a]
-        for a in range(9):
-            frame[i, a] = cf[i * _CF + CON_FRAME // 8 + a]
-        for a in range(5):
-            fr[i, a] = cf[i * _CF + CON_FRICTION // 8 + a]
-        for a in range(2):
-            geom[i, a] = ci[i * _CI + CON_GEOM // 4 + a]
-    return pos, frame, fr, geom
-
-
-_LAYOUT_OK: list[bool] = []
-
-
-def check_layout() -> None:
-    """Check the raw ``ncon``/``mjContact`` reads against the Python bindings on a small model."""
-    if _LAYOUT_OK:
-        return
-    if not _LIBS:
-        raise SimulationError(f"libmujoco not found beside {mujoco.__file__}")
-    m = mujoco.MjModel.from_xml_string(
-        '<mujoco><worldbody><geom type="plane" size="5 5 1"/><body pos="0.1 0.2 0.09" euler="0 0 0.3">'
-        '<freejoint/><geom type="box" size=".1 .2 .1"/></body></worldbody></mujoco>')
-    d = mujoco.MjData(m)
-    mujoco.mj_forward(m, d)
-    c = d.contact
-    ok = d.ncon == 4 and _read_ncon(ncon_address(d)) == d.ncon and c.dist.strides[0] == CON_SIZE
-    if ok:
-        ok = _read_ptr(contact_field_address(d)) == c.dist.ctypes.data
-        pos, frame, fr, geom = _read_contacts(_read_ptr(contact_field_address(d)), d.ncon)
-        ok = ok and (np.array_equal(pos, c.pos) and np.array_equal(frame, c.frame) and np.array_equal(fr, c.friction)
-              and np.array_equal(geom, c.geom))
-    if not ok:
-        raise SimulationError(f"MuJoCo {mujoco.__version__}: unexpected mjData/mjContact memory layout "
-                              "(navstress.sim._step assumes MuJoCo 4.0's)")
-    _LAYOUT_OK.append(True)
+def loop_arrays(mj: MjArrays, robot: RobotArrays, pool: PoolArrays, sensors: SensorArrays,
+                collisions: CollisionArrays, wheels: WheelContactArrays) -> tuple[np.ndarray, ...]:
+    """The array groups as :func:`run_steps` takes them (one flat tuple, in :data:`GROUPS` order)."""
+    groups = (mj, robot, pool, sensors, collisions, wheels)
+    for g, cls in zip(groups, GROUPS):
+        if type(g) is not cls:
+            raise TypeError(f"expected {cls.__name__}, got {type(g).__name__}")
+    return tuple(a for g in groups for a in g)
 
 
 def contact_template(m: mujoco.MjModel, d0: mujoco.MjData, wheel_geoms: np.ndarray, chassis_qpos: int) -> np.ndarray:
-    """The raw bytes (as 76 float64) of a wheel-ground contact as MuJoCo's collision makes it
-    (solref, solimp, friction mixing, dim ...): the chassis of a scratch copy of ``d0`` is lowered
-    until a wheel touches the ground."""
+    """The raw bytes (as mjabi.CF float64) of a wheel-ground contact as MuJoCo's collision makes
+    it (solref, solimp, friction mixing, dim ...): the chassis of a scratch copy of ``d0`` is
+    lowered until a wheel touches the ground."""
     d = mujoco.MjData(m)
     d.qpos[:] = d0.qpos
     d.mocap_pos[:] = d0.mocap_pos
@@ -235,27 +210,25 @@ def contact_template(m: mujoco.MjModel, d0: mujoco.MjData, wheel_geoms: np.ndarr
         mujoco.mj_forward(m, d)
         for i in range(d.ncon):
             if int(d.contact.geom[i, 0]) in wheels or int(d.contact.geom[i, 1]) in wheels:
-                base = _read_ptr(contact_field_address(d)) + i * CON_SIZE
-                return np.ctypeslib.as_array((ctypes.c_double * _CF).from_address(base)).copy()
+                return contact_row(d, i)
     raise SimulationError("no wheel-ground contact found to copy contact parameters from")
 
 
 @numba.njit(cache=True)
 def _add_wheel_contacts(maddr: int, daddr: int, xpos: np.ndarray, wbody: np.ndarray, wgeom: np.ndarray,
-                        terrain: int, hf: np.ndarray, grid: np.ndarray, tmpl: np.ndarray,
-                        cbuf: np.ndarray) -> int:  # pragma: no cover - compiled
+                        terrain: int, hf: np.ndarray, x0: float, y0: float, dx: float, dy: float, r: float,
+                        tmpl: np.ndarray, cbuf: np.ndarray) -> int:  # pragma: no cover - compiled
     """Add every wheel's sphere-terrain contacts (:func:`sphere_terrain_contacts`) to MuJoCo's
     contact list, copying ``tmpl`` (a MuJoCo wheel-ground contact) for the other fields."""
     ti = tmpl.view(np.int32)
     added = 0
     for w in range(wgeom.shape[0]):  # no wheel geoms given: MuJoCo's collision makes the contacts
         b = wbody[w]
-        nc = sphere_terrain_contacts(xpos[b, 0], xpos[b, 1], xpos[b, 2], grid[4], hf, grid[0], grid[1], grid[2],
-                                     grid[3], cbuf)
+        nc = sphere_terrain_contacts(xpos[b, 0], xpos[b, 1], xpos[b, 2], r, hf, x0, y0, dx, dy, cbuf)
         for k in range(nc):
             nx, ny, nz = cbuf[k, 4], cbuf[k, 5], cbuf[k, 6]
-            tmpl[0] = cbuf[k, 0]
-            tmpl[1], tmpl[2], tmpl[3] = cbuf[k, 1], cbuf[k, 2], cbuf[k, 3]
+            tmpl[CF_DIST] = cbuf[k, 0]
+            tmpl[CF_POS], tmpl[CF_POS + 1], tmpl[CF_POS + 2] = cbuf[k, 1], cbuf[k, 2], cbuf[k, 3]
             # frame: normal, then any orthonormal tangents (the skid-steer rewrite turns them)
             if abs(nz) < 0.9:
                 tx, ty, tz = ny, -nx, 0.0
@@ -263,44 +236,43 @@ def _add_wheel_contacts(maddr: int, daddr: int, xpos: np.ndarray, wbody: np.ndar
                 tx, ty, tz = 0.0, nz, -ny
             ln = (tx * tx + ty * ty + tz * tz) ** 0.5
             tx, ty, tz = tx / ln, ty / ln, tz / ln
-            f = CON_FRAME // 8
+            f = CF_FRAME
             tmpl[f], tmpl[f + 1], tmpl[f + 2] = nx, ny, nz
             tmpl[f + 3], tmpl[f + 4], tmpl[f + 5] = tx, ty, tz
             tmpl[f + 6], tmpl[f + 7], tmpl[f + 8] = ny * tz - nz * ty, nz * tx - nx * tz, nx * ty - ny * tx
-            g = CON_GEOM // 4
-            ti[g - 2], ti[g - 1], ti[g], ti[g + 1] = terrain, wgeom[w], terrain, wgeom[w]
-            ti[CON_EFC // 4] = -1
-            ti[CON_EXCLUDE // 4] = 0
-            if mj_addContact(maddr, daddr, tmpl.ctypes.data) == 0:
+            ti[CI_GEOM1], ti[CI_GEOM2], ti[CI_GEOM], ti[CI_GEOM + 1] = terrain, wgeom[w], terrain, wgeom[w]
+            ti[CI_EFC] = -1
+            ti[CI_EXCLUDE] = 0
+            if add_contact(maddr, daddr, tmpl):
                 added += 1
     return added
 
 
 @numba.njit(cache=True)
-def _align_wheel_contacts(cf: np.ndarray, ci: np.ndarray, n: int, wheel_of_geom: np.ndarray, qvel: np.ndarray,
+def _align_wheel_contacts(cf: np.ndarray, ci: np.ndarray, wheel_of_geom: np.ndarray, qvel: np.ndarray,
                           cm: np.ndarray, cpos: np.ndarray, xpos: np.ndarray, wbody: np.ndarray,
                           wdof: np.ndarray, mu: float, floor: float, eps: float) -> int:  # pragma: no cover
     """Turn wheel contact frames to (normal, rolling, lateral) and split ``mu`` by slip direction.
 
-    ``cf``/``ci``: the contact array as float64/int32. The pyramidal limits become
-    ``mu*|s_roll|/|s|`` and ``mu*|s_lat|/|s|`` (at least ``floor*mu``; full ``mu`` both ways when
-    ``|s| << eps``), with ``s`` the wheel's slip velocity at the contact at the start of the step:
-    Coulomb friction opposing the slip, one step late. Returns the number of contacts changed.
+    ``cf``/``ci``: the contacts as rows of float64/int32 (:func:`navstress.sim.mjabi.contacts`).
+    The pyramidal limits become ``mu*|s_roll|/|s|`` and ``mu*|s_lat|/|s|`` (at least
+    ``floor*mu``; full ``mu`` both ways when ``|s| << eps``), with ``s`` the wheel's slip velocity
+    at the contact at the start of the step: Coulomb friction opposing the slip, one step late.
+    Returns the number of contacts changed.
     """
     k = 0
     ax, ay, az = cm[1], cm[4], cm[7]  # wheel axle = chassis y axis
     wx = cm[0] * qvel[3] + cm[1] * qvel[4] + cm[2] * qvel[5]
     wy = cm[3] * qvel[3] + cm[4] * qvel[4] + cm[5] * qvel[5]
     wz = cm[6] * qvel[3] + cm[7] * qvel[4] + cm[8] * qvel[5]
-    gi, pi, fi, ri = CON_GEOM // 4, CON_POS // 8, CON_FRAME // 8, CON_FRICTION // 8
-    for i in range(n):
-        w = wheel_of_geom[ci[i * _CI + gi]]
+    fi, pi, ri = CF_FRAME, CF_POS, CF_FRICTION
+    for i in range(cf.shape[0]):
+        w = wheel_of_geom[ci[i, CI_GEOM]]
         if w < 0:
-            w = wheel_of_geom[ci[i * _CI + gi + 1]]
+            w = wheel_of_geom[ci[i, CI_GEOM + 1]]
         if w < 0:
             continue
-        f0 = i * _CF + fi
-        nx, ny, nz = cf[f0], cf[f0 + 1], cf[f0 + 2]
+        nx, ny, nz = cf[i, fi], cf[i, fi + 1], cf[i, fi + 2]
         tx = ay * nz - az * ny
         ty = az * nx - ax * nz
         tz = ax * ny - ay * nx
@@ -313,15 +285,14 @@ def _align_wheel_contacts(cf: np.ndarray, ci: np.ndarray, n: int, wheel_of_geom:
         ux = ny * tz - nz * ty
         uy = nz * tx - nx * tz
         uz = nx * ty - ny * tx
-        cf[f0 + 3] = tx
-        cf[f0 + 4] = ty
-        cf[f0 + 5] = tz
-        cf[f0 + 6] = ux
-        cf[f0 + 7] = uy
-        cf[f0 + 8] = uz
+        cf[i, fi + 3] = tx
+        cf[i, fi + 4] = ty
+        cf[i, fi + 5] = tz
+        cf[i, fi + 6] = ux
+        cf[i, fi + 7] = uy
+        cf[i, fi + 8] = uz
         spin = qvel[wdof[w]]
-        p0 = i * _CF + pi
-        px, py, pz = cf[p0], cf[p0 + 1], cf[p0 + 2]
+        px, py, pz = cf[i, pi], cf[i, pi + 1], cf[i, pi + 2]
         rx, ry, rz = px - cpos[0], py - cpos[1], pz - cpos[2]
         vx = qvel[0] + wy * rz - wz * ry
         vy = qvel[1] + wz * rx - wx * rz
@@ -335,31 +306,10 @@ def _align_wheel_contacts(cf: np.ndarray, ci: np.ndarray, n: int, wheel_of_geom:
         st = vx * ux + vy * uy + vz * uz
         mag = (sl * sl + st * st + eps * eps) ** 0.5
         e = eps / mag
-        cf[i * _CF + ri] = mu * max(abs(sl) / mag, e, floor)
-        cf[i * _CF + ri + 1] = mu * max(abs(st) / mag, e, floor)
+        cf[i, ri] = mu * max(abs(sl) / mag, e, floor)
+        cf[i, ri + 1] = mu * max(abs(st) / mag, e, floor)
         k += 1
     return k
-
-
-@numba.njit(cache=True)
-def fwd_position_collision(maddr: int, daddr: int) -> None:  # pragma: no cover - compiled
-    """First part of ``mj_fwdPosition``: kinematics, inertia, factorisation, collision."""
-    mj_kinematics(maddr, daddr)
-    mj_comPos(maddr, daddr)
-    mj_camlight(maddr, daddr)
-    mj_flex(maddr, daddr)
-    mj_tendon(maddr, daddr)
-    mj_crb(maddr, daddr)
-    mj_factorM(maddr, daddr)
-    mj_collision(maddr, daddr)
-
-
-@numba.njit(cache=True)
-def fwd_position_constraints(maddr: int, daddr: int) -> None:  # pragma: no cover - compiled
-    """Rest of ``mj_fwdPosition`` (without constraint islands: the model disables them)."""
-    mj_makeConstraint(maddr, daddr)
-    mj_transmission(maddr, daddr)
-    mj_projectConstraint(maddr, daddr)
 
 
 @numba.njit(cache=True)
@@ -501,53 +451,58 @@ def sphere_terrain_contacts(cx: float, cy: float, cz: float, r: float, hf: np.nd
     return nface
 
 
+
 @numba.njit(cache=True)
-def _drive(F: np.ndarray, qpos: np.ndarray, qvel: np.ndarray, ctrl: np.ndarray,
+def _drive(s: Any, p: Any, qpos: np.ndarray, qvel: np.ndarray, ctrl: np.ndarray,
            wqpos: np.ndarray) -> None:  # pragma: no cover - compiled
-    """Robot firmware: ramp to the acceleration limits, yaw-rate PI on the gyro, wheel-angle hold.
+    """Robot firmware: ramp to the acceleration limits, yaw-rate PI on the gyro, wheel-angle hold
+    (``s``: a :data:`STATE` record, ``p``: a :data:`PARAMS` record).
 
     Each wheel tracks the integral of its speed command (bounded lag 0.5 rad), so a stopped
     robot holds on a slope instead of creeping at torque / kv."""
-    dt = F[F_DT]
-    F[F_V] += min(max(F[F_TV] - F[F_V], -F[F_DV]), F[F_DV])
-    F[F_W] += min(max(F[F_TW] - F[F_W], -F[F_DW]), F[F_DW])
-    err = F[F_W] - qvel[5]  # free joint: body-frame angular velocity
-    F[F_YAWI] = min(max(F[F_YAWI] + err * dt, -0.5), 0.5)
-    dw_cmd = F[F_SKID] * F[F_W] + F[F_KP] * err + F[F_KI] * F[F_YAWI]
-    left = (F[F_V] - dw_cmd * F[F_HALFTRACK]) / F[F_RADIUS]
-    right = (F[F_V] + dw_cmd * F[F_HALFTRACK]) / F[F_RADIUS]
+    dt = p.dt
+    s.v += min(max(s.tv - s.v, -p.dv), p.dv)
+    s.w += min(max(s.tw - s.w, -p.dw), p.dw)
+    err = s.w - qvel[5]  # free joint: body-frame angular velocity
+    s.yaw_i = min(max(s.yaw_i + err * dt, -0.5), 0.5)
+    dw_cmd = p.skid * s.w + p.kp * err + p.ki * s.yaw_i
+    left = (s.v - dw_cmd * p.half_track) / p.wheel_radius
+    right = (s.v + dw_cmd * p.half_track) / p.wheel_radius
+    ref = s.ref
     for i in range(4):
         cmd = left if i < 2 else right
         a = qpos[wqpos[i]]
-        e = min(max(F[F_REF + i] + cmd * dt - a, -0.5), 0.5)
-        F[F_REF + i] = a + e
-        ctrl[i] = cmd + F[F_HOLD] * e
+        e = min(max(ref[i] + cmd * dt - a, -0.5), 0.5)
+        ref[i] = a + e
+        ctrl[i] = cmd + p.hold * e
 
 
 @numba.njit(cache=True)
-def odom_update(F: np.ndarray, a0: float, a1: float, a2: float, a3: float, t: float) -> None:  # pragma: no cover
-    """:meth:`navstress.sim.sensors.WheelOdometry.update` on the state in ``F`` (same arithmetic):
-    wheel angles FL, RL, FR, RR at time ``t``; exact-arc integration."""
-    d0, d1, d2, d3 = a0 - F[F_OA], a1 - F[F_OA + 1], a2 - F[F_OA + 2], a3 - F[F_OA + 3]
-    F[F_OA], F[F_OA + 1], F[F_OA + 2], F[F_OA + 3] = a0, a1, a2, a3
-    r = F[F_OR]
+def odom_update(s: Any, p: Any, a0: float, a1: float, a2: float, a3: float, t: float) -> None:  # pragma: no cover
+    """:meth:`navstress.sim.sensors.WheelOdometry.update` on the :data:`STATE` record ``s`` with
+    the :data:`PARAMS` record ``p`` (same arithmetic): wheel angles FL, RL, FR, RR at time ``t``;
+    exact-arc integration."""
+    oa = s.odom_a
+    d0, d1, d2, d3 = a0 - oa[0], a1 - oa[1], a2 - oa[2], a3 - oa[3]
+    oa[0], oa[1], oa[2], oa[3] = a0, a1, a2, a3
+    r = p.odom_radius
     dl = r * 0.5 * (d0 + d1)
     dr = r * 0.5 * (d2 + d3)
     ds = 0.5 * (dl + dr)
-    dth = (dr - dl) / F[F_OTRACK]
-    yaw = F[F_OYAW]
+    dth = (dr - dl) / p.odom_track
+    yaw = s.odom_yaw
     if abs(dth) > 1e-9:
         k = ds / dth
-        F[F_OX] += k * (math.sin(yaw + dth) - math.sin(yaw))
-        F[F_OY] += k * (math.cos(yaw) - math.cos(yaw + dth))
+        s.odom_x += k * (math.sin(yaw + dth) - math.sin(yaw))
+        s.odom_y += k * (math.cos(yaw) - math.cos(yaw + dth))
     else:
-        F[F_OX] += ds * math.cos(yaw)
-        F[F_OY] += ds * math.sin(yaw)
-    F[F_OYAW] = (yaw + dth + math.pi) % (2 * math.pi) - math.pi
-    dt = t - F[F_OT]
-    F[F_OT] = t
+        s.odom_x += ds * math.cos(yaw)
+        s.odom_y += ds * math.sin(yaw)
+    s.odom_yaw = (yaw + dth + math.pi) % (2 * math.pi) - math.pi
+    dt = t - s.odom_t
+    s.odom_t = t
     if dt > 0:
-        F[F_OV], F[F_OW] = ds / dt, dth / dt
+        s.odom_v, s.odom_w = ds / dt, dth / dt
 
 
 @numba.njit(cache=True)
@@ -569,9 +524,8 @@ def _wrap(a: float) -> float:  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def _fire(k: int, I: np.ndarray, F: np.ndarray, qpos: np.ndarray, qvel: np.ndarray, wqpos: np.ndarray,
-          next_k: np.ndarray, period: np.ndarray, jit: np.ndarray, jit_idx: np.ndarray, samples: np.ndarray,
-          nsamp: np.ndarray, noise: np.ndarray) -> int:  # pragma: no cover - compiled
+def _fire(k: int, s: Any, p: Any, qpos: np.ndarray, qvel: np.ndarray, wqpos: np.ndarray,
+          sens: SensorArrays) -> int:  # pragma: no cover - compiled
     """Record the readings of the sensors due at step ``k``; LIDAR when the lidar is due (its
     schedule already advanced), FLUSH when a buffer is full or a noise/jitter row used up
     (nothing recorded for that sensor).
@@ -580,157 +534,156 @@ def _fire(k: int, I: np.ndarray, F: np.ndarray, qpos: np.ndarray, qvel: np.ndarr
     (t, x, y, z, yaw, pitch, roll) with their noise, as ``ImuSensor.read``/``PoseSensor.read``
     compute it from the same standard normals (``noise``, pre-drawn in order); observer
     (t, x, y, z, yaw, pitch, roll), true."""
+    next_k, period, jit, jit_idx = s.next_k, p.period, sens.jitter, s.jitter_idx
+    samples, nsamp, noise = sens.samples, s.nsamples, sens.noise
     status = DONE
-    t = k * F[F_DT]
-    noisy = I[I_NOISE] != 0
+    t = k * p.dt
+    noisy = p.noise != 0
     nb = noise.shape[1]
-    for s in range(NSENSORS):
-        if next_k[s] > k:
+    for sn in range(NSENSORS):
+        if next_k[sn] > k:
             continue
-        jittered = I[I_JITTER] != 0 and F[F_RATEJIT] > 0 and s != OBSERVER
-        if (s != SCAN and nsamp[s] >= samples.shape[1]) or (jittered and jit_idx[s] >= jit.shape[1]):
+        jittered = p.jitter != 0 and p.rate_jitter > 0 and sn != OBSERVER
+        if (sn != SCAN and nsamp[sn] >= samples.shape[1]) or (jittered and jit_idx[sn] >= jit.shape[1]):
             return status | FLUSH
-        if noisy and ((s == IMU and I[I_NIMU] + 7 > nb) or (s == POSE and I[I_NPOSE] + 6 > nb)):
+        if noisy and ((sn == IMU and s.n_imu + 7 > nb) or (sn == POSE and s.n_pose + 6 > nb)):
             return status | FLUSH
-        if s == SCAN:
+        if sn == SCAN:
             status |= LIDAR
         else:
-            row = samples[s, nsamp[s]]
+            row = samples[sn, nsamp[sn]]
             row[0] = t
-            if s == ODOM:  # integrated here; the row is the reading (t, x, y, yaw, v, omega)
-                odom_update(F, qpos[wqpos[0]], qpos[wqpos[1]], qpos[wqpos[2]], qpos[wqpos[3]], t)
-                row[1], row[2], row[3], row[4], row[5] = F[F_OX], F[F_OY], F[F_OYAW], F[F_OV], F[F_OW]
+            if sn == ODOM:  # integrated here; the row is the reading (t, x, y, yaw, v, omega)
+                odom_update(s, p, qpos[wqpos[0]], qpos[wqpos[1]], qpos[wqpos[2]], qpos[wqpos[3]], t)
+                row[1], row[2], row[3], row[4], row[5] = s.odom_x, s.odom_y, s.odom_yaw, s.odom_v, s.odom_w
             else:
                 yaw, pitch, roll = _euler(qpos)
-                if s == IMU:
+                if sn == IMU:
                     wx, wy, wz = qvel[3], qvel[4], qvel[5]
                     if noisy:  # ImuSensor.read: bias random walk, white noise
-                        j = I[I_NIMU]
+                        j = s.n_imu
                         e = noise[IMU_NOISE]
-                        F[F_IBIAS] += F[F_IDRIFT] * math.sqrt(max(t - F[F_IT], 0.0)) * e[j]
-                        a, rs = F[F_IATT], F[F_IRATE]
+                        s.imu_bias += p.imu_drift * math.sqrt(max(t - s.imu_t, 0.0)) * e[j]
+                        a, rs = p.imu_att, p.imu_rate
                         row[1], row[2] = roll + a * e[j + 1], pitch + a * e[j + 2]
-                        row[3] = _wrap(yaw + F[F_IBIAS] + a * e[j + 3])
+                        row[3] = _wrap(yaw + s.imu_bias + a * e[j + 3])
                         row[4], row[5], row[6] = wx + rs * e[j + 4], wy + rs * e[j + 5], wz + rs * e[j + 6]
-                        I[I_NIMU] = j + 7
+                        s.n_imu = j + 7
                     else:
                         row[1], row[2], row[3], row[4], row[5], row[6] = roll, pitch, yaw, wx, wy, wz
-                    F[F_IT] = t
-                elif s == POSE and noisy:  # PoseSensor.read: independent Gaussian noise
-                    j = I[I_NPOSE]
+                    s.imu_t = t
+                elif sn == POSE and noisy:  # PoseSensor.read: independent Gaussian noise
+                    j = s.n_pose
                     e = noise[POSE_NOISE]
-                    p, a = F[F_PPOS], F[F_PATT]
-                    row[1], row[2], row[3] = qpos[0] + p * e[j], qpos[1] + p * e[j + 1], qpos[2] + p * e[j + 2]
+                    pp, a = p.pose_pos, p.pose_att
+                    row[1], row[2], row[3] = qpos[0] + pp * e[j], qpos[1] + pp * e[j + 1], qpos[2] + pp * e[j + 2]
                     row[4], row[5], row[6] = _wrap(yaw + a * e[j + 3]), pitch + a * e[j + 4], roll + a * e[j + 5]
-                    I[I_NPOSE] = j + 6
+                    s.n_pose = j + 6
                 else:  # pose without noise, observer
                     row[1], row[2], row[3], row[4], row[5], row[6] = qpos[0], qpos[1], qpos[2], yaw, pitch, roll
-            nsamp[s] += 1
-        p = period[s]
+            nsamp[sn] += 1
+        per = period[sn]
         if jittered:
-            p *= 1.0 + F[F_RATEJIT] * (2.0 * jit[s, jit_idx[s]] - 1.0)
-            jit_idx[s] += 1
-        next_k[s] = k + max(1, int(np.rint(p / F[F_DT])))
+            per *= 1.0 + p.rate_jitter * (2.0 * jit[sn, jit_idx[sn]] - 1.0)
+            jit_idx[sn] += 1
+        next_k[sn] = k + max(1, int(np.rint(per / p.dt)))
     return status
 
 
 @numba.njit(cache=True)
-def contact_events(t: float, x: float, y: float, cur: np.ndarray, ncur: int, prev: np.ndarray, I: np.ndarray,
+def contact_events(t: float, x: float, y: float, cur: np.ndarray, ncur: int, prev: np.ndarray, s: Any,
                    last_touch: np.ndarray, debounce: float, events: np.ndarray) -> bool:  # pragma: no cover
     """:meth:`Observer.contacts` on arrays: ``cur[:ncur]`` (distinct obstacle indices) is the
-    touching set after the step at ``t``, ``prev[:I[I_TOUCHING]]`` the previous one. A newly
-    touched obstacle counts a start (``I[I_STARTS]``) and, when last touched more than
-    ``debounce`` ago (``last_touch``, -inf: never), appends a collision event (t, x, y, obstacle)
-    to ``events`` (``I[I_NEVENT]`` rows). Returns False when ``events`` is now full."""
+    touching set after the step at ``t``, ``prev[:s.touching]`` the previous one (``s``: a
+    :data:`STATE` record). A newly touched obstacle counts a start (``s.starts``) and, when last
+    touched more than ``debounce`` ago (``last_touch``, -inf: never), appends a collision event
+    (t, x, y, obstacle) to ``events`` (``s.nevent`` rows). Returns False when ``events`` is now
+    full."""
     for i in range(ncur):
         o = cur[i]
         new = True
-        for j in range(I[I_TOUCHING]):
+        for j in range(s.touching):
             if prev[j] == o:
                 new = False
                 break
         if new:
-            I[I_STARTS] += 1
+            s.starts += 1
             if t - last_touch[o] > debounce:
-                e = I[I_NEVENT]
+                e = s.nevent
                 events[e, 0], events[e, 1], events[e, 2], events[e, 3] = t, x, y, o
-                I[I_NEVENT] = e + 1
+                s.nevent = e + 1
         last_touch[o] = t
     for i in range(ncur):
         prev[i] = cur[i]
-    I[I_TOUCHING] = ncur
-    return bool(I[I_NEVENT] + ncur < events.shape[0])
+    s.touching = ncur
+    return bool(s.nevent + ncur < events.shape[0])
 
 
 @numba.njit(cache=True)
-def run_steps(maddr: int, daddr: int, ncon_addr: int, con_field: int, k_stop: int, I: np.ndarray, F: np.ndarray,
-              qpos: np.ndarray, qvel: np.ndarray, ctrl: np.ndarray, xpos: np.ndarray, xmat: np.ndarray,
-              warn: np.ndarray, bad_warn: np.ndarray, bodies: np.ndarray, wqpos: np.ndarray, wdof: np.ndarray,
-              wheel_of_geom: np.ndarray, obstacle_of_geom: np.ndarray, contact_out: np.ndarray,
-              contact_prev: np.ndarray, last_touch: np.ndarray, events: np.ndarray,
-              pool_every: int, pc: np.ndarray, ph: np.ndarray, pq: np.ndarray, preach: np.ndarray,
-              pdist: np.ndarray, slot_obstacle: np.ndarray, slot_geom: np.ndarray, slot_mocap: np.ndarray,
-              slot_bvh: np.ndarray, mocap_pos: np.ndarray, mocap_quat: np.ndarray, geom_size: np.ndarray,
-              geom_rbound: np.ndarray, geom_aabb: np.ndarray, bvh_aabb: np.ndarray, geom_contype: np.ndarray,
-              contype: int, park_z: float, next_k: np.ndarray, period: np.ndarray, jit: np.ndarray,
-              jit_idx: np.ndarray, samples: np.ndarray, nsamp: np.ndarray, noise: np.ndarray, wgeom: np.ndarray,
-              terrain: int, hf: np.ndarray, grid: np.ndarray, tmpl: np.ndarray,
-              cbuf: np.ndarray) -> int:  # pragma: no cover
+def run_steps(k_stop: int, state: np.ndarray, params: np.ndarray, *arrays: np.ndarray) -> int:  # pragma: no cover
     """Fire the sensors due at the current step, then step until ``k_stop`` (or an event).
 
-    ``bodies`` = (chassis, bumper geom, wheel bodies x4). Returns the status bits; the step count
-    is ``I[I_K]``. The pending command (``I[I_CMDK]``) is applied at the start of its step. Bumper contacts go through :func:`contact_events` (collision events in
-    ``events[:I[I_NEVENT]]``, contact starts counted in ``I[I_STARTS]``); FLUSH also when the event
-    buffer is full. The up-vector z is in ``F[F_UPZ]``.
+    ``state``/``params``: one-record :data:`STATE`/:data:`PARAMS` arrays; ``arrays``: the groups
+    as :func:`loop_arrays` flattens them. Returns the status bits (see :func:`_steps`)."""
+    return _steps(k_stop, state[0], params[0], MjArrays(*arrays[:_E_MJ]), RobotArrays(*arrays[_E_MJ:_E_ROBOT]),
+                  PoolArrays(*arrays[_E_ROBOT:_E_POOL]), SensorArrays(*arrays[_E_POOL:_E_SENSORS]),
+                  CollisionArrays(*arrays[_E_SENSORS:_E_COLLISIONS]),
+                  WheelContactArrays(*arrays[_E_COLLISIONS:_E_WHEELS]))
+
+
+@numba.njit(cache=True)
+def _steps(k_stop: int, s: Any, p: Any, mj: MjArrays, rb: RobotArrays, pool: PoolArrays, sens: SensorArrays,
+           col: CollisionArrays, wc: WheelContactArrays) -> int:  # pragma: no cover - compiled
+    """:func:`run_steps` on the records and groups. The step count is ``s.k``. The pending
+    command (``s.cmd_k``) is applied at the start of its step. Bumper contacts go through
+    :func:`contact_events` (collision events in ``col.events[:s.nevent]``, contact starts counted
+    in ``s.starts``); FLUSH also when the event buffer is full. The up-vector z is in ``s.up_z``.
     """
-    chassis, bumper = bodies[0], bodies[1]
-    wbody = bodies[2:6]
+    maddr, daddr, ncon_addr, con_field = p.model, p.data, p.ncon_addr, p.contact_field
+    chassis, bumper = p.chassis, p.bumper
+    qpos, qvel, xpos = mj.qpos, mj.qvel, mj.xpos
+    wbody, wqpos, obstacle_of_geom, contact_out = p.wheel_body, p.wheel_qpos, rb.obstacle_of_geom, col.current
+    pool_every = p.pool_every
     while True:
-        k = I[I_K]
-        st = _fire(k, I, F, qpos, qvel, wqpos, next_k, period, jit, jit_idx, samples, nsamp, noise)
+        k = s.k
+        st = _fire(k, s, p, qpos, qvel, wqpos, sens)
         if st != DONE or k >= k_stop:
             return st
         # ---- one physics step
-        if k >= I[I_CMDK]:  # the pending command takes effect at the start of its step
-            F[F_TV], F[F_TW] = F[F_CMDV], F[F_CMDW]
-            I[I_CMDK] = NO_CMD
-        _drive(F, qpos, qvel, ctrl, wqpos)
+        if k >= s.cmd_k:  # the pending command takes effect at the start of its step
+            s.tv, s.tw = s.cmd_v, s.cmd_w
+            s.cmd_k = NO_CMD
+        _drive(s, p, qpos, qvel, mj.ctrl, wqpos)
         if pool_every > 0 and k % pool_every == 0:
-            fill_obstacle_slots(qpos[0], qpos[1], pc, ph, pq, preach, pdist, slot_obstacle, slot_geom, slot_mocap,
-                                slot_bvh, obstacle_of_geom, mocap_pos, mocap_quat, geom_size, geom_rbound,
-                                geom_aabb, bvh_aabb, geom_contype, park_z, contype)
+            fill_obstacle_slots(qpos[0], qpos[1], pool, obstacle_of_geom, mj.mocap_pos, mj.mocap_quat, mj.geom_size,
+                                mj.geom_rbound, mj.geom_aabb, mj.bvh_aabb, mj.geom_contype, p.park_z, p.pool_contype)
         fwd_position_collision(maddr, daddr)
-        _add_wheel_contacts(maddr, daddr, xpos, wbody, wgeom, terrain, hf, grid, tmpl, cbuf)
-        n = _read_ncon(ncon_addr)
-        con_addr = _read_ptr(con_field)
-        cf = carray(_f64ptr(con_addr), (n * _CF,))
-        ci = carray(_i32ptr(con_addr), (n * _CI,))
-        if n > 0:
-            _align_wheel_contacts(cf, ci, n, wheel_of_geom, qvel, xmat[chassis], xpos[chassis], xpos, wbody, wdof,
-                                  F[F_MU], F[F_FLOOR], F[F_EPS])
+        _add_wheel_contacts(maddr, daddr, xpos, wbody, wc.wheel_geom, p.terrain, wc.hfield, p.hfield_x0,
+                            p.hfield_y0, p.hfield_dx, p.hfield_dy, p.wheel_radius, wc.template, wc.scratch)
+        cf, ci = contacts(ncon_addr, con_field)
+        if cf.shape[0] > 0:
+            _align_wheel_contacts(cf, ci, rb.wheel_of_geom, qvel, mj.xmat[chassis], xpos[chassis], xpos, wbody,
+                                  p.wheel_dof, p.mu, p.friction_floor, p.slip_eps)
         fwd_position_constraints(maddr, daddr)
         mj_fwdVelocity(maddr, daddr)
         mj_step2(maddr, daddr)
         k += 1
-        I[I_K] = k
+        s.k = k
         # ---- checks after the step
         sp = abs(qvel[0]) + abs(qvel[1]) + abs(qvel[2])
-        if not sp < F[F_MAXSPEED]:
+        if not sp < p.max_speed:
             return UNSTABLE
         if k % 50 == 0:
             tot = 0
-            for w in bad_warn:
-                tot += warn[w]
-            if tot != I[I_WARN0]:
+            for w in p.warning_ids:
+                tot += mj.warning[w]
+            if tot != p.warn0:
                 return UNSTABLE
         status = DONE
-        n = _read_ncon(ncon_addr)
-        con_addr = _read_ptr(con_field)
-        ci = carray(_i32ptr(con_addr), (n * _CI,))
+        cf, ci = contacts(ncon_addr, con_field)
         nk = 0
-        gi = CON_GEOM // 4
-        for i in range(n):
-            g0, g1 = ci[i * _CI + gi], ci[i * _CI + gi + 1]
+        for i in range(ci.shape[0]):
+            g0, g1 = ci[i, CI_GEOM], ci[i, CI_GEOM + 1]
             o = -1
             if g0 == bumper:
                 o = obstacle_of_geom[g1]
@@ -744,19 +697,19 @@ def run_steps(maddr: int, daddr: int, ncon_addr: int, con_field: int, k_stop: in
                 if o >= 0:
                     contact_out[nk] = o
                     nk += 1
-        I[I_NCONTACT] = nk
-        if nk > 0 or I[I_TOUCHING] > 0:
-            if not contact_events(k * F[F_DT], qpos[0], qpos[1], contact_out, nk, contact_prev, I, last_touch,
-                                  F[F_DEBOUNCE], events):
+        s.ncontact = nk
+        if nk > 0 or s.touching > 0:
+            if not contact_events(k * p.dt, qpos[0], qpos[1], contact_out, nk, col.previous, s, col.last_touch,
+                                  p.debounce, col.events):
                 status |= FLUSH  # event buffer full: Python empties it before the next step
         x, y = qpos[0], qpos[1]
-        mg = F[F_MARGIN]
-        if not (mg <= x <= F[F_SX] - mg and mg <= y <= F[F_SY] - mg):
+        mg = p.margin
+        if not (mg <= x <= p.size_x - mg and mg <= y <= p.size_y - mg):
             status |= LEFT_MAP
         qw, qx, qy, qz = qpos[3], qpos[4], qpos[5], qpos[6]
         up_z = 1.0 - 2.0 * (qx * qx + qy * qy) / (qw * qw + qx * qx + qy * qy + qz * qz)
-        F[F_UPZ] = up_z
-        if up_z < F[F_COSFLIP]:
+        s.up_z = up_z
+        if up_z < p.cos_flip:
             status |= FLIPPED
         if status != DONE:
             return status

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import mujoco
 import numba
@@ -248,15 +249,15 @@ class ObstaclePool:
         self.slot_obstacle = -np.ones(k, np.int64)
         self.mocap = np.array([m.body_mocapid[b] for b in rm.slot_bodies], np.int64)
         self.bvh = np.array([m.body_bvhadr[b] for b in rm.slot_bodies], np.int64)
-        self._dist = np.zeros(n, np.float64)
+        self.arrays = PoolArrays(self.centre, self.half, self.quat, self.reach, np.zeros(n, np.float64),
+                                 self.slot_obstacle, rm.slot_geoms, self.mocap, self.bvh)
         self.overflows = 0
 
     def update(self, data: mujoco.MjData) -> int:
         """Refill the slots for the robot's current position; returns the number of filled slots."""
         m, rm = self.rm.model, self.rm
         nfill = fill_obstacle_slots(
-            float(data.qpos[0]), float(data.qpos[1]), self.centre, self.half, self.quat, self.reach, self._dist,
-            self.slot_obstacle, rm.slot_geoms, self.mocap, self.bvh, rm.obstacle_of_geom, data.mocap_pos,
+            float(data.qpos[0]), float(data.qpos[1]), self.arrays, rm.obstacle_of_geom, data.mocap_pos,
             data.mocap_quat, m.geom_size, m.geom_rbound, m.geom_aabb, m.bvh_aabb, m.geom_contype, PARK_Z_M,
             OBSTACLE_BIT)
         if nfill < 0:
@@ -265,14 +266,34 @@ class ObstaclePool:
         return nfill
 
 
+class PoolArrays(NamedTuple):
+    """The arrays of an obstacle pool that :func:`fill_obstacle_slots` reads and updates."""
+
+    centre: np.ndarray  # (n, 3) obstacle box centres
+    half: np.ndarray  # (n, 3) half sizes
+    quat: np.ndarray  # (n, 4) orientation
+    reach: np.ndarray  # (n,) centre distance within which an obstacle is near
+    dist: np.ndarray  # (n,) scratch: gap of each obstacle
+    slot_obstacle: np.ndarray  # (K,) obstacle in each slot, -1: empty
+    slot_geom: np.ndarray  # (K,) geom of each slot
+    slot_mocap: np.ndarray  # (K,) mocap index of each slot body
+    slot_bvh: np.ndarray  # (K,) BVH node of each slot body
+
+
+def empty_pool_arrays() -> PoolArrays:
+    """The :class:`PoolArrays` of no pool (same array types as a pool's)."""
+    e2, e1, ei = np.zeros((0, 3)), np.zeros(0), np.zeros(0, np.int64)
+    return PoolArrays(e2, e2.copy(), np.zeros((0, 4)), e1, e1.copy(), ei, ei.copy(), ei.copy(), ei.copy())
+
+
 @numba.njit(cache=True)
-def fill_obstacle_slots(x: float, y: float, centre: np.ndarray, half: np.ndarray, quat: np.ndarray,
-                        reach: np.ndarray, dist: np.ndarray, slot_obstacle: np.ndarray, slot_geom: np.ndarray,
-                        slot_mocap: np.ndarray, slot_bvh: np.ndarray, obstacle_of_geom: np.ndarray,
+def fill_obstacle_slots(x: float, y: float, pool: PoolArrays, obstacle_of_geom: np.ndarray,
                         mocap_pos: np.ndarray, mocap_quat: np.ndarray, geom_size: np.ndarray,
                         geom_rbound: np.ndarray, geom_aabb: np.ndarray, bvh_aabb: np.ndarray,
                         geom_contype: np.ndarray, park_z: float, contype: int) -> int:  # pragma: no cover - compiled
     """Numba core of :meth:`ObstaclePool.update`; returns minus the count when it overflowed."""
+    centre, half, quat, reach, dist = pool.centre, pool.half, pool.quat, pool.reach, pool.dist
+    slot_obstacle, slot_geom, slot_mocap, slot_bvh = pool.slot_obstacle, pool.slot_geom, pool.slot_mocap, pool.slot_bvh
     n = centre.shape[0]
     k = slot_obstacle.shape[0]
     near = 0

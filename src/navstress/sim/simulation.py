@@ -26,15 +26,14 @@ from navstress.seeding import rng
 from navstress.sim.config import SimConfig
 from navstress.sim.lidar import Lidar, build_scene
 from navstress.sim import _step as K
-from navstress.sim.model import OBSTACLE_BIT, PARK_Z_M, ObstaclePool, RobotModel, build_model
+from navstress.sim import mjabi
+from navstress.sim.model import OBSTACLE_BIT, PARK_Z_M, ObstaclePool, RobotModel, build_model, empty_pool_arrays
 from navstress.sim.observer import CollisionEvent, Observer, StopEvent
 from navstress.world.world import World
 
 _SENSORS = ("odom", "imu", "pose", "lidar", "observer")  # the order of the _step sensor rows
 _JITTER_BATCH = 64  # rate-jitter uniforms drawn at a time from each sensor's timing generator
 _SAMPLES = 64  # raw sensor samples buffered in the compiled loop between flushes
-_BAD_WARNINGS = (mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL,
-                 mujoco.mjtWarning.mjWARN_BADQACC)
 
 
 class Simulation:
@@ -52,7 +51,7 @@ class Simulation:
                  seed: int, start: tuple[float, float, float] | None = None) -> None:
         if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
             raise SpecError("seed", seed, "an integer >= 0")
-        K.check_layout()
+        mjabi.check_layout()
         self.world, self.robot, self.config, self.seed = world, robot, config, seed
         # a pool never needs more slots than the world has obstacles (with n <= K obstacles the slots
         # fill the same way, lowest free first, and none is ever missing); an obstacle-free world has
@@ -70,7 +69,7 @@ class Simulation:
             self._pool.update(d)
         # wheel-ground contacts come from _step.sphere_terrain_contacts, not MuJoCo's hfield collision
         wgeoms = np.flatnonzero(rm.wheel_of_geom >= 0)[np.argsort(rm.wheel_of_geom[rm.wheel_of_geom >= 0])]
-        tmpl = K.contact_template(m, d, wgeoms, 0) if cfg.analytic_wheel_contacts else np.zeros(K.CON_SIZE // 8)
+        tmpl = K.contact_template(m, d, wgeoms, 0) if cfg.analytic_wheel_contacts else np.zeros(mjabi.CF)
         # the contacts are rewritten (and added) after mj_fwdPosition, which computes constraint
         # islands from the contacts; the robot is one kinematic tree: one island, none needed
         m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_ISLAND)
@@ -82,9 +81,10 @@ class Simulation:
         nrow, ncol = int(m.hfield_nrow[0]), int(m.hfield_ncol[0])
         hf = m.geom_pos[terrain][2] + hsz[2] * m.hfield_data.astype(np.float64).reshape(nrow, ncol)
         grid = np.array([m.geom_pos[terrain][0] - hsz[0], m.geom_pos[terrain][1] - hsz[1], 2 * hsz[0] / (ncol - 1),
-                         2 * hsz[1] / (nrow - 1), robot.wheel_radius_m])
-        self._wheel_args = (wgeoms.astype(np.int64) if cfg.analytic_wheel_contacts else np.zeros(0, np.int64),
-                            terrain, hf, grid, tmpl, np.zeros((4, 7)))
+                         2 * hsz[1] / (nrow - 1)])  # x0, y0, dx, dy of hf
+        wheel_arrays = K.WheelContactArrays(
+            wgeoms.astype(np.int64) if cfg.analytic_wheel_contacts else np.zeros(0, np.int64), hf, tmpl,
+            np.zeros((4, 7)))
         mujoco.mj_forward(m, d)
         self._timing = [rng(seed, "sim", "timing", n) for n in _SENSORS]
         self._latency_gen = rng(seed, "sim", "latency")
@@ -96,63 +96,62 @@ class Simulation:
         self._lidar: Lidar | None = None
         self._lidar_gen = rng(seed, "sim", "noise", "lidar")
         rates = [cfg.odom_rate_hz, cfg.imu_rate_hz, cfg.pose_rate_hz, 0.0, cfg.observer_rate_hz]
-        self._next = np.zeros(K.NSENSORS, np.int64)
+        next_k = np.zeros(K.NSENSORS, np.int64)
         if cfg.lidar_enabled:
             self._lidar = Lidar(build_scene(world), cfg.lidar)
             rates[K.SCAN] = float(cfg.lidar.rate_hz)
         else:
-            self._next[K.SCAN] = np.iinfo(np.int64).max  # never due
-        self._period = np.array([1.0 / r if r > 0 else 1.0 for r in rates])
+            next_k[K.SCAN] = np.iinfo(np.int64).max  # never due
         self._jit = np.zeros((K.NSENSORS, _JITTER_BATCH))
-        self._jit_idx = np.full(K.NSENSORS, _JITTER_BATCH, np.int64)  # drawn on first use
         self._samples = np.zeros((K.NSENSORS, _SAMPLES, 7))
-        self._nsamp = np.zeros(K.NSENSORS, np.int64)
         self.observer = Observer(cfg.collision_debounce_s)
         self._contact_buf = np.zeros(64, np.int64)
         self._contact_prev = np.zeros(64, np.int64)
         self._last_touch = np.full(max(1, len(world.obstacles)), -np.inf)  # per obstacle, for the debounce
         self._event_buf = np.zeros((128, 4))
-        # compiled-loop state: ints, floats (drive firmware + constants), fixed argument tuple
+        # compiled-loop state and constants (named records, see _step.STATE / PARAMS) and arrays
         r = robot
-        self._I = np.zeros(K.NI, np.int64)
-        self._I[K.I_JITTER] = int(cfg.jitter)
-        self._I[K.I_CMDK] = K.NO_CMD
-        self._I[K.I_NOISE] = int(cfg.noise)
-        self._I[K.I_NIMU] = self._I[K.I_NPOSE] = K.NOISE_BATCH  # drawn on first use
-        F = self._F = np.zeros(K.NF)
-        F[K.F_REF:K.F_REF + 4] = d.qpos[rm.wheel_qpos]
-        F[K.F_DT], F[K.F_DV], F[K.F_DW] = self._dt, r.max_accel_mps2 * self._dt, r.max_yaw_accel_rps2 * self._dt
-        F[K.F_SKID], F[K.F_KP], F[K.F_KI] = cfg.skid_factor, cfg.yaw_kp, cfg.yaw_ki
-        F[K.F_HALFTRACK], F[K.F_RADIUS], F[K.F_HOLD] = r.track_m / 2, r.wheel_radius_m, cfg.wheel_hold_gain
-        F[K.F_MU], F[K.F_FLOOR], F[K.F_EPS] = cfg.friction, cfg.friction_floor, cfg.slip_eps_mps
-        F[K.F_MAXSPEED], (F[K.F_SX], F[K.F_SY]) = cfg.max_speed_mps, rm.map_size
-        F[K.F_MARGIN], F[K.F_COSFLIP], F[K.F_RATEJIT] = cfg.map_margin_m, math.cos(cfg.flip_threshold_rad), \
-            cfg.rate_jitter
-        F[K.F_DEBOUNCE] = cfg.collision_debounce_s
-        F[K.F_OA:K.F_OA + 4] = d.qpos[rm.wheel_qpos]
-        F[K.F_OR], F[K.F_OTRACK] = r.wheel_radius_m, r.track_m * cfg.skid_factor
-        F[K.F_IATT], F[K.F_IRATE], F[K.F_IDRIFT] = cfg.imu_att_std_rad, cfg.imu_rate_std_rps, cfg.imu_yaw_drift_rps
-        F[K.F_PPOS], F[K.F_PATT] = cfg.pose_pos_std_m, cfg.pose_att_std_rad
+        wheel_angles = d.qpos[rm.wheel_qpos]
+        self._state = K.new_state(cmd_k=K.NO_CMD, ref=wheel_angles, odom_a=wheel_angles, next_k=next_k,
+                                  # noise and jitter rows: drawn on first use
+                                  n_imu=K.NOISE_BATCH, n_pose=K.NOISE_BATCH, jitter_idx=_JITTER_BATCH)
+        # views of the fields Python reads or writes every cycle (a view reads ~4x faster than a
+        # field of the record); the rest through self._state
+        st = self._state
+        self._sk, self._cmd_k, self._cmd_v, self._cmd_w = st["k"], st["cmd_k"], st["cmd_v"], st["cmd_w"]
+        self._touching, self._starts, self._nevent = st["touching"], st["starts"], st["nevent"]
+        self._jit_idx, self._nsamp = st["jitter_idx"][0], st["nsamples"][0]
         warn = d.warning.number
-        bad = np.array([int(w) for w in _BAD_WARNINGS], np.int64)
-        self._I[K.I_WARN0] = int(sum(int(warn[w]) for w in bad))
+        bad = [int(w) for w in K.BAD_WARNINGS]
         pool = self._pool
-        if pool is not None:
-            pargs: tuple[object, ...] = (pool.centre, pool.half, pool.quat, pool.reach, pool._dist,
-                                         pool.slot_obstacle, rm.slot_geoms, pool.mocap, pool.bvh)
-        else:
-            e2, e1, ei = np.zeros((0, 3)), np.zeros(0), np.zeros(0, np.int64)
-            pargs = (e2, e2, np.zeros((0, 4)), e1, e1.copy(), ei, ei, ei, ei)
-        self._args_a = (m._address, d._address, K.ncon_address(d), K.contact_field_address(d))
-        self._args_b = (
-            self._I, F, d.qpos, d.qvel, d.ctrl, d.xpos, d.xmat, warn, bad,
-            np.array([rm.chassis_body, rm.bumper_geom, *rm.wheel_bodies], np.int64), rm.wheel_qpos, rm.wheel_dofs,
-            rm.wheel_of_geom, rm.obstacle_of_geom, self._contact_buf, self._contact_prev, self._last_touch,
-            self._event_buf,
-            max(1, int(round(0.1 / self._dt))) if pool is not None else 0, *pargs,
-            d.mocap_pos, d.mocap_quat, m.geom_size, m.geom_rbound, m.geom_aabb, m.bvh_aabb, m.geom_contype,
-            OBSTACLE_BIT, PARK_Z_M, self._next, self._period, self._jit, self._jit_idx, self._samples,
-            self._nsamp, self._noise, *self._wheel_args)
+        adr = mjabi.addresses(m, d)
+        self._params = K.new_params(
+            model=adr.model, data=adr.data, ncon_addr=adr.ncon, contact_field=adr.contact_field,
+            chassis=rm.chassis_body, bumper=rm.bumper_geom, terrain=terrain,
+            wheel_body=rm.wheel_bodies, wheel_qpos=rm.wheel_qpos, wheel_dof=rm.wheel_dofs, warning_ids=bad,
+            period=[1.0 / r if r > 0 else 1.0 for r in rates],
+            dt=self._dt, dv=r.max_accel_mps2 * self._dt, dw=r.max_yaw_accel_rps2 * self._dt,
+            skid=cfg.skid_factor, kp=cfg.yaw_kp, ki=cfg.yaw_ki,
+            half_track=r.track_m / 2, wheel_radius=r.wheel_radius_m, hold=cfg.wheel_hold_gain,
+            mu=cfg.friction, friction_floor=cfg.friction_floor, slip_eps=cfg.slip_eps_mps,
+            max_speed=cfg.max_speed_mps, size_x=rm.map_size[0], size_y=rm.map_size[1], margin=cfg.map_margin_m,
+            cos_flip=math.cos(cfg.flip_threshold_rad), debounce=cfg.collision_debounce_s,
+            odom_radius=r.wheel_radius_m, odom_track=r.track_m * cfg.skid_factor,
+            jitter=int(cfg.jitter), rate_jitter=cfg.rate_jitter, noise=int(cfg.noise),
+            imu_att=cfg.imu_att_std_rad, imu_rate=cfg.imu_rate_std_rps, imu_drift=cfg.imu_yaw_drift_rps,
+            pose_pos=cfg.pose_pos_std_m, pose_att=cfg.pose_att_std_rad,
+            warn0=int(sum(int(warn[w]) for w in bad)),
+            pool_every=max(1, int(round(0.1 / self._dt))) if pool is not None else 0,
+            pool_contype=OBSTACLE_BIT, park_z=PARK_Z_M,
+            hfield_x0=grid[0], hfield_y0=grid[1], hfield_dx=grid[2], hfield_dy=grid[3])
+        self._arrays = K.loop_arrays(
+            K.MjArrays(d.qpos, d.qvel, d.ctrl, d.xpos, d.xmat, warn, d.mocap_pos, d.mocap_quat, m.geom_size,
+                       m.geom_rbound, m.geom_aabb, m.bvh_aabb, m.geom_contype),
+            K.RobotArrays(rm.wheel_of_geom, rm.obstacle_of_geom),
+            pool.arrays if pool is not None else empty_pool_arrays(),
+            K.SensorArrays(self._jit, self._samples, self._noise),
+            K.CollisionArrays(self._contact_buf, self._contact_prev, self._last_touch, self._event_buf),
+            wheel_arrays)
         # readings since the last observe()
         self._scans: list[LidarScan] = []
         self._mount = (robot.lidar.x_m, robot.lidar.y_m, robot.lidar.z_m)
@@ -165,7 +164,7 @@ class Simulation:
     # ---- public API -------------------------------------------------------------------
     @property
     def _k(self) -> int:
-        return int(self._I[K.I_K])
+        return int(self._sk[0])
 
     @property
     def t(self) -> float:
@@ -185,8 +184,8 @@ class Simulation:
         delay = cfg.command_latency_s
         if cfg.jitter and cfg.command_latency_jitter_s > 0:
             delay += cfg.command_latency_jitter_s * float(self._latency_gen.random())
-        k = int(self._I[K.I_K]) + max(0, int(round(delay / self._dt)))
-        pending = int(self._I[K.I_CMDK])
+        k = int(self._sk[0]) + max(0, int(round(delay / self._dt)))
+        pending = int(self._cmd_k[0])
         if self._queue:  # commands never overtake each other
             k = max(k, self._queue[-1][0])
         elif pending != K.NO_CMD:
@@ -201,41 +200,42 @@ class Simulation:
         """
         if not (math.isfinite(dt) and dt >= 0):
             raise SpecError("dt", dt, "a finite duration >= 0 s")
-        self._run(int(self._I[K.I_K]) + int(round(dt / self._dt)))
+        self._run(int(self._sk[0]) + int(round(dt / self._dt)))
 
     def observe(self) -> Observation:
         """Sensor readings since the previous call: all scans, the latest pose (or None),
         the latest odometry and IMU readings."""
         assert self._imu is not None
-        obs = Observation(t=int(self._I[K.I_K]) * self._dt, odom=self._odom, imu=self._imu, pose=self._pose, scans=tuple(self._scans))
+        obs = Observation(t=int(self._sk[0]) * self._dt, odom=self._odom, imu=self._imu, pose=self._pose, scans=tuple(self._scans))
         self._scans = []
         self._pose = None
         return obs
 
     # ---- internals --------------------------------------------------------------------
     def _warnings(self) -> int:
-        return sum(int(self.data.warning[w].number) for w in _BAD_WARNINGS)
+        return sum(int(self.data.warning[w].number) for w in K.BAD_WARNINGS)
 
     def _run(self, k_end: int) -> None:
         """Step until step ``k_end`` (or a stop), handling what the compiled loop hands back."""
-        r, I, q, F = self.robot, self._I, self._queue, self._F
-        a, b, run_steps, ob = self._args_a, self._args_b, K.run_steps, self.observer
+        r, q, sk, cmd_k = self.robot, self._queue, self._sk, self._cmd_k
+        state, params, arrays = self._state, self._params, self._arrays
+        run_steps, ob = K.run_steps, self.observer  # looked up per call: benchmarks wrap it
         vmax, wmax = r.max_speed_mps, r.max_yaw_rate_rps
         while True:
             # the compiled loop applies one pending command at the start of its step; it stops at
             # the next queued one (a later command for the same step replaces the pending one)
-            if q and (I[K.I_CMDK] == K.NO_CMD or q[0][0] <= I[K.I_CMDK]):
+            if q and (cmd_k[0] == K.NO_CMD or q[0][0] <= cmd_k[0]):
                 while True:
                     kc, c = q.pop(0)
-                    I[K.I_CMDK] = kc
-                    F[K.F_CMDV] = min(max(c.v, -vmax), vmax)
-                    F[K.F_CMDW] = min(max(c.omega, -wmax), wmax)
+                    cmd_k[0] = kc
+                    self._cmd_v[0] = min(max(c.v, -vmax), vmax)
+                    self._cmd_w[0] = min(max(c.omega, -wmax), wmax)
                     if not (q and q[0][0] <= kc):
                         break
             stopped = ob.stop is not None
-            st = run_steps(*a, int(I[K.I_K]) if stopped else (min(k_end, q[0][0]) if q else k_end), *b)
+            st = run_steps(int(sk[0]) if stopped else (min(k_end, q[0][0]) if q else k_end), state, params, *arrays)
             if st == K.DONE:
-                if stopped or int(I[K.I_K]) >= k_end:
+                if stopped or int(sk[0]) >= k_end:
                     break
                 continue
             if st & K.UNSTABLE:
@@ -251,10 +251,10 @@ class Simulation:
                         self._jit[s] = self._timing[s].random(_JITTER_BATCH)
                         self._jit_idx[s] = 0
                 if self.config.noise:
-                    for row, idx in ((K.IMU_NOISE, K.I_NIMU), (K.POSE_NOISE, K.I_NPOSE)):
-                        if I[idx] >= K.NOISE_BATCH:  # used up exactly (a multiple of 7 and 6)
+                    for row, field in ((K.IMU_NOISE, "n_imu"), (K.POSE_NOISE, "n_pose")):
+                        if state[field][0] >= K.NOISE_BATCH:  # used up exactly (a multiple of 7 and 6)
                             self._noise[row] = self._noise_gen[row].standard_normal(K.NOISE_BATCH)
-                            I[idx] = 0
+                            state[field] = 0
             if st & K.LIDAR:
                 self._scan()
         self._flush()
@@ -265,7 +265,7 @@ class Simulation:
         if st & K.LEFT_MAP:
             ob.stopped(StopEvent(t, x, y, "left_map", f"robot left the map at ({x:.2f}, {y:.2f})"))
         if st & K.FLIPPED:
-            up_z = float(self._F[K.F_UPZ])
+            up_z = float(self._state["up_z"][0])
             ob.stopped(StopEvent(t, x, y, "flipped", f"robot tipped over (up-vector z={up_z:.2f})"))
 
     def _flush(self) -> None:
@@ -282,26 +282,26 @@ class Simulation:
         if n[K.OBSERVER]:
             self.observer.record_poses(smp[K.OBSERVER, : n[K.OBSERVER]])
         self._nsamp[:] = 0
-        I, ob = self._I, self.observer
-        ne = int(I[K.I_NEVENT])
-        if ne or I[K.I_STARTS]:
+        ob, nevent, starts, touching = self.observer, self._nevent, self._starts, self._touching
+        ne = int(nevent[0])
+        if ne or starts[0]:
             ob.collisions.extend(CollisionEvent(float(e[0]), float(e[1]), float(e[2]), int(e[3]))
                                  for e in self._event_buf[:ne])
-            ob.contact_starts += int(I[K.I_STARTS])
-            I[K.I_NEVENT] = I[K.I_STARTS] = 0
-        if I[K.I_TOUCHING] or ob._touching:
-            ob._touching = set(self._contact_prev[: int(I[K.I_TOUCHING])].tolist())
+            ob.contact_starts += int(starts[0])
+            nevent[0] = starts[0] = 0
+        if touching[0] or ob._touching:
+            ob._touching = set(self._contact_prev[: int(touching[0])].tolist())
 
     def _scan(self) -> None:
         assert self._lidar is not None
         pts = self._lidar.scan_body(self.data.qpos, self._mount_v, self._lidar_gen if self.config.noise else None)
-        self._scans.append(LidarScan(int(self._I[K.I_K]) * self._dt, pts, self._mount))
+        self._scans.append(LidarScan(int(self._sk[0]) * self._dt, pts, self._mount))
 
     def _unstable(self) -> None:
         d = self.data
         if not np.all(np.isfinite(d.qpos)) or not np.all(np.isfinite(d.qvel)):
             why = "NaN in the state"
-        elif self._warnings() != int(self._I[K.I_WARN0]):
+        elif self._warnings() != int(self._params["warn0"][0]):
             why = "MuJoCo reported a bad position/velocity/acceleration (it would reset the state)"
         else:
             why = f"body speed {float(np.abs(d.qvel[:3]).sum()):.1f} m/s above {self.config.max_speed_mps} m/s"

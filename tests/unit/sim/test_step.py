@@ -1,5 +1,4 @@
-"""The compiled step loop and what it relies on: MuJoCo stage composition, raw contact reads,
-the obstacle pool, compiled collision bookkeeping, batched sensors, analytic wheel contacts."""
+"""The compiled step loop and what it relies on (MuJoCo's ABI: test_mjabi.py): the obstacle pool, compiled collision bookkeeping, batched sensors, analytic wheel contacts."""
 
 from __future__ import annotations
 
@@ -24,56 +23,6 @@ from navstress.world.world import Obstacle
 from sim_worlds import bumpy, flat, rough
 
 NOLIDAR = SimConfig(lidar_enabled=False)
-
-
-def test_composed_fwd_position_is_bit_identical_to_mj_step() -> None:
-    rm = build_model(bumpy(), start=(10.0, 10.0, 0.5))
-    m = rm.model
-    m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_ISLAND)
-    da, db = mujoco.MjData(m), mujoco.MjData(m)
-    ncon = []
-    for k in range(300):
-        u = [0.5 * math.sin(k / 40), 0.4, -0.3, -0.3 * math.cos(k / 25)]
-        da.ctrl[:] = u
-        db.ctrl[:] = u
-        mujoco.mj_step(m, da)
-        K.fwd_position_collision(m._address, db._address)
-        K.fwd_position_constraints(m._address, db._address)
-        mujoco.mj_fwdVelocity(m, db)
-        mujoco.mj_step2(m, db)
-        ncon.append(db.ncon)
-    assert max(ncon) >= 3  # the wheels were on the ground
-    assert np.array_equal(da.qpos, db.qpos) and np.array_equal(da.qvel, db.qvel)
-
-
-def test_raw_contact_reads_match_the_bindings() -> None:
-    K.check_layout()
-    sim = Simulation(bumpy(), config=NOLIDAR, seed=0, start=(10.0, 10.0, 0.5))
-    sim.advance(1.0)
-    d = sim.data
-    assert d.ncon >= 3
-    assert K._read_ncon(K.ncon_address(d)) == d.ncon
-    pos, frame, fr, geom = K._read_contacts(K._read_ptr(K.contact_field_address(d)), d.ncon)
-    c = d.contact
-    assert np.array_equal(pos, c.pos) and np.array_equal(frame, c.frame)
-    assert np.array_equal(fr, c.friction) and np.array_equal(geom, c.geom)
-
-
-def test_contact_field_is_found_in_every_new_mjdata() -> None:
-    """The pointer scan finds exactly one mjData.qpos in every MjData (a paper-slice run once
-    met two candidates when only qpos and qvel were matched): the same field offset each time,
-    holding the contacts the bindings show."""
-    sim = Simulation(bumpy(), config=NOLIDAR, seed=0, start=(10.0, 10.0, 0.5))
-    offsets = set()
-    for _ in range(200):
-        d = mujoco.MjData(sim.model)
-        offsets.add(K.contact_field_address(d) - K.ncon_address(d))
-    assert len(offsets) == 1
-    sim.advance(1.0)
-    d = sim.data
-    assert K.contact_field_address(d) - K.ncon_address(d) in offsets
-    pos, _frame, _fr, _geom = K._read_contacts(K._read_ptr(K.contact_field_address(d)), d.ncon)
-    assert d.ncon >= 3 and np.array_equal(pos, d.contact.pos)
 
 
 def _pool_world(seed: int, n: int) -> tuple[list[Obstacle], np.ndarray]:
@@ -179,7 +128,8 @@ def test_compiled_contact_events_equal_the_observer(seq: list[set[int]], dt: flo
     """The compiled loop's collision bookkeeping equals Observer.contacts (the reference) fed the
     same touching set after every step: same events, same contact starts."""
     ref = Observer(0.5)
-    I = np.zeros(K.NI, np.int64)
+    state = K.new_state()
+    I = state[0]
     prev, cur = np.zeros(8, np.int64), np.zeros(8, np.int64)
     last = np.full(5, -np.inf)
     events = np.zeros((64, 4))
@@ -188,10 +138,10 @@ def test_compiled_contact_events_equal_the_observer(seq: list[set[int]], dt: flo
         ref.contacts(t, x, y, set(s_))
         cur[: len(s_)] = sorted(s_)
         assert K.contact_events(t, x, y, cur, len(s_), prev, I, last, 0.5, events)
-    got = [(float(e[0]), float(e[1]), float(e[2]), int(e[3])) for e in events[: I[K.I_NEVENT]]]
+    got = [(float(e[0]), float(e[1]), float(e[2]), int(e[3])) for e in events[: I["nevent"]]]
     assert got == [(e.t, e.x, e.y, e.obstacle) for e in ref.collisions]
-    assert I[K.I_STARTS] == ref.contact_starts
-    assert set(prev[: I[K.I_TOUCHING]].tolist()) == ref._touching
+    assert I["starts"] == ref.contact_starts
+    assert set(prev[: I["touching"]].tolist()) == ref._touching
 
 
 def test_compiled_odometry_and_batched_imu_equal_the_reference() -> None:
@@ -199,12 +149,13 @@ def test_compiled_odometry_and_batched_imu_equal_the_reference() -> None:
     angles = np.cumsum(g.normal(0, 0.1, (12, 4)), axis=0)
     t = np.arange(1, 13) * 0.02
     od = WheelOdometry(0.26, 1.8, np.zeros(4), 0.0)
-    F = np.zeros(K.NF)
-    F[K.F_OR], F[K.F_OTRACK] = 0.26, 1.8
+    S = K.new_state()[0]
+    P = np.zeros(1, K.PARAMS)[0]
+    P["odom_radius"], P["odom_track"] = 0.26, 1.8
     for k in range(12):
         ref = od.update(angles[k], float(t[k]))
-        K.odom_update(F, *angles[k], float(t[k]))
-        got = (F[K.F_OX], F[K.F_OY], F[K.F_OYAW], F[K.F_OV], F[K.F_OW])
+        K.odom_update(S, P, *angles[k], float(t[k]))
+        got = (S["odom_x"], S["odom_y"], S["odom_yaw"], S["odom_v"], S["odom_w"])
         np.testing.assert_allclose(got, (ref.x, ref.y, ref.yaw, ref.v, ref.omega), rtol=1e-12, atol=1e-12)
     rows = np.column_stack([t, g.normal(0, 1, (12, 6))])
     for noise in (True, False):
@@ -329,3 +280,32 @@ def test_analytic_wheel_contacts_rest_and_drive() -> None:
     sim.command(Command(1.0, 0.0))
     sim.advance(6.0)
     assert sim.data.qpos[0] - p0[0] == pytest.approx(5.0 + 1.0 - 0.5 - 0.05, abs=0.5)
+
+
+def test_params_need_every_field_and_state_only_known_ones() -> None:
+    """The loop's constants are named: new_params refuses a missing or unknown field (a constant
+    added to PARAMS must be given by Simulation), new_state an unknown one."""
+    full = {n: 0 for n in K.PARAMS.names}
+    assert K.new_params(**full).dtype == K.PARAMS
+    for name in K.PARAMS.names:
+        with pytest.raises(TypeError, match=name):
+            K.new_params(**{n: v for n, v in full.items() if n != name})
+    with pytest.raises(TypeError, match="not_a_field"):
+        K.new_params(**full, not_a_field=1)
+    with pytest.raises(TypeError, match="not_a_field"):
+        K.new_state(not_a_field=1)
+    s = K.new_state(k=3, ref=np.arange(4.0))
+    assert s[0]["k"] == 3 and list(s[0]["ref"]) == [0.0, 1.0, 2.0, 3.0] and s[0]["cmd_v"] == 0.0
+
+
+def test_loop_arrays_flatten_the_groups_in_order() -> None:
+    """run_steps regroups the flat arrays by the groups' field counts: loop_arrays gives them in
+    GROUPS order and refuses groups out of order."""
+    sim = Simulation(flat(), config=NOLIDAR, seed=0)
+    groups = [cls(*(np.zeros(1) for _ in cls._fields)) for cls in K.GROUPS]
+    flat_ = K.loop_arrays(*groups)  # type: ignore[arg-type]
+    assert len(flat_) == sum(len(c._fields) for c in K.GROUPS)
+    assert all(a is b for a, b in zip(flat_, (x for g in groups for x in g)))
+    with pytest.raises(TypeError, match="expected MjArrays"):
+        K.loop_arrays(*groups[1:], groups[0])  # type: ignore[arg-type]
+    assert len(sim._arrays) == len(flat_) and sim._arrays[0] is sim.data.qpos
