@@ -31,9 +31,9 @@ NAVS = [{"name": "reference-v1"},
         {"name": "exits-v1", "target": "campaign_navs:Exits", "config": {"after_s": 0.2}}]
 
 
-def _spec(root: Path, name: str, navigators: list[dict[str, Any]]) -> Path:
-    d = {"name": name, "seed": 5, "world": {"size_m": [20.0, 20.0], "cell_m": 0.5},
-         "experiments": [{"name": "flat", "sweep": {"obstacles.obstruction.tree": {"values": [0]}}}],
+def _spec(root: Path, name: str, navigators: list[dict[str, Any]], size_m: float = 20.0) -> Path:
+    d = {"name": name, "seed": 5, "world": {"size_m": [size_m, size_m], "cell_m": 0.5},
+         "experiments": [{"name": "flat", "sweep": {"obstacles.obstruction.tree": {"values": [0 if size_m < 50 else 10]}}}],
          "maps_per_config": 1, "runs_per_map": 1, "navigators": navigators, "timeout_s": 3.0}
     path = root / f"{name}.yaml"
     path.write_text(yaml.safe_dump(d, sort_keys=False))
@@ -53,7 +53,9 @@ def scenarios(ex: Executor, root: Path) -> dict[str, Any]:
     """Two campaigns on one executor: a world that never generates within its limit; then the
     hanging and the crashing navigator on a world that does (the limit leaves a Ray worker, whose
     clock starts when the task is submitted, the time to start on a busy machine)."""
-    world = _session(ex, _spec(root, "world", NAVS[:1]), root / "world", wall_limit_s=60.0, world_limit_s=0.01)
+    # a 200 m world takes about a second to generate: far over its limit, whatever the load
+    world = _session(ex, _spec(root, "world", NAVS[:1], 200.0), root / "world", wall_limit_s=60.0,
+                     world_limit_s=0.01)
     runs = _session(ex, _spec(root, "runs", NAVS[1:]), root / "runs", wall_limit_s=WALL_LIMIT_S)
     return {"world": world, "runs": runs}
 
