@@ -22,9 +22,12 @@ with :func:`report` (e.g. the check being run) are passed to ``on_message`` as t
 
 from __future__ import annotations
 
+import ctypes
+import importlib
 import multiprocessing as mp
 import multiprocessing.connection as mpc
 import os
+import pickle
 import signal
 import sys
 import threading
@@ -32,7 +35,9 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-__all__ = ["Worker", "describe_exit", "die_with_parent", "registered_targets", "report"]
+from navstress.nav import registry
+
+__all__ = ["Child", "Worker", "describe_exit", "die_with_parent", "registered_targets", "report"]
 
 _conn: mpc.Connection | None = None  # the worker's end of its pipe (set in the worker only)
 
@@ -53,10 +58,6 @@ def registered_targets() -> dict[str, Any]:
     """The names registered in this process (``register()``), to register in a worker:
     ``module:attr`` strings, and factories that can be pickled (others are left out: the
     worker then reports the name as unknown)."""
-    import pickle
-
-    from navstress.nav import registry
-
     out: dict[str, Any] = {}
     for name, spec in registry._registered.items():
         if isinstance(spec.target, str):
@@ -81,8 +82,6 @@ def die_with_parent(parent_pid: int) -> None:
     watch thread), so a killed parent leaves no orphan writing files behind it."""
     if sys.platform.startswith("linux"):
         try:
-            import ctypes
-
             libc = ctypes.CDLL("libc.so.6", use_errno=True)
             libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
         except OSError:
@@ -99,26 +98,26 @@ def die_with_parent(parent_pid: int) -> None:
     threading.Thread(target=watch, daemon=True).start()
 
 
-def _worker_main(conn: mpc.Connection, parent_pid: int, targets: dict[str, Any], preload: tuple[str, ...]) -> None:
-    """Receive ``(fn, args)``, answer ``("ok", value)`` or ``("raised", exception)``; None ends."""
+def _worker_main(conn: mpc.Connection, parent_pid: int, targets: dict[str, Any], preload: tuple[str, ...],
+                 warm: Callable[[], object] | None) -> None:
+    """The worker loop: get ready (imports, registrations, ``warm``), answer ``("ready", None)``;
+    then per ``(fn, args)`` received, ``("started", None)`` and ``("ok", value)`` or
+    ``("raised", exception)``; None (or a closed pipe) ends it."""
     global _conn
     die_with_parent(parent_pid)
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's business
-    import importlib
-
-    from navstress.nav import registry
-
     for module in preload:  # imports before "ready": the wall-clock limit measures the work
         try:
             importlib.import_module(module)
         except Exception:
             pass
-
     for name, target in targets.items():
         try:
             registry.register(name, target, override=True)
         except Exception:
             pass
+    if warm is not None:
+        warm()
     _conn = conn
     conn.send(("ready", None))
     while True:
@@ -129,18 +128,20 @@ def _worker_main(conn: mpc.Connection, parent_pid: int, targets: dict[str, Any],
         if msg is None:
             return
         fn, args = msg
+        conn.send(("started", None))
         try:
             answer: tuple[str, Any] = ("ok", fn(*args))
         except BaseException as err:  # sys.exit, KeyboardInterrupt... from the code under test
             answer = ("raised", _picklable(err))
         sys.stdout.flush()
         sys.stderr.flush()
-        conn.send(answer)
+        try:
+            conn.send(answer)
+        except Exception as err:  # a value that does not pickle: nothing was written yet
+            conn.send(("raised", RuntimeError(f"the answer could not be sent: {type(err).__name__}: {err}")))
 
 
 def _picklable(err: BaseException) -> BaseException:
-    import pickle
-
     try:
         pickle.loads(pickle.dumps(err))
         return err
@@ -152,6 +153,88 @@ def _picklable(err: BaseException) -> BaseException:
 START_LIMIT_S = 300.0
 
 
+class Child:
+    """One worker process and its pipe, started at once and never waited for here: the
+    campaign's local pool holds several and waits on all of them (:class:`Worker` waits on one).
+
+    ``targets``: names to register in the worker; ``preload``: modules it imports and ``warm``: a
+    module-level function it calls before it answers "ready" and takes calls."""
+
+    def __init__(self, targets: dict[str, Any], *, preload: tuple[str, ...] = (),
+                 warm: Callable[[], object] | None = None) -> None:
+        ctx = mp.get_context("spawn")
+        parent, child = ctx.Pipe(duplex=True)
+        self.proc: Any = ctx.Process(target=_worker_main, args=(child, os.getpid(), targets, preload, warm),
+                                     daemon=True)
+        self.proc.start()
+        child.close()
+        self.conn: mpc.Connection = parent
+
+    @property
+    def waitables(self) -> list[Any]:
+        """What :func:`multiprocessing.connection.wait` waits on: an answer, or the process's end."""
+        return [self.conn, self.proc.sentinel]
+
+    def send(self, fn: Callable[..., Any], args: tuple[Any, ...]) -> bool:
+        """Ask the worker to call ``fn(*args)``; False when the worker is gone."""
+        try:
+            self.conn.send((fn, args))
+            return True
+        except (OSError, ValueError):
+            return False
+
+    def receive(self) -> tuple[str, Any] | None:
+        """The next message when one is there: ``(kind, value)`` (ready, started, message, ok,
+        raised), ``("", None)`` when the pipe broke; None when there is nothing to read.
+        An answer that cannot be unpickled here is ``("raised", RuntimeError)``."""
+        if not self.conn.poll():
+            return None
+        try:
+            kind, value = self.conn.recv()
+        except (EOFError, OSError):
+            return "", None
+        except Exception as err:
+            return "raised", RuntimeError(f"the worker's answer could not be read: {err}")
+        return kind, value
+
+    def ended(self, *, broken: bool = False) -> str | None:
+        """How the worker ended ("exit code 3", "signal SIGSEGV"), or None while it lives; with
+        ``broken`` (its pipe broke) a live worker is given 0.5 s, then killed. An ended worker's
+        pipe is closed."""
+        if broken and self.proc.is_alive():
+            self.proc.join(0.5)
+        if self.proc.is_alive() and not broken:
+            return None
+        if self.proc.is_alive():
+            self.proc.kill()
+        self.proc.join(1.0)
+        self.conn.close()
+        return describe_exit(self.proc.exitcode)
+
+    def kill(self) -> None:
+        """Kill the worker now and close its pipe."""
+        self.proc.kill()
+        self.proc.join(5.0)
+        self.conn.close()
+
+    def stop(self, *, kill: bool = False) -> None:
+        """Ask the worker to end (``kill``: kill it first); :meth:`reap` then waits for it."""
+        if kill:
+            self.proc.kill()
+        try:
+            self.conn.send(None)
+        except (OSError, ValueError):
+            pass
+
+    def reap(self) -> None:
+        """Wait up to 2 s for an ended worker, then kill it; close its pipe. Idempotent."""
+        self.proc.join(2.0)
+        if self.proc.is_alive():
+            self.proc.kill()
+            self.proc.join(2.0)
+        self.conn.close()
+
+
 class Worker:
     """One worker process, started on the first call and again after one died or was killed.
 
@@ -160,19 +243,12 @@ class Worker:
     def __init__(self, wall_limit_s: float, *, preload: tuple[str, ...] = ()) -> None:
         self.wall_limit_s = float(wall_limit_s)
         self.preload = tuple(preload)
-        self._ctx = mp.get_context("spawn")
-        self._proc: Any = None
-        self._conn: mpc.Connection | None = None
+        self._child: Child | None = None
         self._targets = registered_targets()
 
     def _start(self) -> str | None:
         """Start the worker and wait for it to be ready; a reason when it could not."""
-        parent, child = self._ctx.Pipe(duplex=True)
-        proc = self._ctx.Process(target=_worker_main, args=(child, os.getpid(), self._targets, self.preload),
-                                 daemon=True)
-        proc.start()
-        child.close()
-        self._proc, self._conn = proc, parent
+        self._child = Child(self._targets, preload=self.preload)
         status, value = self._wait(START_LIMIT_S, None)
         if status != "ok":
             self.close()
@@ -181,7 +257,8 @@ class Worker:
 
     def _wait(self, limit_s: float, on_message: Callable[[Any], None] | None,
               restart: bool = False) -> tuple[str, Any]:
-        assert self._conn is not None and self._proc is not None
+        child = self._child
+        assert child is not None
         deadline = time.monotonic() + limit_s
         while True:
             remaining = deadline - time.monotonic()
@@ -189,35 +266,25 @@ class Worker:
                 self._kill()
                 return "limit", limit_s
             # at most an hour per wait: poll() refuses timeouts past ~24 days; the loop goes on
-            mpc.wait([self._conn, self._proc.sentinel], timeout=min(remaining, 3600.0))
-            kind = "none"
-            if self._conn.poll():
-                try:
-                    kind, value = self._conn.recv()
-                except (EOFError, OSError):
-                    kind, value = "", None
-                except Exception as err:  # an answer that cannot be unpickled here
-                    return "raised", RuntimeError(f"the worker's answer could not be read: {err}")
-                else:
-                    if kind == "message":
-                        if on_message is not None:
-                            on_message(value)
-                        if restart:
-                            deadline = time.monotonic() + limit_s
-                        continue
-                    if kind == "ready":
-                        return "ok", None
-                    return kind, value
-            if kind == "" and self._proc.is_alive():  # the pipe broke under a live worker
-                self._proc.join(0.5)
-            if not self._proc.is_alive() or kind == "":
-                if self._proc.is_alive():
-                    self._proc.kill()
-                self._proc.join(1.0)
-                code = self._proc.exitcode
-                self._conn.close()
-                self._proc = self._conn = None
-                return "died", describe_exit(code)
+            mpc.wait(child.waitables, timeout=min(remaining, 3600.0))
+            got = child.receive()
+            if got is not None and got[0] != "":
+                kind, value = got
+                if kind == "message":
+                    if on_message is not None:
+                        on_message(value)
+                    if restart:
+                        deadline = time.monotonic() + limit_s
+                    continue
+                if kind == "started":
+                    continue
+                if kind == "ready":
+                    return "ok", None
+                return kind, value
+            why = child.ended(broken=got is not None)
+            if why is not None:
+                self._child = None
+                return "died", why
 
     def call(self, fn: Callable[..., Any], *args: Any, on_message: Callable[[Any], None] | None = None,
              limit_per_message: bool = False) -> tuple[str, Any]:
@@ -225,35 +292,27 @@ class Worker:
 
         The wall-clock limit counts from when the call is sent to a started worker (with
         ``limit_per_message``: from the last message the call sent)."""
-        if self._proc is None:
+        if self._child is None:
             why = self._start()
             if why is not None:
                 return "died", why
-        assert self._conn is not None
-        try:
-            self._conn.send((fn, args))
-        except (OSError, ValueError):
+        assert self._child is not None
+        if not self._child.send(fn, args):
             self.close()
             return "died", "the worker process is gone"
         return self._wait(self.wall_limit_s, on_message, limit_per_message)
 
     def _kill(self) -> None:
-        if self._proc is not None:
-            self._proc.kill()
-            self._proc.join(5.0)
-        if self._conn is not None:
-            self._conn.close()
-        self._proc = self._conn = None
+        if self._child is not None:
+            self._child.kill()
+        self._child = None
 
     def close(self) -> None:
         """Ask the worker to end, kill it if it does not. Idempotent."""
-        if self._proc is not None and self._conn is not None:
-            try:
-                self._conn.send(None)
-            except (OSError, ValueError):
-                pass
-            self._proc.join(2.0)
-        self._kill()
+        if self._child is not None:
+            self._child.stop()
+            self._child.reap()
+        self._child = None
 
     def __enter__(self) -> Worker:
         return self

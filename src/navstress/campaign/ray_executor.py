@@ -1,12 +1,16 @@
-"""The Ray executor: the same maps and runs as Ray tasks on a Ray cluster (pip extra ``ray``).
+"""The Ray executor: the same jobs as Ray tasks on a Ray cluster (pip extra ``ray``).
 
-The driver keeps at most ``workers`` tasks in flight (so a task's age approximates its run
-time, for the wall-clock watchdog), generates each map's world once before its runs, and
-writes every record itself. Ray never retries a task (``max_retries=0``): the driver does, by
-the campaign's rule (a task that kills its worker comes back as ``WorkerCrashedError`` and is
-retried like a crashed local worker; see :class:`~navstress.campaign.executors.Recorder`).
-Paths in the tasks must be visible to every node (a shared filesystem; always true on one
-machine). Without an address a Ray instance of its own is started (never one already running).
+A thin :class:`~navstress.campaign.scheduler.Executor`: the scheduler keeps at most
+``workers`` tasks in flight (so a task's age approximates its run time, for the wall-clock
+watchdog), generates each map's world once before its runs, and writes every record itself.
+Ray never retries a task (``max_retries=0``): the scheduler does, by the campaign's rule (a
+task that kills its worker comes back as ``WorkerCrashedError`` and is retried like a crashed
+local worker). Paths in the tasks must be visible to every node (a shared filesystem; always
+true on one machine).
+
+Without an address a Ray instance of its own is started (never one already running), bound to
+127.0.0.1 only (every server: GCS, raylet, object manager, workers, runtime-env agent; no
+dashboard) and protected by a random token.
 
     navstress campaign run spec.yaml -o out --executor ray --ray-address auto
 """
@@ -14,33 +18,30 @@ machine). Without an address a Ray instance of its own is started (never one alr
 from __future__ import annotations
 
 import contextlib
+import ipaddress
 import logging
 import os
 import secrets
 import socket
 import sys
 import tempfile
-import time
 from collections.abc import Iterator
 from typing import IO, Any
 
-from navstress.campaign.executors import (
-    WORLD_LIMIT_S,
-    Infra,
-    Recorder,
-    WorkQueue,
-    attempt_run,
-    attempt_world,
-    register_targets,
-)
-from navstress.campaign.plan import MapJob, Plan
+from navstress.campaign.plan import MapJob
+from navstress.campaign.scheduler import Event, Job
+from navstress.campaign.work import Infra, attempt_run, attempt_world, register_targets
 from navstress.errors import SpecError
-from navstress.run.batch import drop_partial_trace, failure_record
 from navstress.run.record import RunRecord, RunTask
+
+#: Ray (2.60, Linux) resolves a node address of 127.0.0.1 to the machine's outside address, and
+#: its servers then listen on every interface, unless this is 0 when ray is imported (the
+#: setting Ray reads for single-machine instances on Windows and macOS).
+LOOPBACK_ENV = "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"
 
 
 def _import_ray() -> Any:
-    try:
+    try:  # here, not at the top: Ray is an optional extra, and reads its environment when imported
         import ray
     except ImportError:
         raise SpecError("--executor", "ray", "an installed Ray (pip extra)",
@@ -95,6 +96,13 @@ def _init_error(address: str | None, err: Exception, logs: str = "") -> SpecErro
                      f"{type(err).__name__}: {text[:200]}")
 
 
+def _is_loopback(host: str) -> bool:
+    try:
+        return ipaddress.ip_address(host.strip("[]")).is_loopback
+    except ValueError:
+        return host == "localhost"
+
+
 def _world_task(job: MapJob, targets: dict[str, str]) -> str | Infra | None:
     return attempt_world(job)
 
@@ -105,120 +113,136 @@ def _run_task(task: RunTask, targets: dict[str, str]) -> RunRecord | Infra:
 
 
 class RayExecutor:
-    """Runs a plan on Ray: ``address`` None starts a local Ray instance (or uses the one initialised)."""
+    """Runs jobs on Ray: ``address`` None starts a local Ray instance bound to 127.0.0.1 (or
+    uses the one initialised in this process). Call :meth:`close` (or use ``with``) at the end."""
 
-    def __init__(self, workers: int | None, wall_limit_s: float, targets: dict[str, str] | None = None, *,
+    worker = "Ray worker"
+
+    def __init__(self, workers: int | None, targets: dict[str, str] | None = None, *,
                  address: str | None = None) -> None:
+        if workers is not None and workers < 1:
+            raise SpecError("--workers", workers, "an integer >= 1")
         self._restore_env: dict[str, str | None] = {}
-        if address is None and "ray" not in sys.modules and not os.environ.get("RAY_AUTH_MODE"):
-            # Ray reads its authentication mode when it is imported: our own cluster gets a
-            # random token, so that nobody else on the network can use it
-            for k, v in (("RAY_AUTH_MODE", "token"), ("RAY_AUTH_TOKEN", secrets.token_hex(16))):
+        if address is None and "ray" not in sys.modules:
+            # Ray reads these when it is imported: our own cluster listens on loopback only and,
+            # unless the user chose an authentication mode, gets a random token, so that no
+            # other user of this machine can use it either
+            env = {LOOPBACK_ENV: "0"}
+            if not os.environ.get("RAY_AUTH_MODE"):
+                env.update(RAY_AUTH_MODE="token", RAY_AUTH_TOKEN=secrets.token_hex(16))
+            for k, v in env.items():
                 self._restore_env[k] = os.environ.get(k)
                 os.environ[k] = v
-        ray = _import_ray()
+        try:
+            ray = _import_ray()
+        except SpecError:
+            self._restore()
+            raise
         self.ray = ray
         self._started = False
         if not ray.is_initialized():
             # workers import navstress and spec-given navigator modules like the driver does
             path = os.pathsep.join(p for p in sys.path if p)
-            env = {"env_vars": {"PYTHONPATH": path}}
+            runtime_env = {"env_vars": {"PYTHONPATH": path}}
             captured = tempfile.TemporaryFile(mode="w+b")
             try:
                 if address is None:
-                    self._init(ray, address, env)
+                    self._init(ray, address, runtime_env)
                 else:  # Ray's C++ and Python logs of a failed connect: kept for the error line
                     with _stderr_to(captured):
-                        self._init(ray, address, env)
+                        self._init(ray, address, runtime_env)
             except Exception as err:
                 captured.seek(0)
+                self._restore()
                 raise _init_error(address, err, captured.read().decode("utf-8", "replace")) from None
             finally:
                 captured.close()
             self._started = True
+            if address is None and not _is_loopback(ray.util.get_node_ip_address()):
+                node = ray.util.get_node_ip_address()
+                self.close()
+                raise SpecError("--executor", "ray", "a local Ray instance bound to 127.0.0.1",
+                                f"Ray chose the address {node} (ray was imported before navstress could set "
+                                f"{LOOPBACK_ENV}=0): set it before importing ray, or start the cluster "
+                                "yourself and pass --ray-address")
         cpus = int(ray.cluster_resources().get("CPU", 1))
-        if workers is not None and workers < 1:
-            raise SpecError("--workers", workers, "an integer >= 1")
         self.workers = workers or max(1, cpus)
-        self.wall_limit_s = wall_limit_s
         self.targets = dict(targets or {})
         self._world = ray.remote(num_cpus=1, max_retries=0)(_world_task)
         self._run = ray.remote(num_cpus=1, max_retries=0)(_run_task)
+        self._refs: dict[Any, Job] = {}
+        self._begun: list[Job] = []
 
     @staticmethod
-    def _init(ray: Any, address: str | None, env: dict[str, Any]) -> None:
+    def _init(ray: Any, address: str | None, runtime_env: dict[str, Any]) -> None:
         quiet = {"include_dashboard": False, "log_to_driver": False, "logging_level": logging.WARNING,
-                 "runtime_env": env}
+                 "runtime_env": runtime_env}
         if address is None:
             # our own cluster: "local" never joins one already running (ray.init() with no
-            # address follows RAY_ADDRESS or the last cluster started on this machine). Ray
-            # (2.60, Linux) resolves 127.0.0.1 to the node's address and listens on every
-            # interface, so the cluster is protected by a token of its own instead (set before
-            # ray is imported, see RayExecutor; unless the user chose an authentication mode).
-            ray.init(address="local", **quiet)
+            # address follows RAY_ADDRESS or the last cluster started on this machine)
+            ray.init(address="local", _node_ip_address="127.0.0.1", **quiet)
         else:
             _reachable(address)
             ray.init(address=address, **quiet)
 
-    def run(self, plan: Plan, pending: list[RunTask], rec: Recorder) -> None:
-        """Run ``pending`` on the cluster, passing every end of a task to ``rec``."""
-        ray = self.ray
-        q = WorkQueue(plan, pending)
-        inflight: dict[Any, tuple[str, Any, float]] = {}
-        try:
-            while q or inflight:
-                while len(inflight) < self.workers and q:
-                    kind, payload = q.next()
-                    fn = self._run if kind == "run" else self._world
-                    inflight[fn.remote(payload, self.targets)] = (kind, payload, time.monotonic())
-                done, _ = ray.wait(list(inflight), num_returns=1, timeout=1.0)
-                now = time.monotonic()
-                for ref in done:
-                    kind, payload, t0 = inflight.pop(ref)
-                    try:
-                        value = ray.get(ref)
-                        status, why = "ok", ""
-                    except Exception as err:  # RayTaskError, WorkerCrashedError, ...
-                        value, status = None, "error"
-                        text = " ".join(str(err).split())
-                        why = f"{type(err).__name__}: {text[:300]}"
-                    self._finish(kind, payload, status, value, why, now - t0, q, rec)
-                for ref, (kind, payload, t0) in list(inflight.items()):
-                    limit = self.wall_limit_s if kind == "run" else WORLD_LIMIT_S
-                    if now - t0 > limit:
-                        ray.cancel(ref, force=True)
-                        inflight.pop(ref)
-                        self._finish(kind, payload, "limit", None, f"exceeded wall-clock limit ({limit:g} s)",
-                                     now - t0, q, rec)
-        finally:
-            for ref in inflight:
-                ray.cancel(ref, force=True)
-            self.close()
+    # ---- the Executor interface ----
+
+    def start(self, jobs: int) -> int:
+        return self.workers
+
+    def submit(self, job: Job) -> None:
+        fn = self._run if job.kind == "run" else self._world
+        self._refs[fn.remote(job.payload, self.targets)] = job
+        self._begun.append(job)  # a Ray task's clock starts when it is submitted
+
+    def wait(self, timeout_s: float) -> list[Event]:
+        if self._begun:
+            events = [Event(j, "started") for j in self._begun]
+            self._begun = []
+            return events
+        done, _ = self.ray.wait(list(self._refs), num_returns=1, timeout=timeout_s)
+        events = []
+        for ref in done:
+            job = self._refs.pop(ref)
+            try:
+                events.append(Event(job, "ok", self.ray.get(ref)))
+            except Exception as err:  # RayTaskError, WorkerCrashedError, ...
+                why = f"{type(err).__name__}: {' '.join(str(err).split())[:300]}"
+                died = "WorkerCrashed" in why or "died" in why.lower()
+                events.append(Event(job, "died" if died else "error", why))
+        return events
+
+    def kill(self, job: Job) -> None:
+        for ref, j in list(self._refs.items()):
+            if j is job:
+                self.ray.cancel(ref, force=True)
+                del self._refs[ref]
+
+    def shutdown(self, *, now: bool) -> None:
+        for ref in self._refs:
+            self.ray.cancel(ref, force=True)
+        self._refs.clear()
+        self._begun = []
+
+    # ---- the cluster ----
+
+    def _restore(self) -> None:
+        for k, v in self._restore_env.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+        self._restore_env = {}
 
     def close(self) -> None:
         """Stop the Ray instance this executor started (idempotent; a cluster joined is left alone)."""
         if self._started:
             self._started = False
             self.ray.shutdown()
-            for k, v in self._restore_env.items():
-                if v is None:
-                    os.environ.pop(k, None)
-                else:
-                    os.environ[k] = v
+            self._restore()
 
-    @staticmethod
-    def _finish(kind: str, payload: Any, status: str, value: Any, why: str, wall: float, q: WorkQueue,
-                rec: Recorder) -> None:
-        if kind == "world":
-            q.world_ended(payload, value if status == "ok" else Infra("error", f"world generation failed: {why}"),
-                          rec)
-            return
-        if status == "ok":
-            q.run_ended(payload, value, rec, wall)
-        elif status == "limit":
-            drop_partial_trace(payload)
-            rec.record(failure_record(payload, f"run {why}; Ray task cancelled", wall))
-        elif "WorkerCrashed" in why or "died" in why.lower():
-            q.run_died(payload, f"run killed its Ray worker ({why})", rec, wall)
-        else:
-            q.run_ended(payload, Infra("error", f"run failed on Ray: {why}"), rec, wall)
+    def __enter__(self) -> RayExecutor:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

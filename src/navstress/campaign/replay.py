@@ -14,8 +14,8 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
-from navstress.campaign.executors import generate_world, register_targets, run_one, with_trace
 from navstress.campaign.store import Store
+from navstress.campaign.work import generate_world, register_targets, run_one, with_trace
 from navstress.errors import StoreError
 from navstress.run.record import RunRecord
 

@@ -25,7 +25,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from typer.testing import CliRunner
 
-from navstress.campaign.executors import failure_record
+from navstress.run.batch import failure_record
 from navstress.campaign.presets import demo, preset_yaml
 from navstress.campaign.spec import MAX_PLANNED_RUNS, parse_campaign, parse_campaign_text, planned_runs
 from navstress.campaign.plan import plan

@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from navstress.campaign.executors import failure_record
+from navstress.run.batch import failure_record
 from navstress.campaign.presets import demo, preset_yaml
 from navstress.campaign.spec import parse_campaign
 from navstress.campaign.store import COLUMNS, Store, read_export

@@ -1,0 +1,98 @@
+"""One executor contract: the local pool and Ray give the same results and the same words for
+the same events (a world generation or a run over its wall-clock limit, a navigator that kills
+its worker on every attempt), because the scheduling core is written once
+(``navstress.campaign.scheduler``). And a Ray cluster that navstress starts listens on
+127.0.0.1 only, outside any network namespace (the machine's own interfaces in view)."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+import loopback
+
+ROOT = Path(__file__).resolve().parents[2]
+HELPERS = str(ROOT / "tests" / "unit" / "campaign")
+if HELPERS not in sys.path:
+    sys.path.insert(0, HELPERS)
+
+import executor_contract  # noqa: E402
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def ray_contract(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    """The scenarios on a Ray cluster that navstress starts (in a fresh interpreter), with the
+    sockets its processes held while it ran."""
+    pytest.importorskip("ray", reason="ray is not installed (pip extra 'ray'; the 'test' extra installs it)")
+    root = tmp_path_factory.mktemp("ray-contract")
+    env = {k: v for k, v in os.environ.items() if not k.startswith("RAY_")}
+    env["PYTHONPATH"] = os.pathsep.join([str(ROOT / "src"), HELPERS, str(ROOT / "tests"),
+                                         os.environ.get("PYTHONPATH", "")])
+    code = "import sys, executor_contract; executor_contract.main('ray', sys.argv[1])"
+    p = subprocess.run([sys.executable, "-c", code, str(root)], env=env, capture_output=True, text=True,
+                       timeout=500)
+    assert p.returncode == 0, p.stderr[-3000:]
+    out: dict[str, Any] = json.loads(p.stdout.strip().splitlines()[-1])
+    return out
+
+
+@pytest.fixture(scope="module")
+def local_contract(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    root = tmp_path_factory.mktemp("local-contract")
+    ex = executor_contract.LocalExecutor(2, {n["name"]: n["target"] for n in executor_contract.NAVS
+                                             if "target" in n})
+    out = executor_contract.scenarios(ex, root)
+    out["worker"] = ex.worker
+    return out
+
+
+@pytest.fixture(params=["local", "ray"])
+def contract(request: pytest.FixtureRequest) -> dict[str, Any]:
+    got: dict[str, Any] = request.getfixturevalue(f"{request.param}_contract")
+    return got
+
+
+def test_world_generation_over_its_limit_is_said_the_same_way(contract: dict[str, Any]) -> None:
+    world = contract["world"]
+    assert world["recorded"] == 0
+    assert world["unfinished"] == ["world generation exceeded wall-clock limit (0.01 s)"]
+    assert [(a[1], a[2], a[3]) for a in world["attempts"]] == [
+        (i, "world", "world generation exceeded wall-clock limit (0.01 s)") for i in (1, 2, 3)]
+
+
+def test_runs_end_the_same_way(contract: dict[str, Any]) -> None:
+    runs, worker = contract["runs"], contract["worker"]
+    assert runs["recorded"] == 2 and runs["unfinished"] == []
+    recs = runs["records"]
+    assert recs["hangs-v1"] == ["fail-other", "run exceeded wall-clock limit (40 s); worker killed"]
+    assert recs["exits-v1"][0] == "fail-other"
+    assert executor_contract.normalised(recs["exits-v1"][1], worker) == \
+        "run killed its WORKER (...), in 3 of 3 attempts with the same seeds"
+    assert [(a[2], executor_contract.normalised(a[3], worker)) for a in runs["attempts"]] == \
+        [("died", "run killed its WORKER (...)")] * 3
+
+
+def test_both_executors_say_the_same(local_contract: dict[str, Any], ray_contract: dict[str, Any]) -> None:
+    def words(c: dict[str, Any]) -> Any:
+        return json.loads(executor_contract.normalised(json.dumps([c["world"], c["runs"]["attempts"],
+                                                                    c["runs"]["records"]["hangs-v1"],
+                                                                    c["runs"]["records"]["exits-v1"]]),
+                                                       c["worker"]))
+    assert words(local_contract) == words(ray_contract)
+
+
+def test_ray_cluster_listens_on_loopback_only(ray_contract: dict[str, Any]) -> None:
+    """Outside a network namespace: every socket of every process of the cluster (GCS, raylet,
+    object manager, workers, runtime-env agent) is bound to 127.0.0.1 / ::ffff:127.0.0.1."""
+    sockets = ray_contract["sockets"]
+    names = {s[0] for s in sockets}
+    assert {"gcs_server", "raylet"} <= names, sockets
+    assert all(loopback.is_loopback(s[2]) for s in sockets), [s for s in sockets if not loopback.is_loopback(s[2])]

@@ -1,0 +1,83 @@
+"""The executor contract, run against any executor (local pool, Ray): what the scheduling core
+makes of a world generation over its limit, a run over its limit, a navigator that kills its
+worker on every attempt, and a good run. Importable by a subprocess (``python -c``), so a Ray
+cluster never starts inside the test process.
+
+    python -c "import executor_contract; executor_contract.main('ray', DIR)"   # prints JSON
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import sys
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+import loopback
+from navstress.campaign.local import LocalExecutor
+from navstress.campaign.ray_executor import RayExecutor
+from navstress.campaign.scheduler import Executor, resume
+from navstress.campaign.spec import load_campaign
+from navstress.campaign.store import Store
+
+#: The wall-clock limit of the runs (the hanging navigator's runs last that long).
+WALL_LIMIT_S = 40.0
+NAVS = [{"name": "reference-v1"},
+        {"name": "hangs-v1", "target": "campaign_navs:Hangs", "config": {"after_s": 0.2}},
+        {"name": "exits-v1", "target": "campaign_navs:Exits", "config": {"after_s": 0.2}}]
+
+
+def _spec(root: Path, name: str, navigators: list[dict[str, Any]], size_m: float = 20.0) -> Path:
+    d = {"name": name, "seed": 5, "world": {"size_m": [size_m, size_m], "cell_m": 0.5},
+         "experiments": [{"name": "flat", "sweep": {"obstacles.obstruction.tree": {"values": [0 if size_m < 50 else 10]}}}],
+         "maps_per_config": 1, "runs_per_map": 1, "navigators": navigators, "timeout_s": 3.0}
+    path = root / f"{name}.yaml"
+    path.write_text(yaml.safe_dump(d, sort_keys=False))
+    return path
+
+
+def _session(ex: Executor, spec: Path, out: Path, **limits: float) -> dict[str, Any]:
+    with Store.create(out, *load_campaign(spec)) as store:
+        s = resume(store, ex, **limits)  # type: ignore[arg-type]
+        attempts = [list(a) for r in store.planned_ids() for a in store.attempts(r)]
+        records = {r.navigator: [r.outcome, r.reason] for r in store.records()}
+    return {"recorded": s.recorded, "unfinished": sorted(s.unfinished.values()), "attempts": attempts,
+            "records": records}
+
+
+def scenarios(ex: Executor, root: Path) -> dict[str, Any]:
+    """Two campaigns on one executor: a world that never generates within its limit; then the
+    hanging and the crashing navigator on a world that does (the limit leaves a Ray worker, whose
+    clock starts when the task is submitted, the time to start on a busy machine)."""
+    # a 200 m world takes about a second to generate: far over its limit, whatever the load
+    world = _session(ex, _spec(root, "world", NAVS[:1], 200.0), root / "world", wall_limit_s=60.0,
+                     world_limit_s=0.01)
+    runs = _session(ex, _spec(root, "runs", NAVS[1:]), root / "runs", wall_limit_s=WALL_LIMIT_S)
+    return {"world": world, "runs": runs}
+
+
+def normalised(reason: str, worker: str) -> str:
+    """``reason`` with the executor's own words (its worker's name, how it died) taken out."""
+    return re.sub(r"\(([^()]|\([^()]*\))*\)", "(...)", reason.replace(worker, "WORKER"))
+
+
+def main(kind: str, root: str) -> None:
+    """Run :func:`scenarios` on a fresh executor of ``kind``; print the JSON (last line)."""
+    ex: Any
+    if kind == "ray":
+        ex = RayExecutor(2, {n["name"]: n["target"] for n in NAVS if "target" in n})
+    else:
+        ex = LocalExecutor(2, {n["name"]: n["target"] for n in NAVS if "target" in n})
+    try:
+        out = scenarios(ex, Path(root))
+        if kind == "ray":
+            out["sockets"] = loopback.sockets_of_tree(os.getpid())
+    finally:
+        if kind == "ray":
+            ex.close()
+    out["worker"] = ex.worker
+    sys.stdout.write(json.dumps(out) + "\n")
