@@ -129,7 +129,7 @@ class Simulation:
             model=adr.model, data=adr.data, ncon_addr=adr.ncon, contact_field=adr.contact_field,
             chassis=rm.chassis_body, bumper=rm.bumper_geom, terrain=terrain,
             wheel_body=rm.wheel_bodies, wheel_qpos=rm.wheel_qpos, wheel_dof=rm.wheel_dofs, warning_ids=bad,
-            period=[1.0 / r if r > 0 else 1.0 for r in rates],
+            period=[1.0 / hz if hz > 0 else 1.0 for hz in rates],
             dt=self._dt, dv=r.max_accel_mps2 * self._dt, dw=r.max_yaw_accel_rps2 * self._dt,
             skid=cfg.skid_factor, kp=cfg.yaw_kp, ki=cfg.yaw_ki,
             half_track=r.track_m / 2, wheel_radius=r.wheel_radius_m, hold=cfg.wheel_hold_gain,
