@@ -2,7 +2,7 @@
 
 :func:`box_pass` lowers a scan's terrain ranges with the exact hits on the boxes (rows
 ``[x, y, yaw, hx, hy, zb, zt, cos(yaw), sin(yaw)]``, as in :mod:`navstress.sim._raycast`).
-Every ray direction is computed with the same arithmetic as ``scan_kernel`` and every hit with
+Every ray direction is computed with the same arithmetic as the all-in-one scan ``scan_kernel`` (``tests/oracles/scan.py``) and every hit with
 the same scalar :func:`navstress.sim._raycast._ray_box`, so the result is bit-identical to the
 minimum over all boxes (and to ``scan_kernel`` with the boxes): the culling below only skips
 (box, ray) pairs that a conservative bound, with margins far above rounding, proves cannot hit

@@ -479,7 +479,7 @@ def _drive(s: Any, p: Any, qpos: np.ndarray, qvel: np.ndarray, ctrl: np.ndarray,
 
 @numba.njit(cache=True)
 def odom_update(s: Any, p: Any, a0: float, a1: float, a2: float, a3: float, t: float) -> None:  # pragma: no cover
-    """:meth:`navstress.sim.sensors.WheelOdometry.update` on the :data:`STATE` record ``s`` with
+    """``WheelOdometry.update`` (the reference in ``tests/oracles/sensors.py``) on the :data:`STATE` record ``s`` with
     the :data:`PARAMS` record ``p`` (same arithmetic): wheel angles FL, RL, FR, RR at time ``t``;
     exact-arc integration."""
     oa = s.odom_a
@@ -519,7 +519,7 @@ def _euler(qpos: np.ndarray) -> tuple[float, float, float]:  # pragma: no cover 
 
 @numba.njit(cache=True)
 def _wrap(a: float) -> float:  # pragma: no cover - compiled
-    """:func:`navstress.sim.sensors.wrap` (same arithmetic: Python's float modulo)."""
+    """``wrap`` of ``tests/oracles/sensors.py`` (same arithmetic: Python's float modulo)."""
     return (a + math.pi) % (2 * math.pi) - math.pi
 
 
