@@ -1,9 +1,10 @@
 """A child process for code that may crash, hang or exit: the navigator under test.
 
-(A module of its own, below ``navstress.nav`` and ``navstress.run``, so that both can use it.)
+(A module of its own, below ``navstress.nav.check``, ``navstress.run`` and
+``navstress.campaign``, so that all three use it; it needs only ``navstress.nav.registry``.)
 
-``navstress run`` and ``navstress nav check`` run the navigator in a worker process (spawn
-context) with a wall-clock limit, as the campaign executors do, so that a navigator that calls
+``navstress run``, ``navstress nav check`` and the campaign's local executor run the navigator
+in worker processes (spawn context) with a wall-clock limit, so that a navigator that calls
 ``sys.exit``, ``os._exit``, segfaults, kills itself or loops forever costs its own run (or
 check), never the command:
 
@@ -13,7 +14,9 @@ check), never the command:
 - names registered with :func:`navstress.nav.registry.register` in the parent (``module:attr``
   targets, or factories that pickle) are registered in the worker too.
 
-:class:`Worker` runs one call at a time; :meth:`Worker.call` answers ``("ok", value)``,
+:class:`Child` is one worker process and its pipe, never waited for (the campaign's pool holds
+several and waits on all at once); every worker runs the same loop (``_worker_main``).
+:class:`Worker` holds one and runs one call at a time; :meth:`Worker.call` answers ``("ok", value)``,
 ``("raised", exception)`` (any ``BaseException`` the call raised, pickled back),
 ``("died", "exit code 3" | "signal SIGSEGV")`` or ``("limit", seconds)``; after ``died`` or
 ``limit`` the worker is gone and the next call starts a fresh one. Messages that the call sends

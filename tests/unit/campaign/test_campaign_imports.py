@@ -4,6 +4,7 @@ too), the scheduling core below its executors, and imports at the top of its mod
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import navstress
@@ -92,3 +93,14 @@ def test_imports_are_at_the_top() -> None:
              "campaign/ray_executor.py", "isolate.py"]
     found = {(_module(SRC / f), m) for f in files for m, inside in _imports(SRC / f) if inside}
     assert found == set(LOCAL_IMPORTS_KEPT)
+
+
+def test_one_worker_loop() -> None:
+    """Campaign workers, ``navstress run`` and ``nav check`` share one worker loop and process
+    handle (``navstress.isolate``): nothing else in src/ reads a worker's pipe or sets up a
+    worker process."""
+    pattern = re.compile(r"\.recv\(\)|die_with_parent\(|get_context\(\"spawn\"\)")
+    users = sorted(str(p.relative_to(SRC)) for p in SRC.rglob("*.py") if pattern.search(p.read_text(encoding="utf-8")))
+    assert users == ["isolate.py"]
+    g = _graph()
+    assert "navstress.isolate" in g["navstress.campaign.local"] and "navstress.isolate" in g["navstress.run.batch"]
