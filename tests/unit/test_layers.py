@@ -40,8 +40,6 @@ FORBIDDEN: dict[str, tuple[str, ...]] = {
 #: A package's lazy facade (``__getattr__``) may name a higher layer: ``navstress.run_mission``.
 FACADES = {("navstress", "navstress._facade")}
 
-#: The one cycle still in the tree; its test is xfail(strict) and goes once the cycle is gone.
-KNOWN_CYCLE = frozenset({"navstress.campaign.executors", "navstress.campaign.ray_executor"})
 
 
 @dataclass(frozen=True)
@@ -199,14 +197,8 @@ def _cycles(graph: dict[str, set[str]] | None = None) -> list[frozenset[str]]:
 
 
 def test_no_import_cycle() -> None:
-    cycles = [sorted(c) for c in _cycles() if c != KNOWN_CYCLE]
+    cycles = [sorted(c) for c in _cycles()]
     assert not cycles, cycles
-
-
-@pytest.mark.xfail(strict=True, reason="campaign.executors <-> campaign.ray_executor: being removed "
-                   "(one executor contract); remove this xfail with it")
-def test_no_cycle_between_the_executors() -> None:
-    assert KNOWN_CYCLE not in _cycles()
 
 
 def test_the_cycle_check_finds_cycles() -> None:

@@ -40,6 +40,7 @@ from numba import carray, types  # type: ignore[attr-defined]
 from numba.core import cgutils
 from numba.extending import intrinsic
 
+import navstress._jit  # noqa: F401  (numba's cache directory, before any @njit(cache=True))
 from navstress.errors import SimulationError
 
 LIBS = sorted(glob.glob(os.path.join(os.path.dirname(mujoco.__file__), "libmujoco.so*")))
