@@ -17,6 +17,7 @@ into their own caches and is not counted unless ``--rounds 1``.
 from __future__ import annotations
 
 import argparse
+import io
 import os
 import re
 import shlex
@@ -25,7 +26,6 @@ import subprocess
 import sys
 import tarfile
 import tempfile
-import io
 from collections import defaultdict
 from pathlib import Path
 
@@ -43,17 +43,26 @@ def extract(rev: str, dest: Path) -> None:
 
 def figures(out: str) -> dict[str, float]:
     """Label -> value of every figure in a benchmark's output (the label: the line with its
-    numbers replaced by '#', up to the figure, plus the figure's unit and its rank on the line)."""
+    numbers replaced by '#', up to the figure, after the last section header '== name: ...' if
+    any, plus the figure's unit and its rank on the line)."""
     found: dict[str, float] = {}
+    section = ""
     for line in out.splitlines():
+        if line.startswith("== "):  # a section header (bench_loop: one world): part of its lines' labels
+            section = line[3:].split(":")[0].strip() + ": "
         for rank, m in enumerate(FIGURE.finditer(line)):
-            label = re.sub(r"\d+(?:\.\d+)?", "#", line[: m.start()]).strip()
+            label = section + re.sub(r"\d+(?:\.\d+)?", "#", line[: m.start()]).strip()
             found[f"{label} [{m.group(2)} #{rank}]"] = float(m.group(1))
     return found
 
 
 def run(tree: Path, bench: str, args: list[str]) -> str:
-    env = dict(os.environ, PYTHONPATH=str(tree / "src"), PYTHONDONTWRITEBYTECODE="1")
+    git_dir = subprocess.run(["git", "rev-parse", "--git-common-dir"], cwd=REPO, capture_output=True, text=True,
+                             check=True).stdout.strip()
+    # (GIT_DIR: a benchmark that loads its own baseline revision with `git show` finds the repository
+    # from the extracted tree too)
+    env = dict(os.environ, PYTHONPATH=str(tree / "src"), PYTHONDONTWRITEBYTECODE="1",
+               GIT_DIR=str((REPO / git_dir).resolve()))
     p = subprocess.run([sys.executable, str(tree / "benchmarks" / bench), *args], cwd=REPO, env=env,
                        capture_output=True, text=True)
     if p.returncode != 0:
