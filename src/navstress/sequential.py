@@ -67,7 +67,7 @@ def _log_martingale_gap(p: float, successes: int, n: int, log_bound: float) -> f
     a = PRIOR_A
     f = n - successes
     loglik = (successes * math.log(p) if successes else 0.0) + (f * math.log1p(-p) if f else 0.0)
-    return betaln(a + successes, a + f) - betaln(a, a) - loglik - log_bound
+    return float(betaln(a + successes, a + f) - betaln(a, a)) - loglik - log_bound
 
 
 def confidence_sequence(successes: int, n: int, confidence: float) -> tuple[float, float]:
