@@ -25,6 +25,7 @@ files (``.*.partial`` traces, ``.m<k>.*`` world temp dirs) are removed.
 from __future__ import annotations
 
 import csv
+import errno
 import fcntl
 import json
 import math
@@ -125,8 +126,6 @@ def disk_full(where: str | Path, detail: str = "") -> DiskFullError:
 
 def is_disk_full(err: BaseException) -> bool:
     """Whether ``err`` is an out-of-space error (ENOSPC / EDQUOT, or SQLite's SQLITE_FULL)."""
-    import errno
-
     if isinstance(err, OSError) and err.errno in (errno.ENOSPC, errno.EDQUOT):
         return True
     return isinstance(err, sqlite3.OperationalError) and "full" in str(err).lower()
@@ -450,8 +449,8 @@ class Store:
                     w.writeheader()
                     w.writerows(rows)
             else:
-                import pyarrow as pa
-                import pyarrow.parquet as pq
+                import pyarrow as pa  # local: pyarrow costs ~0.35 s to import, only exports need it
+                import pyarrow.parquet as pq  # (and every campaign worker imports this module)
 
                 schema = pa.schema([(c, _ARROW[_TYPES.get(c, "TEXT")]()) for c in COLUMNS])
                 table = pa.Table.from_pylist(rows, schema=schema)
@@ -465,7 +464,8 @@ class Store:
 def _arrow_types() -> dict[str, Any]:
     def lazy(name: str) -> Any:
         def f() -> Any:
-            import pyarrow as pa
+            import pyarrow as pa  # local: see Store.export
+
             return getattr(pa, name)()
         return f
     return {"INTEGER": lazy("int64"), "REAL": lazy("float64"), "TEXT": lazy("string")}
@@ -478,7 +478,8 @@ def read_export(path: str | Path) -> list[dict[str, Any]]:
     """Read back an exported runs table (CSV or Parquet) as rows with typed values."""
     p = Path(path)
     if p.suffix == ".parquet":
-        import pyarrow.parquet as pq
+        import pyarrow.parquet as pq  # local: see Store.export
+
         return list(pq.read_table(p).to_pylist())
     with open(p, newline="", encoding="utf-8") as f:
         rows = list(csv.DictReader(f))
