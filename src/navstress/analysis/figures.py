@@ -150,7 +150,7 @@ def verdict_figure(title: str, configs: list[Any], worlds: list[Any], threshold:
     coloured by verdict, beside the pooled configuration (black diamond); the threshold dashed.
     ``configs`` and ``worlds``: :class:`~navstress.analysis.verdicts.WorldVerdict` of one
     experiment, navigator and fault."""
-    fig = _figure(max(5.0, min(14.0, 1.2 + 0.9 * len(configs))), 3.4, dpi)
+    fig = _figure(max(6.0, min(15.0, 2.7 + 0.9 * len(configs))), 3.4, dpi)
     ax = fig.subplots()
     seen: set[str] = set()
     for i, c in enumerate(configs):
@@ -176,7 +176,7 @@ def verdict_figure(title: str, configs: list[Any], worlds: list[Any], threshold:
     ax.set_ylabel("pass probability (exact interval)")
     ax.grid(True, axis="y", alpha=0.3)
     if seen:
-        legend(ax, fontsize=7, loc="lower left")
+        legend(ax, fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     ax.set_title(title, fontsize=10)
     return png_bytes(fig)
 
