@@ -259,6 +259,12 @@ def _verdicts(a: Analysis, max_worlds: int = 2000) -> str:
            'however many runs were made: <i>passes</i> (pass probability at least the threshold), <i>fails</i> '
            f'(below it), <i>flaky</i> (both outcomes likely: proven between {100 * FLAKY_BAND[0]:g} % and '
            f'{100 * FLAKY_BAND[1]:g} %) or <i>undecided</i> (more runs needed). See docs/statistics.md.</p>']
+    own = [(e, x) for e, x in v.rules.items() if x != r]
+    if own:
+        out.append('<p class="note" id="verdict-rules">Experiments with their own adaptive rule: ' + "; ".join(
+            f'<span data-experiment="{_e(e)}" data-threshold="{x.threshold!r}" data-confidence="{x.confidence!r}">'
+            f'{_e(e)}: threshold {100 * x.threshold:g} %, confidence {100 * x.confidence:g} %</span>'
+            for e, x in own) + ".</p>")
     cfgs = [c for c in v.configurations if a.shows(c.navigator)]
     worlds = [w for w in v.worlds if a.shows(w.navigator)]
     if not cfgs:
@@ -279,7 +285,7 @@ def _verdicts(a: Analysis, max_worlds: int = 2000) -> str:
         cs = [c for c in cfgs if (c.experiment, c.navigator, c.fault) == (e, n, f)]
         ws = [w for w in worlds if (w.experiment, w.navigator, w.fault) == (e, n, f)]
         title = f"{e}: verdicts per world ({n}, {f} runs)"
-        out.append(_img(verdict_figure(title, cs, ws, r.threshold), f"verdicts-{e}-{n}-{f}",
+        out.append(_img(verdict_figure(title, cs, ws, v.rule_for(e).threshold), f"verdicts-{e}-{n}-{f}",
                         f"pass probability and verdict of every world of {e}, {n}, {f}", n, f))
     shown = [w for w in worlds if w.verdict != "passes"][:max_worlds]
     wrows = "".join(

@@ -17,7 +17,7 @@ from navstress.analysis.analyze import analyze
 from navstress.analysis.report import build_report
 from navstress.analysis.stats import clopper_pearson
 from navstress.analysis.verdicts import (DEFAULT_CONFIDENCE, DEFAULT_THRESHOLD, VERDICT_COLUMNS, VerdictRule,
-                                         read_verdicts, rule_of, verdicts, world_verdict)
+                                         read_verdicts, rule_of, rules_of, verdicts, world_verdict)
 from navstress.campaign.store import Store
 from navstress.cli import app
 from navstress.errors import SpecError
@@ -71,7 +71,8 @@ def test_analyze_json_gains_verdicts_and_keeps_its_keys(camp: Path) -> None:
     assert {(x["config"], x["map_index"]): x["verdict"] for x in v["worlds"] if x["fault"] == "nominal"} == EXPECT
     x = v["worlds"][0]
     assert set(x) == {"experiment", "config", "map_index", "navigator", "fault", "runs", "successes",
-                      "pass_probability", "ci", "sequence", "verdict"}
+                      "pass_probability", "ci", "sequence", "verdict", "threshold", "confidence"}
+    assert v["experiments"] == {"trees": {"threshold": 0.8, "confidence": 0.95, "rule": "default"}}
     assert {"worlds", "world_verdicts"} < set(v["configurations"][0])
 
 
@@ -136,6 +137,26 @@ def test_report_verdict_table_matches(camp: Path, tmp_path: Path) -> None:
 ])
 def test_rule_of_reads_any_spec_shape(spec: object, rule: VerdictRule) -> None:
     assert rule_of(spec) == rule
+
+
+def test_rule_of_prefers_the_experiments_own_rule() -> None:
+    """Per experiment (``spec.experiments[i].runs_per_map``), then the campaign's, then the default;
+    verdicts of an experiment are given under its rule."""
+    ad = {"adaptive": {"min": 3, "max": 9, "threshold": 0.6, "confidence": 0.9}}
+    spec = SimpleNamespace(runs_per_map=5, experiments=[SimpleNamespace(name="trees", runs_per_map=ad),
+                                                        SimpleNamespace(name="slopes", runs_per_map=None)])
+    assert rule_of(spec, "trees") == VerdictRule(0.6, 0.9, "the adaptive rule of experiment trees")
+    assert rule_of(spec, "slopes") == rule_of(spec) == VerdictRule()
+    spec.runs_per_map = {"adaptive": {"threshold": 0.7, "confidence": 0.99}}
+    assert rules_of(spec) == {"trees": VerdictRule(0.6, 0.9, "the adaptive rule of experiment trees"),
+                              "slopes": VerdictRule(0.7, 0.99, "the campaign's adaptive rule")}
+    recs = [record("trees", "tree=0", 0, i) for i in range(12)]
+    recs += [record("smooth", "deformation=0.5", 0, i) for i in range(12)]
+    v = verdicts(recs, VerdictRule(), rules={"trees": VerdictRule(0.6, 0.9)})
+    by = {c.experiment: c for c in v.configurations}
+    assert (by["trees"].threshold, by["trees"].confidence, by["trees"].verdict) == (0.6, 0.9, "passes")
+    assert (by["smooth"].threshold, by["smooth"].verdict) == (0.8, "undecided")  # 12/12 does not prove 0.8
+    assert {r["threshold"] for r in v.rows() if r["experiment"] == "trees"} == {0.6}
 
 
 def test_rule_of_the_store_spec_is_the_default(camp: Path) -> None:
