@@ -94,6 +94,14 @@ def test_report_renders_in_chromium(page, tmp_path: Path) -> None:  # type: igno
     # the per-configuration sections link from the table and hold map pictures
     assert page.locator("section#cfg-trees--tree-4 img").count() >= 3
     assert page.locator("#partial-campaign").is_visible()
+    # verdicts: a row per configuration whose counts are the store's, and the strip of worlds drawn
+    from navstress.analysis.verdicts import verdicts
+    for c in verdicts(recs).configurations:
+        row = page.locator(f"#verdicts-configurations tr[data-config='{c.config_key}'][data-fault='{c.fault}']")
+        assert row.is_visible()
+        assert row.locator("td[data-field='runs']").inner_text() == str(c.runs)
+        assert row.locator("td[data-field='verdict']").inner_text() == c.verdict
+    assert page.locator("img[data-figure='verdicts-trees-reference-v1-nominal']").bounding_box()["width"] > 300
 
 
 def test_empty_campaign_renders(page, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]

@@ -61,6 +61,8 @@ OUTPUT_COMMANDS = [
     OutputCommand("campaign export csv", ("campaign", "export", "{root}/c", "-o", "{out}"), "file"),
     OutputCommand("campaign export parquet", ("campaign", "export", "{root}/c", "-f", "parquet", "-o", "{out}"),
                   "file"),
+    *[OutputCommand(f"campaign export verdicts {f}", ("campaign", "export", "{root}/c", "--table", "verdicts", "-f", f,
+                                                       "-o", "{out}"), "file") for f in ("csv", "parquet")],
     OutputCommand("report", ("report", "{root}/c", "-o", "{out}"), "file"),
     OutputCommand("analyze --json", ("analyze", "{root}/c", "--json", "{out}"), "file"),
 ]

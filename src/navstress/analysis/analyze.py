@@ -30,6 +30,7 @@ from navstress.analysis.difficulty import (LEVEL_RANK, LEVELS, Difficulty, Diffi
 from navstress.analysis.fault_power import FaultPower, LevelPower, by_level, fault_power
 from navstress.analysis.indeterminism import Curve, config_curves
 from navstress.analysis.stats import (NOMINAL, ConfigStats, config_key, config_stats, fault_name, planned_configs)
+from navstress.analysis.verdicts import Verdicts, VerdictRule, rule_of, rules_of, verdicts
 from navstress.campaign.store import Store
 from navstress.errors import NavstressError, SpecError
 from navstress.run.outcome import Outcome
@@ -105,6 +106,9 @@ class Analysis:
     navigators: list[str] = field(default_factory=list)
     #: the navigator asked for explicitly (``--navigator``), whose runs alone are shown; None: all
     only_navigator: str | None = None
+    #: pass probability, exact interval and class per world and per configuration
+    #: (:mod:`navstress.analysis.verdicts`)
+    verdicts: Verdicts = field(default_factory=lambda: Verdicts(VerdictRule(), [], []))
 
     def shows(self, navigator: str) -> bool:
         """Whether runs of ``navigator`` are drawn and listed (all, unless one was asked for)."""
@@ -156,6 +160,7 @@ class Analysis:
                                      for p in self.power_levels],
             "descriptor_correlations": [c.to_json() for c in self.correlations],
             "missing": [{"experiment": e, "config": k, "recorded": d, "planned": p} for e, k, d, p in self.missing],
+            "verdicts": self.verdicts.to_json(),
         }
 
 
@@ -231,8 +236,10 @@ def analyze(directory: str | Path, *, params: DifficultyParams | None = None, na
     rank = {k: LEVEL_RANK[v] for k, v in levels.items() if v in LEVEL_RANK}
     succ = {s.key: s.success_rate for s in nominal if s.success_rate is not None}
     corr = correlations(desc, rank, {k: float(v) for k, v in succ.items() if v is not None})
+    verd = verdicts(records, rule_of(spec), [(s.experiment, s.config_key, s.navigator, s.fault) for s in stats],
+                    rules_of(spec))
     return Analysis(root=root, name=spec.name, navigator=nav, done=done, planned=planned, outcome_counts=counts,
                     per_experiment=per_exp, records=records, stats=stats, nominal=nominal, difficulty=diff,
                     ranges=ranges, overlaps=overlaps, indeterminism=indet, power=power, power_levels=power_levels,
                     correlations=corr, world_dirs=world_dirs, dt=dt, infeasible=infeasible, navigators=navs,
-                    only_navigator=navigator)
+                    only_navigator=navigator, verdicts=verd)

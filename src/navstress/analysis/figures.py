@@ -1,4 +1,4 @@
-"""The report's pictures (PNG bytes): difficulty per class, indeterminism, fault power, runs over
+"""The report's pictures (PNG bytes): difficulty per class, verdicts per world, indeterminism, fault power, runs over
 their world and a navigator's perceived map. Runs are drawn with :mod:`navstress.run.figures`
 (its outcome colours everywhere in navstress).
 """
@@ -137,6 +137,47 @@ def fault_power_figure(level_powers: list[Any], *, dpi: int = 90, navigator: str
     ax.set_title(f"Fault-revealing power per difficulty level{': ' + navigator if navigator else ''}", fontsize=10)
     legend(ax, fontsize=8)
     ax.grid(True, axis="y", alpha=0.3)
+    return png_bytes(fig)
+
+
+VERDICT_COLOURS: dict[str, str] = {
+    "passes": "#1a9641", "fails": "#d7191c", "flaky": "#7b3294", "undecided": "#999999",
+}
+
+
+def verdict_figure(title: str, configs: list[Any], worlds: list[Any], threshold: float, *, dpi: int = 90) -> bytes:
+    """Per configuration (x), a strip of its worlds: pass probability with its exact interval,
+    coloured by verdict, beside the pooled configuration (black diamond); the threshold dashed.
+    ``configs`` and ``worlds``: :class:`~navstress.analysis.verdicts.WorldVerdict` of one
+    experiment, navigator and fault."""
+    fig = _figure(max(6.0, min(15.0, 2.7 + 0.9 * len(configs))), 3.4, dpi)
+    ax = fig.subplots()
+    seen: set[str] = set()
+    for i, c in enumerate(configs):
+        ws = [w for w in worlds if w.config_key == c.config_key and w.runs]
+        for j, w in enumerate(ws):
+            x = i - 0.3 + 0.5 * (j + 0.5) / max(len(ws), 1)
+            p = w.successes / w.runs
+            col = VERDICT_COLOURS.get(w.verdict, "#000000")
+            ax.errorbar([x], [p], yerr=[[p - w.ci[0]], [w.ci[1] - p]], fmt="o", color=col, ms=5, capsize=2,
+                        label=None if w.verdict in seen else f"world {w.verdict}")
+            seen.add(w.verdict)
+        if c.runs:
+            p = c.successes / c.runs
+            ax.errorbar([i + 0.32], [p], yerr=[[p - c.ci[0]], [c.ci[1] - p]], fmt="D", color="#000000", ms=6,
+                        capsize=3, label=None if "pooled" in seen else "configuration (pooled)")
+            seen.add("pooled")
+            ax.text(i + 0.32, 1.06, c.verdict, ha="center", va="bottom", fontsize=7,
+                    color=VERDICT_COLOURS.get(c.verdict, "#000000"))
+    ax.axhline(threshold, color="#555555", lw=0.8, ls="--")
+    ax.set_xticks(list(range(len(configs))), [c.config_key for c in configs], rotation=20, fontsize=8)
+    ax.set_xlim(-0.6, len(configs) - 0.4)
+    ax.set_ylim(-0.05, 1.15)
+    ax.set_ylabel("pass probability (exact interval)")
+    ax.grid(True, axis="y", alpha=0.3)
+    if seen:
+        legend(ax, fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    ax.set_title(title, fontsize=10)
     return png_bytes(fig)
 
 

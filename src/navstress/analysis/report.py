@@ -4,7 +4,9 @@ Figures are embedded as base64 PNG data URIs; the page has no script and loads n
 outside. Sections: summary (campaign, runs done/planned, outcome counts, what is missing),
 difficulty table (per configuration: parameters, runs, success % with its 95 % interval,
 median duration and tortuousness of successes, mean end distance to goal, level), level
-ranges per class (fuzzy thresholds), per-class figures, indeterminism, fault power,
+ranges per class (fuzzy thresholds), per-class figures, verdicts (per configuration a table row and
+per experiment, navigator and fault a strip of its worlds: pass probability, exact interval,
+class; the worlds that do not pass listed), indeterminism, fault power,
 descriptor correlations, and one section per configuration (every map with all its runs
 colour-coded by outcome, one real-vs-perceived picture and the final perceived map).
 
@@ -34,13 +36,16 @@ from typing import Any
 
 from navstress.analysis.analyze import Analysis, TrajectoryCache, analyze, trace_path
 from navstress.analysis.difficulty import NO_DATA, DifficultyParams
-from navstress.analysis.figures import (LEVEL_STYLE, class_figure, fault_power_figure, indeterminism_figure,
-                                        perceived_map_png_bytes, world_runs_png_bytes)
+from navstress.analysis.figures import (LEVEL_STYLE, VERDICT_COLOURS, class_figure, fault_power_figure,
+                                        indeterminism_figure, perceived_map_png_bytes, verdict_figure,
+                                        world_runs_png_bytes)
 from navstress.analysis.stats import NOMINAL, ConfigStats, config_key, fault_name, params_text
+from navstress.analysis.verdicts import WorldVerdict
 from navstress.run.figures import OUTCOME_COLOURS, OUTCOME_LABELS, RunTrack
 from navstress.run.outcome import Outcome
 from navstress.run.record import RunRecord
 from navstress.run.trace import TOPIC_MAP, TOPIC_PERCEIVED, TOPIC_TRUTH, read_grid
+from navstress.sequential import FLAKY_BAND
 from navstress.world.world import World
 
 _CSS = """
@@ -221,6 +226,80 @@ def _class_figures(a: Analysis) -> str:
                    + _img(class_figure(e, a.nominal, levels, navigator=a.navigator), f"class-{e}",
                           f"success rate, duration and tortuousness of {e}, nominal runs of {a.navigator}",
                           a.navigator, NOMINAL))
+    return "\n".join(out)
+
+
+def _verdict_badge(v: str) -> str:
+    return f'<span class="level" style="background:{VERDICT_COLOURS.get(v, "#888")}">{_e(v)}</span>'
+
+
+def _verdict_cells(w: WorldVerdict) -> str:
+    pp = w.pass_probability
+    return (_cell("runs", w.runs) + _cell("successes", w.successes)
+            + _cell("pass_probability", pp, "\u2013" if pp is None else f"{100 * pp:.0f} %")
+            + _cell("ci_low", w.ci[0], f"{100 * w.ci[0]:.0f}") + _cell("ci_high", w.ci[1], f"{100 * w.ci[1]:.0f}")
+            + f'<td class="l" data-field="verdict" data-value="{_e(w.verdict)}">{_verdict_badge(w.verdict)}</td>')
+
+
+def _verdict_attrs(w: WorldVerdict) -> str:
+    m = "" if w.map_index is None else f' data-map="{w.map_index}"'
+    return (f'data-experiment="{_e(w.experiment)}" data-config="{_e(w.config_key)}"{m} '
+            f'data-navigator="{_e(w.navigator)}" data-fault="{_e(w.fault)}"')
+
+
+def _verdicts(a: Analysis, max_worlds: int = 2000) -> str:
+    v = a.verdicts
+    r = v.rule
+    conf = f"{100 * r.confidence:g} %"
+    out = ['<h2 id="verdicts">Verdicts per world and per configuration</h2>',
+           f'<p class="note" id="verdict-rule" data-threshold="{r.threshold!r}" data-confidence="{r.confidence!r}">'
+           f'A world is one map run by one navigator with one fault; a configuration pools its maps. Pass probability: '
+           f'successes / runs with its exact (Clopper-Pearson) {conf} interval. Verdict ({_e(r.source)}, threshold '
+           f'{100 * r.threshold:g} %, confidence {conf}), proven by an anytime-valid confidence sequence, so it holds '
+           'however many runs were made: <i>passes</i> (pass probability at least the threshold), <i>fails</i> '
+           f'(below it), <i>flaky</i> (both outcomes likely: proven between {100 * FLAKY_BAND[0]:g} % and '
+           f'{100 * FLAKY_BAND[1]:g} %) or <i>undecided</i> (more runs needed). See docs/statistics.md.</p>']
+    own = [(e, x) for e, x in v.rules.items() if x != r]
+    if own:
+        out.append('<p class="note" id="verdict-rules">Experiments with their own adaptive rule: ' + "; ".join(
+            f'<span data-experiment="{_e(e)}" data-threshold="{x.threshold!r}" data-confidence="{x.confidence!r}">'
+            f'{_e(e)}: threshold {100 * x.threshold:g} %, confidence {100 * x.confidence:g} %</span>'
+            for e, x in own) + ".</p>")
+    cfgs = [c for c in v.configurations if a.shows(c.navigator)]
+    worlds = [w for w in v.worlds if a.shows(w.navigator)]
+    if not cfgs:
+        out.append('<p class="note">No run recorded yet.</p>')
+        return "\n".join(out)
+    heads = ('<th>runs</th><th>successes</th><th>pass probability</th><th>low %</th><th>high %</th>'
+             '<th class="l">verdict</th>')
+    rows = "".join(
+        f'<tr {_verdict_attrs(c)}><td class="l">{_e(c.experiment)}</td><td class="l">{_e(c.config_key)}</td>'
+        f'<td class="l">{_e(c.navigator)}</td><td class="l">{_e(c.fault)}</td>' + _cell("worlds", c.worlds)
+        + "".join(_cell(f"worlds_{k}", n) for k, n in c.world_verdicts) + _verdict_cells(c) + "</tr>"
+        for c in cfgs)
+    wheads = "".join(f"<th>worlds {k}</th>" for k, _ in cfgs[0].world_verdicts)
+    out.append(f'<table id="verdicts-configurations"><tr><th class="l">experiment</th><th class="l">configuration</th>'
+               f'<th class="l">navigator</th><th class="l">fault</th><th>worlds</th>{wheads}{heads}</tr>{rows}</table>')
+    groups = list(dict.fromkeys((c.experiment, c.navigator, c.fault) for c in cfgs))
+    for e, n, f in groups:
+        cs = [c for c in cfgs if (c.experiment, c.navigator, c.fault) == (e, n, f)]
+        ws = [w for w in worlds if (w.experiment, w.navigator, w.fault) == (e, n, f)]
+        title = f"{e}: verdicts per world ({n}, {f} runs)"
+        out.append(_img(verdict_figure(title, cs, ws, v.rule_for(e).threshold), f"verdicts-{e}-{n}-{f}",
+                        f"pass probability and verdict of every world of {e}, {n}, {f}", n, f))
+    shown = [w for w in worlds if w.verdict != "passes"][:max_worlds]
+    wrows = "".join(
+        f'<tr {_verdict_attrs(w)}><td class="l">{_e(w.experiment)}</td><td class="l">{_e(w.config_key)}</td>'
+        f'<td>{w.map_index}</td><td class="l">{_e(w.navigator)}</td><td class="l">{_e(w.fault)}</td>'
+        + _verdict_cells(w) + "</tr>" for w in shown)
+    n_pass = sum(w.verdict == "passes" for w in worlds)
+    more = (f'<p class="note">... and {len([w for w in worlds if w.verdict != "passes"]) - max_worlds} more '
+            '(all in <code>analyze --json</code> and <code>campaign export --table verdicts</code>).</p>'
+            if len([w for w in worlds if w.verdict != "passes"]) > max_worlds else "")
+    out.append(f'<h3>Worlds that do not pass</h3><p class="note">{n_pass} of {len(worlds)} worlds pass; '
+               'the others:</p>'
+               f'<table id="verdicts-worlds"><tr><th class="l">experiment</th><th class="l">configuration</th>'
+               f'<th>map</th><th class="l">navigator</th><th class="l">fault</th>{heads}</tr>{wrows}</table>{more}')
     return "\n".join(out)
 
 
@@ -407,10 +486,10 @@ def render_report(a: Analysis, *, cache: TrajectoryCache | None = None, max_poin
     cache = cache or TrajectoryCache()
     body = [_summary(a)]
     if a.done:
-        body += [_difficulty(a), _class_figures(a), _indeterminism(a), _fault_power(a), _correlations(a),
+        body += [_difficulty(a), _class_figures(a), _verdicts(a), _indeterminism(a), _fault_power(a), _correlations(a),
                  _configs(a, cache, max_points)]
     nav = ("<nav>" + "".join(f'<a href="#{i}">{t}</a>' for i, t in (
-        ("summary", "Summary"), ("difficulty", "Difficulty"), ("classes", "Classes"), ("indeterminism", "Indeterminism"),
+        ("summary", "Summary"), ("difficulty", "Difficulty"), ("classes", "Classes"), ("verdicts", "Verdicts"), ("indeterminism", "Indeterminism"),
         ("fault-power", "Fault power"), ("descriptors", "Descriptors"), ("configurations", "Configurations")))
            + "</nav>") if a.done else ""
     return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"

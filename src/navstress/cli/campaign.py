@@ -161,13 +161,24 @@ def status(directory: Annotated[Path, typer.Argument(help="Campaign directory.")
 def export(
     directory: Annotated[Path, typer.Argument(help="Campaign directory.")],
     fmt: Annotated[str, typer.Option("--format", "-f", help="csv or parquet.")] = "csv",
-    out: Annotated[Path | None, typer.Option("--output", "-o", help="File to write (default DIR/runs.FORMAT).")] = None,
+    out: Annotated[Path | None, typer.Option("--output", "-o", help="File to write (default DIR/TABLE.FORMAT).")] = None,
+    table: Annotated[str, typer.Option("--table", help="runs (one row per run) or verdicts (one row per world, "
+                                       "then per configuration: pass probability, exact interval, verdict).")] = "runs",
 ) -> None:
-    """Write the runs table as CSV or Parquet."""
+    """Write the runs table, or the verdicts table, as CSV or Parquet."""
     if fmt not in ("csv", "parquet"):
         raise SpecError("--format", fmt, "csv or parquet")
+    if table not in ("runs", "verdicts"):
+        raise SpecError("--table", table, "runs or verdicts")
     if out is not None and out.is_dir():
         raise SpecError("--output", str(out), f"a {fmt} file path, not a directory")
+    if table == "verdicts":
+        from navstress.analysis.verdicts import campaign_verdicts, write_verdicts
+
+        v = campaign_verdicts(directory)
+        path = write_verdicts(v, fmt, out if out is not None else Path(directory) / f"verdicts.{fmt}")
+        typer.echo(literal(f"wrote {path} ({len(v.worlds)} worlds, {len(v.configurations)} configurations)"))
+        return
     with Store.open(directory) as store:
         path = store.export(fmt, out)  # type: ignore[arg-type]
         n = store.progress()[0]

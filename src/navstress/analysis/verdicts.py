@@ -1,0 +1,278 @@
+"""Verdicts per world and per configuration: pass probability with an exact interval and a class.
+
+A *world* is one map of a configuration run by one navigator with one fault; a *configuration*
+pools every map of a configuration (same navigator and fault). For each:
+
+- ``pass_probability``: successes / runs (None without runs);
+- ``ci``: the exact (Clopper-Pearson) interval of the pass probability at ``confidence``, from
+  :func:`scipy.stats.binomtest` (``proportion_ci(method="exact")``): the number to report;
+- ``sequence``: the anytime-valid confidence sequence of :mod:`navstress.sequential` at the same
+  ``confidence``, and ``verdict``, the class it proves against ``threshold``: ``passes``,
+  ``fails``, ``flaky`` (proven inside :data:`~navstress.sequential.FLAKY_BAND`) or ``undecided``.
+  The verdict stays valid however the number of runs was chosen (an adaptive campaign stops a
+  world as soon as it is decided), which the fixed-sample exact interval does not.
+
+The rule (threshold, confidence) is the adaptive rule of the world's experiment when the campaign
+spec gives it one (the experiment's own, else the campaign's), else :data:`DEFAULT_THRESHOLD` and
+:data:`DEFAULT_CONFIDENCE` (docs/statistics.md).
+
+    >>> w = world_verdict("trees", "tree=4", 0, "dwa", "nominal", successes=10, runs=10)
+    >>> w.verdict, round(w.ci[0], 3)
+    ('passes', 0.692)
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from scipy.stats import binomtest
+
+from navstress.analysis.stats import config_key, fault_name
+from navstress.errors import SpecError
+from navstress.run.outcome import Outcome
+from navstress.run.record import RunRecord
+from navstress.sequential import FLAKY_BAND, VERDICTS, Verdict, check_rule, confidence_sequence, verdict
+
+DEFAULT_THRESHOLD = 0.8
+DEFAULT_CONFIDENCE = 0.95
+
+#: Columns of ``campaign export --table verdicts`` (one row per world, then one per configuration).
+VERDICT_COLUMNS: tuple[str, ...] = (
+    "scope", "experiment", "config", "map_index", "navigator", "fault", "worlds", "runs", "successes",
+    "pass_probability", "ci_low", "ci_high", "seq_low", "seq_high", "verdict", "threshold", "confidence")
+
+
+@dataclass(frozen=True)
+class VerdictRule:
+    """The threshold and confidence verdicts are given with, and where they come from."""
+
+    threshold: float = DEFAULT_THRESHOLD
+    confidence: float = DEFAULT_CONFIDENCE
+    source: str = "default"
+
+    def __post_init__(self) -> None:
+        check_rule(1, 1, self.threshold, self.confidence, field="verdicts")
+
+
+def exact_interval(successes: int, runs: int, confidence: float) -> tuple[float, float]:
+    """Clopper-Pearson interval of successes/runs at ``confidence``; (0, 1) without runs."""
+    if runs == 0:
+        return 0.0, 1.0
+    ci = binomtest(successes, runs).proportion_ci(confidence_level=confidence, method="exact")
+    return float(ci.low), float(ci.high)
+
+
+def _get(obj: Any, name: str) -> Any:
+    return obj.get(name) if isinstance(obj, dict) else getattr(obj, name, None)
+
+
+def _adaptive(owner: Any) -> tuple[float, float] | None:
+    """(threshold, confidence) of an adaptive rule found on ``owner`` (a ``runs_per_map`` value
+    with an ``adaptive`` mapping or object, or a rule object itself), None when there is none."""
+    if owner is None or isinstance(owner, (bool, int, float, str)):
+        return None
+    ad = _get(owner, "adaptive")
+    for cand in (ad, owner):
+        if cand is None or isinstance(cand, (bool, int, float, str)):
+            continue
+        t, c = _get(cand, "threshold"), _get(cand, "confidence")
+        if all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in (t, c)):
+            return float(t), float(c)
+    return None
+
+
+def rule_of(spec: Any, experiment: str | None = None) -> VerdictRule:
+    """The verdict rule of a campaign spec (of one of its experiments when ``experiment`` is
+    given): the adaptive rule's threshold and confidence (``runs_per_map: {adaptive: {...}}``,
+    an experiment's own before the campaign's; read defensively), else the defaults."""
+    exps = [e for e in (getattr(spec, "experiments", None) or []) if getattr(e, "name", None) == experiment]
+    owners: list[tuple[Any, str]] = []
+    if exps:
+        owners.append((getattr(exps[0], "runs_per_map", None), f"the adaptive rule of experiment {experiment}"))
+    rpm = getattr(spec, "runs_per_map", None)
+    owners += [(rpm, "the campaign's adaptive rule"), (getattr(spec, "adaptive", None), "the campaign's adaptive rule")]
+    for owner, source in owners:
+        tc = _adaptive(owner)
+        if tc is not None:
+            return VerdictRule(tc[0], tc[1], source)
+    return VerdictRule()
+
+
+def rules_of(spec: Any) -> dict[str, VerdictRule]:
+    """The verdict rule of each experiment of ``spec`` (by name)."""
+    return {e.name: rule_of(spec, e.name) for e in (getattr(spec, "experiments", None) or [])
+            if isinstance(getattr(e, "name", None), str)}
+
+
+@dataclass(frozen=True)
+class WorldVerdict:
+    """The verdict of one world (``map_index`` set) or one configuration (``map_index`` None)."""
+
+    experiment: str
+    config_key: str
+    map_index: int | None
+    navigator: str
+    fault: str
+    runs: int
+    successes: int
+    ci: tuple[float, float]
+    sequence: tuple[float, float]
+    verdict: Verdict
+    worlds: int = 1
+    #: per configuration: how many of its worlds got each class
+    world_verdicts: tuple[tuple[str, int], ...] = ()
+    threshold: float = DEFAULT_THRESHOLD
+    confidence: float = DEFAULT_CONFIDENCE
+
+    @property
+    def pass_probability(self) -> float | None:
+        return self.successes / self.runs if self.runs else None
+
+    def to_json(self) -> dict[str, Any]:
+        d: dict[str, Any] = {"experiment": self.experiment, "config": self.config_key}
+        if self.map_index is not None:
+            d["map_index"] = self.map_index
+        d.update(navigator=self.navigator, fault=self.fault, runs=self.runs, successes=self.successes,
+                 pass_probability=self.pass_probability, ci=list(self.ci), sequence=list(self.sequence),
+                 verdict=self.verdict, threshold=self.threshold, confidence=self.confidence)
+        if self.map_index is None:
+            d["worlds"] = self.worlds
+            d["world_verdicts"] = dict(self.world_verdicts)
+        return d
+
+    def row(self) -> dict[str, Any]:
+        """One row of the verdicts export (:data:`VERDICT_COLUMNS`)."""
+        return {"scope": "world" if self.map_index is not None else "configuration", "experiment": self.experiment,
+                "config": self.config_key, "map_index": self.map_index, "navigator": self.navigator,
+                "fault": self.fault, "worlds": self.worlds, "runs": self.runs, "successes": self.successes,
+                "pass_probability": self.pass_probability, "ci_low": self.ci[0], "ci_high": self.ci[1],
+                "seq_low": self.sequence[0], "seq_high": self.sequence[1], "verdict": self.verdict,
+                "threshold": self.threshold, "confidence": self.confidence}
+
+
+def world_verdict(experiment: str, key: str, map_index: int | None, navigator: str, fault: str, *,
+                  successes: int, runs: int, threshold: float = DEFAULT_THRESHOLD,
+                  confidence: float = DEFAULT_CONFIDENCE, worlds: int = 1,
+                  world_verdicts: tuple[tuple[str, int], ...] = ()) -> WorldVerdict:
+    """The :class:`WorldVerdict` of ``successes`` of ``runs`` (see module doc)."""
+    if runs < 0 or not 0 <= successes <= runs:
+        raise SpecError("successes", f"{successes} of {runs}", "0 <= successes <= runs")
+    seq = confidence_sequence(successes, runs, confidence)
+    v: Verdict = verdict(*seq, threshold) if runs else "undecided"
+    return WorldVerdict(experiment, key, map_index, navigator, fault, runs, successes,
+                        exact_interval(successes, runs, confidence), seq, v, worlds, world_verdicts, threshold,
+                        confidence)
+
+
+@dataclass(frozen=True)
+class Verdicts:
+    """Every world's and every configuration's verdict; ``rule`` is the campaign's, ``rules`` an
+    experiment's own where it has one (each verdict carries its threshold and confidence)."""
+
+    rule: VerdictRule
+    worlds: list[WorldVerdict]
+    configurations: list[WorldVerdict]
+    rules: dict[str, VerdictRule] = field(default_factory=dict)
+
+    def rule_for(self, experiment: str) -> VerdictRule:
+        return self.rules.get(experiment, self.rule)
+
+    def to_json(self) -> dict[str, Any]:
+        return {"threshold": self.rule.threshold, "confidence": self.rule.confidence, "rule": self.rule.source,
+                "experiments": {e: {"threshold": r.threshold, "confidence": r.confidence, "rule": r.source}
+                                for e, r in self.rules.items()},
+                "flaky_band": list(FLAKY_BAND), "interval": "clopper-pearson",
+                "worlds": [w.to_json() for w in self.worlds],
+                "configurations": [c.to_json() for c in self.configurations]}
+
+    def rows(self) -> list[dict[str, Any]]:
+        return [w.row() for w in self.worlds] + [c.row() for c in self.configurations]
+
+
+def verdicts(records: Iterable[RunRecord], rule: VerdictRule | None = None,
+             order: Iterable[tuple[str, str, str, str]] = (), rules: dict[str, VerdictRule] | None = None) -> Verdicts:
+    """Verdicts of every world and configuration that has runs in ``records``, under ``rule``
+    (an experiment's entry of ``rules`` where it has one).
+
+    Configurations follow ``order`` ((experiment, config, navigator, fault), e.g. the plan's),
+    then first-seen; worlds follow their configuration, by map index."""
+    rule = rule or VerdictRule()
+    rules = dict(rules or {})
+    counts: dict[tuple[str, str, str, str], dict[int, list[int]]] = {}
+    for r in records:
+        g = (r.experiment, config_key(r), r.navigator, fault_name(r.fault))
+        c = counts.setdefault(g, {}).setdefault(r.map_index, [0, 0])
+        c[0] += r.outcome == Outcome.SUCCESS.value
+        c[1] += 1
+    keys = list(dict.fromkeys([g for g in order if g in counts] + list(counts)))
+    worlds: list[WorldVerdict] = []
+    configs: list[WorldVerdict] = []
+    for g in keys:
+        gr = rules.get(g[0], rule)
+        ws = [world_verdict(g[0], g[1], m, g[2], g[3], successes=s, runs=n, threshold=gr.threshold,
+                            confidence=gr.confidence) for m, (s, n) in sorted(counts[g].items())]
+        worlds += ws
+        tally = tuple((v, sum(w.verdict == v for w in ws)) for v in VERDICTS)
+        configs.append(world_verdict(g[0], g[1], None, g[2], g[3], successes=sum(w.successes for w in ws),
+                                     runs=sum(w.runs for w in ws), threshold=gr.threshold,
+                                     confidence=gr.confidence, worlds=len(ws), world_verdicts=tally))
+    return Verdicts(rule, worlds, configs, rules)
+
+
+def write_verdicts(v: Verdicts, fmt: str, dest: Path) -> Path:
+    """Write the verdicts table (:data:`VERDICT_COLUMNS`) as CSV or Parquet, atomically."""
+    if fmt not in ("csv", "parquet"):
+        raise SpecError("format", fmt, "csv or parquet")
+    rows = v.rows()
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    tmp = dest.with_name(f".{dest.name}.tmp")
+    try:
+        if fmt == "csv":
+            with open(tmp, "w", newline="", encoding="utf-8") as f:
+                w = csv.DictWriter(f, fieldnames=list(VERDICT_COLUMNS))
+                w.writeheader()
+                w.writerows([{k: ("" if x is None or (isinstance(x, float) and not math.isfinite(x)) else x)
+                              for k, x in r.items()} for r in rows])
+        else:
+            import pyarrow as pa
+            import pyarrow.parquet as pq
+
+            ints = {"map_index", "worlds", "runs", "successes"}
+            floats = {"pass_probability", "ci_low", "ci_high", "seq_low", "seq_high", "threshold", "confidence"}
+            schema = pa.schema([(c, pa.int64() if c in ints else pa.float64() if c in floats else pa.string())
+                                for c in VERDICT_COLUMNS])
+            pq.write_table(pa.Table.from_pylist(rows, schema=schema), tmp)
+        os.replace(tmp, dest)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return dest
+
+
+def read_verdicts(path: str | Path) -> list[dict[str, Any]]:
+    """Read back a verdicts export (CSV or Parquet) as typed rows."""
+    p = Path(path)
+    if p.suffix == ".parquet":
+        import pyarrow.parquet as pq
+        return list(pq.read_table(p).to_pylist())
+    ints = {"map_index", "worlds", "runs", "successes"}
+    floats = {"pass_probability", "ci_low", "ci_high", "seq_low", "seq_high", "threshold", "confidence"}
+    out = []
+    with open(p, newline="", encoding="utf-8") as f:
+        for r in csv.DictReader(f):
+            out.append({c: (None if r[c] == "" and c in ints | floats else int(r[c]) if c in ints
+                            else float(r[c]) if c in floats else r[c]) for c in VERDICT_COLUMNS})
+    return out
+
+
+def campaign_verdicts(directory: str | Path) -> Verdicts:
+    """The verdicts of the campaign in ``directory`` (read only), under its spec's rule."""
+    from navstress.campaign.store import Store
+
+    with Store.open(directory) as store:
+        return verdicts(store.records(), rule_of(store.spec), rules=rules_of(store.spec))
