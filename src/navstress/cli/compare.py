@@ -46,9 +46,9 @@ def _row(c: PairedStats, holm: bool, ratio: float = 1.0) -> list[str]:
 
 def _print(cmp: Comparison) -> None:
     con = console()
-    con.print(literal(f"A = {cmp.a.label} ({cmp.dir_a}), B = {cmp.b.label} ({cmp.dir_b}): "
+    typer.echo(literal(f"A = {cmp.a.label} ({cmp.dir_a}), B = {cmp.b.label} ({cmp.dir_b}): "
                       f"{cmp.overall.pairs} pairs of runs with the same map and run seeds"))
-    con.print(literal(cmp.headline()))
+    typer.echo(literal(cmp.headline()))
     t = Table(title=f"B against A, paired runs (success %, {100 * cmp.confidence:g}% intervals of B - A in points)")
     for col in ("configuration", "pairs", "A %", "B %", "B-A", "interval", "only A/only B", "p McNemar", "p Holm",
               "duration B-A s", "runs w/ collision", "width paired/unpaired"):
@@ -57,14 +57,14 @@ def _print(cmp: Comparison) -> None:
         t.add_row(*_row(c, True))
     t.add_row(*_row(cmp.overall, False, cmp.width_ratio))
     con.print(t)
-    con.print(literal(cmp.collision_line()))
+    typer.echo(literal(cmp.collision_line()))
     f = cmp.runs_factor
-    con.print(f"pairing (common random numbers): paired intervals are {cmp.width_ratio:.2f} of the unpaired width "
+    typer.echo(f"pairing (common random numbers): paired intervals are {cmp.width_ratio:.2f} of the unpaired width "
               "(summed over the configurations); " + (
                   "no pair differs, so pairing cannot be measured" if f is None else
                   f"an unpaired design would need about {f:.1f}x the runs for the same variance of B - A"))
     for n in cmp.notes:
-        con.print(literal(n))
+        typer.echo(literal(n))
 
 
 def compare_cmd(
@@ -104,7 +104,7 @@ def compare_cmd(
     _print(cmp)
     if json_out is not None:
         write_atomic(json_out, dumps(cmp.to_json()))
-        console().print(literal(f"wrote {json_out}"))
+        typer.echo(literal(f"wrote {json_out}"))
 
 
 app.command("compare")(compare_cmd)
