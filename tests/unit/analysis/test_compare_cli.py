@@ -174,3 +174,15 @@ def test_bad_directories_are_one_line_exit_2(tmp_path: Path) -> None:
         line = assert_one_line_error(*invoke(argv), argv)
         assert says in line, (argv, line)
         assert snapshot(tmp_path) == before
+
+
+@pytest.mark.parametrize("out", ["{root}/afile/x.json", "/proc/navstress-no-such-dir/x.json", "/sys/navstress-x.json"])
+def test_unwritable_json_is_one_line_exit_2_before_any_work(tmp_path: Path, out: str) -> None:
+    c = _fill(tmp_path / "c")
+    (tmp_path / "afile").write_text("a file")
+    before = snapshot(tmp_path)
+    path = out.replace("{root}", str(tmp_path))
+    argv = ["compare", str(c), "--a", "reference-v1", "--b", f"reference-v1:{FAULT}", "--json", path]
+    line = assert_one_line_error(*invoke(argv), argv)
+    assert "path=" in line and path in line, line
+    assert snapshot(tmp_path) == before and not Path(path).exists()
