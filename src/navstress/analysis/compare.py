@@ -33,6 +33,7 @@ Per configuration and overall, for the success (outcome ``success``) of each run
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import statistics
 from collections.abc import Sequence
@@ -481,7 +482,7 @@ def compare(dir_a: str | Path, a: Arm, b: Arm, dir_b: str | Path | None = None, 
         groups.setdefault((k[0], k[1]), []).append((ia[k], ib[k]))
     configs = [paired_stats(e, key, ps[0][0].config, ps, confidence) for (e, key), ps in groups.items()]
     adjusted = holm([c.p_value for c in configs])
-    configs = [PairedStats(**{**c.__dict__, "p_adjusted": p}) for c, p in zip(configs, adjusted)]
+    configs = [dataclasses.replace(c, p_adjusted=p) for c, p in zip(configs, adjusted)]
     overall = paired_stats("", "all", {}, [p for ps in groups.values() for p in ps], confidence)
     notes = []
     if len(ia) > len(keys) or len(ib) > len(keys):

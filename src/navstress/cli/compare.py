@@ -10,6 +10,7 @@ input. The statistics live in :mod:`navstress.analysis.compare`.
 
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 from typing import Annotated
@@ -51,7 +52,7 @@ def _print(cmp: Comparison) -> None:
     typer.echo(literal(cmp.headline()))
     t = Table(title=f"B against A, paired runs (success %, {100 * cmp.confidence:g}% intervals of B - A in points)")
     for col in ("configuration", "pairs", "A %", "B %", "B-A", "interval", "only A/only B", "p McNemar", "p Holm",
-              "duration B-A s", "runs w/ collision", "width paired/unpaired"):
+                "duration B-A s", "runs w/ collision", "width paired/unpaired"):
         t.add_column(col)
     for c in cmp.configs:
         t.add_row(*_row(c, True))
@@ -59,10 +60,15 @@ def _print(cmp: Comparison) -> None:
     con.print(t)
     typer.echo(literal(cmp.collision_line()))
     f = cmp.runs_factor
+    if f is None:
+        gain = "no run differs from another, so the gain cannot be measured"
+    elif math.isinf(f):
+        gain = ("A and B agree pair by pair: the paired variance of B - A is 0, where an unpaired design would "
+                "keep the run-to-run scatter")
+    else:
+        gain = f"an unpaired design would need about {f:.1f}x the runs for the same variance of B - A"
     typer.echo(f"pairing (common random numbers): paired intervals are {cmp.width_ratio:.2f} of the unpaired width "
-              "(summed over the configurations); " + (
-                  "no pair differs, so pairing cannot be measured" if f is None else
-                  f"an unpaired design would need about {f:.1f}x the runs for the same variance of B - A"))
+               f"(summed over the configurations); {gain}")
     for n in cmp.notes:
         typer.echo(literal(n))
 

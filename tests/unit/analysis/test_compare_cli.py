@@ -86,7 +86,7 @@ def test_no_difference_is_said_so(tmp_path: Path) -> None:
     assert code == 0, err
     assert out.splitlines()[1].startswith(
         "no configuration differs at the 5 % level after Holm correction (3 compared); overall success 100% -> 100%")
-    assert "no pair differs, so pairing cannot be measured" in out
+    assert "no run differs from another, so the gain cannot be measured" in out
 
 
 def test_json_on_standard_output_alone(tmp_path: Path) -> None:
@@ -186,3 +186,31 @@ def test_unwritable_json_is_one_line_exit_2_before_any_work(tmp_path: Path, out:
     line = assert_one_line_error(*invoke(argv), argv)
     assert "path=" in line and path in line, line
     assert snapshot(tmp_path) == before and not Path(path).exists()
+
+
+def _pairs_store(root: Path, kinds: str) -> Path:
+    """tree=0, 2 maps x 5 runs; pair i is kinds[i]: 'b' both succeed, 'a' only A, 'B' only B, 'n' neither."""
+    d = spec_dict(trees=[0], defs=[], maps=2, runs=5, faults=[None, FAULT])
+    with Store.create(root, parse_campaign(d), yaml.safe_dump(d)) as s:
+        for i, k in enumerate(kinds):
+            m, r = divmod(i, 5)
+            s.add(record("trees", "tree=0", m, r, "success" if k in "ba" else "fail-error"))
+            s.add(record("trees", "tree=0", m, r, "success" if k in "bB" else "fail-timeout", fault=FAULT))
+    return root
+
+
+def test_pairing_gain_is_the_ratio_of_the_variances(tmp_path: Path) -> None:
+    cmp = compare(_pairs_store(tmp_path / "c", "bbbbbaBnnn"), Arm("reference-v1"), Arm("reference-v1", FAULT))
+    o = cmp.overall
+    assert (o.both, o.a_only, o.b_only, o.neither) == (5, 1, 1, 3) and o.diff == 0.0
+    assert o.var_paired == pytest.approx(0.2) and o.var_unpaired == pytest.approx(0.24 + 0.24)
+    assert cmp.runs_factor == pytest.approx(0.48 / 0.2)
+    assert cmp.width_ratio == pytest.approx(o.width / o.width_unpaired) and cmp.width_ratio < 1
+
+
+def test_sides_that_agree_pair_by_pair_are_said_so(tmp_path: Path) -> None:
+    c = _pairs_store(tmp_path / "c", "bbbbbnnnnn")
+    code, out, err = invoke(["compare", str(c), "--a", "reference-v1", "--b", f"reference-v1:{FAULT}"])
+    assert code == 0, err
+    assert "A and B agree pair by pair: the paired variance of B - A is 0" in out
+    assert compare(c, Arm("reference-v1"), Arm("reference-v1", FAULT)).runs_factor == float("inf")
