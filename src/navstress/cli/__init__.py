@@ -52,6 +52,7 @@ MOUNTS: dict[str, tuple[str, str]] = {
                "byte-identical, 1 if not."),
     "analyze": ("navstress.cli.analysis", "Print the campaign's difficulty levels, indeterminism and fault power."),
     "report": ("navstress.cli.analysis", "Write one self-contained HTML report (figures embedded) of a campaign."),
+    "compare": ("navstress.cli.compare", "Compare two navigators, faults or stack versions run by run on the same worlds and seeds."),
     "world": ("navstress.cli.world", "Generate, inspect and export worlds (terrain, obstacles, mission)."),
     "nav": ("navstress.cli.nav", "Navigators under test: list them, list faults, check conformance."),
     "campaign": ("navstress.cli.campaign", "Plan, run, follow and export campaigns of many runs."),
