@@ -9,6 +9,7 @@ verdict is computed by :mod:`navstress.analysis.gate`.
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Annotated
 
@@ -41,6 +42,9 @@ def gate_cmd(
         "Gate the runs with this fault ('nominal' for none; repeat for several). Default: nominal only."))] = None,
     junit: Annotated[Path | None, typer.Option("--junit", metavar="FILE", help=(
         "Also write JUnit XML: one test case per world x navigator x fault."))] = None,
+    as_json: Annotated[bool, typer.Option("--json", help=(
+        "Print the verdict as one JSON object on stdout (every gated configuration with its counts, bound and "
+        "worlds) instead of the lines; the exit code is the same."))] = False,
 ) -> None:
     """Exit 0 if every gated configuration meets the success bar with confidence, 1 if not (CI)."""
     p = number("--min-success", min_success, "a success rate in [0, 1]")
@@ -62,10 +66,14 @@ def gate_cmd(
                   faults=tuple(fault) if fault else None)
     if junit is not None:
         write_junit(result, junit)
-    for cfg in result.failing:
-        typer.echo(literal(cfg.line(result.rule)))
-    typer.echo(literal(result.summary()))
-    if junit is not None:
-        typer.echo(literal(f"wrote {junit}"))
+    if as_json:
+        typer.echo(json.dumps({**result.to_json(), "summary": result.summary(),
+                               "junit": None if junit is None else str(junit)}, indent=2))
+    else:
+        for cfg in result.failing:
+            typer.echo(literal(cfg.line(result.rule)))
+        typer.echo(literal(result.summary()))
+        if junit is not None:
+            typer.echo(literal(f"wrote {junit}"))
     if not result.passed:
         raise typer.Exit(1)

@@ -265,6 +265,24 @@ def test_gate_command_exit_codes_and_lines(tmp_path: Path) -> None:
     assert code == 1 and "collision runs 16 > 0" in out
 
 
+def test_gate_json_holds_every_configuration(tmp_path: Path) -> None:
+    d = str(_store(tmp_path))
+    code, out, err = invoke(["gate", d, "--min-success", "0.75", "--json"])
+    assert code == 1, err
+    data = json.loads(out)
+    assert data["passed"] is False and data["summary"].startswith("gate FAILED: 3 of 4")
+    assert (data["min_success"], data["confidence"], data["max_collisions"]) == (0.75, 0.95, None)
+    by = {c["config"]: c for c in data["configurations"]}
+    assert (by["tree=4"]["runs"], by["tree=4"]["successes"], by["tree=4"]["passed"]) == (16, 14, False)
+    assert by["tree=4"]["lower_bound"] == pytest.approx(lower_bound(14, 16, 0.95))
+    assert [w["failed"] for w in by["tree=4"]["worlds"]] == [False, False, True, False]
+    assert by["tree=0"]["passed"] and by["deformation=0.5"]["success_rate"] is None
+    code, out, _ = invoke(["gate", d, "--min-success", "0.5", "--navigator", "reference-v1", "--fault", "nominal",
+                           "--json"])
+    assert code == 1 and [c["config"] for c in json.loads(out)["configurations"] if not c["passed"]] == \
+        ["deformation=0.5"]
+
+
 @pytest.mark.parametrize("args,flag", [
     (["--min-success", "1.5"], "--min-success"), (["--min-success", "-0.1"], "--min-success"),
     (["--min-success", "nan"], "--min-success"), (["--min-success", "x"], "--min-success"),
