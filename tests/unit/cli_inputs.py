@@ -65,6 +65,7 @@ OUTPUT_COMMANDS = [
                                                        "-o", "{out}"), "file") for f in ("csv", "parquet")],
     OutputCommand("report", ("report", "{root}/c", "-o", "{out}"), "file"),
     OutputCommand("analyze --json", ("analyze", "{root}/c", "--json", "{out}"), "file"),
+    OutputCommand("gate --junit", ("gate", "{root}/c", "--min-success", "0", "--junit", "{out}"), "file"),
 ]
 
 

@@ -55,17 +55,19 @@ BASE: dict[str, dict[str, str]] = {
     "report": {"out": "{root}/adir"},
     "nav check": {"name": "no-such-nav-v1"},
     "replay": {"run_id": "no/such/run"},
+    "gate": {"min_success": "0.5"},
 }
 # defaults by parameter name for required parameters
 DEFAULTS = {"world_dir": "{root}/w", "directory": "{root}/c", "spec": "{root}/spec.yaml", "name": "no-such-nav-v1",
             "run_id": "no/such/run", "output": "{root}/adir", "out": "{root}/adir", "fmt": "png"}
-# exit 1 is a documented result of these (a failed check, a differing replay)
-EXIT_1_OK = {"nav check", "replay"}
+# exit 1 is a documented result of these (a failed check, a differing replay, a gate not met)
+EXIT_1_OK = {"nav check", "replay", "gate"}
 # parameters that name files or folders to write: fuzzed only with paths that cannot be written
-WRITES = {"output", "out", "json_out", "keep"}
+WRITES = {"output", "out", "json_out", "keep", "junit"}
 PATHS = WRITES | {"world_dir", "directory", "spec"}
 NUMERIC = {"size", "cell", "subdivisions", "deformation", "trees", "buildings", "obstruction", "seed", "runs",
-           "timeout", "goal_tolerance", "workers", "wall_limit", "threshold", "k", "dt"}
+           "timeout", "goal_tolerance", "workers", "wall_limit", "threshold", "k", "dt", "min_success", "confidence",
+           "max_collisions"}
 
 _text = st.text(st.characters(blacklist_categories=("Cs",), blacklist_characters="\x00"), max_size=40)
 _huge = st.sampled_from(["9" * 5000, "1e309", "-1e309", "nan", "inf", "-inf", "1" * 30, "-" + "9" * 40,

@@ -56,6 +56,7 @@ MOUNTS: dict[str, tuple[str, str]] = {
     "world": ("navstress.cli.world", "Generate, inspect and export worlds (terrain, obstacles, mission)."),
     "nav": ("navstress.cli.nav", "Navigators under test: list them, list faults, check conformance."),
     "campaign": ("navstress.cli.campaign", "Plan, run, follow and export campaigns of many runs."),
+    "gate": ("navstress.cli.gate", "Exit 0 if every gated configuration meets the success bar with confidence, 1 if not (CI)."),
 }
 
 

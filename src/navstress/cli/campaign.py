@@ -12,11 +12,12 @@ the root CLI prints them on one line and exits 2.
 
 from __future__ import annotations
 
+import json
 import os
 import shlex
 import signal
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 from rich.table import Table
@@ -70,7 +71,8 @@ def run(
 ) -> None:
     """Run a campaign (resumes where it stopped if DIR already holds it).
 
-    Exit 0 when every planned run is recorded, 1 when some runs stayed pending after repeated
+    Exit 0 when every planned run is recorded, whatever the outcomes (a failing run is a result;
+    `navstress gate` turns results into pass or fail), 1 when some runs stayed pending after repeated
     failures of the machinery (run again to retry them), 2 for a bad spec or directory or a
     full disk, 130 on Ctrl-C and 143 on SIGTERM (run the same command again to resume)."""
     if executor not in ("local", "ray"):
@@ -122,8 +124,17 @@ def _quote(p: Path) -> str:
 
 
 @campaign_app.command("status")
-def status(directory: Annotated[Path, typer.Argument(help="Campaign directory.")]) -> None:
+def status(
+    directory: Annotated[Path, typer.Argument(help="Campaign directory.")],
+    as_json: Annotated[bool, typer.Option("--json", help=(
+        "Print the status as one JSON object on stdout (counts by outcome; planned, recorded and pending "
+        "runs; per experiment and per navigator and fault) instead of tables."))] = False,
+) -> None:
     """Show progress and outcome counts, per experiment and per navigator and fault."""
+    if as_json:
+        with Store.open(directory) as store:
+            typer.echo(json.dumps(status_json(store), indent=2))
+        return
     with Store.open(directory) as store:
         done, planned = store.progress()
         table = Table(title=f"campaign {store.spec.name}: {done}/{planned} runs ({100 * done / max(planned, 1):.0f}%)")
@@ -155,6 +166,22 @@ def status(directory: Annotated[Path, typer.Argument(help="Campaign directory.")
         if mean is not None and done < planned:
             typer.echo(f"remaining: {planned - done} runs, about {(planned - done) * mean / 3600:.1f} h of "
                        f"single-worker time at {mean:.1f} s/run")
+
+
+def status_json(store: Store) -> dict[str, Any]:
+    """What ``campaign status --json`` prints: every count of the status tables, by name."""
+    def part(recorded: int, planned: int, counts: dict[str, int]) -> dict[str, Any]:
+        return {"planned": planned, "recorded": recorded, "pending": max(planned - recorded, 0),
+                "counts": {o: int(counts.get(o, 0)) for o in OUTCOMES}}
+
+    done, planned = store.progress()
+    retried = store.attempts()
+    return {"campaign": store.spec.name, "directory": str(store.root), **part(done, planned, store.outcome_counts()),
+            "experiments": [{"experiment": name, **part(d, p, counts)} for name, d, p, counts in store.per_experiment()],
+            "navigators": [{"navigator": nav, "fault": fault, **part(d, p, counts)}
+                           for nav, fault, d, p, counts in store.per_navigator()],
+            "failed_attempts": {"attempts": len(retried), "runs": len({a[0] for a in retried})},
+            "mean_wall_s": store.mean_wall_s()}
 
 
 @campaign_app.command("export")

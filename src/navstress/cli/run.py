@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import shutil
+from dataclasses import asdict
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -11,6 +12,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 from rich.table import Table
 
 from navstress._console import console
+from navstress.analysis.stats import OUTCOMES, dumps
 from navstress.cli._common import (MAX_RUNS, MAX_SEED, MAX_TIMEOUT_S, MAX_WALL_S, NAV_CONFIG_HELP, bounded_int,
                                    load_navigator_config, number)
 from navstress.errors import SpecError, WorldFileError
@@ -40,8 +42,14 @@ def run_cmd(
     wall_limit: Annotated[str | None, typer.Option(metavar="S", help=(
         "Wall-clock limit of one run in real seconds, > 0 (a navigator that hangs is killed and its run "
         "recorded as Fail-Other). Default: timeout * 2 + 120.")) ] = None,
+    as_json: Annotated[bool, typer.Option("--json", help=(
+        "Print the result as one JSON object on stdout (counts by outcome, every record, the paths written) "
+        "instead of the table; the progress goes to stderr.")) ] = False,
 ) -> None:
-    """Run the navigator on a world's mission, classify each run, write traces and a picture."""
+    """Run the navigator on a world's mission, classify each run, write traces and a picture.
+
+    Exit 0 when every run is recorded, whatever its outcome: a failing run is a result, not an
+    error (`navstress gate` turns results into pass or fail); 2 on bad input."""
     n = bounded_int("--runs", runs, 1, MAX_RUNS)
     seed_v = bounded_int("--seed", seed, 0, MAX_SEED)
     timeout_v = number("--timeout", timeout, f"a duration in seconds in (0, {MAX_TIMEOUT_S:g}]")
@@ -64,7 +72,7 @@ def run_cmd(
         raise WorldFileError(f"--output={str(output)!r} is invalid: expected a new or empty folder; "
                              "choose another path or remove it")
     created = not output.exists()
-    con = console()
+    con = console(stderr=as_json)
     counts: dict[str, int] = {}
     try:
         tasks = plan_batch(world_dir, output, navigator=navigator, navigator_config=cfg, fault=fault, runs=n,
@@ -83,6 +91,14 @@ def run_cmd(
         if created and not counts:  # nothing recorded: leave nothing behind
             shutil.rmtree(output, ignore_errors=True)
         raise
+    pic = batch_picture(world_dir, records, output / "trajectories.png",
+                        f"{navigator}{' + ' + fault if fault else ''}: {n} run(s) on {world_dir.name}")
+    if as_json:
+        typer.echo(dumps({"world": str(world_dir), "navigator": navigator, "fault": fault, "runs": len(records),
+                          "counts": {o: sum(r.outcome == o for r in records) for o in OUTCOMES},
+                          "output": str(output), "records_file": str(output / "runs.jsonl"), "picture": str(pic),
+                          "records": [asdict(r) for r in records]}))
+        return
     table = Table(title=f"{navigator}{' + ' + fault if fault else ''} on {world_dir}")
     for col in ("run", "outcome", "sim s", "wall s", "goal m", "path m", "reason"):
         table.add_column(col)
@@ -90,6 +106,4 @@ def run_cmd(
         table.add_row(r.run_id, r.outcome, f"{r.duration_s:.1f}", f"{r.wall_s:.1f}", f"{r.goal_distance_m:.2f}",
                       f"{r.path_length_m:.1f}", r.reason)
     con.print(table)
-    pic = batch_picture(world_dir, records, output / "trajectories.png",
-                        f"{navigator}{' + ' + fault if fault else ''}: {n} run(s) on {world_dir.name}")
     con.print(f"traces and records in {output}/, picture: {pic}")

@@ -1,0 +1,391 @@
+"""The CI gate: does every gated configuration of a campaign meet a success bar *with confidence*?
+
+A *gated configuration* is one (experiment, configuration, navigator, fault) of the campaign;
+by default every navigator's nominal runs are gated (a fault is injected to be caught, so a
+faulty stack is gated only when asked for by name). A configuration passes when
+
+- the one-sided exact (Clopper-Pearson) lower confidence bound of its success rate, over its
+  recorded runs, is at least ``min_success`` (:func:`lower_bound`); a configuration without a
+  recorded run has the bound 0;
+- and, when ``max_collisions`` is set, it has at most that many Fail-Collision runs.
+
+The gate passes when every gated configuration passes. Each configuration's worlds
+(experiment/configuration/map, for its navigator and fault) are the JUnit test cases
+(:func:`junit_xml`); a world *fails* when its configuration fails and the world holds evidence
+of it: a run that is not a success (when the success bar is missed) or a Fail-Collision run
+(when the collision bar is exceeded). A configuration that misses the success bar with no such
+run in any world (too few runs to prove the bar, or none recorded) fails all its worlds, with
+"not enough runs" as the reason. So the JUnit file has a failure exactly when the gate fails.
+
+    >>> round(lower_bound(12, 20, 0.95), 4)
+    0.3936
+    >>> round(lower_bound(20, 20, 0.95), 4)  # 0.05 ** (1 / 20)
+    0.8609
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+from xml.etree import ElementTree as ET
+
+from scipy import stats as _st
+
+from navstress import _files
+from navstress.analysis.stats import NOMINAL, config_key, fault_name
+from navstress.campaign.store import Store
+from navstress.errors import SpecError, StoreError
+from navstress.run.outcome import Outcome
+from navstress.run.record import RunRecord
+
+SUCCESS = Outcome.SUCCESS.value
+COLLISION = Outcome.FAIL_COLLISION.value
+
+
+def lower_bound(successes: int, n: int, confidence: float = 0.95) -> float:
+    """The one-sided exact (Clopper-Pearson) lower confidence bound of a success probability
+    after ``successes`` of ``n`` runs: ``P(p >= bound) >= confidence`` for a fixed ``n``. It is
+    the ``1 - confidence`` quantile of Beta(successes, n - successes + 1); 0 without a success
+    (and without runs)."""
+    if n < 0 or not 0 <= successes <= n:
+        raise SpecError("successes", f"{successes} of {n}", "0 <= successes <= n")
+    check_confidence(confidence)
+    if successes == 0:
+        return 0.0
+    return float(_st.beta.ppf(1.0 - confidence, successes, n - successes + 1))
+
+
+def check_confidence(confidence: float, field: str = "confidence") -> None:
+    """SpecError unless ``confidence`` is a finite number strictly between 0 and 1."""
+    if isinstance(confidence, bool) or not isinstance(confidence, (int, float)) or not math.isfinite(confidence) \
+            or not 0.0 < confidence < 1.0:
+        raise SpecError(field, confidence, "a probability strictly between 0 and 1", "e.g. 0.95")
+
+
+@dataclass(frozen=True)
+class GateRule:
+    """The bar: success rate >= ``min_success`` with ``confidence``; at most ``max_collisions``
+    Fail-Collision runs per configuration (None: not checked)."""
+
+    min_success: float
+    confidence: float = 0.95
+    max_collisions: int | None = None
+
+    def __post_init__(self) -> None:
+        v = self.min_success
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not 0.0 <= v <= 1.0:
+            raise SpecError("min_success", v, "a success rate in [0, 1]", "e.g. 0.8")
+        check_confidence(self.confidence)
+        m = self.max_collisions
+        if m is not None and (isinstance(m, bool) or not isinstance(m, int) or m < 0):
+            raise SpecError("max_collisions", m, "an integer >= 0")
+
+    def text(self) -> str:
+        """``success >= 80% with 95% confidence, at most 0 collision runs``."""
+        s = f"success >= {_pct(self.min_success)} with {_pct(self.confidence)} confidence"
+        if self.max_collisions is not None:
+            s += f", at most {self.max_collisions} collision run{'s' if self.max_collisions != 1 else ''}"
+        return s
+
+
+@dataclass(frozen=True)
+class RunEvidence:
+    """One recorded run of a world, as the JUnit file shows it."""
+
+    run_id: str
+    outcome: str
+    reason: str
+    map_seed: int
+    run_seed: int
+    trace: str | None  # path under the campaign directory as given, None without a trace
+
+
+@dataclass(frozen=True)
+class WorldCase:
+    """One world (experiment/configuration/map) for one navigator and fault: a JUnit test case."""
+
+    experiment: str
+    config_key: str
+    map_index: int
+    navigator: str
+    fault: str
+    runs: tuple[RunEvidence, ...]
+    failed: bool = False
+    reason: str = ""
+
+    @property
+    def classname(self) -> str:
+        """``experiment/config``: CI views group a configuration's worlds under it."""
+        return f"{self.experiment}/{self.config_key}"
+
+    @property
+    def name(self) -> str:
+        """``m<k>/navigator/fault`` (with the classname: a run id without its ``r<j>``)."""
+        return f"m{self.map_index}/{self.navigator}/{self.fault}"
+
+    @property
+    def successes(self) -> int:
+        return sum(r.outcome == SUCCESS for r in self.runs)
+
+    def failed_runs(self) -> list[RunEvidence]:
+        return [r for r in self.runs if r.outcome != SUCCESS]
+
+
+@dataclass(frozen=True)
+class ConfigResult:
+    """The gate's verdict on one configuration for one navigator and fault."""
+
+    experiment: str
+    config_key: str
+    navigator: str
+    fault: str
+    runs: int
+    successes: int
+    collisions: int
+    lower: float
+    success_ok: bool
+    collisions_ok: bool
+    worlds: tuple[WorldCase, ...] = field(default_factory=tuple)
+
+    @property
+    def passed(self) -> bool:
+        return self.success_ok and self.collisions_ok
+
+    @property
+    def label(self) -> str:
+        """``trees/tree=10 reference-v1`` (``+ fault`` for a faulty stack)."""
+        who = self.navigator if self.fault == NOMINAL else f"{self.navigator} + {self.fault}"
+        return f"{self.experiment}/{self.config_key} {who}"
+
+    def evidence(self, rule: GateRule) -> str:
+        """``success 12/20 = 60%, lower 95% bound 39% < 80%`` (and the collisions when checked)."""
+        if self.runs:
+            lo, bar = _pct_pair(self.lower, rule.min_success)
+            cmp = ">=" if self.success_ok else "<"
+            s = (f"success {self.successes}/{self.runs} = {_pct(self.successes / self.runs)}, "
+                 f"lower {_pct(rule.confidence)} bound {lo} {cmp} {bar}")
+        else:
+            s = f"no run recorded, lower {_pct(rule.confidence)} bound 0% {'>=' if self.success_ok else '<'} " \
+                f"{_pct(rule.min_success)}"
+        if rule.max_collisions is not None:
+            s += f", collision runs {self.collisions} {'<=' if self.collisions_ok else '>'} {rule.max_collisions}"
+        return s
+
+    def line(self, rule: GateRule) -> str:
+        return f"{self.label}: {self.evidence(rule)}"
+
+    def to_json(self, rule: GateRule) -> dict[str, Any]:
+        return {"experiment": self.experiment, "config": self.config_key, "navigator": self.navigator,
+                "fault": self.fault, "runs": self.runs, "successes": self.successes,
+                "success_rate": self.successes / self.runs if self.runs else None, "lower_bound": self.lower,
+                "collisions": self.collisions, "passed": self.passed, "evidence": self.evidence(rule),
+                "worlds": [{"world": f"{w.classname}/m{w.map_index}", "runs": len(w.runs), "successes": w.successes,
+                            "failed": w.failed} for w in self.worlds]}
+
+
+@dataclass(frozen=True)
+class GateResult:
+    """The gate over a campaign: one :class:`ConfigResult` per gated configuration."""
+
+    campaign: str
+    directory: str
+    rule: GateRule
+    recorded: int
+    planned: int
+    configs: tuple[ConfigResult, ...]
+
+    @property
+    def passed(self) -> bool:
+        return all(c.passed for c in self.configs)
+
+    @property
+    def failing(self) -> list[ConfigResult]:
+        return [c for c in self.configs if not c.passed]
+
+    def summary(self) -> str:
+        """One line: passed or failed, how many configurations, the bar, the runs recorded."""
+        n, bad = len(self.configs), len(self.failing)
+        if not bad:
+            head = "gate passed: the 1 configuration meets" if n == 1 else f"gate passed: all {n} configurations meet"
+        else:
+            head = f"gate FAILED: {bad} of {n} configuration{'s' if n != 1 else ''} below"
+        tail = f"{self.recorded}/{self.planned} runs recorded"
+        if self.recorded < self.planned:
+            tail += f", {self.planned - self.recorded} pending"
+        return f"{head} the bar ({self.rule.text()}); campaign {self.campaign}: {tail}"
+
+    def to_json(self) -> dict[str, Any]:
+        return {"campaign": self.campaign, "passed": self.passed, "min_success": self.rule.min_success,
+                "confidence": self.rule.confidence, "max_collisions": self.rule.max_collisions,
+                "recorded": self.recorded, "planned": self.planned,
+                "configurations": [c.to_json(self.rule) for c in self.configs]}
+
+
+def _pct(x: float) -> str:
+    """A percentage with no more decimals than needed (``80%``, ``99.5%``)."""
+    for d in range(0, 5):
+        s = f"{100 * x:.{d}f}"
+        if abs(float(s) - 100 * x) < 1e-9 or d == 4:
+            return f"{s}%"
+    return f"{100 * x}%"  # pragma: no cover
+
+
+def _pct_pair(a: float, b: float) -> tuple[str, str]:
+    """``a`` and ``b`` as percentages with the fewest decimals that keep them apart (so that a
+    bound just under the bar never reads equal to it)."""
+    for d in range(0, 7):
+        sa, sb = f"{100 * a:.{d}f}", f"{100 * b:.{d}f}"
+        if (sa != sb) == (a != b):
+            return f"{sa}%", f"{sb}%"
+    return f"{100 * a}%", f"{100 * b}%"
+
+
+def _parse_run_id(rid: str) -> tuple[str, str, int, str, str] | None:
+    """``experiment/config/m<k>/r<j>/navigator/fault`` -> (experiment, config, k, navigator, fault)."""
+    parts = rid.split("/")
+    if len(parts) < 6 or not parts[-4].startswith("m") or not parts[-4][1:].isdigit():
+        return None
+    return parts[0], "/".join(parts[1:-4]), int(parts[-4][1:]), parts[-2], parts[-1]
+
+
+def _check_names(kind: str, asked: tuple[str, ...] | None, known: list[str]) -> None:
+    for name in asked or ():
+        if name not in known:
+            raise SpecError(kind, name, f"one of the campaign's {kind}s {known}")
+
+
+def gate(directory: str | Path, rule: GateRule, *, navigators: tuple[str, ...] | None = None,
+         faults: tuple[str, ...] | None = None) -> GateResult:
+    """Gate the campaign in ``directory`` (read only). ``navigators``: those gated (default
+    all); ``faults``: those gated, ``"nominal"`` for the nominal stack (default nominal only).
+
+    StoreError for a directory that holds no campaign or no recorded run; SpecError for a
+    navigator or fault the campaign does not have."""
+    root = Path(directory)
+    with Store.open(root) as store:
+        spec = store.spec
+        recorded, planned = store.progress()
+        planned_ids = store.planned_ids()
+        records = store.records() if recorded else []
+    if not recorded:
+        raise StoreError(f"campaign={str(root)!r} is invalid: expected a campaign with recorded runs (it has "
+                         f"none of its {planned} planned runs); run it first with `navstress campaign run`")
+    nav_names = [n.name for n in spec.navigators]
+    fault_names = list(dict.fromkeys(fault_name(f) for e in spec.experiments for f in spec.faults_of(e)))
+    _check_names("navigator", navigators, nav_names)
+    _check_names("fault", faults, fault_names)
+    navs = set(navigators or nav_names)
+    fset = set(faults or (NOMINAL,))
+
+    Key = tuple[str, str, str, str]  # experiment, config, navigator, fault
+    worlds: dict[Key, dict[int, list[RunEvidence]]] = {}
+    for rid in planned_ids:
+        p = _parse_run_id(rid)
+        if p is not None and p[3] in navs and p[4] in fset:
+            worlds.setdefault((p[0], p[1], p[3], p[4]), {}).setdefault(p[2], [])
+    for r in records:
+        k = (r.experiment, config_key(r), r.navigator, fault_name(r.fault))
+        if k[2] in navs and k[3] in fset:
+            worlds.setdefault(k, {}).setdefault(r.map_index, []).append(_evidence(r, root))
+    configs = tuple(_judge(k, by_map, rule) for k, by_map in worlds.items())
+    return GateResult(spec.name, str(root), rule, recorded, planned, configs)
+
+
+def _evidence(r: RunRecord, root: Path) -> RunEvidence:
+    trace = None
+    if r.trace:
+        t = Path(r.trace)
+        trace = str(t if t.is_absolute() else root / t)
+    return RunEvidence(r.run_id, r.outcome, r.reason, r.map_seed, r.run_seed, trace)
+
+
+def _judge(k: tuple[str, str, str, str], by_map: dict[int, list[RunEvidence]], rule: GateRule) -> ConfigResult:
+    runs = [r for m in sorted(by_map) for r in by_map[m]]
+    n, s = len(runs), sum(r.outcome == SUCCESS for r in runs)
+    col = sum(r.outcome == COLLISION for r in runs)
+    lo = lower_bound(s, n, rule.confidence)
+    success_ok = lo >= rule.min_success
+    collisions_ok = rule.max_collisions is None or col <= rule.max_collisions
+    cfg = ConfigResult(k[0], k[1], k[2], k[3], n, s, col, lo, success_ok, collisions_ok)
+    evidence = cfg.line(rule)
+    no_failed_run = all(r.outcome == SUCCESS for r in runs)
+    cases = []
+    for m in sorted(by_map):
+        w = WorldCase(k[0], k[1], m, k[2], k[3], tuple(by_map[m]))
+        why = []
+        if not success_ok and (no_failed_run or w.failed_runs()):
+            why.append(f"success {w.successes}/{len(w.runs)} on this world" if w.runs else "no run recorded on "
+                       "this world")
+            if no_failed_run:
+                why.append("not enough runs to prove the bar")
+        if not collisions_ok and any(r.outcome == COLLISION for r in w.runs):
+            why.append(f"{sum(r.outcome == COLLISION for r in w.runs)} collision run(s) on this world")
+        if why:
+            w = replace(w, failed=True, reason=f"{'; '.join(why)}; configuration {evidence}")
+        cases.append(w)
+    return ConfigResult(k[0], k[1], k[2], k[3], n, s, col, lo, success_ok, collisions_ok, tuple(cases))
+
+
+# ---- JUnit XML -------------------------------------------------------------------------------
+
+
+def junit_xml(result: GateResult) -> str:
+    """The JUnit XML of ``result``: one ``testsuite`` per gated configuration, one ``testcase``
+    per world (classname ``experiment/config``, name ``m<k>/navigator/fault``). A failed case's
+    ``failure`` carries the reason (message) and, in its text, each failed run: run id, outcome,
+    reason, seeds, trace path and the command that replays it."""
+    rule = result.rule
+    top = ET.Element("testsuites", name=f"navstress gate {result.campaign}")
+    total = fails = 0
+    for c in result.configs:
+        suite = ET.SubElement(top, "testsuite", name=c.label, tests=str(len(c.worlds)),
+                              failures=str(sum(w.failed for w in c.worlds)), errors="0", skipped="0")
+        props = ET.SubElement(suite, "properties")
+        for name, value in (("bar", rule.text()), ("evidence", c.evidence(rule)),
+                            ("passed", str(c.passed).lower())):
+            ET.SubElement(props, "property", name=name, value=value)
+        for w in c.worlds:
+            case = ET.SubElement(suite, "testcase", classname=w.classname, name=w.name)
+            total += 1
+            if w.failed:
+                fails += 1
+                f = ET.SubElement(case, "failure", message=w.reason, type="GateFailure")
+                f.text = _runs_text(w, result.directory, only_failed=True)
+            elif w.failed_runs():
+                out = ET.SubElement(case, "system-out")
+                out.text = "tolerated by the bar:\n" + _runs_text(w, result.directory, only_failed=True)
+        suite.set("time", "0")
+    top.set("tests", str(total))
+    top.set("failures", str(fails))
+    top.set("errors", "0")
+    ET.indent(top)
+    return _xml_safe(ET.tostring(top, encoding="unicode", xml_declaration=True)) + "\n"
+
+
+def _runs_text(w: WorldCase, directory: str, *, only_failed: bool) -> str:
+    runs = w.failed_runs() if only_failed else list(w.runs)
+    if not runs:
+        return f"{len(w.runs)} run(s), all successes"
+    lines = []
+    for r in runs:
+        lines.append(f"{r.run_id}: {r.outcome} ({r.reason}); map_seed={r.map_seed} run_seed={r.run_seed}; "
+                     f"trace: {r.trace or '(none)'}; replay: navstress replay {directory} {r.run_id}")
+    return "\n".join(lines)
+
+
+def _xml_safe(text: str) -> str:
+    """``text`` without the characters XML 1.0 cannot hold (control characters become escapes)."""
+    return "".join(c if c in "\t\n\r" or (" " <= c <= "\ud7ff") or ("\ue000" <= c <= "\ufffd")
+                   or c >= "\U00010000" else c.encode("unicode_escape").decode("ascii") for c in text)
+
+
+def write_junit(result: GateResult, path: str | Path) -> Path:
+    """Write :func:`junit_xml` of ``result`` to ``path`` atomically; returns the path."""
+    _files.write_atomic(path, junit_xml(result))
+    return Path(path)
+
+
+__all__ = ["GateResult", "GateRule", "ConfigResult", "RunEvidence", "WorldCase", "check_confidence",
+           "gate", "junit_xml", "lower_bound", "write_junit"]
