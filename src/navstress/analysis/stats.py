@@ -188,8 +188,8 @@ def config_stats(records: list[RunRecord], planned: list[PlannedConfig] | None =
 def planned_configs(spec: Any) -> list[PlannedConfig]:
     """Every configuration x navigator x fault a :class:`~navstress.campaign.spec.CampaignSpec` plans."""
     out: list[PlannedConfig] = []
-    per = spec.maps_per_config * spec.runs_per_map
     for exp in spec.experiments:
+        per = spec.maps_per_config * spec.max_runs_of(exp)  # adaptive: at most
         for cfg in exp.configurations(spec.world):
             for nav in spec.navigators:
                 for f in spec.faults_of(exp):
