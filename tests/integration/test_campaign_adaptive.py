@@ -169,3 +169,12 @@ def test_ray_executor_gives_the_same_final_set(uninterrupted: Path, tmp_path: Pa
     res = json.loads(p.stdout.strip().splitlines()[-1])
     assert res["recorded"] == res["planned"] == len(_runs(uninterrupted))
     assert _runs(tmp_path / "out") == _runs(uninterrupted)
+
+
+def test_analysis_counts_a_finished_adaptive_campaign_complete(uninterrupted: Path) -> None:
+    from navstress.analysis.analyze import analyze
+
+    a = analyze(uninterrupted)
+    assert a.done == a.planned == len(_runs(uninterrupted)) and a.missing == []
+    coins = [s for s in a.stats if s.experiment == "coins"]
+    assert coins and all(s.runs == s.planned for s in coins) and any(s.planned < 2 * RULE["max"] for s in coins)

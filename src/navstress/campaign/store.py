@@ -39,7 +39,7 @@ from types import TracebackType
 from typing import IO, Any, Literal
 
 from navstress import _files
-from navstress.campaign.plan import Plan, plan
+from navstress.campaign.plan import NOMINAL, Plan, plan
 from navstress.campaign.spec import CampaignSpec, parse_campaign_text
 from navstress.errors import SpecError, StoreError
 from navstress.run.outcome import Outcome
@@ -410,6 +410,16 @@ class Store:
         for st in p.streams:
             c[group(by_id[st.run_ids[0]])] += st.at_most(outcomes)
         return c
+
+    def planned_by_config(self) -> dict[tuple[str, str, str, str], int]:
+        """(experiment, config key, navigator, fault or "nominal") -> planned runs: at most, for an
+        adaptive experiment (see :meth:`progress`); every configuration of the plan is there."""
+        p = self.plan()
+        cfg = {m.world_dir: (m.experiment, m.config_key) for m in p.maps}
+        out: Counter[tuple[str, str, str, str]] = self._at_most(
+            lambda t: (*cfg[t.world_dir], t.navigator, t.fault or NOMINAL)) if self.adaptive else Counter(
+            (*cfg[t.world_dir], t.navigator, t.fault or NOMINAL) for t in p.tasks)
+        return dict(out)
 
     def progress(self) -> tuple[int, int]:
         """(recorded, planned); planned counts an adaptive stream's max until its rule stops it,
