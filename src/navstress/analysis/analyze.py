@@ -197,11 +197,12 @@ def analyze(directory: str | Path, *, params: DifficultyParams | None = None, na
         counts = store.outcome_counts()
         per_exp = store.per_experiment()
         maps = store.plan().maps
+        planned_runs = store.planned_by_config()
     navs = [n.name for n in spec.navigators]
     nav = navigator or navs[0]
     if nav not in navs:
         raise SpecError("navigator", nav, f"one of the campaign's navigators {navs}")
-    stats = config_stats(records, planned_configs(spec), confidence=confidence, interval=interval)
+    stats = config_stats(records, planned_configs(spec, planned_runs), confidence=confidence, interval=interval)
     nominal = [s for s in stats if s.navigator == nav and s.fault == NOMINAL]
     refs = reference_keys(spec)
     diff = assign_levels(nominal, is_reference or (lambda s: s.key in refs), params)

@@ -185,15 +185,18 @@ def config_stats(records: list[RunRecord], planned: list[PlannedConfig] | None =
                       confidence=confidence, interval=interval) for g in order]
 
 
-def planned_configs(spec: Any) -> list[PlannedConfig]:
-    """Every configuration x navigator x fault a :class:`~navstress.campaign.spec.CampaignSpec` plans."""
+def planned_configs(spec: Any, runs: dict[tuple[str, str, str, str], int] | None = None) -> list[PlannedConfig]:
+    """Every configuration x navigator x fault a :class:`~navstress.campaign.spec.CampaignSpec` plans;
+    ``runs``: the planned runs of each (``Store.planned_by_config``: at most, where adaptive),
+    default ``maps_per_config`` x the most runs per map."""
     out: list[PlannedConfig] = []
-    per = spec.maps_per_config * spec.runs_per_map
     for exp in spec.experiments:
+        per = spec.maps_per_config * spec.max_runs_of(exp)
         for cfg in exp.configurations(spec.world):
             for nav in spec.navigators:
                 for f in spec.faults_of(exp):
-                    out.append(PlannedConfig(exp.name, cfg.key, dict(cfg.values), nav.name, fault_name(f), per))
+                    n = per if runs is None else runs.get((exp.name, cfg.key, nav.name, fault_name(f)), per)
+                    out.append(PlannedConfig(exp.name, cfg.key, dict(cfg.values), nav.name, fault_name(f), n))
     return out
 
 

@@ -20,7 +20,7 @@ from typing import Literal
 
 from navstress.campaign.local import LocalExecutor
 from navstress.campaign.ray_executor import RayExecutor
-from navstress.campaign.scheduler import MAX_ATTEMPTS, RecordCallback, StartCallback, resume
+from navstress.campaign.scheduler import MAX_ATTEMPTS, PlannedCallback, RecordCallback, StartCallback, resume
 from navstress.campaign.spec import MAX_PLANNED_RUNS, CampaignSpec, load_campaign
 from navstress.campaign.store import Store
 from navstress.campaign.work import register_targets
@@ -91,13 +91,16 @@ def run_campaign(spec_path: str | Path, directory: str | Path, *, workers: int |
                  executor: Literal["local", "ray"] = "local", ray_address: str | None = None,
                  wall_limit_s: float | None = None, on_record: RecordCallback | None = None,
                  on_start: StartCallback | None = None,
-                 accept_large: bool = False, max_attempts: int = MAX_ATTEMPTS) -> CampaignResult:
+                 accept_large: bool = False, max_attempts: int = MAX_ATTEMPTS,
+                 on_planned: PlannedCallback | None = None) -> CampaignResult:
     """Run (or resume) the campaign of ``spec_path`` into ``directory``.
 
     ``workers``: processes (local, default ``os.cpu_count()``) or concurrent Ray tasks (default:
     the cluster's CPUs). ``wall_limit_s``: per-run wall-clock limit (default
     ``timeout_s * 2 + 120``). ``on_start(done, planned, counts)`` and ``on_record(record)``
-    feed progress displays. ``accept_large``: plan more than ``MAX_PLANNED_RUNS`` runs.
+    feed progress displays; with adaptive repetition ``planned`` is an upper bound (each undecided
+    stream counts its rule's max), lowered through ``on_planned(planned)`` as streams stop, and
+    ``CampaignResult.planned`` is the final count. ``accept_large``: plan more than ``MAX_PLANNED_RUNS`` runs.
     Raises SpecError / StoreError before running anything when the spec, a navigator or sim
     config, or the directory is unusable; DiskFullError (nothing lost: resume later) when the
     disk fills. An interrupted campaign (KeyboardInterrupt, or the CLI's SIGTERM) leaves no
@@ -119,7 +122,8 @@ def run_campaign(spec_path: str | Path, directory: str | Path, *, workers: int |
         else:
             ex = LocalExecutor(workers if workers is not None else (os.cpu_count() or 1), targets)
         store = stack.enter_context(Store.create(directory, spec, text))
-        s = resume(store, ex, wall_limit_s=limit, on_record=on_record, on_start=on_start, max_attempts=max_attempts)
+        s = resume(store, ex, wall_limit_s=limit, on_record=on_record, on_start=on_start, max_attempts=max_attempts,
+                   on_planned=on_planned)
         result = CampaignResult(Path(directory), s.planned, s.already_done, s.recorded, store.outcome_counts(),
                                 time.perf_counter() - t0, ex.workers, s.unfinished)
     return result

@@ -10,6 +10,13 @@ Seeds (DESIGN invariant 2), for campaign seed ``S``:
 ``run_id`` = ``f"{experiment}/{config_key}/m{map}/r{run}/{navigator}/{fault or 'nominal'}"``,
 stable across plans of the same spec (the resume key).
 
+Adaptive repetition: the runs of one *stream* (experiment, configuration, map, navigator,
+fault) are planned up to the rule's ``max``; which of them are *due* is a function of the
+stream's recorded outcomes (:meth:`Stream.due`): runs ``0 .. min-1`` always, run ``n`` once runs
+``0 .. n-1`` are all recorded and :func:`navstress.sequential.should_continue` holds for their
+successes. The final set of runs therefore depends on the outcomes only (which the seeds fix),
+never on the order runs complete in, the number of workers, or interruptions.
+
     >>> from navstress.campaign.presets import demo
     >>> from navstress.campaign.spec import parse_campaign
     >>> p = plan(parse_campaign(demo()), "/tmp/c")
@@ -19,6 +26,7 @@ stable across plans of the same spec (the resume key).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -26,6 +34,7 @@ from typing import Any
 from navstress.campaign.spec import CampaignSpec
 from navstress.run.record import RunTask
 from navstress.seeding import derive_seed
+from navstress.sequential import AdaptiveRule, should_continue
 
 NOMINAL = "nominal"
 
@@ -43,12 +52,70 @@ class MapJob:
     world_dir: str
 
 
+SUCCESS = "success"
+
+
+@dataclass(frozen=True)
+class Stream:
+    """The runs of one (experiment, configuration, map, navigator, fault), in run order, and
+    the adaptive ``rule`` that decides how many of them run (None: all of them)."""
+
+    run_ids: tuple[str, ...]
+    rule: AdaptiveRule | None = None
+
+    def state(self, outcomes: Mapping[str, str]) -> tuple[int, bool]:
+        """(how many runs are due, whether the stream is finished: no further run can become due)
+        given ``outcomes`` (run_id -> outcome of every recorded run)."""
+        if self.rule is None:
+            return len(self.run_ids), all(r in outcomes for r in self.run_ids)
+        k = successes = 0
+        for r in self.run_ids:  # the recorded prefix: what the rule has seen
+            o = outcomes.get(r)
+            if o is None:
+                break
+            k += 1
+            successes += o == SUCCESS
+        if k < self.rule.min_runs:
+            return self.rule.min_runs, False
+        if should_continue(successes, k, self.rule):
+            return k + 1, False
+        return k, True
+
+    def due(self, outcomes: Mapping[str, str]) -> tuple[str, ...]:
+        """The run_ids due (recorded or to run) given ``outcomes``."""
+        return self.run_ids[:self.state(outcomes)[0]]
+
+    def at_most(self, outcomes: Mapping[str, str]) -> int:
+        """The most runs this stream will have: its final count once finished, else its max."""
+        n, finished = self.state(outcomes)
+        return n if finished else len(self.run_ids)
+
+
 @dataclass(frozen=True)
 class Plan:
-    """Every map and run of a campaign, in a deterministic order (map by map)."""
+    """Every map and run of a campaign, in a deterministic order (map by map); ``streams``
+    groups the runs of each (experiment, config, map, navigator, fault). Adaptive streams plan
+    their ``max`` runs, of which :meth:`due` tells which are scheduled."""
 
     maps: tuple[MapJob, ...]
     tasks: tuple[RunTask, ...]
+    streams: tuple[Stream, ...] = ()
+
+    @property
+    def adaptive(self) -> bool:
+        return any(s.rule is not None for s in self.streams)
+
+    def due(self, outcomes: Mapping[str, str]) -> set[str]:
+        """The run_ids due given ``outcomes`` (every task when no stream is adaptive)."""
+        if not self.adaptive:
+            return {t.run_id for t in self.tasks}
+        return {r for s in self.streams for r in s.due(outcomes)}
+
+    def at_most(self, outcomes: Mapping[str, str]) -> int:
+        """The most runs the campaign will have recorded (its planned runs when none is adaptive)."""
+        if not self.adaptive:
+            return len(self.tasks)
+        return sum(s.at_most(outcomes) for s in self.streams)
 
     def tasks_by_map(self) -> dict[str, list[RunTask]]:
         out: dict[str, list[RunTask]] = {m.world_dir: [] for m in self.maps}
@@ -75,19 +142,24 @@ def plan(spec: CampaignSpec, root: str | Path) -> Plan:
     base = Path(root).resolve()
     maps: list[MapJob] = []
     tasks: list[RunTask] = []
+    streams: list[Stream] = []
     for exp in spec.experiments:
         faults = spec.faults_of(exp)
+        rule = spec.rule_of(exp)
         for cfg in exp.configurations(spec.world):
             for m in range(spec.maps_per_config):
                 ms = map_seed(spec.seed, exp.name, cfg.key, m)
                 wdir = base / "worlds" / exp.name / cfg.key / f"m{m}"
                 maps.append(MapJob(key=f"{exp.name}/{cfg.key}/m{m}", experiment=exp.name, config_key=cfg.key,
                                    map_index=m, map_seed=ms, world=cfg.world, world_dir=str(wdir)))
-                for r in range(spec.runs_per_map):
+                ids: dict[tuple[str, str | None], list[str]] = {(n.name, f): [] for n in spec.navigators
+                                                                for f in faults}
+                for r in range(spec.max_runs_of(exp)):
                     rs = run_seed(spec.seed, exp.name, cfg.key, m, r)
                     for nav in spec.navigators:
                         for fault in faults:
                             rid = run_id(exp.name, cfg.key, m, r, nav.name, fault)
+                            ids[(nav.name, fault)].append(rid)
                             trace = base / "traces" / exp.name / cfg.key / f"m{m}" / \
                                 f"r{r}-{nav.name}-{fault or NOMINAL}.mcap"
                             tasks.append(RunTask(
@@ -96,4 +168,5 @@ def plan(spec: CampaignSpec, root: str | Path) -> Plan:
                                 timeout_s=spec.timeout_s, goal_tolerance_m=spec.goal_tolerance_m,
                                 record_lidar=spec.record_lidar, experiment=exp.name, config=dict(cfg.values),
                                 map_index=m, run_index=r, map_seed=ms, sim_overrides=dict(spec.sim)))
-    return Plan(maps=tuple(maps), tasks=tuple(tasks))
+                streams.extend(Stream(tuple(v), rule) for v in ids.values())
+    return Plan(maps=tuple(maps), tasks=tuple(tasks), streams=tuple(streams))

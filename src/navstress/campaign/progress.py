@@ -1,7 +1,8 @@
 """Live progress of a campaign: a rich bar with ETA and outcome counts.
 
 The ETA is rich's estimate from the runs finished *in this session* (a resumed campaign
-starts from what is already recorded, and that part does not count toward the speed).
+starts from what is already recorded, and that part does not count toward the speed). With
+adaptive repetition the total is an upper bound ("up to N"), lowered as streams stop early.
 """
 
 from __future__ import annotations
@@ -53,6 +54,11 @@ class CampaignProgress:
         # the bar counts this session's runs so the ETA reflects the current speed
         self._task = self._progress.add_task("runs", total=planned - done, counts=format_counts(self.counts))
         self._done_before = done
+
+    def on_planned(self, planned: int) -> None:
+        """A new upper bound of the campaign's runs (adaptive repetition stopped some streams)."""
+        if self._task is not None:
+            self._progress.update(self._task, total=planned - self._done_before)
 
     def on_record(self, rec: RunRecord) -> None:
         self.counts[rec.outcome] = self.counts.get(rec.outcome, 0) + 1

@@ -15,9 +15,12 @@ shutdown); everything else is decided here, the same way for all of them:
 - **resume and progress** (:func:`resume`): the runs already in the store are skipped, partial
   files are removed, ``on_start`` / ``on_record`` are called.
 
-A new executor (a batch scheduler) implements :class:`Executor` only; a new policy of what to
-run (adaptive repetition) adds tasks to the :class:`WorkQueue` (:meth:`WorkQueue.add`) and
-decides from the records it sees.
+A new executor (a batch scheduler) implements :class:`Executor` only; a policy of what to
+run adds tasks to the :class:`WorkQueue` (:meth:`WorkQueue.add`) and decides from the records
+it sees: :class:`Repetition` (adaptive repetition) queues run ``n`` of a stream once runs
+``0 .. n-1`` are recorded and the stream's rule says continue (:meth:`~navstress.campaign.plan.Stream.due`),
+so the final set of runs is the same whatever the executor, the number of workers, or the
+interruptions: on resume, what is due is recomputed from the store's records.
 """
 
 from __future__ import annotations
@@ -29,7 +32,7 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Any, Literal, Protocol
 
-from navstress.campaign.plan import MapJob, Plan
+from navstress.campaign.plan import MapJob, Plan, Stream
 from navstress.campaign.store import Store, disk_full
 from navstress.campaign.work import Infra
 from navstress.run.batch import drop_partial_trace, failure_record
@@ -38,6 +41,8 @@ from navstress.world.world import is_world_dir
 
 RecordCallback = Callable[[RunRecord], None]
 StartCallback = Callable[[int, int, dict[str, int]], None]
+#: Told the campaign's new upper bound of runs when an adaptive stream stops before its max.
+PlannedCallback = Callable[[int], None]
 #: Wall-clock limit of generating one world, and of a worker's start before it begins a job.
 WORLD_LIMIT_S = 900.0
 #: Attempts of one run (or world) in one ``campaign run`` before it is given up for this session.
@@ -125,13 +130,20 @@ class Recorder:
         self.recorded = 0
         self.kinds: dict[str, list[str]] = {}
         self.unfinished: dict[str, str] = {}
+        self.fresh: list[RunRecord] = []  # recorded since the scheduler last looked (:meth:`take`)
 
     def record(self, rec: RunRecord) -> None:
         self.unfinished.pop(rec.run_id, None)
         if self.store.add(rec):
             self.recorded += 1
+            self.fresh.append(rec)
             if self.on_record is not None:
                 self.on_record(rec)
+
+    def take(self) -> list[RunRecord]:
+        """The records made since the last call."""
+        out, self.fresh = self.fresh, []
+        return out
 
     def failed(self, task: RunTask, kind: str, reason: str, wall_s: float = 0.0) -> bool:
         """A failed attempt of ``task`` (``kind``: died, world, error, disk-full); True: run it again."""
@@ -162,17 +174,59 @@ class Recorder:
         return [t for t in tasks if self.failed(t, kind, result.reason)]
 
 
+class Repetition:
+    """Adaptive repetition: after each record of a stream, the stream's runs that became due
+    (:meth:`navstress.campaign.plan.Stream.due`), each handed out once; keeps the campaign's
+    upper bound of runs (:meth:`navstress.campaign.plan.Plan.at_most`) up to date."""
+
+    def __init__(self, plan: Plan, outcomes: dict[str, str]) -> None:
+        self.outcomes = dict(outcomes)
+        self.tasks = {t.run_id: t for t in plan.tasks}
+        self.stream_of: dict[str, Stream] = {r: s for s in plan.streams if s.rule is not None for r in s.run_ids}
+        self.handed: set[str] = plan.due(self.outcomes)
+        self.most = {id(s): s.at_most(self.outcomes) for s in plan.streams}
+        self.at_most = sum(self.most.values())
+
+    def recorded(self, rec: RunRecord) -> list[RunTask]:
+        """The tasks that ``rec`` made due (in run order)."""
+        self.outcomes[rec.run_id] = rec.outcome
+        s = self.stream_of.get(rec.run_id)
+        if s is None:
+            return []
+        most = s.at_most(self.outcomes)
+        self.at_most += most - self.most[id(s)]
+        self.most[id(s)] = most
+        new = [r for r in s.due(self.outcomes) if r not in self.handed]
+        self.handed.update(new)
+        return [self.tasks[r] for r in new]
+
+
 class WorkQueue:
     """What is handed out next: each map's world first (once), then the map's runs; failed
-    tasks come back to the front, runs on a broken world wait for its regeneration."""
+    tasks come back to the front, runs on a broken world wait for its regeneration.
+    ``repetition``: the adaptive policy that adds runs as records arrive (:meth:`recorded`)."""
 
-    def __init__(self, plan: Plan, pending: Iterable[RunTask] = ()) -> None:
+    def __init__(self, plan: Plan, pending: Iterable[RunTask] = (), repetition: Repetition | None = None,
+                 on_planned: PlannedCallback | None = None) -> None:
         self.jobs: dict[str, MapJob] = {m.world_dir: m for m in plan.maps}
         self.by_map: dict[str, deque[RunTask]] = {}
         self.to_generate: deque[MapJob] = deque()
         self.ready: deque[RunTask] = deque()
         self.generating: set[str] = set()
+        self.repetition = repetition
+        self.on_planned = on_planned
         self.add(pending)
+
+    def recorded(self, records: list[RunRecord]) -> None:
+        """Queue the runs that ``records`` made due (adaptive repetition; nothing otherwise)."""
+        rep = self.repetition
+        if rep is None or not records:
+            return
+        before = rep.at_most
+        for r in records:
+            self.add(rep.recorded(r))
+        if rep.at_most != before and self.on_planned is not None:
+            self.on_planned(rep.at_most)
 
     def add(self, tasks: Iterable[RunTask]) -> None:
         """Queue ``tasks`` (of maps in the plan), in plan order of their maps: behind their
@@ -267,8 +321,11 @@ def job_ended(job: Job, status: str, value: Any, wall_s: float, q: WorkQueue, re
 
 
 def schedule(executor: Executor, q: WorkQueue, rec: Recorder, *, wall_limit_s: float,
-             world_limit_s: float = WORLD_LIMIT_S, start_limit_s: float = WORLD_LIMIT_S) -> None:
-    """Run everything in ``q`` on ``executor``, passing every end of a job to ``rec``.
+             world_limit_s: float = WORLD_LIMIT_S, start_limit_s: float = WORLD_LIMIT_S,
+             expected: int | None = None) -> None:
+    """Run everything in ``q`` on ``executor``, passing every end of a job to ``rec`` (and each
+    new record to ``q.recorded``, which may queue more: ``expected`` is how many runs may come in
+    all, for the executor's size).
 
     The executor is shut down on the way out (killing its workers when something, e.g. Ctrl-C
     or a full disk, interrupted the loop)."""
@@ -278,7 +335,8 @@ def schedule(executor: Executor, q: WorkQueue, rec: Recorder, *, wall_limit_s: f
     def limit(job: Job) -> float:
         return (wall_limit_s if job.kind == "run" else world_limit_s) if job.running else start_limit_s
 
-    slots = executor.start(len(q.ready) + sum(len(t) for t in q.by_map.values()))
+    queued = len(q.ready) + sum(len(t) for t in q.by_map.values())
+    slots = executor.start(max(queued, expected or 0))
     inflight: list[Job] = []
     clean = False
     try:
@@ -304,6 +362,7 @@ def schedule(executor: Executor, q: WorkQueue, rec: Recorder, *, wall_limit_s: f
                     executor.kill(job)
                     inflight.remove(job)
                     job_ended(job, "limit", limit(job), now - job.started, q, rec, executor.worker)
+            q.recorded(rec.take())
         clean = True
     finally:
         executor.shutdown(now=not clean)
@@ -322,20 +381,28 @@ class Session:
 
 def resume(store: Store, executor: Executor, *, wall_limit_s: float, on_record: RecordCallback | None = None,
            on_start: StartCallback | None = None, max_attempts: int = MAX_ATTEMPTS,
-           world_limit_s: float = WORLD_LIMIT_S) -> Session:
-    """Run the planned runs of ``store`` that are not recorded yet on ``executor``.
+           world_limit_s: float = WORLD_LIMIT_S, on_planned: PlannedCallback | None = None) -> Session:
+    """Run the planned runs of ``store`` that are not recorded yet on ``executor``; with adaptive
+    repetition, the runs due given the store's records, and those that become due.
 
-    Partial files are removed before and after (whatever stopped the executor: Ctrl-C,
-    SIGTERM, a full disk), so none is ever left behind."""
+    ``on_start(done, planned, counts)``: planned is an upper bound when adaptive, lowered through
+    ``on_planned(planned)`` as streams stop. Partial files are removed before and after (whatever
+    stopped the executor: Ctrl-C, SIGTERM, a full disk), so none is ever left behind."""
     store.cleanup_partials()
     try:
         p = store.plan()
-        done = store.done_ids()
-        pending = [t for t in p.tasks if t.run_id not in done]
+        outcomes = store.outcomes()
+        due = p.due(outcomes)
+        pending = [t for t in p.tasks if t.run_id in due and t.run_id not in outcomes]
+        rep = Repetition(p, outcomes) if p.adaptive else None
+        at_most = rep.at_most if rep is not None else len(p.tasks)
         if on_start is not None:
-            on_start(len(done), len(p.tasks), store.outcome_counts())
+            on_start(len(outcomes), at_most, store.outcome_counts())
         rec = Recorder(store, on_record, max_attempts)
-        schedule(executor, WorkQueue(p, pending), rec, wall_limit_s=wall_limit_s, world_limit_s=world_limit_s)
-        return Session(len(p.tasks), len(done), rec.recorded, dict(rec.unfinished))
+        q = WorkQueue(p, pending, rep, on_planned)
+        schedule(executor, q, rec, wall_limit_s=wall_limit_s, world_limit_s=world_limit_s,
+                 expected=at_most - len(outcomes))
+        planned = rep.at_most if rep is not None else len(p.tasks)
+        return Session(planned, len(outcomes), rec.recorded, dict(rec.unfinished))
     finally:
         store.cleanup_partials()

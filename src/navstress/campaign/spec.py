@@ -6,6 +6,11 @@ overrides. Every point of a sweep is a *configuration*; its ``config`` is the ma
 swept paths to values. Each configuration gets ``maps_per_config`` maps and each map
 ``runs_per_map`` runs, for every navigator and every fault (``null`` = nominal).
 
+``runs_per_map`` (campaign-wide, or per experiment) is an integer, or an adaptive rule
+``{adaptive: {min: 3, max: 25, threshold: 0.8, confidence: 0.95}}``: each (map, navigator,
+fault) is run again only while its verdict is undecided (:mod:`navstress.sequential`), at
+least ``min`` and at most ``max`` times; plan sizes count ``max``.
+
     >>> spec = parse_campaign({"name": "t", "seed": 1, "experiments": [
     ...     {"name": "trees", "sweep": {"obstacles.obstruction.tree": {"start": 0, "stop": 4, "step": 2}}}]})
     >>> [c.key for c in spec.experiments[0].configurations(spec.world)]
@@ -31,6 +36,7 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from navstress.errors import SpecError
+from navstress.sequential import AdaptiveRule, check_rule
 from navstress.specfile import parse_text, read_text
 from navstress.world.spec import WorldSpec, _pydantic_to_spec_error, parse_spec
 
@@ -100,6 +106,64 @@ class Range(BaseModel):
         return out
 
 
+class AdaptiveSpec(BaseModel):
+    """The parameters of an adaptive rule (:class:`navstress.sequential.AdaptiveRule`)."""
+
+    model_config = _STRICT
+    min: int = 3
+    max: int = 25
+    threshold: float = 0.8
+    confidence: float = 0.95
+
+
+class AdaptiveRuns(BaseModel):
+    """``runs_per_map: {adaptive: {...}}``: run a map again while its verdict is undecided."""
+
+    model_config = _STRICT
+    adaptive: AdaptiveSpec = Field(default_factory=AdaptiveSpec)
+
+    def rule(self) -> AdaptiveRule:
+        a = self.adaptive
+        return AdaptiveRule(a.min, a.max, a.threshold, a.confidence)
+
+
+_REPETITION = "an integer in [1, 10000], or {adaptive: {min: 3, max: 25, threshold: 0.8, confidence: 0.95}}"
+
+
+def repetition(value: Any, field: str = "runs_per_map") -> int | AdaptiveRuns:
+    """``value`` as a runs_per_map: an integer in [1, 10000] or :class:`AdaptiveRuns` whose rule
+    :func:`navstress.sequential.check_rule` accepts (SpecError naming ``field...`` otherwise)."""
+    if isinstance(value, AdaptiveRuns):
+        return value
+    if isinstance(value, dict):
+        if set(value) != {"adaptive"}:
+            bad = sorted(set(value) - {"adaptive"}, key=str)
+            raise SpecError(f"{field}.{bad[0]}" if bad else field, value if not bad else value[bad[0]],
+                            "only the key 'adaptive' in " + _REPETITION)
+        inner = value["adaptive"]
+        if inner is None:
+            inner = {}
+        if not isinstance(inner, dict):
+            raise SpecError(f"{field}.adaptive", inner, "a mapping of min, max, threshold, confidence")
+        known = set(AdaptiveSpec.model_fields)
+        for k in inner:
+            if k not in known:
+                raise SpecError(f"{field}.adaptive.{k}", inner[k], "one of the keys min, max, threshold, confidence",
+                                "check its spelling")
+        merged = {**AdaptiveSpec().model_dump(), **inner}
+        check_rule(merged["min"], merged["max"], merged["threshold"], merged["confidence"], field=f"{field}.adaptive")
+        return AdaptiveRuns(adaptive=AdaptiveSpec(**merged))
+    if isinstance(value, bool) or not isinstance(value, (int, str)):
+        raise SpecError(field, value, _REPETITION)
+    try:
+        n = int(value)
+    except ValueError:
+        raise SpecError(field, value, _REPETITION) from None
+    if not 1 <= n <= 10_000 or (isinstance(value, str) and value.strip() != str(n)):
+        raise SpecError(field, value, _REPETITION)
+    return n
+
+
 class NavigatorSpec(BaseModel):
     """A navigator under test: a registered name (or a ``module:attr`` target) and its config."""
 
@@ -117,6 +181,7 @@ class ExperimentSpec(BaseModel):
     sweep: dict[str, Range] = Field(default_factory=dict)
     overrides: dict[str, Any] = Field(default_factory=dict)
     faults: list[str | None] | None = None  # None: the campaign's faults
+    runs_per_map: int | AdaptiveRuns | None = None  # None: the campaign's
 
     @field_validator("name")
     @classmethod
@@ -124,6 +189,11 @@ class ExperimentSpec(BaseModel):
         if not _NAME.match(v):
             raise ValueError("a name of letters, digits, '_', '.', '-' (it becomes a directory name)")
         return v
+
+    @field_validator("runs_per_map", mode="before")
+    @classmethod
+    def _runs(cls, v: Any) -> int | AdaptiveRuns | None:
+        return None if v is None else repetition(v)
 
     def configurations(self, base: dict[str, Any]) -> list["Configuration"]:
         """Every point of the sweep (cartesian product, in sweep order), with its WorldSpec."""
@@ -151,7 +221,7 @@ class CampaignSpec(BaseModel):
     world: dict[str, Any] = Field(default_factory=dict, description="the base WorldSpec mapping")
     experiments: list[ExperimentSpec] = Field(min_length=1)
     maps_per_config: int = Field(5, ge=1, le=10_000)
-    runs_per_map: int = Field(5, ge=1, le=10_000)
+    runs_per_map: int | AdaptiveRuns = 5
     navigators: list[NavigatorSpec] = Field(default_factory=lambda: [NavigatorSpec()], min_length=1)
     faults: list[str | None] = Field(default_factory=lambda: list[str | None]([None]), min_length=1)
     timeout_s: float = Field(400.0, gt=0.0, le=86_400.0)
@@ -166,15 +236,35 @@ class CampaignSpec(BaseModel):
             raise ValueError("a name of letters, digits, '_', '.', '-'")
         return v
 
+    @field_validator("runs_per_map", mode="before")
+    @classmethod
+    def _runs(cls, v: Any) -> int | AdaptiveRuns:
+        return repetition(v)
+
     def canonical_json(self) -> str:
-        """A stable text of the validated spec (used to refuse resuming with another spec)."""
-        return json.dumps(self.model_dump(mode="json"), sort_keys=True, separators=(",", ":"))
+        """A stable text of the validated spec (used to refuse resuming with another spec; an
+        experiment without its own ``runs_per_map`` has the same text as before that key existed)."""
+        data = self.model_dump(mode="json")
+        for exp in data["experiments"]:
+            if exp.get("runs_per_map") is None:
+                exp.pop("runs_per_map", None)
+        return json.dumps(data, sort_keys=True, separators=(",", ":"))
 
     def digest(self) -> str:
         return hashlib.sha256(self.canonical_json().encode()).hexdigest()[:16]
 
     def faults_of(self, exp: ExperimentSpec) -> list[str | None]:
         return list(exp.faults) if exp.faults is not None else list(self.faults)
+
+    def rule_of(self, exp: ExperimentSpec) -> AdaptiveRule | None:
+        """The adaptive rule of ``exp``'s runs, None when it runs a fixed number per map."""
+        r = exp.runs_per_map if exp.runs_per_map is not None else self.runs_per_map
+        return r.rule() if isinstance(r, AdaptiveRuns) else None
+
+    def max_runs_of(self, exp: ExperimentSpec) -> int:
+        """The most runs per map (and navigator and fault) of ``exp``: its fixed count or the rule's max."""
+        r = exp.runs_per_map if exp.runs_per_map is not None else self.runs_per_map
+        return r.adaptive.max if isinstance(r, AdaptiveRuns) else r
 
 
 @dataclass(frozen=True)
@@ -194,13 +284,13 @@ class Configuration:
 
 
 def planned_runs(spec: CampaignSpec) -> int:
-    """How many runs ``spec`` plans, computed from the sweep sizes without expanding any product."""
+    """How many runs ``spec`` plans (at most: adaptive rules count their ``max``), computed from the sweep sizes without expanding any product."""
     total = 0
     for exp in spec.experiments:
         n = 1
         for rng in exp.sweep.values():
             n *= rng.count()
-        total += n * spec.maps_per_config * spec.runs_per_map * len(spec.navigators) * len(spec.faults_of(exp))
+        total += n * spec.maps_per_config * spec.max_runs_of(exp) * len(spec.navigators) * len(spec.faults_of(exp))
     return total
 
 
@@ -229,6 +319,13 @@ def parse_campaign(data: Any, *, max_runs: int | None = MAX_PLANNED_RUNS) -> Cam
     except SpecError:
         raise
     except ValidationError as err:
+        first = err.errors(include_url=False)[0]
+        inner = (first.get("ctx") or {}).get("error")
+        if isinstance(inner, SpecError) and len(first["loc"]) > 1:  # a nested field's own SpecError: its path
+            where = ".".join(str(p) for p in first["loc"][:-1])
+            inner = SpecError(f"{where}.{inner.field}", inner.value, inner.expected, inner.fix)
+            raise SpecError(re.sub(r"\.(\d+)(?=\.|$)", r"[\1]", inner.field), inner.value, inner.expected,
+                            inner.fix) from None
         e = _pydantic_to_spec_error(err)
         raise SpecError(re.sub(r"\.(\d+)(?=\.|$)", r"[\1]", e.field), e.value, e.expected, e.fix) from None
     for i, exp in enumerate(spec.experiments):

@@ -40,7 +40,7 @@ from types import TracebackType
 from typing import IO, Any, Literal
 
 from navstress import _files
-from navstress.campaign.plan import Plan, plan
+from navstress.campaign.plan import NOMINAL, Plan, plan
 from navstress.campaign.spec import CampaignSpec, parse_campaign_text
 from navstress.errors import SpecError, StoreError
 from navstress.run.outcome import Outcome
@@ -311,9 +311,12 @@ class Store:
         return {r[0] for r in self.con.execute("SELECT run_id FROM runs")}
 
     def pending(self) -> list[RunTask]:
-        """Planned tasks not yet recorded, in plan order."""
-        done = self.done_ids()
-        return [t for t in self.plan().tasks if t.run_id not in done]
+        """Due tasks not yet recorded, in plan order (every planned one unless adaptive: see
+        :meth:`navstress.campaign.plan.Plan.due`)."""
+        outcomes = self.outcomes()
+        p = self.plan()
+        due = p.due(outcomes)
+        return [t for t in p.tasks if t.run_id in due and t.run_id not in outcomes]
 
     def cleanup_partials(self) -> list[Path]:
         """Remove partial traces and world temp dirs left by a killed run; returns what was removed."""
@@ -387,9 +390,42 @@ class Store:
              "ORDER BY p.seq")
         return [_record(dict(r), self.root) for r in self.con.execute(q)]
 
+    def outcomes(self) -> dict[str, str]:
+        """run_id -> outcome of every recorded run."""
+        return {str(r[0]): str(r[1]) for r in self.con.execute("SELECT run_id, outcome FROM runs")}
+
+    @property
+    def adaptive(self) -> bool:
+        """Whether some experiment repeats its runs adaptively (planned counts are then upper bounds)."""
+        return any(self.spec.rule_of(e) is not None for e in self.spec.experiments)
+
+    def _at_most(self, group: Any) -> Counter[Any]:
+        """Adaptive campaigns: the most runs each group (``group(task)``) will have: a finished
+        stream counts its runs, an undecided one its rule's max."""
+        p = self.plan()
+        outcomes = self.outcomes()
+        by_id = {t.run_id: t for t in p.tasks}
+        c: Counter[Any] = Counter()
+        for st in p.streams:
+            c[group(by_id[st.run_ids[0]])] += st.at_most(outcomes)
+        return c
+
+    def planned_by_config(self) -> dict[tuple[str, str, str, str], int]:
+        """(experiment, config key, navigator, fault or "nominal") -> planned runs: at most, for an
+        adaptive experiment (see :meth:`progress`); every configuration of the plan is there."""
+        p = self.plan()
+        cfg = {m.world_dir: (m.experiment, m.config_key) for m in p.maps}
+        out: Counter[tuple[str, str, str, str]] = self._at_most(
+            lambda t: (*cfg[t.world_dir], t.navigator, t.fault or NOMINAL)) if self.adaptive else Counter(
+            (*cfg[t.world_dir], t.navigator, t.fault or NOMINAL) for t in p.tasks)
+        return dict(out)
+
     def progress(self) -> tuple[int, int]:
-        """(recorded, planned)."""
+        """(recorded, planned); planned counts an adaptive stream's max until its rule stops it,
+        then its runs (so recorded == planned once a campaign is complete)."""
         done = self.con.execute("SELECT COUNT(*) FROM runs").fetchone()[0]
+        if self.adaptive:
+            return int(done), sum(self._at_most(lambda t: 0).values())
         total = self.con.execute("SELECT COUNT(*) FROM planned").fetchone()[0]
         return int(done), int(total)
 
@@ -402,8 +438,10 @@ class Store:
     def per_experiment(self) -> list[tuple[str, int, int, dict[str, int]]]:
         """(experiment, recorded, planned, outcome counts) per experiment, in spec order."""
         out = []
+        most = self._at_most(lambda t: t.experiment) if self.adaptive else None
         for exp in self.spec.experiments:
-            planned = self.con.execute("SELECT COUNT(*) FROM planned WHERE experiment = ?", (exp.name,)).fetchone()[0]
+            planned = most[exp.name] if most is not None else \
+                self.con.execute("SELECT COUNT(*) FROM planned WHERE experiment = ?", (exp.name,)).fetchone()[0]
             counts = {o: 0 for o in OUTCOMES}
             for o, n in self.con.execute("SELECT outcome, COUNT(*) FROM runs WHERE experiment = ? GROUP BY outcome",
                                          (exp.name,)):
@@ -414,11 +452,13 @@ class Store:
     def per_navigator(self) -> list[tuple[str, str, int, int, dict[str, int]]]:
         """(navigator, fault, recorded, planned, outcome counts) per navigator and fault, in spec order."""
         out = []
+        most = self._at_most(lambda t: (t.navigator, t.fault)) if self.adaptive else None
         for nav in self.spec.navigators:
             faults = list(dict.fromkeys(f for e in self.spec.experiments for f in self.spec.faults_of(e)))
             for f in faults:
-                planned = self.con.execute("SELECT COUNT(*) FROM planned WHERE navigator = ? AND fault IS ?",
-                                           (nav.name, f)).fetchone()[0]
+                planned = most[(nav.name, f)] if most is not None else \
+                    self.con.execute("SELECT COUNT(*) FROM planned WHERE navigator = ? AND fault IS ?",
+                                     (nav.name, f)).fetchone()[0]
                 if not planned:
                     continue
                 counts = {o: 0 for o in OUTCOMES}

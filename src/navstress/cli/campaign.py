@@ -91,7 +91,7 @@ def run(
         with CampaignProgress(enabled=not quiet) as bar:
             res = run_campaign(spec, out, workers=workers, executor=executor,  # type: ignore[arg-type]
                                ray_address=ray_address, wall_limit_s=wall_limit, on_start=bar.on_start,
-                               on_record=bar.on_record, accept_large=yes)
+                               on_record=bar.on_record, accept_large=yes, on_planned=bar.on_planned)
     except (KeyboardInterrupt, _Stopped) as err:
         signum = err.signum if isinstance(err, _Stopped) else signal.SIGINT
         signal.signal(signal.SIGTERM, signal.SIG_IGN)  # a second SIGTERM must not cut the message
@@ -265,7 +265,7 @@ def demo(
     con.print(f"demo campaign: {spec_path} -> {output / 'campaign'}")
     with CampaignProgress() as bar:
         res = run_campaign(spec_path, output / "campaign", workers=n_workers, on_start=bar.on_start,
-                           on_record=bar.on_record)
+                           on_record=bar.on_record, on_planned=bar.on_planned)
     con.print(f"{res.already_done + res.recorded}/{res.planned} runs recorded in {res.wall_s:.0f} s with "
               f"{res.workers} workers: " + format_counts(res.counts, markup=False))
     con.print("writing the report ...")

@@ -100,3 +100,24 @@ class KilledOnce(_Base):
                 time.sleep(0.1)
         self.after_s = math.inf
         return Command(0.5, 0.0)
+
+
+class Coin:
+    """Says "arrived" (a success when the goal is within tolerance of the start) with
+    probability ``p`` drawn from its seed, else gives up: a Bernoulli stream of known ``p`` that
+    costs one control cycle per run (adaptive repetition tests)."""
+
+    def __init__(self, config: dict[str, Any] | None = None) -> None:
+        self.p = float((config or {}).get("p", 0.5))
+        self.heads = False
+
+    def reset(self, mission: NavMission, robot: RobotSpec, *, seed: int) -> None:
+        import numpy as np
+
+        self.heads = bool(np.random.default_rng(seed).random() < self.p)
+
+    def step(self, obs: Observation) -> Command | Status:
+        return Status("arrived") if self.heads else Status("error", "tails")
+
+    def close(self) -> None:
+        pass
