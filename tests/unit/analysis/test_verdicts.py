@@ -199,3 +199,13 @@ def test_pooled_counts_are_the_sum_of_worlds(runs: list[tuple[str, int, bool]]) 
         assert (c.runs, c.successes, c.worlds) == (sum(w.runs for w in ws), sum(w.successes for w in ws), len(ws))
         assert sum(n for _, n in c.world_verdicts) == len(ws)
     assert sum(w.runs for w in v.worlds) == len(runs)
+
+
+def test_analyze_cli_json_has_the_verdicts(camp: Path, tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    out = tmp_path / "a.json"
+    r = CliRunner().invoke(app, ["analyze", str(camp), "--json", str(out)])
+    assert r.exit_code == 0, r.output
+    v = json.loads(out.read_text())["verdicts"]
+    assert {(x["config"], x["map_index"]): x["verdict"] for x in v["worlds"] if x["fault"] == "nominal"} == EXPECT
