@@ -19,7 +19,7 @@ files (``.*.partial`` traces, ``.m<k>.*`` world temp dirs) are removed.
     >>> d = tempfile.mkdtemp()
     >>> with Store.create(d, parse_campaign(demo()), "...") as s:
     ...     s.progress()
-    (0, 66)
+    (0, 78)
 """
 
 from __future__ import annotations

@@ -74,9 +74,10 @@ def test_adding_a_fault_keeps_existing_seeds_and_ids() -> None:
 def test_task_carries_campaign_settings() -> None:
     spec = parse_campaign(demo())
     t = plan(spec, "/tmp/c").tasks[-1]
+    last = spec.max_runs_of(spec.experiments[-1]) - 1  # the adaptive class plans its max
     assert t.timeout_s == spec.timeout_s and t.goal_tolerance_m == spec.goal_tolerance_m
     assert t.config == {"ground.deformation": 1.5} and t.experiment == "smooth-s4"
     assert t.map_seed == map_seed(spec.seed, "smooth-s4", "deformation=1.5", 1)
-    assert t.run_seed == run_seed(spec.seed, "smooth-s4", "deformation=1.5", 1, spec.runs_per_map - 1)
-    assert t.run_id == f"smooth-s4/deformation=1.5/m1/r{spec.runs_per_map - 1}/reference-v1/nominal"
-    assert t.trace_path == f"/tmp/c/traces/smooth-s4/deformation=1.5/m1/r{spec.runs_per_map - 1}-reference-v1-nominal.mcap"
+    assert t.run_seed == run_seed(spec.seed, "smooth-s4", "deformation=1.5", 1, last)
+    assert t.run_id == f"smooth-s4/deformation=1.5/m1/r{last}/reference-v1/nominal"
+    assert t.trace_path == f"/tmp/c/traces/smooth-s4/deformation=1.5/m1/r{last}-reference-v1-nominal.mcap"
