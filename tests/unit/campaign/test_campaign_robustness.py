@@ -258,6 +258,7 @@ def test_huge_sweep_through_the_cli(tmp_path: Path) -> None:
 def test_accepted_large_plan_and_fast_paper_plan() -> None:
     data = demo()
     data["maps_per_config"], data["runs_per_map"] = 100, 100  # 7 configs x 10^4 x faults
+    data["experiments"][1].pop("runs_per_map")  # (the demo's adaptive class: the campaign's count)
     assert planned_runs(parse_campaign(data, max_runs=None)) > MAX_PLANNED_RUNS
     with pytest.raises(SpecError, match="--yes"):
         parse_campaign(data)
