@@ -23,9 +23,6 @@ spec gives it one (the experiment's own, else the campaign's), else :data:`DEFAU
 
 from __future__ import annotations
 
-import csv
-import math
-import os
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -33,7 +30,9 @@ from typing import Any
 
 from scipy.stats import binomtest
 
+from navstress._tables import Kind, read_table, write_table
 from navstress.analysis.stats import config_key, fault_name
+from navstress.campaign.store import Store
 from navstress.errors import SpecError
 from navstress.run.outcome import Outcome
 from navstress.run.record import RunRecord
@@ -46,6 +45,9 @@ DEFAULT_CONFIDENCE = 0.95
 VERDICT_COLUMNS: tuple[str, ...] = (
     "scope", "experiment", "config", "map_index", "navigator", "fault", "worlds", "runs", "successes",
     "pass_probability", "ci_low", "ci_high", "seq_low", "seq_high", "verdict", "threshold", "confidence")
+_INTS = {"map_index", "worlds", "runs", "successes"}
+_FLOATS = {"pass_probability", "ci_low", "ci_high", "seq_low", "seq_high", "threshold", "confidence"}
+_KINDS: dict[str, Kind] = {c: "int" if c in _INTS else "float" if c in _FLOATS else "str" for c in VERDICT_COLUMNS}
 
 
 @dataclass(frozen=True)
@@ -227,52 +229,16 @@ def verdicts(records: Iterable[RunRecord], rule: VerdictRule | None = None,
 
 def write_verdicts(v: Verdicts, fmt: str, dest: Path) -> Path:
     """Write the verdicts table (:data:`VERDICT_COLUMNS`) as CSV or Parquet, atomically."""
-    if fmt not in ("csv", "parquet"):
-        raise SpecError("format", fmt, "csv or parquet")
-    rows = v.rows()
-    dest.parent.mkdir(parents=True, exist_ok=True)
-    tmp = dest.with_name(f".{dest.name}.tmp")
-    try:
-        if fmt == "csv":
-            with open(tmp, "w", newline="", encoding="utf-8") as f:
-                w = csv.DictWriter(f, fieldnames=list(VERDICT_COLUMNS))
-                w.writeheader()
-                w.writerows([{k: ("" if x is None or (isinstance(x, float) and not math.isfinite(x)) else x)
-                              for k, x in r.items()} for r in rows])
-        else:
-            import pyarrow as pa
-            import pyarrow.parquet as pq
-
-            ints = {"map_index", "worlds", "runs", "successes"}
-            floats = {"pass_probability", "ci_low", "ci_high", "seq_low", "seq_high", "threshold", "confidence"}
-            schema = pa.schema([(c, pa.int64() if c in ints else pa.float64() if c in floats else pa.string())
-                                for c in VERDICT_COLUMNS])
-            pq.write_table(pa.Table.from_pylist(rows, schema=schema), tmp)
-        os.replace(tmp, dest)
-    finally:
-        tmp.unlink(missing_ok=True)
-    return dest
+    return write_table(v.rows(), _KINDS, fmt, dest)
 
 
 def read_verdicts(path: str | Path) -> list[dict[str, Any]]:
     """Read back a verdicts export (CSV or Parquet) as typed rows."""
-    p = Path(path)
-    if p.suffix == ".parquet":
-        import pyarrow.parquet as pq
-        return list(pq.read_table(p).to_pylist())
-    ints = {"map_index", "worlds", "runs", "successes"}
-    floats = {"pass_probability", "ci_low", "ci_high", "seq_low", "seq_high", "threshold", "confidence"}
-    out = []
-    with open(p, newline="", encoding="utf-8") as f:
-        for r in csv.DictReader(f):
-            out.append({c: (None if r[c] == "" and c in ints | floats else int(r[c]) if c in ints
-                            else float(r[c]) if c in floats else r[c]) for c in VERDICT_COLUMNS})
-    return out
+    return read_table(path, _KINDS)
 
 
 def campaign_verdicts(directory: str | Path) -> Verdicts:
     """The verdicts of the campaign in ``directory`` (read only), under its spec's rule."""
-    from navstress.campaign.store import Store
 
     with Store.open(directory) as store:
         return verdicts(store.records(), rule_of(store.spec), rules=rules_of(store.spec))

@@ -24,7 +24,6 @@ files (``.*.partial`` traces, ``.m<k>.*`` world temp dirs) are removed.
 
 from __future__ import annotations
 
-import csv
 import errno
 import fcntl
 import json
@@ -40,6 +39,7 @@ from types import TracebackType
 from typing import IO, Any, Literal
 
 from navstress import _files
+from navstress._tables import FORMATS, Kind, read_table, write_table
 from navstress.campaign.plan import NOMINAL, Plan, plan
 from navstress.campaign.spec import CampaignSpec, parse_campaign_text
 from navstress.errors import SpecError, StoreError
@@ -57,6 +57,9 @@ COLUMNS: tuple[str, ...] = tuple(f.name for f in fields(RunRecord))
 _TYPES = {"map_index": "INTEGER", "run_index": "INTEGER", "map_seed": "INTEGER", "run_seed": "INTEGER",
           "collisions": "INTEGER", "duration_s": "REAL", "wall_s": "REAL", "goal_distance_m": "REAL",
           "path_length_m": "REAL", "tortuousness": "REAL", "first_collision_s": "REAL"}
+#: The runs table's column kinds in exports (navstress._tables).
+_KIND_OF: dict[str, Kind] = {"INTEGER": "int", "REAL": "float", "TEXT": "str"}
+_KINDS: dict[str, Kind] = {c: _KIND_OF[_TYPES.get(c, "TEXT")] for c in COLUMNS}
 _FLOATS = ("duration_s", "wall_s", "goal_distance_m", "path_length_m", "tortuousness")
 _TMP_DB = f".{DB_NAME}.tmp"
 #: SQLite's side files of a database file (rollback journal, WAL, shared memory).
@@ -475,64 +478,16 @@ class Store:
     # ---- export ----------------------------------------------------------------------
     def export(self, fmt: Literal["csv", "parquet"], out: str | Path | None = None) -> Path:
         """Write the runs table (plan order) as CSV or Parquet; returns the path written (atomically)."""
-        if fmt not in ("csv", "parquet"):
+        if fmt not in FORMATS:
             raise SpecError("format", fmt, "csv or parquet")
         dest = Path(out) if out is not None else self.root / f"runs.{fmt}"
         q = f"SELECT {', '.join('r.' + c for c in COLUMNS)} FROM runs r LEFT JOIN planned p USING (run_id) ORDER BY p.seq"
-        rows = [dict(r) for r in self.con.execute(q)]
-        dest.parent.mkdir(parents=True, exist_ok=True)
-        tmp = dest.with_name(f".{dest.name}.tmp")
-        try:
-            if fmt == "csv":
-                with open(tmp, "w", newline="", encoding="utf-8") as f:
-                    w = csv.DictWriter(f, fieldnames=list(COLUMNS))
-                    w.writeheader()
-                    w.writerows(rows)
-            else:
-                import pyarrow as pa  # local: pyarrow costs ~0.35 s to import, only exports need it
-                import pyarrow.parquet as pq  # (and every campaign worker imports this module)
-
-                schema = pa.schema([(c, _ARROW[_TYPES.get(c, "TEXT")]()) for c in COLUMNS])
-                table = pa.Table.from_pylist(rows, schema=schema)
-                pq.write_table(table, tmp)
-            os.replace(tmp, dest)
-        finally:
-            tmp.unlink(missing_ok=True)
-        return dest
-
-
-def _arrow_types() -> dict[str, Any]:
-    def lazy(name: str) -> Any:
-        def f() -> Any:
-            import pyarrow as pa  # local: see Store.export
-
-            return getattr(pa, name)()
-        return f
-    return {"INTEGER": lazy("int64"), "REAL": lazy("float64"), "TEXT": lazy("string")}
-
-
-_ARROW = _arrow_types()
+        return write_table([dict(r) for r in self.con.execute(q)], _KINDS, fmt, dest)
 
 
 def read_export(path: str | Path) -> list[dict[str, Any]]:
     """Read back an exported runs table (CSV or Parquet) as rows with typed values."""
-    p = Path(path)
-    if p.suffix == ".parquet":
-        import pyarrow.parquet as pq  # local: see Store.export
-
-        return list(pq.read_table(p).to_pylist())
-    with open(p, newline="", encoding="utf-8") as f:
-        rows = list(csv.DictReader(f))
-    out = []
-    for r in rows:
-        d: dict[str, Any] = {}
-        for c in COLUMNS:
-            v = r[c]
-            t = _TYPES.get(c, "TEXT")
-            d[c] = None if v == "" and (t != "TEXT" or c in ("fault", "trace")) else (
-                int(v) if t == "INTEGER" else float(v) if t == "REAL" else v)
-        out.append(d)
-    return out
+    return read_table(path, _KINDS, nullable=("fault", "trace"))
 
 
 def _record(row: dict[str, Any], root: Path) -> RunRecord:

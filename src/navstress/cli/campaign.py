@@ -24,6 +24,7 @@ from rich.table import Table
 
 from navstress._console import console, literal
 from navstress.analysis.report import build_report
+from navstress.analysis.verdicts import campaign_verdicts, write_verdicts
 from navstress.campaign.executors import run_campaign
 from navstress.campaign.presets import PRESETS, preset_yaml
 from navstress.campaign.progress import CampaignProgress, format_counts
@@ -200,8 +201,6 @@ def export(
     if out is not None and out.is_dir():
         raise SpecError("--output", str(out), f"a {fmt} file path, not a directory")
     if table == "verdicts":
-        from navstress.analysis.verdicts import campaign_verdicts, write_verdicts
-
         v = campaign_verdicts(directory)
         path = write_verdicts(v, fmt, out if out is not None else Path(directory) / f"verdicts.{fmt}")
         typer.echo(literal(f"wrote {path} ({len(v.worlds)} worlds, {len(v.configurations)} configurations)"))
