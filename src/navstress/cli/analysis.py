@@ -23,7 +23,10 @@ from navstress.errors import SpecError
 app = typer.Typer(rich_markup_mode=None)
 
 
-def _params(threshold: float, k: int, weights: str) -> DifficultyParams:
+def _params(threshold: float, k: int, weights: str, dt: float) -> DifficultyParams:
+    """The analysis options both commands take, checked (``--dt`` first)."""
+    if not dt > 0:
+        raise SpecError("--dt", dt, "a time step in seconds > 0")
     try:
         w = tuple(float(v) for v in weights.split(","))
     except ValueError:
@@ -47,9 +50,7 @@ def analyze_cmd(
     dt: Dt = 1.0,
 ) -> None:
     """Print the campaign's difficulty levels, indeterminism and fault power."""
-    if not dt > 0:
-        raise SpecError("--dt", dt, "a time step in seconds > 0")
-    params = _params(threshold, k, weights)
+    params = _params(threshold, k, weights, dt)
     if json_out is not None and json_out.is_dir():
         raise SpecError("--json", str(json_out), "a JSON file path, not a directory")
     a = analyze(directory, params=params, navigator=navigator, dt=dt)
@@ -112,9 +113,7 @@ def report_cmd(
     dt: Dt = 1.0,
 ) -> None:
     """Write one self-contained HTML report (figures embedded) of a campaign."""
-    if not dt > 0:
-        raise SpecError("--dt", dt, "a time step in seconds > 0")
-    params = _params(threshold, k, weights)
+    params = _params(threshold, k, weights, dt)
     if out.exists() and out.is_dir():
         raise SpecError("--output", str(out), "an HTML file path, not a directory")
     probe_writable(out)  # before the analysis and the figures, not after
