@@ -10,7 +10,6 @@ from __future__ import annotations
 import json
 import os
 import signal
-import sqlite3
 import subprocess
 import sys
 import time
@@ -26,6 +25,7 @@ from navstress.campaign.executors import run_campaign
 from navstress.campaign.replay import replay
 from navstress.campaign.store import Store, read_export
 import loopback
+from campaign_kill import kill_when_recorded
 
 HELPERS = str(Path(__file__).resolve().parents[1] / "unit" / "campaign")
 if HELPERS not in sys.path:
@@ -62,22 +62,7 @@ def resumed(tmp_path_factory: pytest.TempPathFactory) -> Path:
     code = ("import sys; from navstress.campaign.executors import run_campaign;"
             "run_campaign(sys.argv[1], sys.argv[2], workers=1)")
     proc = subprocess.Popen([sys.executable, "-c", code, str(spec), str(out)])
-    db = out / "campaign.sqlite"
-    deadline = time.monotonic() + 120
-    done = 0
-    while time.monotonic() < deadline and proc.poll() is None:
-        time.sleep(0.2)
-        if db.exists():
-            try:
-                con = sqlite3.connect(db, timeout=1)
-                done = con.execute("SELECT COUNT(*) FROM runs").fetchone()[0]
-                con.close()
-            except sqlite3.Error:
-                continue
-            if done >= 1:
-                break
-    proc.send_signal(signal.SIGKILL)
-    proc.wait()
+    kill_when_recorded(proc, out / "campaign.sqlite", 1, timeout_s=120, poll_s=0.2)
     assert proc.returncode == -signal.SIGKILL, "the driver finished before it could be killed"
     with Store.open(out) as s:
         assert 1 <= s.progress()[0] < s.progress()[1]

@@ -11,7 +11,6 @@ from __future__ import annotations
 import json
 import os
 import signal
-import sqlite3
 import subprocess
 import sys
 import time
@@ -22,6 +21,7 @@ import pytest
 import yaml
 
 import loopback
+from campaign_kill import kill_when_recorded
 from navstress.campaign.executors import run_campaign
 from navstress.campaign.store import Store
 from navstress.sequential import decide, should_continue
@@ -114,21 +114,7 @@ def test_sigkill_then_resume_gives_the_same_final_set(uninterrupted: Path, tmp_p
     driver = tmp_path / "driver.py"
     driver.write_text(_DRIVER)
     proc = subprocess.Popen([sys.executable, str(driver), str(spec), str(out)], env=env)
-    db = out / "campaign.sqlite"
-    deadline = time.monotonic() + 180
-    while time.monotonic() < deadline and proc.poll() is None:
-        time.sleep(0.05)
-        if db.exists():
-            try:
-                con = sqlite3.connect(db, timeout=1)
-                done = con.execute("SELECT COUNT(*) FROM runs").fetchone()[0]
-                con.close()
-            except sqlite3.Error:
-                continue
-            if done >= kill_after:
-                break
-    proc.send_signal(signal.SIGKILL)
-    proc.wait()
+    kill_when_recorded(proc, out / "campaign.sqlite", kill_after, timeout_s=180)
     assert proc.returncode == -signal.SIGKILL, "the driver finished before it could be killed"
     before = _runs(out)
     full = _runs(uninterrupted)
