@@ -14,6 +14,12 @@ its nominal rate. docs/statistics.md says why this construction and what it cost
 (``p < threshold``), ``flaky`` (both outcomes likely: ``FLAKY_BAND[0] < p < FLAKY_BAND[1]``),
 or ``undecided``. Each class is a claim about ``p`` that the interval proves, so a wrong verdict
 needs ``p`` outside the interval: at most ``1 - confidence`` of the streams, at any stopping time.
+
+With an *indifference* ``delta > 0`` (Wald's indifference zone), ``passes`` proves only
+``p >= threshold - delta`` and ``fails`` only ``p < threshold + delta``: the rule tells a world
+that passes at least ``threshold + delta`` of the time from one that passes at most
+``threshold - delta`` of the time, with error at most ``1 - confidence`` for each, and may
+answer either way for a world inside the zone. It decides much sooner (docs/statistics.md).
 """
 
 from __future__ import annotations
@@ -45,13 +51,18 @@ class AdaptiveRule:
     max_runs: int = 25
     threshold: float = 0.8
     confidence: float = 0.95
+    #: the half-width of the indifference zone around ``threshold`` (0: none; see the module doc)
+    indifference: float = 0.0
 
     def __post_init__(self) -> None:
-        check_rule(self.min_runs, self.max_runs, self.threshold, self.confidence)
+        check_rule(self.min_runs, self.max_runs, self.threshold, self.confidence, indifference=self.indifference)
 
 
-def check_rule(min_runs: int, max_runs: int, threshold: float, confidence: float, field: str = "adaptive") -> None:
-    """Raise :class:`SpecError` naming the first invalid parameter of an adaptive rule."""
+def check_rule(min_runs: int, max_runs: int, threshold: float, confidence: float, field: str = "adaptive",
+               indifference: float = 0.0) -> None:
+    """Raise :class:`SpecError` naming the first invalid parameter of an adaptive rule. The
+    indifference zone ``(threshold - indifference, threshold + indifference)`` must lie inside
+    :data:`FLAKY_BAND` (so a world proven inside it is flaky)."""
     if isinstance(min_runs, bool) or not isinstance(min_runs, int) or min_runs < 1:
         raise SpecError(f"{field}.min", min_runs, "an integer >= 1")
     if isinstance(max_runs, bool) or not isinstance(max_runs, int) or max_runs < min_runs or max_runs > 10_000:
@@ -60,6 +71,14 @@ def check_rule(min_runs: int, max_runs: int, threshold: float, confidence: float
     for name, v in (("threshold", threshold), ("confidence", confidence)):
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not 0.0 < v < 1.0:
             raise SpecError(f"{field}.{name}", v, "a number strictly between 0 and 1", "e.g. 0.95")
+    d = indifference
+    if isinstance(d, bool) or not isinstance(d, (int, float)) or not math.isfinite(d) or d < 0.0:
+        raise SpecError(f"{field}.indifference", d, "a number >= 0 (0: no indifference zone)", "e.g. 0.25")
+    if d > 0.0 and not (threshold - d >= FLAKY_BAND[0] - 1e-12 and threshold + d <= FLAKY_BAND[1] + 1e-12):
+        hi = max(0.0, min(threshold - FLAKY_BAND[0], FLAKY_BAND[1] - threshold))
+        raise SpecError(f"{field}.indifference", d,
+                        f"a zone threshold +/- indifference inside the flaky band {FLAKY_BAND}: at most {hi:.4g} "
+                        f"for threshold {threshold:g}", "lower it, or move the threshold towards 0.5")
 
 
 def _log_martingale_gap(p: float, successes: int, n: int, log_bound: float) -> float:
@@ -95,14 +114,15 @@ def confidence_sequence(successes: int, n: int, confidence: float) -> tuple[floa
     return lo, hi
 
 
-def verdict(lo: float, hi: float, threshold: float) -> Verdict:
+def verdict(lo: float, hi: float, threshold: float, indifference: float = 0.0) -> Verdict:
     """The class an interval (lo, hi) of the success probability proves (see the module doc);
-    flaky first: a stream proven to give both outcomes often is flaky whatever the threshold."""
+    flaky first: a stream proven to give both outcomes often is flaky whatever the threshold
+    (and an interval inside the indifference zone, which lies inside the flaky band, is flaky)."""
     if FLAKY_BAND[0] < lo and hi < FLAKY_BAND[1]:
         return "flaky"
-    if lo >= threshold:
+    if lo >= threshold - indifference:
         return "passes"
-    if hi < threshold:
+    if hi < threshold + indifference:
         return "fails"
     return "undecided"
 
@@ -113,7 +133,7 @@ def decide(successes: int, n: int, rule: AdaptiveRule) -> Verdict:
     if n < rule.min_runs:
         return "undecided"
     lo, hi = confidence_sequence(successes, n, rule.confidence)
-    return verdict(lo, hi, rule.threshold)
+    return verdict(lo, hi, rule.threshold, rule.indifference)
 
 
 def should_continue(successes: int, n: int, rule: AdaptiveRule) -> bool:

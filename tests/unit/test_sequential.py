@@ -27,9 +27,11 @@ STREAMS = 4000
 SLACK = 1e-4
 
 
-def wrong(v: str, p: float, threshold: float) -> bool:
-    """Whether verdict ``v`` is false for a stream of success probability ``p``."""
-    return ((v == "passes" and p < threshold) or (v == "fails" and p >= threshold)
+def wrong(v: str, p: float, threshold: float, indifference: float = 0.0) -> bool:
+    """Whether verdict ``v`` is false for a stream of success probability ``p`` (with an
+    indifference zone, what ``passes`` and ``fails`` claim: ``p >= threshold - indifference``,
+    ``p < threshold + indifference``)."""
+    return ((v == "passes" and p < threshold - indifference) or (v == "fails" and p >= threshold + indifference)
             or (v == "flaky" and not FLAKY_BAND[0] < p < FLAKY_BAND[1]))
 
 
@@ -44,7 +46,7 @@ def run_streams(p: float, rule: AdaptiveRule, cont: object, final: object, seed:
         while cont(s, n):  # type: ignore[operator]
             s += int(row[n])
             n += 1
-        bad += wrong(final(s, n), p, rule.threshold)  # type: ignore[operator]
+        bad += wrong(final(s, n), p, rule.threshold, rule.indifference)  # type: ignore[operator]
         used.append(n)
     return bad, used
 
@@ -85,6 +87,46 @@ def test_wrong_verdicts_other_rules(rule: AdaptiveRule, p: float) -> None:
     """Other thresholds and confidences (a larger 1 - confidence: the bound is tested where it bites)."""
     bad, _ = run_streams(p, rule, *cached_rule(rule), seed=7)
     assert at_most_alpha(bad, 1 - rule.confidence), (rule, p, bad / STREAMS)
+
+
+ZONE = AdaptiveRule(1, 25, 0.5, 0.8, indifference=0.25)  # the benchmark's rule, with a larger budget
+
+
+@pytest.mark.parametrize("p", [0.0, 0.05, 0.1, 0.2, 0.24, 0.25, 0.5, 0.75, 0.76, 0.8, 0.9, 0.95, 1.0])
+def test_indifference_zone_wrong_verdicts_at_most_one_minus_confidence(p: float) -> None:
+    """With an indifference zone (0.25, 0.75): passes for a world below 0.25, fails for one at or
+    above 0.75, or flaky outside the band, at most 20 % of the time; inside the zone either answer
+    is right by definition, and the edges of the zone are where the bound bites."""
+    bad, used = run_streams(p, ZONE, *cached_rule(ZONE), seed=int(1000 * p) + 5)
+    assert at_most_alpha(bad, 1 - ZONE.confidence), (p, bad / STREAMS)
+    assert all(1 <= n <= ZONE.max_runs for n in used)
+
+
+@pytest.mark.parametrize("p", [0.0, 1.0])
+def test_indifference_zone_decides_agreeing_streams_in_two_runs(p: float) -> None:
+    """What the zone buys: a world that always passes (or always fails) is decided after 2 runs
+    (24 without a zone at threshold 0.8, confidence 0.95; 5 at threshold 0.5, confidence 0.8)."""
+    _, used = run_streams(p, ZONE, *cached_rule(ZONE), seed=3)
+    assert set(used) == {2}
+    assert decide(2, 2, ZONE) == "passes" and decide(0, 2, ZONE) == "fails"
+    plain = AdaptiveRule(1, 25, 0.5, 0.8)
+    assert decide(4, 4, plain) == "undecided" and decide(5, 5, plain) == "passes"
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.integers(0, 60).flatmap(lambda n: st.tuples(st.integers(0, n), st.just(n))), st.floats(0.3, 0.7),
+       st.floats(0.0, 0.2), st.floats(0.5, 0.99))
+def test_indifference_verdicts_are_claims_the_interval_proves(sn: tuple[int, int], t: float, d: float,
+                                                               c: float) -> None:
+    s, n = sn
+    rule = AdaptiveRule(1, 100, t, c, indifference=d)
+    v = decide(s, n, rule)
+    lo, hi = confidence_sequence(s, n, c) if n else (0.0, 1.0)
+    assert {"passes": lo >= t - d, "fails": hi < t + d,
+            "flaky": FLAKY_BAND[0] < lo and hi < FLAKY_BAND[1]}.get(v, True)
+    # a zone only widens what is decided: a verdict without it stands with it
+    if decide(s, n, AdaptiveRule(1, 100, t, c)) != "undecided":
+        assert v != "undecided"
 
 
 @pytest.mark.parametrize("p", [0.8, 0.9])
@@ -215,6 +257,12 @@ BAD = [
     (dict(threshold=math.inf), "adaptive.threshold"),
     (dict(threshold=math.nan), "adaptive.threshold"),
     (dict(threshold=False), "adaptive.threshold"),
+    (dict(indifference=-0.1), "adaptive.indifference"),
+    (dict(indifference=math.nan), "adaptive.indifference"),
+    (dict(indifference=True), "adaptive.indifference"),
+    (dict(indifference="0.2"), "adaptive.indifference"),
+    (dict(threshold=0.8, indifference=0.2), "adaptive.indifference"),  # the zone (0.6, 1.0) leaves the band
+    (dict(threshold=0.5, indifference=0.45), "adaptive.indifference"),
 ]
 
 

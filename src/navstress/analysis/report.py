@@ -247,6 +247,11 @@ def _verdict_attrs(w: WorldVerdict) -> str:
             f'data-navigator="{_e(w.navigator)}" data-fault="{_e(w.fault)}"')
 
 
+def _zone(indifference: float) -> str:
+    """", indifference 25 %" for a rule with an indifference zone, "" without."""
+    return f", indifference {100 * indifference:g} %" if indifference else ""
+
+
 def _verdicts(a: Analysis, max_worlds: int = 2000) -> str:
     v = a.verdicts
     r = v.rule
@@ -255,15 +260,18 @@ def _verdicts(a: Analysis, max_worlds: int = 2000) -> str:
            f'<p class="note" id="verdict-rule" data-threshold="{r.threshold!r}" data-confidence="{r.confidence!r}">'
            f'A world is one map run by one navigator with one fault; a configuration pools its maps. Pass probability: '
            f'successes / runs with its exact (Clopper-Pearson) {conf} interval. Verdict ({_e(r.source)}, threshold '
-           f'{100 * r.threshold:g} %, confidence {conf}), proven by an anytime-valid confidence sequence, so it holds '
-           'however many runs were made: <i>passes</i> (pass probability at least the threshold), <i>fails</i> '
-           f'(below it), <i>flaky</i> (both outcomes likely: proven between {100 * FLAKY_BAND[0]:g} % and '
-           f'{100 * FLAKY_BAND[1]:g} %) or <i>undecided</i> (more runs needed). See docs/statistics.md.</p>']
+           f'{100 * r.threshold:g} %, confidence {conf}{_zone(r.indifference)}), proven by an anytime-valid confidence '
+           'sequence, so it holds however many runs were made: <i>passes</i> (pass probability at least the threshold'
+           '{minus}), <i>fails</i> (below it{plus}), <i>flaky</i> (both outcomes likely: proven between '
+           f'{100 * FLAKY_BAND[0]:g} % and {100 * FLAKY_BAND[1]:g} %) or <i>undecided</i> (more runs needed). '
+           'See docs/statistics.md.</p>'.replace("{minus}", " minus the indifference" if r.indifference else "")
+           .replace("{plus}", " plus the indifference" if r.indifference else "")]
     own = [(e, x) for e, x in v.rules.items() if x != r]
     if own:
         out.append('<p class="note" id="verdict-rules">Experiments with their own adaptive rule: ' + "; ".join(
             f'<span data-experiment="{_e(e)}" data-threshold="{x.threshold!r}" data-confidence="{x.confidence!r}">'
-            f'{_e(e)}: threshold {100 * x.threshold:g} %, confidence {100 * x.confidence:g} %</span>'
+            f'{_e(e)}: threshold {100 * x.threshold:g} %, confidence {100 * x.confidence:g} %{_zone(x.indifference)}'
+            '</span>'
             for e, x in own) + ".</p>")
     cfgs = [c for c in v.configurations if a.shows(c.navigator)]
     worlds = [w for w in v.worlds if a.shows(w.navigator)]

@@ -44,9 +44,11 @@ DEFAULT_CONFIDENCE = 0.95
 #: Columns of ``campaign export --table verdicts`` (one row per world, then one per configuration).
 VERDICT_COLUMNS: tuple[str, ...] = (
     "scope", "experiment", "config", "map_index", "navigator", "fault", "worlds", "runs", "successes",
-    "pass_probability", "ci_low", "ci_high", "seq_low", "seq_high", "verdict", "threshold", "confidence")
+    "pass_probability", "ci_low", "ci_high", "seq_low", "seq_high", "verdict", "threshold", "confidence",
+    "indifference")
 _INTS = {"map_index", "worlds", "runs", "successes"}
-_FLOATS = {"pass_probability", "ci_low", "ci_high", "seq_low", "seq_high", "threshold", "confidence"}
+_FLOATS = {"pass_probability", "ci_low", "ci_high", "seq_low", "seq_high", "threshold", "confidence",
+           "indifference"}
 _KINDS: dict[str, Kind] = {c: "int" if c in _INTS else "float" if c in _FLOATS else "str" for c in VERDICT_COLUMNS}
 
 
@@ -57,9 +59,10 @@ class VerdictRule:
     threshold: float = DEFAULT_THRESHOLD
     confidence: float = DEFAULT_CONFIDENCE
     source: str = "default"
+    indifference: float = 0.0
 
     def __post_init__(self) -> None:
-        check_rule(1, 1, self.threshold, self.confidence, field="verdicts")
+        check_rule(1, 1, self.threshold, self.confidence, field="verdicts", indifference=self.indifference)
 
 
 def exact_interval(successes: int, runs: int, confidence: float) -> tuple[float, float]:
@@ -74,8 +77,8 @@ def _get(obj: Any, name: str) -> Any:
     return obj.get(name) if isinstance(obj, dict) else getattr(obj, name, None)
 
 
-def _adaptive(owner: Any) -> tuple[float, float] | None:
-    """(threshold, confidence) of an adaptive rule found on ``owner`` (a ``runs_per_map`` value
+def _adaptive(owner: Any) -> tuple[float, float, float] | None:
+    """(threshold, confidence, indifference) of an adaptive rule found on ``owner`` (a ``runs_per_map`` value
     with an ``adaptive`` mapping or object, or a rule object itself), None when there is none."""
     if owner is None or isinstance(owner, (bool, int, float, str)):
         return None
@@ -83,9 +86,10 @@ def _adaptive(owner: Any) -> tuple[float, float] | None:
     for cand in (ad, owner):
         if cand is None or isinstance(cand, (bool, int, float, str)):
             continue
-        t, c = _get(cand, "threshold"), _get(cand, "confidence")
+        t, c, d = _get(cand, "threshold"), _get(cand, "confidence"), _get(cand, "indifference")
         if all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in (t, c)):
-            return float(t), float(c)
+            ok = isinstance(d, (int, float)) and not isinstance(d, bool)
+            return float(t), float(c), float(d) if ok else 0.0
     return None
 
 
@@ -102,7 +106,7 @@ def rule_of(spec: Any, experiment: str | None = None) -> VerdictRule:
     for owner, source in owners:
         tc = _adaptive(owner)
         if tc is not None:
-            return VerdictRule(tc[0], tc[1], source)
+            return VerdictRule(tc[0], tc[1], source, tc[2])
     return VerdictRule()
 
 
@@ -131,6 +135,7 @@ class WorldVerdict:
     world_verdicts: tuple[tuple[str, int], ...] = ()
     threshold: float = DEFAULT_THRESHOLD
     confidence: float = DEFAULT_CONFIDENCE
+    indifference: float = 0.0
 
     @property
     def pass_probability(self) -> float | None:
@@ -143,6 +148,8 @@ class WorldVerdict:
         d.update(navigator=self.navigator, fault=self.fault, runs=self.runs, successes=self.successes,
                  pass_probability=self.pass_probability, ci=list(self.ci), sequence=list(self.sequence),
                  verdict=self.verdict, threshold=self.threshold, confidence=self.confidence)
+        if self.indifference:
+            d["indifference"] = self.indifference
         if self.map_index is None:
             d["worlds"] = self.worlds
             d["world_verdicts"] = dict(self.world_verdicts)
@@ -155,21 +162,21 @@ class WorldVerdict:
                 "fault": self.fault, "worlds": self.worlds, "runs": self.runs, "successes": self.successes,
                 "pass_probability": self.pass_probability, "ci_low": self.ci[0], "ci_high": self.ci[1],
                 "seq_low": self.sequence[0], "seq_high": self.sequence[1], "verdict": self.verdict,
-                "threshold": self.threshold, "confidence": self.confidence}
+                "threshold": self.threshold, "confidence": self.confidence, "indifference": self.indifference}
 
 
 def world_verdict(experiment: str, key: str, map_index: int | None, navigator: str, fault: str, *,
                   successes: int, runs: int, threshold: float = DEFAULT_THRESHOLD,
                   confidence: float = DEFAULT_CONFIDENCE, worlds: int = 1,
-                  world_verdicts: tuple[tuple[str, int], ...] = ()) -> WorldVerdict:
+                  world_verdicts: tuple[tuple[str, int], ...] = (), indifference: float = 0.0) -> WorldVerdict:
     """The :class:`WorldVerdict` of ``successes`` of ``runs`` (see module doc)."""
     if runs < 0 or not 0 <= successes <= runs:
         raise SpecError("successes", f"{successes} of {runs}", "0 <= successes <= runs")
     seq = confidence_sequence(successes, runs, confidence)
-    v: Verdict = verdict(*seq, threshold) if runs else "undecided"
+    v: Verdict = verdict(*seq, threshold, indifference) if runs else "undecided"
     return WorldVerdict(experiment, key, map_index, navigator, fault, runs, successes,
                         exact_interval(successes, runs, confidence), seq, v, worlds, world_verdicts, threshold,
-                        confidence)
+                        confidence, indifference)
 
 
 @dataclass(frozen=True)
@@ -187,8 +194,9 @@ class Verdicts:
 
     def to_json(self) -> dict[str, Any]:
         return {"threshold": self.rule.threshold, "confidence": self.rule.confidence, "rule": self.rule.source,
-                "experiments": {e: {"threshold": r.threshold, "confidence": r.confidence, "rule": r.source}
-                                for e, r in self.rules.items()},
+                "indifference": self.rule.indifference,
+                "experiments": {e: {"threshold": r.threshold, "confidence": r.confidence, "rule": r.source,
+                                    "indifference": r.indifference} for e, r in self.rules.items()},
                 "flaky_band": list(FLAKY_BAND), "interval": "clopper-pearson",
                 "worlds": [w.to_json() for w in self.worlds],
                 "configurations": [c.to_json() for c in self.configurations]}
@@ -218,12 +226,13 @@ def verdicts(records: Iterable[RunRecord], rule: VerdictRule | None = None,
     for g in keys:
         gr = rules.get(g[0], rule)
         ws = [world_verdict(g[0], g[1], m, g[2], g[3], successes=s, runs=n, threshold=gr.threshold,
-                            confidence=gr.confidence) for m, (s, n) in sorted(counts[g].items())]
+                            confidence=gr.confidence, indifference=gr.indifference) for m, (s, n) in sorted(counts[g].items())]
         worlds += ws
         tally = tuple((v, sum(w.verdict == v for w in ws)) for v in VERDICTS)
         configs.append(world_verdict(g[0], g[1], None, g[2], g[3], successes=sum(w.successes for w in ws),
                                      runs=sum(w.runs for w in ws), threshold=gr.threshold,
-                                     confidence=gr.confidence, worlds=len(ws), world_verdicts=tally))
+                                     confidence=gr.confidence, worlds=len(ws), world_verdicts=tally,
+                                     indifference=gr.indifference))
     return Verdicts(rule, worlds, configs, rules)
 
 

@@ -114,6 +114,7 @@ class AdaptiveSpec(BaseModel):
     max: int = 25
     threshold: float = 0.8
     confidence: float = 0.95
+    indifference: float = 0.0
 
 
 class AdaptiveRuns(BaseModel):
@@ -124,7 +125,7 @@ class AdaptiveRuns(BaseModel):
 
     def rule(self) -> AdaptiveRule:
         a = self.adaptive
-        return AdaptiveRule(a.min, a.max, a.threshold, a.confidence)
+        return AdaptiveRule(a.min, a.max, a.threshold, a.confidence, a.indifference)
 
 
 _REPETITION = "an integer in [1, 10000], or {adaptive: {min: 3, max: 25, threshold: 0.8, confidence: 0.95}}"
@@ -144,14 +145,15 @@ def repetition(value: Any, field: str = "runs_per_map") -> int | AdaptiveRuns:
         if inner is None:
             inner = {}
         if not isinstance(inner, dict):
-            raise SpecError(f"{field}.adaptive", inner, "a mapping of min, max, threshold, confidence")
+            raise SpecError(f"{field}.adaptive", inner, "a mapping of min, max, threshold, confidence, indifference")
         known = set(AdaptiveSpec.model_fields)
         for k in inner:
             if k not in known:
-                raise SpecError(f"{field}.adaptive.{k}", inner[k], "one of the keys min, max, threshold, confidence",
+                raise SpecError(f"{field}.adaptive.{k}", inner[k], "one of the keys min, max, threshold, confidence, indifference",
                                 "check its spelling")
         merged = {**AdaptiveSpec().model_dump(), **inner}
-        check_rule(merged["min"], merged["max"], merged["threshold"], merged["confidence"], field=f"{field}.adaptive")
+        check_rule(merged["min"], merged["max"], merged["threshold"], merged["confidence"], field=f"{field}.adaptive",
+                   indifference=merged["indifference"])
         return AdaptiveRuns(adaptive=AdaptiveSpec(**merged))
     if isinstance(value, bool) or not isinstance(value, (int, str)):
         raise SpecError(field, value, _REPETITION)
@@ -243,11 +245,16 @@ class CampaignSpec(BaseModel):
 
     def canonical_json(self) -> str:
         """A stable text of the validated spec (used to refuse resuming with another spec; an
-        experiment without its own ``runs_per_map`` has the same text as before that key existed)."""
+        experiment without its own ``runs_per_map``, and an adaptive rule without indifference, have
+        the same text as before those keys existed)."""
         data = self.model_dump(mode="json")
         for exp in data["experiments"]:
             if exp.get("runs_per_map") is None:
                 exp.pop("runs_per_map", None)
+        for owner in (data, *data["experiments"]):
+            rpm = owner.get("runs_per_map")
+            if isinstance(rpm, dict) and rpm["adaptive"].get("indifference") == 0.0:
+                del rpm["adaptive"]["indifference"]
         return json.dumps(data, sort_keys=True, separators=(",", ":"))
 
     def digest(self) -> str:

@@ -17,7 +17,7 @@ from navstress.analysis.analyze import analyze
 from navstress.analysis.report import build_report
 from navstress.analysis.stats import clopper_pearson
 from navstress.analysis.verdicts import (DEFAULT_CONFIDENCE, DEFAULT_THRESHOLD, VERDICT_COLUMNS, VerdictRule,
-                                         read_verdicts, rule_of, rules_of, verdicts, world_verdict)
+                                         read_verdicts, rule_of, rules_of, verdicts, world_verdict, write_verdicts)
 from navstress.campaign.store import Store
 from navstress.cli import app
 from navstress.errors import SpecError
@@ -72,7 +72,7 @@ def test_analyze_json_gains_verdicts_and_keeps_its_keys(camp: Path) -> None:
     x = v["worlds"][0]
     assert set(x) == {"experiment", "config", "map_index", "navigator", "fault", "runs", "successes",
                       "pass_probability", "ci", "sequence", "verdict", "threshold", "confidence"}
-    assert v["experiments"] == {"trees": {"threshold": 0.8, "confidence": 0.95, "rule": "default"}}
+    assert v["experiments"] == {"trees": {"threshold": 0.8, "confidence": 0.95, "rule": "default", "indifference": 0.0}}
     assert {"worlds", "world_verdicts"} < set(v["configurations"][0])
 
 
@@ -134,6 +134,10 @@ def test_report_verdict_table_matches(camp: Path, tmp_path: Path) -> None:
     (SimpleNamespace(runs_per_map=5, adaptive=SimpleNamespace(threshold=0.5, confidence=0.8)),
      VerdictRule(0.5, 0.8, "the campaign's adaptive rule")),
     (SimpleNamespace(runs_per_map=SimpleNamespace(adaptive=None, fixed=5)), VerdictRule()),
+    (SimpleNamespace(runs_per_map={"adaptive": {"threshold": 0.5, "confidence": 0.8, "indifference": 0.25}}),
+     VerdictRule(0.5, 0.8, "the campaign's adaptive rule", 0.25)),
+    (SimpleNamespace(runs_per_map={"adaptive": {"threshold": 0.5, "confidence": 0.8, "indifference": True}}),
+     VerdictRule(0.5, 0.8, "the campaign's adaptive rule")),
 ])
 def test_rule_of_reads_any_spec_shape(spec: object, rule: VerdictRule) -> None:
     assert rule_of(spec) == rule
@@ -157,6 +161,21 @@ def test_rule_of_prefers_the_experiments_own_rule() -> None:
     assert (by["trees"].threshold, by["trees"].confidence, by["trees"].verdict) == (0.6, 0.9, "passes")
     assert (by["smooth"].threshold, by["smooth"].verdict) == (0.8, "undecided")  # 12/12 does not prove 0.8
     assert {r["threshold"] for r in v.rows() if r["experiment"] == "trees"} == {0.6}
+
+
+def test_indifference_reaches_every_verdict_and_the_export(tmp_path: Path) -> None:
+    """2 of 2 runs: undecided at threshold 0.5 and confidence 0.8, passes with the zone (0.25, 0.75);
+    the worlds, the configurations and the exported rows carry the rule's indifference."""
+    recs = [record("trees", "tree=0", 0, i) for i in range(2)] + [record("trees", "tree=0", 1, i, "fail-collision")
+                                                                    for i in range(2)]
+    plain = verdicts(recs, VerdictRule(0.5, 0.8))
+    zone = verdicts(recs, VerdictRule(0.5, 0.8, indifference=0.25))
+    assert [w.verdict for w in plain.worlds] == ["undecided", "undecided"]
+    assert [w.verdict for w in zone.worlds] == ["passes", "fails"]
+    assert {w.indifference for w in zone.worlds + zone.configurations} == {0.25}
+    assert zone.to_json()["indifference"] == 0.25 and zone.to_json()["worlds"][0]["indifference"] == 0.25
+    dest = write_verdicts(zone, "csv", tmp_path / "v.csv")
+    assert {r["indifference"] for r in read_verdicts(dest)} == {0.25}
 
 
 def test_rule_of_the_store_spec_is_the_default(camp: Path) -> None:

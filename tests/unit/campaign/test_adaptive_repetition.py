@@ -61,6 +61,20 @@ def test_adaptive_form_per_campaign_and_per_experiment() -> None:
         '"faults":[null,"small-footprint"]')[0].split('"experiments"')[1]
 
 
+def test_indifference_is_part_of_the_rule_and_absent_from_the_text_when_zero() -> None:
+    """An indifference zone reaches the rule; a rule without one (or with 0) keeps the stored text
+    and digest it had before the key existed, so campaigns made before still resume."""
+    zone = parse_campaign(_spec(runs_per_map={"adaptive": {"min": 2, "max": 5, "threshold": 0.5, "confidence": 0.8,
+                                                           "indifference": 0.25}}, experiments=[{"name": "e"}]))
+    assert zone.rule_of(zone.experiments[0]) == AdaptiveRule(2, 5, 0.5, 0.8, indifference=0.25)
+    assert parse_campaign(yaml.safe_load(zone.canonical_json())).digest() == zone.digest()
+    plain, zero = (parse_campaign(_spec(experiments=[{"name": "e"}, {"name": "f", "runs_per_map": {"adaptive": r}}]))
+                   for r in (dict(RULE), dict(RULE, indifference=0)))
+    assert "indifference" not in plain.canonical_json() and plain.digest() == zero.digest()
+    assert plain.digest() != parse_campaign(_spec(experiments=[{"name": "e"}, {"name": "f", "runs_per_map": {
+        "adaptive": dict(RULE, indifference=0.1)}}])).digest()
+
+
 def test_plan_size_limit_counts_the_max() -> None:
     big = _spec(experiments=[{"name": "e", "sweep": {"obstacles.obstruction.tree": {"start": 0, "stop": 99,
                                                                                      "step": 1}}}],
@@ -81,6 +95,10 @@ BAD: list[tuple[Any, str, str]] = [
     ({"adaptive": {"min": True}}, "runs_per_map.adaptive.min=True", "an integer >= 1"),
     ({"adaptive": {"max": 10_001}}, "runs_per_map.adaptive.max=10001", "to 10000"),
     ({"adaptive": {"mni": 3}}, "runs_per_map.adaptive.mni=3", "one of the keys min, max"),
+    ({"adaptive": {"indifference": -0.1}}, "runs_per_map.adaptive.indifference=-0.1", "a number >= 0"),
+    ({"adaptive": {"indifference": 0.2}}, "runs_per_map.adaptive.indifference=0.2", "inside the flaky band"),
+    ({"adaptive": {"threshold": 0.5, "indifference": "wide"}}, "runs_per_map.adaptive.indifference='wide'",
+     "a number >= 0"),
     ({"adaptive": 3}, "runs_per_map.adaptive=3", "a mapping of min, max"),
     ({"adaptiv": {}}, "runs_per_map.adaptiv=", "only the key 'adaptive'"),
     ({"adaptive": {}, "max": 3}, "runs_per_map.max=3", "only the key 'adaptive'"),
