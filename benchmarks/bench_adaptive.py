@@ -49,6 +49,7 @@ from navstress.analysis.verdicts import VerdictRule, verdicts
 from navstress.campaign.executors import run_campaign
 from navstress.campaign.presets import paper
 from navstress.campaign.store import Store
+from navstress.errors import SpecError
 from navstress.run.record import RunRecord
 from navstress.sequential import AdaptiveRule, should_continue
 
@@ -166,8 +167,11 @@ def main() -> None:
     parts = a.rule.split(",")
     if len(parts) not in (4, 5):
         raise SystemExit(f"--rule={a.rule!r} is invalid: expected min,max,threshold,confidence[,indifference]")
-    rule = AdaptiveRule(int(parts[0]), int(parts[1]), float(parts[2]), float(parts[3]),
-                        float(parts[4]) if len(parts) == 5 else 0.0)
+    try:
+        rule = AdaptiveRule(int(parts[0]), int(parts[1]), float(parts[2]), float(parts[3]),
+                            float(parts[4]) if len(parts) == 5 else 0.0)
+    except (ValueError, SpecError) as err:
+        raise SystemExit(f"--rule={a.rule!r}: {err}") from None
     vrule = VerdictRule(rule.threshold, rule.confidence, indifference=rule.indifference)
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
           f"python {platform.python_version()}; {a.workers} workers")
