@@ -363,6 +363,9 @@ def _check_parameter(i: int, p: ParameterSpec, base: dict[str, Any]) -> None:
     if not p.low < p.high:
         raise SpecError(f"{where}", f"[{p.low:g}, {p.high:g}]", "a range with low < high (this one is "
                         f"{'empty' if p.low == p.high else 'inverted'})", "widen it, or set the value under world")
+    if p.path == SIZE_PATH and p.kind == "int":
+        raise SpecError(f"{where}.kind", p.kind, "float (the map side is snapped to the terrain grid)",
+                        "set kind: float")
     if kind == "int" and p.kind != "int":
         raise SpecError(f"{where}.kind", p.kind, f"int ({p.path} is a whole number)", "set kind: int")
     if p.kind == "int" and not (float(p.low).is_integer() and float(p.high).is_integer()):

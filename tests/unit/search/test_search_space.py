@@ -40,6 +40,9 @@ def spaces(draw: st.DrawFn) -> SearchSpec:
     for i in picked:
         c = dict(CHOICES[i])
         lo, hi = c["low"], c["high"]
+        if c.get("kind") != "int" and c["path"] != "size_m" and math.floor(hi) - math.ceil(lo) >= 1 and draw(st.booleans()):
+            c["kind"] = "int"  # a float field searched over whole numbers
+            lo, hi = math.ceil(lo), math.floor(hi)
         if c.get("kind") == "int":
             a = draw(st.integers(int(lo), int(hi) - 1))
             b = draw(st.integers(a + 1, int(hi)))

@@ -68,6 +68,7 @@ BAD: list[tuple[str, Callable[[dict[str, Any]], None], str]] = [
     ("a corner beyond the world's bounds", _param("ground.deformation", 0, 60), "space"),
     ("corners summing over 100 %", _param("obstacles.obstruction.building", 0, 85), "space"),
     ("a map side with no grid multiple", _param("size_m", 30.1, 30.2), "space.parameters[2]"),
+    ("an integer map side", _param("size_m", 30, 40, "int"), "space.parameters[2].kind"),
     ("a map too small for the mission", _param("size_m", 4, 40), "space"),
     ("no parameters and a fixed seed", lambda d: d.update(space={"parameters": [], "map_seed": False}), "space"),
     ("zero map seeds", _set("space", "map_seeds", value=0), "space.map_seeds"),
