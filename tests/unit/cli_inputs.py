@@ -57,6 +57,7 @@ OUTPUT_COMMANDS = [
     OutputCommand("run", ("run", "{root}/w", "--timeout", "0.5", "-o", "{out}"), "dir"),
     OutputCommand("demo", ("demo", "-o", "{out}"), "dir"),
     OutputCommand("campaign init", ("campaign", "init", "-o", "{out}"), "file"),
+    OutputCommand("search init", ("search", "init", "--objective", "illumination", "-o", "{out}"), "file"),
     OutputCommand("campaign run", ("campaign", "run", "{root}/spec.yaml", "-q", "-o", "{out}"), "dir"),
     OutputCommand("campaign export csv", ("campaign", "export", "{root}/c", "-o", "{out}"), "file"),
     OutputCommand("campaign export parquet", ("campaign", "export", "{root}/c", "-f", "parquet", "-o", "{out}"),

@@ -51,6 +51,7 @@ BASE: dict[str, dict[str, str]] = {
     "demo": {"output": "{root}/afile"},
     "campaign init": {"out": "{root}/afile"},
     "campaign run": {"out": "{root}/afile"},
+    "search init": {"out": "{root}/afile", "objective": "failure"},
     "campaign export": {"out": "{root}/adir"},
     "report": {"out": "{root}/adir"},
     "nav check": {"name": "no-such-nav-v1"},

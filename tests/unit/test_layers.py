@@ -27,7 +27,9 @@ LAYERS: dict[str, int] = {
     "navstress.run": 4,
     "navstress.campaign": 5,
     "navstress.analysis": 6,
-    "navstress.cli": 7, "navstress._facade": 7,
+    # the search: candidates over the campaign store, its objectives may use the analysis
+    "navstress.search": 7,
+    "navstress.cli": 8, "navstress._facade": 8,
 }
 
 #: Parts a part never imports even when the layer order would allow it.
