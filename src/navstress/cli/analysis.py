@@ -45,15 +45,20 @@ Dt = Annotated[float, typer.Option("--dt", help="Time step of the indeterminism 
 
 def analyze_cmd(
     directory: Annotated[Path, typer.Argument(help="Campaign directory.")],
-    json_out: Annotated[Path | None, typer.Option("--json", help="Also write every number as JSON to this file.")] = None,
+    json_out: Annotated[Path | None, typer.Option("--json", metavar="FILE", help=(
+        "Also write every number as JSON to FILE ('-': only the JSON, on standard output)."))] = None,
     threshold: Threshold = 0.25, k: K = 2, weights: Weights = "0.5,0.25,0.25", navigator: Navigator = None,
     dt: Dt = 1.0,
 ) -> None:
     """Print the campaign's difficulty levels, indeterminism and fault power."""
     params = _params(threshold, k, weights, dt)
-    if json_out is not None and json_out.is_dir():
+    to_stdout = json_out is not None and str(json_out) == "-"
+    if json_out is not None and not to_stdout and json_out.is_dir():
         raise SpecError("--json", str(json_out), "a JSON file path, not a directory")
     a = analyze(directory, params=params, navigator=navigator, dt=dt)
+    if to_stdout:
+        typer.echo(dumps(a.to_json()))
+        return
     con = console()
     con.print(f"campaign {a.name}: {a.done}/{a.planned} runs recorded; "
               + ", ".join(f"{n} {o}" for o, n in a.outcome_counts.items()))
