@@ -13,6 +13,7 @@ import typer
 from rich.table import Table
 
 from navstress._console import console, literal
+from navstress._percent import percent
 from navstress.analysis.analyze import analyze
 from navstress.analysis.difficulty import DifficultyParams
 from navstress.analysis.report import build_report
@@ -65,13 +66,13 @@ def analyze_cmd(
     if not a.done:
         con.print("no run recorded yet: nothing to analyse")
     t = Table(title=f"Difficulty (nominal runs of {a.navigator})")
-    for c in ("class", "parameters", "runs", "success % [95% CI]", "med. duration s", "med. tortuousness",
+    for c in ("class", "parameters", "runs", "success [95% CI]", "med. duration s", "med. tortuousness",
               "infeasible maps", "level"):
         t.add_column(c)
     for s in a.nominal:
         r = s.success_rate
         t.add_row(s.experiment, params_text(s.params), f"{s.runs}/{s.planned}",
-                  "-" if r is None else f"{100 * r:.0f} [{100 * s.ci_low:.0f}, {100 * s.ci_high:.0f}]",
+                  "-" if r is None else f"{percent(r)} [{percent(s.ci_low)}, {percent(s.ci_high)}]",
                   "-" if s.median_duration_s is None else f"{s.median_duration_s:.1f}",
                   "-" if s.median_tortuousness is None else f"{s.median_tortuousness:.4f}",
                   "{}/{}".format(*a.infeasible.get(s.key, (0, 0))), a.level(s.experiment, s.config_key))

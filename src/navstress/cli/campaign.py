@@ -23,6 +23,7 @@ from rich.table import Table
 
 from navstress import _json
 from navstress._console import console, literal
+from navstress._percent import percent
 from navstress.analysis.report import build_report
 from navstress.analysis.verdicts import campaign_verdicts, write_verdicts
 from navstress.campaign.executors import run_campaign
@@ -138,7 +139,7 @@ def status(
         return
     with Store.open(directory) as store:
         done, planned = store.progress()
-        table = Table(title=f"campaign {store.spec.name}: {done}/{planned} runs ({100 * done / max(planned, 1):.0f}%)")
+        table = Table(title=f"campaign {store.spec.name}: {done}/{planned} runs ({percent(done / max(planned, 1))})")
         table.add_column("experiment")
         table.add_column("done", justify="right")
         for o in OUTCOMES:
