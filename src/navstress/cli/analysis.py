@@ -13,8 +13,8 @@ import typer
 from rich.table import Table
 
 from navstress._console import console, literal
-from navstress._percent import percent
-from navstress.analysis.analyze import analyze
+from navstress._percent import percent, setting
+from navstress.analysis.analyze import Analysis, analyze
 from navstress.analysis.difficulty import DifficultyParams
 from navstress.analysis.report import build_report
 from navstress.analysis.stats import dumps, params_text
@@ -79,6 +79,9 @@ def analyze_cmd(
     con.print(t)
     for o in a.overlaps:
         con.print(f"fuzzy threshold in {o.experiment}: {o.a} and {o.b} overlap over {o.lo:g}..{o.hi:g}")
+    verdict_table = _verdict_table(a)
+    if verdict_table is not None:
+        con.print(verdict_table)
     if a.indeterminism:
         ti = Table(title=f"Indeterminism of {a.navigator} (nominal): max distance between repeated runs "
                    "(mean over maps)")
@@ -110,6 +113,33 @@ def analyze_cmd(
         finally:
             tmp.unlink(missing_ok=True)
         con.print(f"wrote {json_out}")
+
+
+def _verdict_table(a: Analysis) -> Table | None:
+    """Per configuration (of the navigators shown): runs, pass probability with its exact
+    interval, verdict, and how many of its worlds fail, are flaky or are undecided."""
+    v = a.verdicts
+    cfgs = [c for c in v.configurations if a.shows(c.navigator)]
+    if not cfgs:
+        return None
+    own = any(v.rule_for(c.experiment) != v.rule for c in cfgs)
+    title = (f"Verdicts per configuration: pass probability [exact {setting(v.rule.confidence)} interval]; "
+             f"verdict: >= {setting(v.rule.threshold)} with {setting(v.rule.confidence)} confidence")
+    if own:
+        title = "Verdicts per configuration: pass probability [exact interval]; verdict by each experiment's rule"
+    t = Table(title=title)
+    cols = ["class", "configuration", "navigator", "fault", "runs", "pass probability", "verdict",
+            *(["rule"] if own else []), "worlds", "failing", "flaky", "undecided"]
+    for col in cols:
+        t.add_column(col, justify="right" if col in ("runs", "worlds", "failing", "flaky", "undecided") else "left")
+    for c in cfgs:
+        tally = dict(c.world_verdicts)
+        rule = [f">= {setting(c.threshold)} at {setting(c.confidence)}"] if own else []
+        t.add_row(c.experiment, c.config_key, c.navigator, c.fault, str(c.runs),
+                  f"{percent(c.pass_probability)} [{percent(c.ci[0])}, {percent(c.ci[1])}]", c.verdict, *rule,
+                  str(c.worlds), str(tally.get("fails", 0)), str(tally.get("flaky", 0)),
+                  str(tally.get("undecided", 0)))
+    return t
 
 
 def report_cmd(
