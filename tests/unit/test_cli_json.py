@@ -131,3 +131,11 @@ def test_run_json_stdout_stays_one_document_when_the_navigator_prints(dirs: dict
     doc = strict_loads(p.stdout)
     assert doc["navigator"] == "prints-v1" and doc["runs"] == 1
     assert "Prints: step" in p.stderr and "Prints:" not in p.stdout
+
+
+@pytest.mark.parametrize(("cmd", "args", "key"), STDOUT_JSON, ids=[" ".join([c, *a]) for c, a, _ in STDOUT_JSON])
+def test_bad_input_leaves_stdout_empty(cmd: str, args: list[str], key: str, tmp_path: Path) -> None:
+    """Exit 2 with the one error line on stderr: a CI step reading stdout gets no half document."""
+    missing = {"c": tmp_path / "no-campaign", "w": tmp_path / "no-world"}
+    code, out, err = invoke(_argv(cmd, args, missing, tmp_path))
+    assert code == 2 and out == "" and err.startswith("error: "), (code, out, err)
