@@ -10,6 +10,8 @@ check), never the command:
 
 - the worker dies with its parent (Linux ``PR_SET_PDEATHSIG`` plus a watch thread) and ignores
   SIGINT (Ctrl-C is the parent's: it stops the command and kills the worker);
+- the worker's standard output is its standard error (:func:`stdout_to_stderr`): what the
+  navigator prints never mixes into the command's standard output (a ``--json`` document);
 - the parent waits for each answer at most the wall-clock limit, then kills the worker;
 - names registered with :func:`navstress.nav.registry.register` in the parent (``module:attr``
   targets, or factories that pickle) are registered in the worker too.
@@ -40,7 +42,8 @@ from typing import Any
 
 from navstress.nav import registry
 
-__all__ = ["Child", "Worker", "describe_exit", "die_with_parent", "registered_targets", "report"]
+__all__ = ["Child", "Worker", "describe_exit", "die_with_parent", "registered_targets", "report",
+           "stdout_to_stderr"]
 
 _conn: mpc.Connection | None = None  # the worker's end of its pipe (set in the worker only)
 
@@ -101,6 +104,17 @@ def die_with_parent(parent_pid: int) -> None:
     threading.Thread(target=watch, daemon=True).start()
 
 
+def stdout_to_stderr() -> None:
+    """In a worker process: make file descriptor 1 a copy of 2, so that what the code under
+    test prints (``print``, a C library, a child process it starts) goes to the command's stderr
+    and never into its stdout, which carries a ``--json`` document."""
+    try:
+        sys.stdout.flush()
+        os.dup2(2, 1)
+    except (OSError, ValueError, AttributeError):  # no stderr to share: leave stdout as it is
+        pass
+
+
 def _worker_main(conn: mpc.Connection, parent_pid: int, targets: dict[str, Any], preload: tuple[str, ...],
                  warm: Callable[[], object] | None) -> None:
     """The worker loop: get ready (imports, registrations, ``warm``), answer ``("ready", None)``;
@@ -108,6 +122,7 @@ def _worker_main(conn: mpc.Connection, parent_pid: int, targets: dict[str, Any],
     ``("raised", exception)``; None (or a closed pipe) ends it."""
     global _conn
     die_with_parent(parent_pid)
+    stdout_to_stderr()
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's business
     for module in preload:  # imports before "ready": the wall-clock limit measures the work
         try:

@@ -43,6 +43,7 @@ from typing import Any
 
 from scipy import stats as _st
 
+from navstress._percent import percent, setting
 from navstress.analysis.fault_power import collided
 from navstress.analysis.stats import NOMINAL, _check, config_key, fault_name, params_text, wilson
 from navstress.campaign.spec import CampaignSpec
@@ -339,15 +340,15 @@ class Comparison:
     def headline(self) -> str:
         """The one line a person reads first."""
         sig = self.significant
-        pct = f"{100 * self.alpha:g} %"
+        pct = setting(self.alpha)
         m = len(self.configs)
         if not sig:
             o = self.overall
             return (f"no configuration differs at the {pct} level after Holm correction ({m} compared); "
-                    f"overall success {_pc(o.rate_a)} -> {_pc(o.rate_b)}, exact McNemar p = {_p(o.p_value)}")
+                    f"overall success {percent(o.rate_a)} -> {percent(o.rate_b)}, exact McNemar p = {_p(o.p_value)}")
         top = sig[0]
         word = "worse" if top.diff < 0 else "better"
-        line = (f"B is {word} than A on {top.label}: success {_pc(top.rate_a)} -> {_pc(top.rate_b)}, "
+        line = (f"B is {word} than A on {top.label}: success {percent(top.rate_a)} -> {percent(top.rate_b)}, "
                 f"p = {_p(top.p_adjusted or 0.0)} (exact McNemar, Holm over {m})")
         worse = sum(c.diff < 0 for c in sig[1:])
         better = sum(c.diff > 0 for c in sig[1:])
@@ -374,10 +375,6 @@ class Comparison:
                 "width_ratio": self.width_ratio, "runs_factor": self.runs_factor, "unpaired_runs": {"a": self.unpaired_a, "b": self.unpaired_b},
                 "configurations": [c.to_json() for c in self.configs], "overall": self.overall.to_json(),
                 "notes": list(self.notes)}
-
-
-def _pc(x: float) -> str:
-    return f"{100 * x:.0f}%"
 
 
 def _p(p: float) -> str:

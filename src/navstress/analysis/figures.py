@@ -15,6 +15,7 @@ from matplotlib.colors import ListedColormap
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 
+from navstress._percent import percent
 from navstress.run.figures import RunTrack, draw_tracks, legend
 from navstress.world.export.images import draw_world
 from navstress.world.world import World
@@ -231,7 +232,7 @@ def perceived_map_png_bytes(world: World, grid: np.ndarray, origin_xy: tuple[flo
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     handles, _ = ax.get_legend_handles_labels()
-    handles.append(Patch(facecolor="#f4c2d7", label=f"unknown ({100 * share:.0f} % of the map)"))
+    handles.append(Patch(facecolor="#f4c2d7", label=f"unknown ({percent(share)} of the map)"))
     ax.legend(handles=handles, loc="upper left", fontsize=7, framealpha=0.85)
     if title:
         ax.set_title(title, fontsize=9, loc="left")

@@ -34,6 +34,7 @@ from xml.etree import ElementTree as ET
 from scipy import stats as _st
 
 from navstress import _files
+from navstress._percent import percent, percent_vs, setting
 from navstress.analysis.stats import NOMINAL, config_key, fault_name
 from navstress.campaign.store import Store
 from navstress.errors import SpecError, StoreError
@@ -84,7 +85,7 @@ class GateRule:
 
     def text(self) -> str:
         """``success >= 80% with 95% confidence, at most 0 collision runs``."""
-        s = f"success >= {_pct(self.min_success)} with {_pct(self.confidence)} confidence"
+        s = f"success >= {setting(self.min_success)} with {setting(self.confidence)} confidence"
         if self.max_collisions is not None:
             s += f", at most {self.max_collisions} collision run{'s' if self.max_collisions != 1 else ''}"
         return s
@@ -162,13 +163,13 @@ class ConfigResult:
     def evidence(self, rule: GateRule) -> str:
         """``success 12/20 = 60%, lower 95% bound 39% < 80%`` (and the collisions when checked)."""
         if self.runs:
-            lo, bar = _pct_pair(self.lower, rule.min_success)
             cmp = ">=" if self.success_ok else "<"
-            s = (f"success {self.successes}/{self.runs} = {_pct(self.successes / self.runs)}, "
-                 f"lower {_pct(rule.confidence)} bound {lo} {cmp} {bar}")
+            s = (f"success {self.successes}/{self.runs} = {percent(self.successes / self.runs)}, "
+                 f"lower {setting(rule.confidence)} bound {percent_vs(self.lower, rule.min_success)} {cmp} "
+                 f"{setting(rule.min_success)}")
         else:
-            s = f"no run recorded, lower {_pct(rule.confidence)} bound 0% {'>=' if self.success_ok else '<'} " \
-                f"{_pct(rule.min_success)}"
+            s = f"no run recorded, lower {setting(rule.confidence)} bound 0% {'>=' if self.success_ok else '<'} " \
+                f"{setting(rule.min_success)}"
         if rule.max_collisions is not None:
             s += f", collision runs {self.collisions} {'<=' if self.collisions_ok else '>'} {rule.max_collisions}"
         return s
@@ -221,25 +222,6 @@ class GateResult:
                 "confidence": self.rule.confidence, "max_collisions": self.rule.max_collisions,
                 "recorded": self.recorded, "planned": self.planned,
                 "configurations": [c.to_json(self.rule) for c in self.configs]}
-
-
-def _pct(x: float) -> str:
-    """A percentage with no more decimals than needed (``80%``, ``99.5%``)."""
-    for d in range(0, 5):
-        s = f"{100 * x:.{d}f}"
-        if abs(float(s) - 100 * x) < 1e-9 or d == 4:
-            return f"{s}%"
-    return f"{100 * x}%"  # pragma: no cover
-
-
-def _pct_pair(a: float, b: float) -> tuple[str, str]:
-    """``a`` and ``b`` as percentages with the fewest decimals that keep them apart (so that a
-    bound just under the bar never reads equal to it)."""
-    for d in range(0, 7):
-        sa, sb = f"{100 * a:.{d}f}", f"{100 * b:.{d}f}"
-        if (sa != sb) == (a != b):
-            return f"{sa}%", f"{sb}%"
-    return f"{100 * a}%", f"{100 * b}%"
 
 
 def _parse_run_id(rid: str) -> tuple[str, str, int, str, str] | None:

@@ -34,6 +34,7 @@ from pathlib import Path
 from typing import Any
 
 
+from navstress._percent import percent, setting
 from navstress.analysis.analyze import Analysis, TrajectoryCache, analyze, trace_path
 from navstress.analysis.difficulty import NO_DATA, DifficultyParams
 from navstress.analysis.figures import (LEVEL_STYLE, VERDICT_COLOURS, class_figure, fault_power_figure,
@@ -70,6 +71,12 @@ def _e(x: Any) -> str:
 
 def _fmt(v: float | None, digits: int = 2) -> str:
     return "\u2013" if v is None or (isinstance(v, float) and not math.isfinite(v)) else f"{v:.{digits}f}"
+
+
+def _pc(x: float | None) -> str:
+    """A rate as a percentage (navstress._percent), the dash when there is none."""
+    t = percent(x)
+    return "\u2013" if t == "-" else t
 
 
 def _dv(v: Any) -> str:
@@ -159,11 +166,11 @@ def _summary(a: Analysis) -> str:
 def _difficulty(a: Analysis) -> str:
     p = a.difficulty.params
     out = ['<h2 id="difficulty">Difficulty levels (Q1)</h2>',
-           f'<p class="note">A configuration with a success rate below {100 * p.threshold:g} % is <i>very '
+           f'<p class="note">A configuration with a success rate below {setting(p.threshold)} is <i>very '
            f'difficult</i>; the others are clustered by k-means (k = {p.k}) on min-max normalised success rate, '
            f'median duration and median tortuousness of successful runs, weighted {", ".join(f"{w:g}" for w in p.weights)}. '
            'The cluster holding the flat, obstacle-free configuration is <i>easy</i>, the other <i>challenging</i>. '
-           'Success intervals: 95 % Wilson score. Tortuousness: mean absolute heading change between positions '
+           'Success intervals: 95% Wilson score. Tortuousness: mean absolute heading change between positions '
            'resampled every 0.5 m of travelled distance (moves under 0.1 m dropped), in radians per step. '
            '<i>Maps infeasible a priori</i>: maps on which the world generator found no traversable path for '
            'the nominal robot (slope limit 25 deg, obstacles inflated by its half-width) before any run.</p>']
@@ -180,9 +187,9 @@ def _difficulty(a: Analysis) -> str:
             f'<td class="l">{_e(s.navigator)}</td><td class="l">{_e(s.fault)}</td>'
             + _cell("runs", s.runs, f"{s.runs}/{s.planned}" if s.planned else str(s.runs))
             + _cell("successes", s.successes)
-            + _cell("success-rate", rate, _fmt(None if rate is None else 100 * rate, 1))
-            + _cell("ci-low", s.ci_low if s.runs else None, _fmt(100 * s.ci_low, 1) if s.runs else None)
-            + _cell("ci-high", s.ci_high if s.runs else None, _fmt(100 * s.ci_high, 1) if s.runs else None)
+            + _cell("success-rate", rate, _pc(rate))
+            + _cell("ci-low", s.ci_low if s.runs else None, _pc(s.ci_low if s.runs else None))
+            + _cell("ci-high", s.ci_high if s.runs else None, _pc(s.ci_high if s.runs else None))
             + _cell("median-duration", s.median_duration_s, _fmt(s.median_duration_s, 1))
             + _cell("median-tortuousness", s.median_tortuousness, _fmt(s.median_tortuousness, 4))
             + _cell("mean-goal-distance", s.mean_goal_distance_m, _fmt(s.mean_goal_distance_m, 2))
@@ -194,7 +201,7 @@ def _difficulty(a: Analysis) -> str:
     heads = "".join(f"<th>{_e(OUTCOME_LABELS.get(o, o))}</th>" for o in (a.stats[0].outcomes if a.stats else {}))
     out.append('<table id="difficulty-table"><tr><th class="l">class</th><th class="l">parameters</th>'
                '<th class="l">navigator</th><th class="l">fault</th><th>runs</th><th>successes</th>'
-               '<th>success %</th><th>CI low %</th><th>CI high %</th><th>median duration [s]</th>'
+               '<th>success</th><th>CI low</th><th>CI high</th><th>median duration [s]</th>'
                f'<th>median tortuousness</th><th>mean end distance [m]</th><th>maps infeasible a priori</th>'
                f'{heads}<th class="l">level</th><th></th></tr>'
                + "".join(rows) + "</table>")
@@ -236,8 +243,8 @@ def _verdict_badge(v: str) -> str:
 def _verdict_cells(w: WorldVerdict) -> str:
     pp = w.pass_probability
     return (_cell("runs", w.runs) + _cell("successes", w.successes)
-            + _cell("pass_probability", pp, "\u2013" if pp is None else f"{100 * pp:.0f} %")
-            + _cell("ci_low", w.ci[0], f"{100 * w.ci[0]:.0f}") + _cell("ci_high", w.ci[1], f"{100 * w.ci[1]:.0f}")
+            + _cell("pass_probability", pp, _pc(pp))
+            + _cell("ci_low", w.ci[0], _pc(w.ci[0])) + _cell("ci_high", w.ci[1], _pc(w.ci[1]))
             + f'<td class="l" data-field="verdict" data-value="{_e(w.verdict)}">{_verdict_badge(w.verdict)}</td>')
 
 
@@ -249,28 +256,28 @@ def _verdict_attrs(w: WorldVerdict) -> str:
 
 def _zone(indifference: float) -> str:
     """", indifference 25 %" for a rule with an indifference zone, "" without."""
-    return f", indifference {100 * indifference:g} %" if indifference else ""
+    return f", indifference {setting(indifference)}" if indifference else ""
 
 
 def _verdicts(a: Analysis, max_worlds: int = 2000) -> str:
     v = a.verdicts
     r = v.rule
-    conf = f"{100 * r.confidence:g} %"
+    conf = setting(r.confidence)
     out = ['<h2 id="verdicts">Verdicts per world and per configuration</h2>',
            f'<p class="note" id="verdict-rule" data-threshold="{r.threshold!r}" data-confidence="{r.confidence!r}">'
            f'A world is one map run by one navigator with one fault; a configuration pools its maps. Pass probability: '
            f'successes / runs with its exact (Clopper-Pearson) {conf} interval. Verdict ({_e(r.source)}, threshold '
-           f'{100 * r.threshold:g} %, confidence {conf}{_zone(r.indifference)}), proven by an anytime-valid confidence '
+           f'{setting(r.threshold)}, confidence {conf}{_zone(r.indifference)}), proven by an anytime-valid confidence '
            'sequence, so it holds however many runs were made: <i>passes</i> (pass probability at least the threshold'
            '{minus}), <i>fails</i> (below it{plus}), <i>flaky</i> (both outcomes likely: proven between '
-           f'{100 * FLAKY_BAND[0]:g} % and {100 * FLAKY_BAND[1]:g} %) or <i>undecided</i> (more runs needed). '
+           f'{setting(FLAKY_BAND[0])} and {setting(FLAKY_BAND[1])}) or <i>undecided</i> (more runs needed). '
            'See docs/statistics.md.</p>'.replace("{minus}", " minus the indifference" if r.indifference else "")
            .replace("{plus}", " plus the indifference" if r.indifference else "")]
     own = [(e, x) for e, x in v.rules.items() if x != r]
     if own:
         out.append('<p class="note" id="verdict-rules">Experiments with their own adaptive rule: ' + "; ".join(
             f'<span data-experiment="{_e(e)}" data-threshold="{x.threshold!r}" data-confidence="{x.confidence!r}">'
-            f'{_e(e)}: threshold {100 * x.threshold:g} %, confidence {100 * x.confidence:g} %{_zone(x.indifference)}'
+            f'{_e(e)}: threshold {setting(x.threshold)}, confidence {setting(x.confidence)}{_zone(x.indifference)}'
             '</span>'
             for e, x in own) + ".</p>")
     cfgs = [c for c in v.configurations if a.shows(c.navigator)]
@@ -278,7 +285,7 @@ def _verdicts(a: Analysis, max_worlds: int = 2000) -> str:
     if not cfgs:
         out.append('<p class="note">No run recorded yet.</p>')
         return "\n".join(out)
-    heads = ('<th>runs</th><th>successes</th><th>pass probability</th><th>low %</th><th>high %</th>'
+    heads = ('<th>runs</th><th>successes</th><th>pass probability</th><th>low</th><th>high</th>'
              '<th class="l">verdict</th>')
     rows = "".join(
         f'<tr {_verdict_attrs(c)}><td class="l">{_e(c.experiment)}</td><td class="l">{_e(c.config_key)}</td>'
@@ -352,11 +359,11 @@ def _fault_power(a: Analysis) -> str:
         f'data-navigator="{_e(p.navigator)}"><td class="l">{_e(p.experiment)}</td><td class="l">{_e(p.config_key)}</td>'
         f'<td class="l">{_e(p.navigator)}</td><td class="l">{_e(p.fault)}</td>'
         f'<td class="l">{_level_badge(p.level or NO_DATA)}</td>' + _cell("runs", p.runs) + _cell("collisions", p.collisions)
-        + _cell("collision-share", p.collision_share, _fmt(None if p.collision_share is None else 100 * p.collision_share, 1))
+        + _cell("collision-share", p.collision_share, _pc(p.collision_share))
         + _cell("new-failures", p.new_failures) + _cell("nominal-runs", p.nominal_runs)
         + _cell("nominal-collisions", p.nominal_collisions) + "</tr>" for p in a.power)
     out.append('<table id="fault-power-table"><tr><th class="l">class</th><th class="l">configuration</th>'
-               '<th class="l">navigator</th><th class="l">fault</th><th class="l">level</th><th>runs</th><th>with collision</th><th>%</th>'
+               '<th class="l">navigator</th><th class="l">fault</th><th class="l">level</th><th>runs</th><th>with collision</th><th>share</th>'
                '<th>new failures</th><th>nominal runs</th><th>nominal with collision</th></tr>' + rows + "</table>")
     lrows = "".join(
         f'<tr data-level="{_e(p.level)}" data-fault="{_e(p.fault)}"><td class="l">{_level_badge(p.level or NO_DATA)}</td>'

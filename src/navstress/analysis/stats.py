@@ -19,7 +19,6 @@ A *configuration* is one point of an experiment's sweep; its runs are grouped by
 
 from __future__ import annotations
 
-import json
 import math
 import statistics
 from collections.abc import Iterable
@@ -28,6 +27,7 @@ from typing import Any
 
 from scipy import stats as _st
 
+from navstress import _json
 from navstress.errors import SpecError
 from navstress.run.outcome import Outcome
 from navstress.run.record import RunRecord
@@ -206,13 +206,11 @@ def params_text(params: dict[str, Any]) -> str:
 
 
 def dumps(obj: Any) -> str:
-    """JSON with NaN/inf written as null."""
-    def clean(x: Any) -> Any:
-        if isinstance(x, float) and not math.isfinite(x):
-            return None
+    """Indented strict JSON (NaN/inf written as null; keys as text)."""
+    def keys(x: Any) -> Any:
         if isinstance(x, dict):
-            return {str(k): clean(v) for k, v in x.items()}
+            return {str(k): keys(v) for k, v in x.items()}
         if isinstance(x, (list, tuple)):
-            return [clean(v) for v in x]
+            return [keys(v) for v in x]
         return x
-    return json.dumps(clean(obj), indent=2, sort_keys=False)
+    return _json.dumps(keys(obj), indent=2, sort_keys=False)

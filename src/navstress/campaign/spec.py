@@ -25,7 +25,6 @@ from __future__ import annotations
 import copy
 import hashlib
 import itertools
-import json
 import math
 import re
 import typing
@@ -35,6 +34,7 @@ from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
+from navstress import _json
 from navstress.errors import SpecError
 from navstress.sequential import AdaptiveRule, check_rule
 from navstress.specfile import parse_text, read_text
@@ -227,7 +227,7 @@ class CampaignSpec(BaseModel):
     navigators: list[NavigatorSpec] = Field(default_factory=lambda: [NavigatorSpec()], min_length=1)
     faults: list[str | None] = Field(default_factory=lambda: list[str | None]([None]), min_length=1)
     timeout_s: float = Field(400.0, gt=0.0, le=86_400.0)
-    goal_tolerance_m: float = Field(2.0, gt=0.0)
+    goal_tolerance_m: float = Field(2.0, gt=0.0, allow_inf_nan=False)
     record_lidar: bool = False
     sim: dict[str, Any] = Field(default_factory=dict, description="simulation overrides passed to every run")
 
@@ -255,7 +255,7 @@ class CampaignSpec(BaseModel):
             rpm = owner.get("runs_per_map")
             if isinstance(rpm, dict) and rpm["adaptive"].get("indifference") == 0.0:
                 del rpm["adaptive"]["indifference"]
-        return json.dumps(data, sort_keys=True, separators=(",", ":"))
+        return _json.dumps(data, sort_keys=True, separators=(",", ":"))
 
     def digest(self) -> str:
         return hashlib.sha256(self.canonical_json().encode()).hexdigest()[:16]

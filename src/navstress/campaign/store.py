@@ -38,7 +38,7 @@ from pathlib import Path
 from types import TracebackType
 from typing import IO, Any, Literal
 
-from navstress import _files
+from navstress import _files, _json
 from navstress._tables import FORMATS, Kind, read_table, write_table
 from navstress.campaign.plan import NOMINAL, Plan, plan
 from navstress.campaign.spec import CampaignSpec, parse_campaign_text
@@ -196,7 +196,7 @@ class Store:
                     ("schema", SCHEMA_VERSION), ("spec_digest", spec.digest()),
                     ("spec_json", spec.canonical_json()), ("name", spec.name)])
                 con.executemany("INSERT INTO planned VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)", [
-                    (t.run_id, i, t.experiment, json.dumps(t.config, sort_keys=True), t.map_index, t.run_index,
+                    (t.run_id, i, t.experiment, _json.dumps(t.config, sort_keys=True), t.map_index, t.run_index,
                      t.navigator, t.fault, _task_json(t, d)) for i, t in enumerate(p.tasks)])
                 con.execute("COMMIT")
             finally:
@@ -536,7 +536,7 @@ def _task_json(t: RunTask, root: Path) -> str:
     d = json.loads(t.to_json())
     d["world_dir"] = _rel(d["world_dir"], root)
     d["trace_path"] = _rel(d["trace_path"], root)
-    return json.dumps(d, sort_keys=True)
+    return _json.dumps(d, sort_keys=True)
 
 
 def _rel(path: str, root: Path) -> str:

@@ -13,7 +13,8 @@ import typer
 from rich.table import Table
 
 from navstress._console import console, literal
-from navstress.analysis.analyze import analyze
+from navstress._percent import percent, setting
+from navstress.analysis.analyze import Analysis, analyze
 from navstress.analysis.difficulty import DifficultyParams
 from navstress.analysis.report import build_report
 from navstress.analysis.stats import dumps, params_text
@@ -45,34 +46,42 @@ Dt = Annotated[float, typer.Option("--dt", help="Time step of the indeterminism 
 
 def analyze_cmd(
     directory: Annotated[Path, typer.Argument(help="Campaign directory.")],
-    json_out: Annotated[Path | None, typer.Option("--json", help="Also write every number as JSON to this file.")] = None,
+    json_out: Annotated[Path | None, typer.Option("--json", metavar="FILE", help=(
+        "Also write every number as JSON to FILE ('-': only the JSON, on standard output)."))] = None,
     threshold: Threshold = 0.25, k: K = 2, weights: Weights = "0.5,0.25,0.25", navigator: Navigator = None,
     dt: Dt = 1.0,
 ) -> None:
     """Print the campaign's difficulty levels, indeterminism and fault power."""
     params = _params(threshold, k, weights, dt)
-    if json_out is not None and json_out.is_dir():
+    to_stdout = json_out is not None and str(json_out) == "-"
+    if json_out is not None and not to_stdout and json_out.is_dir():
         raise SpecError("--json", str(json_out), "a JSON file path, not a directory")
     a = analyze(directory, params=params, navigator=navigator, dt=dt)
+    if to_stdout:
+        typer.echo(dumps(a.to_json()))
+        return
     con = console()
     con.print(f"campaign {a.name}: {a.done}/{a.planned} runs recorded; "
               + ", ".join(f"{n} {o}" for o, n in a.outcome_counts.items()))
     if not a.done:
         con.print("no run recorded yet: nothing to analyse")
     t = Table(title=f"Difficulty (nominal runs of {a.navigator})")
-    for c in ("class", "parameters", "runs", "success % [95% CI]", "med. duration s", "med. tortuousness",
+    for c in ("class", "parameters", "runs", "success [95% CI]", "med. duration s", "med. tortuousness",
               "infeasible maps", "level"):
         t.add_column(c)
     for s in a.nominal:
         r = s.success_rate
         t.add_row(s.experiment, params_text(s.params), f"{s.runs}/{s.planned}",
-                  "-" if r is None else f"{100 * r:.0f} [{100 * s.ci_low:.0f}, {100 * s.ci_high:.0f}]",
+                  "-" if r is None else f"{percent(r)} [{percent(s.ci_low)}, {percent(s.ci_high)}]",
                   "-" if s.median_duration_s is None else f"{s.median_duration_s:.1f}",
                   "-" if s.median_tortuousness is None else f"{s.median_tortuousness:.4f}",
                   "{}/{}".format(*a.infeasible.get(s.key, (0, 0))), a.level(s.experiment, s.config_key))
     con.print(t)
     for o in a.overlaps:
         con.print(f"fuzzy threshold in {o.experiment}: {o.a} and {o.b} overlap over {o.lo:g}..{o.hi:g}")
+    verdict_table = _verdict_table(a)
+    if verdict_table is not None:
+        con.print(verdict_table)
     if a.indeterminism:
         ti = Table(title=f"Indeterminism of {a.navigator} (nominal): max distance between repeated runs "
                    "(mean over maps)")
@@ -104,6 +113,33 @@ def analyze_cmd(
         finally:
             tmp.unlink(missing_ok=True)
         con.print(f"wrote {json_out}")
+
+
+def _verdict_table(a: Analysis) -> Table | None:
+    """Per configuration (of the navigators shown): runs, pass probability with its exact
+    interval, verdict, and how many of its worlds fail, are flaky or are undecided."""
+    v = a.verdicts
+    cfgs = [c for c in v.configurations if a.shows(c.navigator)]
+    if not cfgs:
+        return None
+    own = any(v.rule_for(c.experiment) != v.rule for c in cfgs)
+    title = (f"Verdicts per configuration: pass probability [exact {setting(v.rule.confidence)} interval]; "
+             f"verdict: >= {setting(v.rule.threshold)} with {setting(v.rule.confidence)} confidence")
+    if own:
+        title = "Verdicts per configuration: pass probability [exact interval]; verdict by each experiment's rule"
+    t = Table(title=title)
+    cols = ["class", "configuration", "navigator", "fault", "runs", "pass probability", "verdict",
+            *(["rule"] if own else []), "worlds", "failing", "flaky", "undecided"]
+    for col in cols:
+        t.add_column(col, justify="right" if col in ("runs", "worlds", "failing", "flaky", "undecided") else "left")
+    for c in cfgs:
+        tally = dict(c.world_verdicts)
+        rule = [f">= {setting(c.threshold)} at {setting(c.confidence)}"] if own else []
+        t.add_row(c.experiment, c.config_key, c.navigator, c.fault, str(c.runs),
+                  f"{percent(c.pass_probability)} [{percent(c.ci[0])}, {percent(c.ci[1])}]", c.verdict, *rule,
+                  str(c.worlds), str(tally.get("fails", 0)), str(tally.get("flaky", 0)),
+                  str(tally.get("undecided", 0)))
+    return t
 
 
 def report_cmd(

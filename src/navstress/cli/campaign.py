@@ -12,7 +12,6 @@ the root CLI prints them on one line and exits 2.
 
 from __future__ import annotations
 
-import json
 import os
 import shlex
 import signal
@@ -22,7 +21,9 @@ from typing import Annotated, Any
 import typer
 from rich.table import Table
 
+from navstress import _json
 from navstress._console import console, literal
+from navstress._percent import percent
 from navstress.analysis.report import build_report
 from navstress.analysis.verdicts import campaign_verdicts, write_verdicts
 from navstress.campaign.executors import run_campaign
@@ -134,11 +135,11 @@ def status(
     """Show progress and outcome counts, per experiment and per navigator and fault."""
     if as_json:
         with Store.open(directory) as store:
-            typer.echo(json.dumps(status_json(store), indent=2))
+            typer.echo(_json.dumps(status_json(store), indent=2))
         return
     with Store.open(directory) as store:
         done, planned = store.progress()
-        table = Table(title=f"campaign {store.spec.name}: {done}/{planned} runs ({100 * done / max(planned, 1):.0f}%)")
+        table = Table(title=f"campaign {store.spec.name}: {done}/{planned} runs ({percent(done / max(planned, 1))})")
         table.add_column("experiment")
         table.add_column("done", justify="right")
         for o in OUTCOMES:

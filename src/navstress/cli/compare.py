@@ -19,6 +19,7 @@ import typer
 from rich.table import Table
 
 from navstress._console import console, literal
+from navstress._percent import percent, points, setting
 from navstress._files import write_atomic
 from navstress.analysis.compare import Comparison, PairedStats, compare, first_navigator, parse_arm
 from navstress.analysis.stats import dumps
@@ -28,18 +29,14 @@ from navstress.errors import SpecError
 app = typer.Typer(rich_markup_mode=None)
 
 
-def _pc(x: float) -> str:
-    return f"{100 * x:.0f}"
-
-
 def _pts(lo: float, hi: float) -> str:
-    return f"[{100 * lo:+.0f}, {100 * hi:+.0f}]"
+    return f"[{points(lo)}, {points(hi)}]"
 
 
 def _row(c: PairedStats, holm: bool, ratio: float = 1.0) -> list[str]:
     d = c.duration_s
     dur = "-" if d.diff is None else f"{d.diff:+.1f}" + ("" if d.ci is None else f" [{d.ci[0]:+.1f}, {d.ci[1]:+.1f}]")
-    return [c.label, str(c.pairs), _pc(c.rate_a), _pc(c.rate_b), f"{100 * c.diff:+.0f}", _pts(*c.ci),
+    return [c.label, str(c.pairs), percent(c.rate_a), percent(c.rate_b), points(c.diff), _pts(*c.ci),
             f"{c.a_only}/{c.b_only}", f"{c.p_value:.3g}", f"{c.p_adjusted:.3g}" if holm and c.p_adjusted is not None
             else "-", dur, f"{c.collided_a} -> {c.collided_b}",
             f"{c.width_ratio:.2f}" if holm else f"{ratio:.2f}"]
@@ -50,8 +47,9 @@ def _print(cmp: Comparison) -> None:
     typer.echo(literal(f"A = {cmp.a.label} ({cmp.dir_a}), B = {cmp.b.label} ({cmp.dir_b}): "
                       f"{cmp.overall.pairs} pairs of runs with the same map and run seeds"))
     typer.echo(literal(cmp.headline()))
-    t = Table(title=f"B against A, paired runs (success %, {100 * cmp.confidence:g}% intervals of B - A in points)")
-    for col in ("configuration", "pairs", "A %", "B %", "B-A", "interval", "only A/only B", "p McNemar", "p Holm",
+    t = Table(title=f"B against A, paired runs (success rates; {setting(cmp.confidence)} intervals of B - A in "
+              "percentage points)")
+    for col in ("configuration", "pairs", "A", "B", "B-A", "interval", "only A/only B", "p McNemar", "p Holm",
                 "duration B-A s", "runs w/ collision", "width paired/unpaired"):
         t.add_column(col)
     for c in cmp.configs:

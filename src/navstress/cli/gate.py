@@ -9,12 +9,12 @@ verdict is computed by :mod:`navstress.analysis.gate`.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Annotated
 
 import typer
 
+from navstress import _json
 from navstress._console import literal
 from navstress.analysis.gate import GateRule, gate, write_junit
 from navstress.cli._common import integer, number, probe_writable
@@ -67,7 +67,7 @@ def gate_cmd(
     if junit is not None:
         write_junit(result, junit)
     if as_json:
-        typer.echo(json.dumps({**result.to_json(), "summary": result.summary(),
+        typer.echo(_json.dumps({**result.to_json(), "summary": result.summary(),
                                "junit": None if junit is None else str(junit)}, indent=2))
     else:
         for cfg in result.failing:

@@ -22,7 +22,6 @@ then kills the whole group and reaps it, so no process is left behind.
 from __future__ import annotations
 
 import contextlib
-import json
 import math
 import os
 import select
@@ -39,6 +38,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any, Literal
 
+from navstress import _json
 from navstress.errors import NavigatorError, SpecError
 from navstress.nav import wire
 from navstress.nav.api import Command, NavMission, Navigator, Observation, Status
@@ -413,7 +413,7 @@ def _exited(proc: subprocess.Popen[bytes]) -> bool:
 
 
 def _clip(obj: object, n: int = 120) -> str:
-    text = json.dumps(obj) if isinstance(obj, dict) else repr(obj)
+    text = _json.dumps(obj) if isinstance(obj, dict) else repr(obj)
     return text if len(text) <= n else text[:n] + "..."
 
 

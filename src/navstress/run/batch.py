@@ -13,7 +13,6 @@ behind, and the batch goes on in a fresh worker.
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import time
@@ -24,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from navstress import _json
 from navstress.errors import NavstressError
 from navstress.isolate import Worker
 from navstress.run.figures import RunTrack, trajectories_png
@@ -123,6 +123,11 @@ def check_buildable(fn: Callable[..., None], *args: Any, wall_limit_s: float = 1
         raise value
 
 
+def record_line(rec: RunRecord) -> str:
+    """One line of ``runs.jsonl``: the record as strict JSON (an unknown number is ``null``)."""
+    return _json.dumps(asdict(rec), sort_keys=True) + "\n"
+
+
 def run_batch(tasks: list[RunTask], out: Path, on_done: Callable[[RunRecord], None] | None = None, *,
               wall_limit_s: float | None = None) -> list[RunRecord]:
     """Run ``tasks`` one after the other in a worker process, appending each record to
@@ -136,7 +141,7 @@ def run_batch(tasks: list[RunTask], out: Path, on_done: Callable[[RunRecord], No
     with Worker(limit, preload=preload) as worker, open(out / "runs.jsonl", "a", encoding="utf-8") as f:
         for task in tasks:
             rec = run_isolated(task, worker)
-            f.write(json.dumps(asdict(rec), sort_keys=True) + "\n")
+            f.write(record_line(rec))
             f.flush()
             os.fsync(f.fileno())
             records.append(rec)

@@ -18,6 +18,8 @@ import json
 from dataclasses import asdict, dataclass, field, fields
 from typing import Any
 
+from navstress import _json
+
 
 @dataclass(frozen=True)
 class RunTask:
@@ -42,7 +44,7 @@ class RunTask:
     sim_overrides: dict[str, Any] = field(default_factory=dict)
 
     def to_json(self) -> str:
-        return json.dumps(asdict(self), sort_keys=True)
+        return _json.dumps(asdict(self), sort_keys=True)
 
     @classmethod
     def from_json(cls, text: str) -> "RunTask":
@@ -112,8 +114,8 @@ class RunRecord:
 
     def to_row(self) -> dict[str, Any]:
         row = asdict(self)
-        row["config"] = json.dumps(self.config, sort_keys=True)
-        row["errors"] = json.dumps(self.errors)
+        row["config"] = _json.dumps(self.config, sort_keys=True)
+        row["errors"] = _json.dumps(self.errors)
         return row
 
     @classmethod

@@ -85,7 +85,7 @@ def test_no_difference_is_said_so(tmp_path: Path) -> None:
     code, out, err = invoke(["compare", str(c), "--a", "reference-v1", "--b", f"reference-v1:{FAULT}"])
     assert code == 0, err
     assert out.splitlines()[1].startswith(
-        "no configuration differs at the 5 % level after Holm correction (3 compared); overall success 100% -> 100%")
+        "no configuration differs at the 5% level after Holm correction (3 compared); overall success 100% -> 100%")
     assert "no run differs from another, so the gain cannot be measured" in out
 
 

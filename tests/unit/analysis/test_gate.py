@@ -144,7 +144,7 @@ def test_verdicts_per_configuration(tmp_path: Path) -> None:
     assert not by["smooth", "deformation=0.5"].passed and by["smooth", "deformation=0.5"].runs == 0
     assert not res.passed and len(res.failing) == 3
     assert by["trees", "tree=4"].line(res.rule) == \
-        "trees/tree=4 reference-v1: success 14/16 = 87.5%, lower 95% bound 66% < 75%"
+        "trees/tree=4 reference-v1: success 14/16 = 88%, lower 95% bound 66% < 75%"
     assert res.summary().startswith("gate FAILED: 3 of 4 configurations below the bar (success >= 75% with 95% "
                                     "confidence); campaign synth: 64/")
     low = gate(d, GateRule(0.5), navigators=("reference-v1",), faults=("nominal",))
@@ -212,7 +212,7 @@ def test_junit_read_back_with_junitparser(tmp_path: Path) -> None:
     assert xml.failures == len(failed) == 7
     f = next(r for r in cases["trees/tree=4/m2/reference-v1/nominal"].result if isinstance(r, Failure))
     assert f.message == ("success 2/4 on this world; configuration trees/tree=4 reference-v1: success 14/16 = "
-                         "87.5%, lower 95% bound 66% < 75%")
+                         "88%, lower 95% bound 66% < 75%")
     text = f.text or ""
     for r in (0, 1):
         rid = f"trees/tree=4/m2/r{r}/reference-v1/nominal"

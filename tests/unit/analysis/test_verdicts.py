@@ -12,6 +12,7 @@ from analysis_synth import make_store, record
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from test_analyze_report import _Cells
+from typer.testing import CliRunner
 
 from navstress.analysis.analyze import analyze
 from navstress.analysis.report import build_report
@@ -228,3 +229,72 @@ def test_analyze_cli_json_has_the_verdicts(camp: Path, tmp_path: Path) -> None:
     assert r.exit_code == 0, r.output
     v = json.loads(out.read_text())["verdicts"]
     assert {(x["config"], x["map_index"]): x["verdict"] for x in v["worlds"] if x["fault"] == "nominal"} == EXPECT
+
+
+# ---- the verdict table of `navstress analyze` -------------------------------------------------
+
+
+def _analyze(*argv: str) -> str:
+    r = CliRunner().invoke(app, ["analyze", *argv])
+    assert r.exit_code == 0, (r.stdout, r.stderr)
+    return r.stdout
+
+
+def _table(out: str, title: str) -> list[list[str]]:
+    """The body rows (cells stripped) of the rich table whose title starts with ``title``."""
+    lines = out.splitlines()
+    start = next(i for i, ln in enumerate(lines) if ln.strip().startswith(title))
+    rows: list[list[str]] = []
+    for ln in lines[start + 1:]:
+        if ln.startswith("└"):
+            break
+        if ln.startswith("│"):
+            rows.append([c.strip() for c in ln.strip("│").split("│")])
+    return rows
+
+
+def test_analyze_prints_a_verdict_table_per_configuration(camp: Path) -> None:
+    from navstress._percent import percent
+
+    out = _analyze(str(camp))
+    assert "Verdicts per configuration: pass probability [exact 95% interval]; verdict: >= 80% with 95% confidence" \
+        in out
+    rows = {tuple(r[:4]): r[4:] for r in _table(out, "Verdicts per configuration")}
+    cfgs = analyze(camp).verdicts.configurations
+    assert len(rows) == len(cfgs) == 3  # tree=0, tree=4 nominal; tree=4 with the fault
+    for c in cfgs:
+        runs, pp, v, worlds, failing, flaky, undecided = rows[(c.experiment, c.config_key, c.navigator, c.fault)]
+        tally = dict(c.world_verdicts)
+        assert pp == f"{percent(c.pass_probability)} [{percent(c.ci[0])}, {percent(c.ci[1])}]"
+        assert [runs, v, worlds, failing, flaky, undecided] == [
+            str(c.runs), c.verdict, str(c.worlds), str(tally["fails"]), str(tally["flaky"]), str(tally["undecided"])]
+    # the worlds of WORLDS: tree=0 one passing, one failing; tree=4 one flaky, one undecided
+    assert rows[("trees", "tree=0", "reference-v1", "nominal")][3:] == ["2", "1", "0", "0"]
+    assert rows[("trees", "tree=4", "reference-v1", "nominal")][3:] == ["2", "0", "1", "1"]
+    assert rows[("trees", "tree=0", "reference-v1", "nominal")][:2] == ["28", "89% [72%, 98%]"]
+
+
+def test_analyze_verdict_table_follows_navigator_and_rules(tmp_path: Path) -> None:
+    """Only the asked navigator's configurations; a rule column when an experiment has its own
+    adaptive rule; no table when nothing is recorded."""
+    import dataclasses
+
+    import yaml
+    from analysis_synth import spec_dict
+
+    from navstress.campaign.spec import parse_campaign
+
+    d = spec_dict(trees=[0], defs=[0.5], maps=1, runs=2)
+    d["experiments"][0]["runs_per_map"] = {"adaptive": {"min": 2, "max": 6, "threshold": 0.6, "confidence": 0.9}}
+    d["navigators"] = [{"name": "reference-v1"}, {"name": "other-v1", "target": "navstress.nav.registry:reference_v1"}]
+    with Store.create(tmp_path / "c", parse_campaign(d), yaml.safe_dump(d)) as s:
+        assert "Verdicts per configuration" not in _analyze(str(tmp_path / "c"))  # nothing recorded yet
+        for nav in ("reference-v1", "other-v1"):
+            for exp, key in (("trees", "tree=0"), ("smooth", "deformation=0.5")):
+                r = record(exp, key, 0, 0)
+                s.add(dataclasses.replace(r, navigator=nav, run_id=r.run_id.replace("reference-v1", nav)))
+    out = _analyze(str(tmp_path / "c"), "--navigator", "other-v1")
+    assert "verdict by each experiment's rule" in out
+    rows = _table(out, "Verdicts per configuration")
+    assert {r[2] for r in rows} == {"other-v1"} and len(rows) == 2
+    assert {r[0]: r[7] for r in rows} == {"trees": ">= 60% at 90%", "smooth": ">= 80% at 95%"}

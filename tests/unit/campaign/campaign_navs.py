@@ -68,6 +68,25 @@ class Raises(_Base):
         raise RuntimeError("planner exploded" + "!" * int(math.copysign(1, 1)))
 
 
+class Prints(_Base):
+    """Drives normally and prints on its standard output at every call (as a chatty planner
+    library does); also writes on file descriptor 1 directly, as C code would."""
+
+    def __init__(self, config: dict[str, Any] | None = None) -> None:
+        super().__init__(config)
+        self.after_s = math.inf
+        print("Prints: init", flush=True)
+
+    def reset(self, mission: NavMission, robot: RobotSpec, *, seed: int) -> None:
+        super().reset(mission, robot, seed=seed)
+        print("Prints: reset {", flush=True)
+
+    def step(self, obs: Observation) -> Command | Status:
+        print("Prints: step", flush=True)
+        os.write(1, b"Prints: step (fd 1)\n")
+        return super().step(obs)
+
+
 class Validated(_Base):
     """A third-party navigator whose factory validates its config up front (``validate_config``)."""
 

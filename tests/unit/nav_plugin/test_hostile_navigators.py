@@ -19,6 +19,7 @@ from navstress.isolate import Worker
 from navstress.nav.check import CHECK_NAMES, check_in_worker
 from navstress.run.batch import plan_batch, run_batch
 from navstress.run.record import RunRecord, RunTask
+from strict_json import strict_lines
 from world_fixtures import small_world
 
 pytestmark = pytest.mark.slow
@@ -83,7 +84,7 @@ def batch(world_dir: Path, out: Path, navigator: str, cases: list[tuple[str, str
                         "navigator_config": configure(m, w)})  # type: ignore[operator]
              for m, w in cases]
     records = run_batch(tasks, out, wall_limit_s=wall_limit_s)
-    lines = [json.loads(x) for x in (out / "runs.jsonl").read_text().splitlines()]
+    lines = strict_lines((out / "runs.jsonl").read_text())
     assert [r["run_id"] for r in lines] == [t.run_id for t in tasks]
     assert not list(out.glob(".*.partial"))
     return records
@@ -161,7 +162,7 @@ def test_cli_run_survives_and_records(mode: str, where: str, world_dir: Path, tm
                   "--timeout", "5", "--wall-limit", str(limit), "--navigator-config",
                   str(_config_file(tmp_path, {"mode": mode, "where": where})))
     assert r.returncode == 0, r.stderr
-    recs = [json.loads(x) for x in (out / "runs.jsonl").read_text().splitlines()]
+    recs = strict_lines((out / "runs.jsonl").read_text())
     assert [x["run_id"] for x in recs] == ["run-000", "run-001"][:runs]
     assert all(x["outcome"] == "fail-other" and IN_REASON[mode] in x["reason"] for x in recs), recs
     assert not list(out.glob(".*.partial"))
