@@ -24,6 +24,11 @@ from navstress.errors import SpecError
 app = typer.Typer(rich_markup_mode=None)
 
 
+def _zone(indifference: float) -> str:
+    """" +/- 25%" for a verdict rule with an indifference zone, "" without."""
+    return f" +/- {setting(indifference)}" if indifference else ""
+
+
 def _params(threshold: float, k: int, weights: str, dt: float) -> DifficultyParams:
     """The analysis options both commands take, checked (``--dt`` first)."""
     if not dt > 0:
@@ -124,7 +129,8 @@ def _verdict_table(a: Analysis) -> Table | None:
         return None
     own = any(v.rule_for(c.experiment) != v.rule for c in cfgs)
     title = (f"Verdicts per configuration: pass probability [exact {setting(v.rule.confidence)} interval]; "
-             f"verdict: >= {setting(v.rule.threshold)} with {setting(v.rule.confidence)} confidence")
+             f"verdict: >= {setting(v.rule.threshold)}{_zone(v.rule.indifference)} with {setting(v.rule.confidence)} "
+             "confidence")
     if own:
         title = "Verdicts per configuration: pass probability [exact interval]; verdict by each experiment's rule"
     t = Table(title=title)
@@ -134,7 +140,7 @@ def _verdict_table(a: Analysis) -> Table | None:
         t.add_column(col, justify="right" if col in ("runs", "worlds", "failing", "flaky", "undecided") else "left")
     for c in cfgs:
         tally = dict(c.world_verdicts)
-        rule = [f">= {setting(c.threshold)} at {setting(c.confidence)}"] if own else []
+        rule = [f">= {setting(c.threshold)}{_zone(c.indifference)} at {setting(c.confidence)}"] if own else []
         t.add_row(c.experiment, c.config_key, c.navigator, c.fault, str(c.runs),
                   f"{percent(c.pass_probability)} [{percent(c.ci[0])}, {percent(c.ci[1])}]", c.verdict, *rule,
                   str(c.worlds), str(tally.get("fails", 0)), str(tally.get("flaky", 0)),
