@@ -27,7 +27,7 @@ rounding): the driver evaluates a key once per generation and tells its fitness 
 from __future__ import annotations
 
 import hashlib
-import json
+from navstress import _json
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -107,5 +107,5 @@ class Space:
 
 def candidate_key(params: dict[str, float | int], map_seed: int) -> str:
     """``w`` + 12 hex digits of a hash of the values and the map seed (a valid directory name)."""
-    text = json.dumps({"map_seed": map_seed, "params": params}, sort_keys=True, separators=(",", ":"))
+    text = _json.dumps({"map_seed": map_seed, "params": params}, sort_keys=True, separators=(",", ":"))
     return "w" + hashlib.blake2b(text.encode("utf-8"), digest_size=6).hexdigest()
