@@ -4,12 +4,15 @@ field was added stays byte-identical (``Store.create`` refuses a stored campaign
 from __future__ import annotations
 
 import json
+from pathlib import Path
 from typing import Any
 
 import pytest
+import yaml
 
 from navstress.campaign.presets import demo, paper
 from navstress.campaign.spec import parse_campaign
+from navstress.campaign.store import Store
 
 FULL: dict[str, Any] = {
     "name": "full", "seed": 5, "world": {"size_m": [30, 30]},
@@ -39,3 +42,16 @@ def test_canonical_text_of_an_existing_spec_is_unchanged() -> None:
     spec = parse_campaign(FULL)
     assert spec.canonical_json() == FULL_JSON
     assert parse_campaign(json.loads(FULL_JSON)).canonical_json() == FULL_JSON
+
+
+def test_a_store_made_before_explicit_worlds_resumes(tmp_path: Path) -> None:
+    """A store whose meta holds the text and digest written before explicit worlds existed."""
+    spec = parse_campaign(FULL)
+    text = yaml.safe_dump(FULL)
+    with Store.create(tmp_path, spec, text) as s:
+        ids = s.planned_ids()
+        s.con.execute("UPDATE meta SET value = ? WHERE key = 'spec_json'", (FULL_JSON,))
+        s.con.execute("UPDATE meta SET value = '67b728d246383c1b' WHERE key = 'spec_digest'")
+    with Store.create(tmp_path, parse_campaign(yaml.safe_load(text)), text) as s:
+        assert s.spec == spec and s.planned_ids() == ids
+        assert [t.run_id for t in s.pending()] == [i for i in ids if i in s.plan().due({})]
