@@ -109,6 +109,8 @@ class Analysis:
     #: pass probability, exact interval and class per world and per configuration
     #: (:mod:`navstress.analysis.verdicts`)
     verdicts: Verdicts = field(default_factory=lambda: Verdicts(VerdictRule(), [], []))
+    #: the experiments of explicit worlds (levelled, but no swept parameter: no level ranges)
+    explicit: frozenset[str] = frozenset()
 
     def shows(self, navigator: str) -> bool:
         """Whether runs of ``navigator`` are drawn and listed (all, unless one was asked for)."""
@@ -206,7 +208,8 @@ def analyze(directory: str | Path, *, params: DifficultyParams | None = None, na
     nominal = [s for s in stats if s.navigator == nav and s.fault == NOMINAL]
     refs = reference_keys(spec)
     diff = assign_levels(nominal, is_reference or (lambda s: s.key in refs), params)
-    ranges, overlaps = level_ranges(nominal, diff)
+    explicit = frozenset(e.name for e in spec.experiments if e.explicit)
+    ranges, overlaps = level_ranges(nominal, diff, explicit)
 
     # Q2: nominal runs of the navigator, grouped per configuration and map
     by_cfg: dict[tuple[str, str], dict[int, list[tuple[bool, np.ndarray]]]] = {}
@@ -243,4 +246,4 @@ def analyze(directory: str | Path, *, params: DifficultyParams | None = None, na
                     per_experiment=per_exp, records=records, stats=stats, nominal=nominal, difficulty=diff,
                     ranges=ranges, overlaps=overlaps, indeterminism=indet, power=power, power_levels=power_levels,
                     correlations=corr, world_dirs=world_dirs, dt=dt, infeasible=infeasible, navigators=navs,
-                    only_navigator=navigator, verdicts=verd)
+                    only_navigator=navigator, verdicts=verd, explicit=explicit)

@@ -17,14 +17,16 @@
    clustered is easy: there is nothing to split.
 
 Per experiment class, :func:`level_ranges` reports which values of the swept parameter got
-which level and where the levels' ranges overlap (the paper's "fuzzy thresholds").
+which level and where the levels' ranges overlap (the paper's "fuzzy thresholds"); an
+experiment of explicit worlds has no swept parameter and no ranges (its configurations are
+levelled like any other).
 """
 
 from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -198,14 +200,18 @@ def _num(v: Any) -> float | None:
     return f if math.isfinite(f) else None
 
 
-def level_ranges(stats: list[ConfigStats], diff: Difficulty) -> tuple[list[LevelRange], list[Overlap]]:
+def level_ranges(stats: list[ConfigStats], diff: Difficulty,
+                 explicit: Collection[str] = ()) -> tuple[list[LevelRange], list[Overlap]]:
     """Per experiment class: the swept values per level and the overlapping ranges.
 
     The swept parameter is the first key of ``params`` (experiments sweeping several
-    parameters are reported along the first one). Configurations without data are left out."""
+    parameters are reported along the first one). Configurations without data are left out,
+    and so are the experiments named in ``explicit`` (explicit worlds: no swept parameter; their
+    configurations still get levels)."""
     by_exp: dict[str, list[ConfigStats]] = {}
     for cs in stats:
-        by_exp.setdefault(cs.experiment, []).append(cs)
+        if cs.experiment not in explicit:
+            by_exp.setdefault(cs.experiment, []).append(cs)
     ranges: list[LevelRange] = []
     overlaps: list[Overlap] = []
     for exp, items in by_exp.items():

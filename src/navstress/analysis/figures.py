@@ -52,15 +52,17 @@ def _xs(values: list[Any]) -> tuple[list[float], list[str] | None]:
 
 
 def class_figure(experiment: str, stats: list[Any], levels: dict[tuple[str, str], str], *, dpi: int = 90,
-                 navigator: str | None = None, fault: str = "nominal") -> bytes:
+                 navigator: str | None = None, fault: str = "nominal", by_key: bool = False) -> bytes:
     """The paper's Fig. 7-9 layout for one experiment class: success rate (95 % CI bars, the
     level marked per point), median duration and median tortuousness of successful runs,
-    against the swept parameter. ``stats``: ConfigStats (one navigator's nominal runs); with
-    ``navigator``, only its rows are drawn and the title names it and ``fault``."""
+    against the swept parameter (``by_key``: against the configuration keys, for explicit
+    worlds). ``stats``: ConfigStats (one navigator's nominal runs); with ``navigator``, only
+    its rows are drawn and the title names it and ``fault``."""
     items = [s for s in stats if s.experiment == experiment
              and (navigator is None or (s.navigator == navigator and s.fault == fault))]
-    param = next(iter(items[0].params), "configuration") if items else "configuration"
-    xs, ticks = _xs([s.params.get(param, s.config_key) for s in items])
+    param = "world" if by_key else next(iter(items[0].params), "configuration") if items else "configuration"
+    xs, ticks = ([float(i) for i in range(len(items))], [s.config_key for s in items]) if by_key \
+        else _xs([s.params.get(param, s.config_key) for s in items])
     fig = _figure(11.0, 3.4, dpi)
     axes = fig.subplots(1, 3, sharex=True)
     seen: set[str] = set()

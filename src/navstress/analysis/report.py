@@ -183,7 +183,7 @@ def _difficulty(a: Analysis) -> str:
         lev = a.level(s.experiment, s.config_key)
         rate = s.success_rate
         rows.append(
-            f'<tr {_row_attrs(s)}><td class="l">{_e(s.experiment)}</td><td class="l">{_e(params_text(s.params))}</td>'
+            f'<tr {_row_attrs(s)}><td class="l">{_e(s.experiment)}</td><td class="l">{_e(_params(a, s))}</td>'
             f'<td class="l">{_e(s.navigator)}</td><td class="l">{_e(s.fault)}</td>'
             + _cell("runs", s.runs, f"{s.runs}/{s.planned}" if s.planned else str(s.runs))
             + _cell("successes", s.successes)
@@ -221,6 +221,11 @@ def _difficulty(a: Analysis) -> str:
     return "\n".join(out)
 
 
+def _params(a: Analysis, s: ConfigStats) -> str:
+    """A configuration's parameters; an explicit world's key first (its overrides may repeat)."""
+    return f"{s.config_key}: {params_text(s.params)}" if s.experiment in a.explicit else params_text(s.params)
+
+
 def _class_figures(a: Analysis) -> str:
     out = ['<h2 id="classes">Per experiment class</h2>']
     exps = list(dict.fromkeys(s.experiment for s in a.nominal))
@@ -230,7 +235,8 @@ def _class_figures(a: Analysis) -> str:
             out.append(f'<p class="note">{_e(e)}: no run recorded yet.</p>')
             continue
         out.append(f"<h3>{_e(e)}: nominal runs of {_e(a.navigator)}</h3>"
-                   + _img(class_figure(e, a.nominal, levels, navigator=a.navigator), f"class-{e}",
+                   + _img(class_figure(e, a.nominal, levels, navigator=a.navigator, by_key=e in a.explicit),
+                          f"class-{e}",
                           f"success rate, duration and tortuousness of {e}, nominal runs of {a.navigator}",
                           a.navigator, NOMINAL))
     return "\n".join(out)

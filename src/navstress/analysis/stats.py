@@ -188,10 +188,10 @@ def config_stats(records: list[RunRecord], planned: list[PlannedConfig] | None =
 def planned_configs(spec: Any, runs: dict[tuple[str, str, str, str], int] | None = None) -> list[PlannedConfig]:
     """Every configuration x navigator x fault a :class:`~navstress.campaign.spec.CampaignSpec` plans;
     ``runs``: the planned runs of each (``Store.planned_by_config``: at most, where adaptive),
-    default ``maps_per_config`` x the most runs per map."""
+    default the maps per configuration (1 for an explicit world) x the most runs per map."""
     out: list[PlannedConfig] = []
     for exp in spec.experiments:
-        per = spec.maps_per_config * spec.max_runs_of(exp)
+        per = spec.maps_of(exp) * spec.max_runs_of(exp)
         for cfg in exp.configurations(spec.world):
             for nav in spec.navigators:
                 for f in spec.faults_of(exp):

@@ -7,6 +7,10 @@ Seeds (DESIGN invariant 2), for campaign seed ``S``:
 - run seed = ``derive_seed(S, "run", experiment, config_key, map_index, run_index)``: the
   same for every navigator and fault, so the comparison is paired.
 
+An explicit world (``worlds:`` entry) is one configuration with one map, ``m0``, whose map seed
+is the entry's own (not derived); its run seeds are derived as above (config_key = its key), so
+another experiment listing the same world gets fresh run seeds.
+
 ``run_id`` = ``f"{experiment}/{config_key}/m{map}/r{run}/{navigator}/{fault or 'nominal'}"``,
 stable across plans of the same spec (the resume key).
 
@@ -147,8 +151,8 @@ def plan(spec: CampaignSpec, root: str | Path) -> Plan:
         faults = spec.faults_of(exp)
         rule = spec.rule_of(exp)
         for cfg in exp.configurations(spec.world):
-            for m in range(spec.maps_per_config):
-                ms = map_seed(spec.seed, exp.name, cfg.key, m)
+            for m in range(spec.maps_of(exp)):
+                ms = cfg.map_seed if cfg.map_seed is not None else map_seed(spec.seed, exp.name, cfg.key, m)
                 wdir = base / "worlds" / exp.name / cfg.key / f"m{m}"
                 maps.append(MapJob(key=f"{exp.name}/{cfg.key}/m{m}", experiment=exp.name, config_key=cfg.key,
                                    map_index=m, map_seed=ms, world=cfg.world, world_dir=str(wdir)))

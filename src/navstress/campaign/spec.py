@@ -6,6 +6,20 @@ overrides. Every point of a sweep is a *configuration*; its ``config`` is the ma
 swept paths to values. Each configuration gets ``maps_per_config`` maps and each map
 ``runs_per_map`` runs, for every navigator and every fault (``null`` = nominal).
 
+An experiment may list explicit worlds instead of a sweep (``worlds:``, exclusive with
+``sweep``): each entry ``{key, map_seed, world}`` is one configuration (key = the entry's
+key) with exactly one map (map index 0, ``maps_per_config`` does not apply) generated from
+the entry's own ``map_seed``, its WorldSpec the campaign ``world``, then the experiment's
+``overrides``, then the entry's ``world`` overrides. Its ``config`` is the entry's ``world``
+overrides flattened to dotted paths (``{"obstacles.obstruction.tree": 6}``; ``{}`` for none).
+Run seeds are derived as for a sweep, from (experiment, key, 0, run index): the navigators
+and faults on an entry are paired. A regression suite is such a spec.
+
+    >>> spec = parse_campaign({"name": "s", "experiments": [{"name": "suite", "worlds": [
+    ...     {"key": "dense", "map_seed": 42, "world": {"obstacles": {"obstruction": {"tree": 12}}}}]}]})
+    >>> [(c.key, c.map_seed, c.values) for c in spec.experiments[0].configurations(spec.world)]
+    [('dense', 42, {'obstacles.obstruction.tree': 12})]
+
 ``runs_per_map`` (campaign-wide, or per experiment) is an integer, or an adaptive rule
 ``{adaptive: {min: 3, max: 25, threshold: 0.8, confidence: 0.95}}``: each (map, navigator,
 fault) is run again only while its verdict is undecided (:mod:`navstress.sequential`), at
@@ -48,6 +62,10 @@ MAX_CONFIGS_PER_EXPERIMENT = 10_000
 MAX_PLANNED_RUNS = 100_000
 #: Most parallel workers a campaign (or the demo) may be given.
 MAX_WORKERS = 1024
+#: Largest map seed of an explicit world (a SQLite INTEGER; what ``navstress world --seed`` accepts).
+MAX_MAP_SEED = 2**63 - 1
+#: Longest key of an explicit world (it becomes a directory name).
+MAX_KEY_LEN = 100
 #: Wall seconds per run assumed by the size estimate of a refused plan (a rough order of magnitude).
 ESTIMATED_WALL_S_PER_RUN = 10.0
 
@@ -175,12 +193,33 @@ class NavigatorSpec(BaseModel):
     target: str | None = Field(None, description="'module:attr' factory, registered under `name` in every worker")
 
 
+class WorldEntry(BaseModel):
+    """One explicit world of an experiment: its configuration key, its map seed (used as
+    given, not derived) and its WorldSpec overrides (on the campaign world and the experiment's
+    overrides)."""
+
+    model_config = _STRICT
+    key: str
+    map_seed: int = Field(strict=True, ge=0, le=MAX_MAP_SEED)
+    world: dict[str, Any] = Field(default_factory=dict)
+
+    @field_validator("key")
+    @classmethod
+    def _key(cls, v: str) -> str:
+        if not _NAME.match(v) or len(v) > MAX_KEY_LEN:
+            raise ValueError(f"a key of at most {MAX_KEY_LEN} letters, digits, '_', '.', '-', starting with a "
+                             "letter or digit (it becomes a directory name)")
+        return v
+
+
 class ExperimentSpec(BaseModel):
-    """One experiment class: a sweep over world parameters plus base overrides."""
+    """One experiment class: a sweep over world parameters, or a list of explicit worlds,
+    plus base overrides."""
 
     model_config = _STRICT
     name: str
     sweep: dict[str, Range] = Field(default_factory=dict)
+    worlds: list[WorldEntry] | None = Field(None, max_length=MAX_CONFIGS_PER_EXPERIMENT)
     overrides: dict[str, Any] = Field(default_factory=dict)
     faults: list[str | None] | None = None  # None: the campaign's faults
     runs_per_map: int | AdaptiveRuns | None = None  # None: the campaign's
@@ -197,12 +236,40 @@ class ExperimentSpec(BaseModel):
     def _runs(cls, v: Any) -> int | AdaptiveRuns | None:
         return None if v is None else repetition(v)
 
+    @model_validator(mode="after")
+    def _worlds(self) -> "ExperimentSpec":
+        if self.worlds is None:
+            return self
+        if "sweep" in self.model_fields_set:
+            raise SpecError("sweep", {k: r.model_dump(exclude_none=True) for k, r in self.sweep.items()},
+                            "no sweep in an experiment that lists explicit worlds",
+                            "give either sweep or worlds (put sweeps in an experiment of their own)")
+        if not self.worlds:
+            raise SpecError("worlds", [], "at least one entry {key, map_seed, world}", "or remove worlds and "
+                            "give a sweep")
+        seen: set[str] = set()
+        for j, w in enumerate(self.worlds):
+            if w.key in seen:
+                raise SpecError(f"worlds[{j}].key", w.key, "a key unique among the experiment's worlds",
+                                "rename one of them")
+            seen.add(w.key)
+        return self
+
+    @property
+    def explicit(self) -> bool:
+        """Whether the experiment lists explicit worlds (no sweep)."""
+        return self.worlds is not None
+
     def configurations(self, base: dict[str, Any]) -> list["Configuration"]:
-        """Every point of the sweep (cartesian product, in sweep order), with its WorldSpec."""
+        """Every point of the sweep (cartesian product, in sweep order), or every explicit world
+        (in list order, with its map seed), with its WorldSpec."""
+        merged = _deep_merge(base, self.overrides)
+        if self.worlds is not None:
+            return [Configuration(experiment=self.name, key=w.key, values=flatten(w.world),
+                                  world=_deep_merge(merged, w.world), map_seed=w.map_seed) for w in self.worlds]
         paths = list(self.sweep)
         short = _short_names(paths)
         grids = [self.sweep[p].expand() for p in paths]
-        merged = _deep_merge(base, self.overrides)
         out: list[Configuration] = []
         for combo in itertools.product(*grids) if grids else [()]:
             values = dict(zip(paths, combo))
@@ -251,6 +318,10 @@ class CampaignSpec(BaseModel):
         for exp in data["experiments"]:
             if exp.get("runs_per_map") is None:
                 exp.pop("runs_per_map", None)
+            if exp.get("worlds") is None:  # a sweep experiment: the text of before worlds existed
+                exp.pop("worlds", None)
+            else:  # explicit worlds: no sweep key (both together are refused)
+                exp.pop("sweep", None)
         for owner in (data, *data["experiments"]):
             rpm = owner.get("runs_per_map")
             if isinstance(rpm, dict) and rpm["adaptive"].get("indifference") == 0.0:
@@ -268,6 +339,10 @@ class CampaignSpec(BaseModel):
         r = exp.runs_per_map if exp.runs_per_map is not None else self.runs_per_map
         return r.rule() if isinstance(r, AdaptiveRuns) else None
 
+    def maps_of(self, exp: ExperimentSpec) -> int:
+        """Maps per configuration of ``exp``: ``maps_per_config``, or 1 for explicit worlds."""
+        return 1 if exp.worlds is not None else self.maps_per_config
+
     def max_runs_of(self, exp: ExperimentSpec) -> int:
         """The most runs per map (and navigator and fault) of ``exp``: its fixed count or the rule's max."""
         r = exp.runs_per_map if exp.runs_per_map is not None else self.runs_per_map
@@ -276,12 +351,15 @@ class CampaignSpec(BaseModel):
 
 @dataclass(frozen=True)
 class Configuration:
-    """One point of a sweep: ``values`` maps swept paths to values; ``world`` is its WorldSpec mapping."""
+    """One point of a sweep, or one explicit world: ``values`` maps swept paths to values (an
+    explicit world: its overrides, flattened); ``world`` is its WorldSpec mapping; ``map_seed``
+    the explicit world's map seed (None: a sweep's, whose map seeds are derived)."""
 
     experiment: str
     key: str
     values: dict[str, Any]
     world: dict[str, Any]
+    map_seed: int | None = None
 
     def world_spec(self) -> WorldSpec:
         return parse_spec(self.world)
@@ -297,7 +375,9 @@ def planned_runs(spec: CampaignSpec) -> int:
         n = 1
         for rng in exp.sweep.values():
             n *= rng.count()
-        total += n * spec.maps_per_config * spec.max_runs_of(exp) * len(spec.navigators) * len(spec.faults_of(exp))
+        if exp.worlds is not None:
+            n = len(exp.worlds)
+        total += n * spec.maps_of(exp) * spec.max_runs_of(exp) * len(spec.navigators) * len(spec.faults_of(exp))
     return total
 
 
@@ -329,7 +409,8 @@ def parse_campaign(data: Any, *, max_runs: int | None = MAX_PLANNED_RUNS) -> Cam
         first = err.errors(include_url=False)[0]
         inner = (first.get("ctx") or {}).get("error")
         if isinstance(inner, SpecError) and len(first["loc"]) > 1:  # a nested field's own SpecError: its path
-            where = ".".join(str(p) for p in first["loc"][:-1])
+            loc = first["loc"]  # a field validator's ends with the field (the SpecError names it), a model's not
+            where = ".".join(str(p) for p in (loc if isinstance(loc[-1], int) else loc[:-1]))
             inner = SpecError(f"{where}.{inner.field}", inner.value, inner.expected, inner.fix)
             raise SpecError(re.sub(r"\.(\d+)(?=\.|$)", r"[\1]", inner.field), inner.value, inner.expected,
                             inner.fix) from None
@@ -366,11 +447,12 @@ def parse_campaign(data: Any, *, max_runs: int | None = MAX_PLANNED_RUNS) -> Cam
             parse_spec(_deep_merge(base_data, exp.overrides))
         except SpecError as err:
             raise SpecError(f"{where}.overrides.{err.field}", err.value, err.expected, err.fix) from None
-        for cfg in exp.configurations(base_data):
+        for j, cfg in enumerate(exp.configurations(base_data)):
             try:
                 cfg.world_spec()
             except SpecError as err:
-                raise SpecError(f"{where}.sweep[{cfg.key}].{err.field}", err.value, err.expected, err.fix) from None
+                at = f"{where}.worlds[{j}].world" if exp.worlds is not None else f"{where}.sweep[{cfg.key}]"
+                raise SpecError(f"{at}.{err.field}", err.value, err.expected, err.fix) from None
         faults = spec.faults_of(exp)
         if len(set(faults)) != len(faults):
             raise SpecError(f"{where}.faults" if exp.faults is not None else "faults", faults,
@@ -423,6 +505,19 @@ def _path_exists(model: type[BaseModel], parts: list[str]) -> bool:
     if origin is dict:
         return len(rest) == 1
     return not rest
+
+
+def flatten(data: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    """A nested mapping as dotted paths to its leaves (lists are leaves):
+    ``{"ground": {"deformation": 1}}`` -> ``{"ground.deformation": 1}``."""
+    out: dict[str, Any] = {}
+    for k, v in data.items():
+        path = f"{prefix}{k}"
+        if isinstance(v, dict):
+            out.update(flatten(v, path + "."))
+        else:
+            out[path] = copy.deepcopy(v)
+    return out
 
 
 def _short_names(paths: list[str]) -> dict[str, str]:

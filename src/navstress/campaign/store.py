@@ -13,6 +13,12 @@ driver writes (single writer), holding an exclusive lock on ``DIR/.lock`` (relea
 OS even on SIGKILL). On resume the runs already in ``runs`` are skipped, and stale partial
 files (``.*.partial`` traces, ``.m<k>.*`` world temp dirs) are removed.
 
+A campaign grows with :meth:`Store.extend`: a spec that adds experiments at the end of the
+stored spec's list (all else unchanged) adds their planned runs and becomes the stored spec in
+one transaction. The database is the truth: ``spec.yaml`` is its copy, rewritten after the
+transaction (and again, from the text kept in ``meta``, when a killed extension left the old
+copy and the store is next opened for writing).
+
     >>> import tempfile
     >>> from navstress.campaign.presets import demo
     >>> from navstress.campaign.spec import parse_campaign
@@ -62,6 +68,8 @@ _KIND_OF: dict[str, Kind] = {"INTEGER": "int", "REAL": "float", "TEXT": "str"}
 _KINDS: dict[str, Kind] = {c: _KIND_OF[_TYPES.get(c, "TEXT")] for c in COLUMNS}
 _FLOATS = ("duration_s", "wall_s", "goal_distance_m", "path_length_m", "tortuousness")
 _TMP_DB = f".{DB_NAME}.tmp"
+#: The ``meta`` key of the spec text an extension gave (what ``spec.yaml`` must hold).
+_SPEC_TEXT = "spec_text"
 #: SQLite's side files of a database file (rollback journal, WAL, shared memory).
 _SIDE = ("-journal", "-wal", "-shm")
 #: Files a store creation that was killed may leave behind (removed when creation is redone).
@@ -145,8 +153,9 @@ class Store:
 
     # ---- opening ---------------------------------------------------------------------
     @classmethod
-    def create(cls, root: str | Path, spec: CampaignSpec, spec_text: str) -> "Store":
-        """Create the store for ``spec`` in ``root``, or reopen it to resume (same spec only).
+    def create(cls, root: str | Path, spec: CampaignSpec, spec_text: str, *, extend: bool = False) -> "Store":
+        """Create the store for ``spec`` in ``root``, or reopen it to resume (same spec only;
+        with ``extend``, also a spec that extends the stored one: see :meth:`extend`).
 
         Takes the directory's write lock; raises StoreError if another run holds it, if the
         directory holds a different campaign, or is a non-empty directory of something else."""
@@ -160,6 +169,13 @@ class Store:
             db = d / DB_NAME
             if db.exists():
                 store = cls._open_db(d, lock)
+                try:
+                    store._restore_spec_file()
+                    if extend and store.spec.digest() != spec.digest():
+                        store.extend(spec, spec_text)
+                except BaseException:
+                    store.con.close()
+                    raise
                 if store.spec.digest() != spec.digest():
                     store.con.close()
                     raise StoreError(f"output={str(d)!r} holds campaign {store.spec.name!r} made from a different "
@@ -285,6 +301,71 @@ class Store:
 
     def __exit__(self, t: type[BaseException] | None, e: BaseException | None, tb: TracebackType | None) -> None:
         self.close()
+
+    # ---- growing a campaign ----------------------------------------------------------
+    def extend(self, spec: CampaignSpec, spec_text: str) -> int:
+        """Grow the campaign to ``spec``, whose experiments list extends the stored one: the
+        stored experiments first, unchanged, then new ones; every other field unchanged
+        (StoreError saying what differs otherwise). Returns the number of runs added (0 when
+        ``spec`` is the stored spec).
+
+        In ONE SQLite transaction: the new experiments' planned runs, the stored spec (text,
+        digest, name) and ``spec_text``. Then ``spec.yaml`` is rewritten atomically with
+        ``spec_text``: the database is the truth, a kill between the two leaves the old file,
+        restored from the database when the store is next opened for writing (or extended).
+        The new runs run at the next :func:`~navstress.campaign.scheduler.resume`. Needs the
+        write lock (a store from :meth:`create`)."""
+        if self._lock is None:
+            raise StoreError(f"campaign={str(self.root)!r} is open for reading only; open it with "
+                             "Store.create (the write lock) to extend it")
+        given = parse_campaign_text(spec_text, "spec_text", max_runs=None)
+        if given.digest() != spec.digest():
+            raise SpecError("spec_text", spec_text[:60] + ("..." if len(spec_text) > 60 else ""),
+                            "the text of the spec given with it (it becomes spec.yaml)")
+        why = extension_error(self.spec, spec)
+        if why is not None:
+            raise StoreError(f"campaign={str(self.root)!r} cannot be extended with spec {spec.name!r}: {why}; a spec "
+                             "extends a campaign by adding experiments at the end of its list, all else unchanged")
+        stored = {e.name for e in self.spec.experiments}
+        tasks = [t for t in plan(spec, self.root).tasks if t.experiment not in stored]
+        if tasks or spec.digest() != self.spec.digest():
+            self.con.execute("BEGIN IMMEDIATE")
+            try:
+                seq = int(self.con.execute("SELECT COALESCE(MAX(seq) + 1, 0) FROM planned").fetchone()[0])
+                self.con.executemany("INSERT INTO planned VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)", [
+                    (t.run_id, seq + i, t.experiment, json.dumps(t.config, sort_keys=True), t.map_index, t.run_index,
+                     t.navigator, t.fault, _task_json(t, self.root)) for i, t in enumerate(tasks)])
+                self.con.executemany("INSERT OR REPLACE INTO meta VALUES (?, ?)", [
+                    ("spec_digest", spec.digest()), ("spec_json", spec.canonical_json()), ("name", spec.name),
+                    (_SPEC_TEXT, spec_text)])
+                self.con.execute("COMMIT")
+            except BaseException:
+                self._rollback()
+                raise
+            self.spec = spec
+        self._write_spec_file(spec_text)
+        return len(tasks)
+
+    def _restore_spec_file(self) -> None:
+        """Rewrite ``spec.yaml`` from the text the last :meth:`extend` kept, where it differs."""
+        row = self.con.execute("SELECT value FROM meta WHERE key = ?", (_SPEC_TEXT,)).fetchone()
+        if row is not None:
+            self._write_spec_file(str(row[0]))
+
+    def _write_spec_file(self, text: str) -> None:
+        path = self.root / SPEC_NAME
+        try:
+            if path.read_text(encoding="utf-8") == text:
+                return
+        except (OSError, UnicodeDecodeError):
+            pass
+        try:
+            _atomic_write(path, text)
+            _files.fsync_dir(self.root)
+        except OSError as err:
+            if is_disk_full(err):
+                raise disk_full(self.root, f"while writing {SPEC_NAME}") from None
+            raise
 
     # ---- planned work ----------------------------------------------------------------
     def plan(self) -> Plan:
@@ -483,6 +564,28 @@ class Store:
         dest = Path(out) if out is not None else self.root / f"runs.{fmt}"
         q = f"SELECT {', '.join('r.' + c for c in COLUMNS)} FROM runs r LEFT JOIN planned p USING (run_id) ORDER BY p.seq"
         return write_table([dict(r) for r in self.con.execute(q)], _KINDS, fmt, dest)
+
+
+def extension_error(stored: CampaignSpec, given: CampaignSpec) -> str | None:
+    """What keeps ``given`` from extending ``stored`` (None: it does, or it is ``stored``)."""
+    a, b = json.loads(stored.canonical_json()), json.loads(given.canonical_json())
+    for k in sorted(set(a) | set(b)):
+        if k != "experiments" and a.get(k) != b.get(k):
+            return f"its {k} differs from the stored one (stored {_short(a.get(k))}, given {_short(b.get(k))})"
+    ea, eb = a["experiments"], b["experiments"]
+    for i, (x, y) in enumerate(zip(ea, eb)):
+        if x != y:
+            what = "another experiment" if x["name"] != y["name"] else "changed"
+            return f"its experiments[{i}] ({y['name']!r}) is {what}: the stored experiments[{i}] is {x['name']!r}"
+    if len(eb) < len(ea):
+        return (f"it has {len(eb)} experiments, fewer than the stored {len(ea)} "
+                f"({', '.join(repr(e['name']) for e in ea[len(eb):][:3])} missing)")
+    return None
+
+
+def _short(v: Any) -> str:
+    t = json.dumps(v, sort_keys=True)
+    return t if len(t) <= 60 else t[:57] + "..."
 
 
 def read_export(path: str | Path) -> list[dict[str, Any]]:
