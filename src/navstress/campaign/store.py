@@ -39,6 +39,7 @@ import shutil
 import sqlite3
 import time
 from collections import Counter
+from collections.abc import Sequence
 from dataclasses import fields
 from pathlib import Path
 from types import TracebackType
@@ -211,9 +212,7 @@ class Store:
                 con.executemany("INSERT INTO meta VALUES (?, ?)", [
                     ("schema", SCHEMA_VERSION), ("spec_digest", spec.digest()),
                     ("spec_json", spec.canonical_json()), ("name", spec.name)])
-                con.executemany("INSERT INTO planned VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)", [
-                    (t.run_id, i, t.experiment, _json.dumps(t.config, sort_keys=True), t.map_index, t.run_index,
-                     t.navigator, t.fault, _task_json(t, d)) for i, t in enumerate(p.tasks)])
+                _insert_planned(con, p.tasks, 0, d)
                 con.execute("COMMIT")
             finally:
                 con.close()
@@ -332,9 +331,7 @@ class Store:
             self.con.execute("BEGIN IMMEDIATE")
             try:
                 seq = int(self.con.execute("SELECT COALESCE(MAX(seq) + 1, 0) FROM planned").fetchone()[0])
-                self.con.executemany("INSERT INTO planned VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)", [
-                    (t.run_id, seq + i, t.experiment, json.dumps(t.config, sort_keys=True), t.map_index, t.run_index,
-                     t.navigator, t.fault, _task_json(t, self.root)) for i, t in enumerate(tasks)])
+                _insert_planned(self.con, tasks, seq, self.root)
                 self.con.executemany("INSERT OR REPLACE INTO meta VALUES (?, ?)", [
                     ("spec_digest", spec.digest()), ("spec_json", spec.canonical_json()), ("name", spec.name),
                     (_SPEC_TEXT, spec_text)])
@@ -583,8 +580,15 @@ def extension_error(stored: CampaignSpec, given: CampaignSpec) -> str | None:
     return None
 
 
+def _insert_planned(con: sqlite3.Connection, tasks: Sequence[RunTask], first: int, root: Path) -> None:
+    """Insert ``tasks`` into the planned table, numbered from ``first`` (plan order)."""
+    con.executemany("INSERT INTO planned VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)", [
+        (t.run_id, first + i, t.experiment, _json.dumps(t.config, sort_keys=True), t.map_index, t.run_index,
+         t.navigator, t.fault, _task_json(t, root)) for i, t in enumerate(tasks)])
+
+
 def _short(v: Any) -> str:
-    t = json.dumps(v, sort_keys=True)
+    t = _json.dumps(v, sort_keys=True)
     return t if len(t) <= 60 else t[:57] + "..."
 
 
