@@ -27,6 +27,8 @@ LAYERS: dict[str, int] = {
     "navstress.run": 4,
     "navstress.campaign": 5,
     "navstress.analysis": 6,
+    # the search: objectives and figures read run records and world files (run, world, nav, sequential)
+    "navstress.search": 6,
     "navstress.cli": 7, "navstress._facade": 7,
 }
 
