@@ -223,6 +223,27 @@ def boundary(records: Iterable[RunRecord], *, target: float = DEFAULT_TARGET, fa
     return Evaluation("boundary", fit, p, s, n, _interval(s, n, confidence), confidence, ignored)
 
 
+def world_key(r: RunRecord) -> str:
+    """The world (configuration) key of a record: the second part of its run id
+    (``experiment/key/m<k>/r<j>/navigator/fault``; for a search, the ``worlds:`` entry's key), else a
+    stable text of its ``config``."""
+    parts = r.run_id.split("/")
+    if len(parts) >= 6 and parts[0] == r.experiment:
+        return "/".join(parts[1:-4])
+    return json.dumps(r.config, sort_keys=True)
+
+
+def by_world(records: Iterable[RunRecord]) -> dict[tuple[str, str, int], list[RunRecord]]:
+    """The records of each world, keyed (experiment, world key, map index), in run order: what one
+    candidate's objective reads (a generation's runs of one ``worlds:`` entry)."""
+    out: dict[tuple[str, str, int], list[RunRecord]] = {}
+    for r in records:
+        out.setdefault((r.experiment, world_key(r), r.map_index), []).append(r)
+    for v in out.values():
+        v.sort(key=lambda r: (r.run_index, r.navigator, fault_label(r.fault), r.run_id))
+    return dict(sorted(out.items()))
+
+
 # ---------------------------------------------------------------- pairs of runs
 
 

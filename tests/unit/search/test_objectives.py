@@ -15,9 +15,9 @@ from hypothesis import strategies as st
 from navstress.errors import SpecError
 from navstress.run.outcome import Outcome
 from navstress.run.record import RunRecord
-from navstress.search.objectives import (FAILURE_CLASSES, OBJECTIVES, boundary, evaluate, failure, fault_names,
-                                         fault_revealing, illumination, kills, mutation_score, pair_key, pairs,
-                                         reveals)
+from navstress.search.objectives import (FAILURE_CLASSES, OBJECTIVES, boundary, by_world, evaluate, failure,
+                                         fault_names, fault_revealing, illumination, kills, mutation_score,
+                                         pair_key, pairs, reveals, world_key)
 
 OUTCOMES = [o.value for o in Outcome]
 FAULT = "small-footprint"
@@ -233,3 +233,15 @@ def test_kills_and_mutation_score() -> None:
     assert ms.killed == (FAULT,) and ms.score == pytest.approx(1 / 6) and ms.by == {FAULT: ("w0",)}
     assert mutation_score({}).score == 0.0 and mutation_score({}, faults=[]).score == 0.0
     assert ms.to_json()["killed_by"] == {FAULT: ["w0"]}
+
+
+def test_records_grouped_by_world() -> None:
+    recs = [rec(1, "success", key="w1"), rec(0, "success", FAULT, key="w1"), rec(0, "fail-error", key="w1"),
+            rec(0, "success", key="w0", experiment="g0001"), rec(0, "success", key="a/b")]
+    g = by_world(recs)
+    assert list(g) == [("g0000", "a/b", 0), ("g0000", "w1", 0), ("g0001", "w0", 0)]
+    assert [(r.run_index, r.fault) for r in g[("g0000", "w1", 0)]] == [(0, None), (0, FAULT), (1, None)]
+    assert by_world(list(reversed(recs))) == g
+    odd = RunRecord("x", "batch", {"k": 2}, 0, 0, 1, 1, "nav", None, "success", "", 1.0, 0.1, 0.0, 1.0, 0.0, 0,
+                    None, [], None)
+    assert world_key(odd) == '{"k": 2}'
