@@ -98,3 +98,11 @@ def test_missing_values_take_the_descriptors_stand_in() -> None:
     walled = World(walled.spec, 1, walled.terrain, walled.obstacles, walled.mission, describe_world(walled))
     assert walled.descriptors["feasible"] is False
     assert descriptor_values(["path_ratio"], walled) == (3.0,)
+
+
+def test_docs_list_every_descriptor_with_its_unit_and_range() -> None:
+    text = (Path(__file__).resolve().parents[3] / "docs" / "search.md").read_text(encoding="utf-8")
+    section = text.split("## Objectives", 1)[1].split("\n## ", 1)[0]
+    for d in DESCRIPTORS.values():
+        row = f"| `{d.name}` | {d.unit or '-'} | {d.low:g} to {d.high:g} | {d.source} |"
+        assert row in section, row
