@@ -132,6 +132,8 @@ def illumination_figure(points: Iterable[MapPoint | Mapping[str, Any]], *, x: st
     cell coloured by its best world's fitness (0 to ``vmax``), empty cells blank; the axes say the
     descriptors' units and the title how many cells are filled."""
     dx, dy = get_descriptor(x, "x"), get_descriptor(y, "y")
+    if isinstance(vmax, bool) or not isinstance(vmax, (int, float)) or not (math.isfinite(vmax) and vmax > 0):
+        raise SpecError("vmax", vmax, "a number > 0 (the fitness of the brightest colour)")
     xr = x_range or (dx.low, dx.high)
     yr = y_range or (dy.low, dy.high)
     fit, _ = illumination_grid(points, xr, yr, bins)

@@ -88,6 +88,8 @@ def test_an_empty_map_is_blank_and_axes_name_their_units() -> None:
     assert ei.value.field == "x" and "obstruction" in str(ei.value)
     with pytest.raises(SpecError, match="y_range"):
         illumination_figure([], x="obstruction", y="roughness", y_range=(1.0, 1.0))
+    with pytest.raises(SpecError, match="vmax"):
+        illumination_figure([], x="obstruction", y="roughness", vmax=0.0)
     with pytest.raises(SpecError, match="bins.x"):
         illumination_grid([], X_RANGE, Y_RANGE, (0, 2))
     with pytest.raises(SpecError, match="fitness"):
