@@ -51,7 +51,7 @@ import difflib
 import json
 import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Literal
 
@@ -83,6 +83,17 @@ DEFAULT_TARGET = 0.5
 #: A world confirmed near the boundary has its success probability proven within target +- band
 #: (0.5 +- 0.4: the flaky band).
 DEFAULT_BAND = 0.4
+
+
+#: How a campaign records the runs of a world its generator could not make (Fail-Other records
+#: whose reason starts so, :meth:`navstress.campaign.scheduler.Recorder.world_failed`).
+GENERATION_FAILED = "world generation failed"
+
+
+def ungenerated(r: RunRecord) -> bool:
+    """Whether ``r`` is the record of a run that never ran because its world could not be
+    generated: a result about the world spec, not about the stack, so no objective counts it."""
+    return r.outcome == Outcome.FAIL_OTHER.value and r.reason.startswith(GENERATION_FAILED)
 
 
 def fault_names() -> tuple[str, ...]:
@@ -157,7 +168,8 @@ class Evaluation:
 def _select(records: Iterable[RunRecord], navigator: str | None,
             keep: Callable[[RunRecord], bool]) -> tuple[list[RunRecord], int]:
     """The records of ``navigator`` (the only one there is when None) that ``keep`` accepts, and
-    how many others there were. Two records of the same run id are refused."""
+    how many others there were (:func:`ungenerated` ones among them). Two records of the same run
+    id are refused."""
     recs = list(records)
     seen: set[str] = set()
     for r in recs:
@@ -169,7 +181,7 @@ def _select(records: Iterable[RunRecord], navigator: str | None,
         if len(navs) > 1:
             raise SpecError("navigator", None, f"one of {navs}: the records hold several navigators",
                             "name the navigator under test")
-    chosen = [r for r in recs if (navigator is None or r.navigator == navigator) and keep(r)]
+    chosen = [r for r in recs if (navigator is None or r.navigator == navigator) and keep(r) and not ungenerated(r)]
     return chosen, len(recs) - len(chosen)
 
 
@@ -185,22 +197,28 @@ def _counted(objective: str, events: int, trials: int, confidence: float, *, ign
 
 
 def failure(records: Iterable[RunRecord], *, fault: str | None = None, navigator: str | None = None,
-            failure_class: str = "any", confidence: float = DEFAULT_CONFIDENCE) -> Evaluation:
+            failure_class: str = "any", confidence: float = DEFAULT_CONFIDENCE,
+            feasible: bool | None = None) -> Evaluation:
     """The ``failure`` objective: the failure probability (of class ``failure_class``) of ``navigator``
-    under ``fault`` (None: the nominal stack) over its runs among ``records``."""
+    under ``fault`` (None: the nominal stack) over its runs among ``records``. ``feasible=False``
+    (the world has no traversable path from start to goal, :func:`world_feasible`) makes the fitness
+    0: an impossible world fails every stack and teaches nothing (the counts are kept)."""
     cls = _check_class(failure_class)
     _check_confidence(confidence)
     want = fault_label(fault)
     runs, ignored = _select(records, navigator, lambda r: fault_label(r.fault) == want)
-    return _counted("failure", sum(r.outcome in cls for r in runs), len(runs), confidence, ignored=ignored)
+    e = _counted("failure", sum(r.outcome in cls for r in runs), len(runs), confidence, ignored=ignored)
+    return replace(e, fitness=0.0) if feasible is False else e
 
 
 def illumination(records: Iterable[RunRecord], descriptors: Sequence[float], *, fault: str | None = None,
                  navigator: str | None = None, failure_class: str = "any",
-                 confidence: float = DEFAULT_CONFIDENCE) -> Evaluation:
-    """The ``illumination`` objective: the failure probability (as :func:`failure`), placed on the
-    map at ``descriptors`` (the values of the map's axes, e.g. from :func:`descriptor_values`)."""
-    e = failure(records, fault=fault, navigator=navigator, failure_class=failure_class, confidence=confidence)
+                 confidence: float = DEFAULT_CONFIDENCE, feasible: bool | None = None) -> Evaluation:
+    """The ``illumination`` objective: the failure probability (as :func:`failure`, ``feasible``
+    included), placed on the map at ``descriptors`` (the values of the map's axes, e.g. from
+    :func:`descriptor_values`)."""
+    e = failure(records, fault=fault, navigator=navigator, failure_class=failure_class, confidence=confidence,
+                feasible=feasible)
     vals = tuple(float(v) for v in descriptors)
     if not all(math.isfinite(v) for v in vals):
         raise SpecError("descriptors", list(vals), "finite numbers")
@@ -318,12 +336,15 @@ def fault_revealing(records: Iterable[RunRecord], fault: str, *, navigator: str 
 
 def evaluate(objective: str, records: Iterable[RunRecord], *, fault: str | None = None,
              navigator: str | None = None, failure_class: str = "any", target: float = DEFAULT_TARGET,
-             descriptors: Sequence[float] = (), confidence: float = DEFAULT_CONFIDENCE) -> Evaluation:
+             descriptors: Sequence[float] = (), confidence: float = DEFAULT_CONFIDENCE,
+             feasible: bool | None = None) -> Evaluation:
     """The :class:`Evaluation` of ``objective`` (:data:`OBJECTIVES`); ``fault`` is the stack under
     test for ``failure``, ``boundary`` and ``illumination`` (None: nominal) and the faulty stack for
-    ``fault-revealing`` (required)."""
+    ``fault-revealing`` (required); ``feasible`` as in :func:`failure` (the other objectives need no
+    gate: an impossible world has no revealing pair and a success probability of 0)."""
     if objective == "failure":
-        return failure(records, fault=fault, navigator=navigator, failure_class=failure_class, confidence=confidence)
+        return failure(records, fault=fault, navigator=navigator, failure_class=failure_class, confidence=confidence,
+                       feasible=feasible)
     if objective == "fault-revealing":
         if fault is None:
             raise SpecError("objective.fault", None, "a fault name for the fault-revealing objective",
@@ -333,7 +354,7 @@ def evaluate(objective: str, records: Iterable[RunRecord], *, fault: str | None 
         return boundary(records, target=target, fault=fault, navigator=navigator, confidence=confidence)
     if objective == "illumination":
         return illumination(records, descriptors, fault=fault, navigator=navigator, failure_class=failure_class,
-                            confidence=confidence)
+                            confidence=confidence, feasible=feasible)
     close = difflib.get_close_matches(str(objective), OBJECTIVES, n=1, cutoff=0.5)
     raise SpecError("objective", objective, f"one of {', '.join(OBJECTIVES)}",
                     f"did you mean {close[0]}?" if close else None)
@@ -633,3 +654,11 @@ def descriptor_values(names: Sequence[str], source: WorldSource, *, field: str =
         v = d.read(stored)
         out.append(d.missing if v is None or not math.isfinite(v) else float(v))
     return tuple(out)
+
+
+def world_feasible(source: World | str | Path) -> bool | None:
+    """Whether a world has a traversable path from start to goal (its ``feasible`` descriptor,
+    :mod:`navstress.world.descriptors`; recomputed when the world has none stored)."""
+    w = World.load(source) if isinstance(source, (str, Path)) else source
+    v = (w.descriptors if "feasible" in w.descriptors else describe_world(w)).get("feasible")
+    return None if v is None else bool(v)

@@ -7,17 +7,27 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from pathlib import Path
 
 import pytest
+import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from navstress.campaign.plan import plan
+from navstress.campaign.scheduler import Recorder
+from navstress.campaign.spec import parse_campaign
+from navstress.campaign.store import Store
+from navstress.campaign.work import attempt_world
 from navstress.errors import SpecError
 from navstress.run.outcome import Outcome
 from navstress.run.record import RunRecord
 from navstress.search.objectives import (FAILURE_CLASSES, OBJECTIVES, boundary, by_world, evaluate, failure,
-                                         fault_names, fault_revealing, illumination, kills, mutation_score,
-                                         pair_key, pairs, reveals, world_key)
+                                         confirm, fault_names, fault_revealing, illumination, kills,
+                                         mutation_score, pair_key, pairs, reveals, ungenerated, world_feasible,
+                                         world_key)
+from navstress.world.world import Mission, World
+from world_fixtures import small_world
 
 OUTCOMES = [o.value for o in Outcome]
 FAULT = "small-footprint"
@@ -245,3 +255,42 @@ def test_records_grouped_by_world() -> None:
     odd = RunRecord("x", "batch", {"k": 2}, 0, 0, 1, 1, "nav", None, "success", "", 1.0, 0.1, 0.0, 1.0, 0.0, 0,
                     None, [], None)
     assert world_key(odd) == '{"k": 2}'
+
+
+def test_runs_of_a_world_that_could_not_be_generated_count_for_no_objective(tmp_path: Path) -> None:
+    """A world spec the generator cannot realise is recorded by the campaign as Fail-Other runs
+    (the real path: plan, attempt_world, Recorder, Store); they are about the spec, not the stack,
+    so a search for failures must not climb towards them: no objective counts them."""
+    d = {"name": "s", "seed": 1, "world": {"size_m": [20.0, 20.0], "cell_m": 0.5},
+         "experiments": [{"name": "g0000", "sweep": {"obstacles.obstruction.building": {"values": [90]}}}],
+         "maps_per_config": 1, "runs_per_map": 2, "faults": [None, FAULT], "timeout_s": 10.0}
+    spec = parse_campaign(d)
+    with Store.create(tmp_path / "c", spec, yaml.safe_dump(d)) as store:
+        p = plan(spec, tmp_path / "c")
+        (job,) = p.maps
+        reason = attempt_world(job)
+        assert isinstance(reason, str) and "obstruction" in reason
+        Recorder(store).world_failed(list(p.tasks), reason)
+        recs = store.records()
+    assert len(recs) == 4 and all(r.outcome == "fail-other" and ungenerated(r) for r in recs)
+    for e in (failure(recs), failure(recs, fault=FAULT), boundary(recs), fault_revealing(recs, FAULT),
+              evaluate("illumination", recs, descriptors=(1.0, 1.0))):
+        assert (e.fitness, e.trials, e.events) == (0.0, 0, 0) and e.ignored >= 2 and e.unpaired == 0
+    assert not confirm(recs, "failing").confirmed and confirm(recs, "failing").trials == 0
+    # a Fail-Other of the stack itself (its process died) is still a failure
+    own = replace(recs[0], reason="run killed its worker process (signal SIGSEGV), in 3 of 3 attempts")
+    assert not ungenerated(own) and failure([own]).fitness == 1.0
+
+
+def test_an_impossible_world_has_no_failure_fitness() -> None:
+    """A world with no traversable path fails every stack: its failures teach nothing, so the
+    failure and illumination fitness are 0 there (the counts kept); feasibility is the world's own
+    descriptor."""
+    w = small_world(1, bumpy=False)
+    walled = World(w.spec, 1, w.terrain, w.obstacles, Mission((2.0, 2.0, 0.0), (12.0, 6.0), 1.0))
+    assert world_feasible(walled) is False and world_feasible(w) is True
+    recs = nominal_runs(["fail-timeout"] * 4)
+    e = failure(recs, feasible=world_feasible(walled))
+    assert (e.fitness, e.events, e.trials, e.estimate) == (0.0, 4, 4, 1.0)
+    assert evaluate("illumination", recs, descriptors=(0.0, 0.0), feasible=False).fitness == 0.0
+    assert evaluate("failure", recs, feasible=True).fitness == 1.0 == failure(recs).fitness
