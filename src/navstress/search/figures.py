@@ -1,0 +1,278 @@
+"""The search report's pictures (PNG bytes, for the HTML report or files): the illumination map,
+the worlds found against runs spent for the search and for random sampling, and the best worlds
+with their runs' trajectories over their height maps.
+
+Inputs are plain data a driver builds from its results (documented dataclasses, or dicts with the
+same keys):
+
+- :class:`MapPoint` (``{"x", "y", "fitness", "key"}``): one evaluated world on the map;
+- :class:`Found` (``{"runs", "key", "found"}``): one evaluated candidate, ``runs`` being the runs
+  spent so far when its evaluation ended, ``found`` whether it counts (revealing or failing);
+- :class:`BestWorld`: a world (directory or loaded) with its runs' tracks
+  (:class:`~navstress.run.figures.RunTrack`, see :func:`tracks_of`).
+
+Figures are drawn on an Agg canvas of their own (no pyplot, no global backend); runs are drawn
+with :mod:`navstress.run.figures` (its outcome colours everywhere in navstress) over
+:func:`~navstress.world.export.images.draw_world`.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.colors import Normalize
+from matplotlib.figure import Figure
+
+from navstress.errors import NavstressError, SpecError
+from navstress.run.figures import RunTrack, draw_tracks, legend
+from navstress.run.record import RunRecord
+from navstress.run.trace import read_poses
+from navstress.search.objectives import get_descriptor
+from navstress.world.export.images import draw_world
+from navstress.world.world import World
+
+#: Where the illumination map's cells are drawn, in figure fractions (left, bottom, width, height);
+#: the colour bar sits to its right.
+MAP_AXES = (0.13, 0.13, 0.62, 0.75)
+MAP_CMAP = "plasma"
+#: Line colours of the methods in :func:`found_figure` (others get matplotlib's cycle).
+METHOD_COLOURS = {"search": "#d7191c", "random": "#2b83ba"}
+
+
+def _figure(w: float, h: float, dpi: int, *, constrained: bool = True) -> Any:
+    fig = Figure(figsize=(w, h), dpi=dpi, layout="constrained" if constrained else None)
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def png_bytes(fig: Any) -> bytes:
+    """Render a matplotlib Figure to PNG bytes."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    return buf.getvalue()
+
+
+def _get(obj: Any, name: str) -> Any:
+    if isinstance(obj, Mapping):
+        if name not in obj:
+            raise SpecError(name, None, f"a value for {name!r} in each entry", f"entry: {dict(obj)!r}")
+        return obj[name]
+    return getattr(obj, name)
+
+
+# ---------------------------------------------------------------- (a) the illumination map
+
+
+@dataclass(frozen=True)
+class MapPoint:
+    """One evaluated world on the illumination map: its two descriptor values and fitness."""
+
+    x: float
+    y: float
+    fitness: float
+    key: str = ""
+
+
+def _points(points: Iterable[MapPoint | Mapping[str, Any]]) -> list[MapPoint]:
+    out = []
+    for p in points:
+        mp = p if isinstance(p, MapPoint) else MapPoint(float(_get(p, "x")), float(_get(p, "y")),
+                                                        float(_get(p, "fitness")), str(p.get("key", "")))
+        if not all(math.isfinite(v) for v in (mp.x, mp.y, mp.fitness)):
+            raise SpecError("points", mp, "finite descriptor values and fitness")
+        out.append(mp)
+    return out
+
+
+def _check_grid(x_range: tuple[float, float], y_range: tuple[float, float], bins: tuple[int, int]) -> None:
+    for name, (lo, hi) in (("x_range", x_range), ("y_range", y_range)):
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+            raise SpecError(name, [lo, hi], "two finite numbers, low < high")
+    for name, b in zip(("bins.x", "bins.y"), bins):
+        if isinstance(b, bool) or not isinstance(b, int) or not 1 <= b <= 1000:
+            raise SpecError(name, b, "an integer from 1 to 1000")
+
+
+def cell_of(value: float, lo: float, hi: float, bins: int) -> int:
+    """The cell index of ``value`` on an axis of ``bins`` equal cells over [lo, hi]; values outside
+    go to the first or last cell (as pyribs' grid archive does)."""
+    k = int(math.floor((value - lo) / (hi - lo) * bins))
+    return min(max(k, 0), bins - 1)
+
+
+def illumination_grid(points: Iterable[MapPoint | Mapping[str, Any]], x_range: tuple[float, float],
+                      y_range: tuple[float, float], bins: tuple[int, int]) -> tuple[np.ndarray, list[list[str]]]:
+    """(fitness, keys): per cell (row = y cell, column = x cell) the best fitness of the points that
+    fall in it (NaN where none does) and that point's key (the first one on ties)."""
+    _check_grid(x_range, y_range, bins)
+    nx, ny = bins
+    fit = np.full((ny, nx), np.nan)
+    keys = [["" for _ in range(nx)] for _ in range(ny)]
+    for p in _points(points):
+        i, j = cell_of(p.y, *y_range, ny), cell_of(p.x, *x_range, nx)
+        if math.isnan(fit[i, j]) or p.fitness > fit[i, j]:
+            fit[i, j] = p.fitness
+            keys[i][j] = p.key
+    return fit, keys
+
+
+def illumination_figure(points: Iterable[MapPoint | Mapping[str, Any]], *, x: str, y: str,
+                        x_range: tuple[float, float] | None = None, y_range: tuple[float, float] | None = None,
+                        bins: tuple[int, int] = (10, 10), fitness_label: str = "failure probability",
+                        vmax: float = 1.0, title: str | None = None, dpi: int = 90) -> bytes:
+    """The illumination map: a heatmap over the descriptors ``x`` and ``y`` (names of
+    :data:`~navstress.search.objectives.DESCRIPTORS`; ranges default to their natural ones), each
+    cell coloured by its best world's fitness (0 to ``vmax``), empty cells blank; the axes say the
+    descriptors' units and the title how many cells are filled."""
+    dx, dy = get_descriptor(x, "x"), get_descriptor(y, "y")
+    if isinstance(vmax, bool) or not isinstance(vmax, (int, float)) or not (math.isfinite(vmax) and vmax > 0):
+        raise SpecError("vmax", vmax, "a number > 0 (the fitness of the brightest colour)")
+    xr = x_range or (dx.low, dx.high)
+    yr = y_range or (dy.low, dy.high)
+    fit, _ = illumination_grid(points, xr, yr, bins)
+    fig = _figure(6.4, 5.0, dpi, constrained=False)
+    ax = fig.add_axes(MAP_AXES)
+    cax = fig.add_axes((MAP_AXES[0] + MAP_AXES[2] + 0.03, MAP_AXES[1], 0.035, MAP_AXES[3]))
+    xe = np.linspace(xr[0], xr[1], bins[0] + 1)
+    ye = np.linspace(yr[0], yr[1], bins[1] + 1)
+    mesh = ax.pcolormesh(xe, ye, np.ma.masked_invalid(fit), cmap=MAP_CMAP, norm=Normalize(0.0, vmax),
+                         edgecolors="none")
+    for v in xe:
+        ax.axvline(v, color="#dddddd", lw=0.5, zorder=0)
+    for v in ye:
+        ax.axhline(v, color="#dddddd", lw=0.5, zorder=0)
+    ax.set_xlim(*xr)
+    ax.set_ylim(*yr)
+    ax.set_facecolor("white")
+    ax.set_xlabel(dx.axis_label)
+    ax.set_ylabel(dy.axis_label)
+    filled = int(np.isfinite(fit).sum())
+    ax.set_title(title or f"Illumination map: {filled} of {fit.size} cells filled", fontsize=10, loc="left")
+    cb = fig.colorbar(mesh, cax=cax)
+    cb.set_label(f"best world's {fitness_label}")
+    return png_bytes(fig)
+
+
+# ---------------------------------------------------------------- (b) found against runs spent
+
+
+@dataclass(frozen=True)
+class Found:
+    """One evaluated candidate: ``runs`` spent so far when its evaluation ended, its world ``key``,
+    and whether it counts as found (revealing or failing; the driver decides, e.g. confirmed)."""
+
+    runs: int
+    key: str
+    found: bool
+
+
+def found_curve(evaluations: Iterable[Found | Mapping[str, Any]]) -> list[tuple[int, int]]:
+    """The step curve (runs spent, distinct worlds found so far), from (0, 0), one point per
+    evaluation in the order of runs spent (ties in the given order); a world found twice counts
+    once."""
+    evs = []
+    for e in evaluations:
+        f = e if isinstance(e, Found) else Found(int(_get(e, "runs")), str(_get(e, "key")), bool(_get(e, "found")))
+        if f.runs < 0:
+            raise SpecError("runs", f.runs, "an integer >= 0")
+        evs.append(f)
+    seen: set[str] = set()
+    out = [(0, 0)]
+    for f in sorted(evs, key=lambda f: f.runs):
+        if f.found:
+            seen.add(f.key)
+        out.append((f.runs, len(seen)))
+    return out
+
+
+def found_figure(methods: Mapping[str, Iterable[Found | Mapping[str, Any]]], *, what: str = "revealing worlds",
+                 budget: int | None = None, title: str | None = None, dpi: int = 90) -> bytes:
+    """Distinct worlds found against runs spent, one step line per method (e.g. ``search`` and
+    ``random``) on one axis; ``budget`` draws the run budget as a dashed line."""
+    fig = _figure(6.4, 4.0, dpi)
+    ax = fig.subplots()
+    top = 0
+    for i, (name, evs) in enumerate(methods.items()):
+        c = found_curve(evs)
+        xs, ys = [p[0] for p in c], [p[1] for p in c]
+        top = max(top, ys[-1])
+        col = METHOD_COLOURS.get(name, f"C{i}")
+        ax.step(xs, ys, where="post", color=col, lw=2.0, label=f"{name}: {ys[-1]} in {xs[-1]} runs")
+    if budget is not None:
+        ax.axvline(budget, color="#555555", ls="--", lw=0.8)
+    ax.set_xlabel("evaluations [runs spent]")
+    ax.set_ylabel(f"{what} found (distinct)")
+    ax.set_ylim(-0.05 * max(top, 1), max(top, 1) * 1.1 + 0.5)
+    ax.set_xlim(left=0)
+    ax.grid(True, alpha=0.3)
+    legend(ax, fontsize=8, loc="upper left")
+    ax.set_title(title or f"{what.capitalize()} found against runs spent", fontsize=10, loc="left")
+    return png_bytes(fig)
+
+
+# ---------------------------------------------------------------- (c) the best worlds and their runs
+
+
+@dataclass(frozen=True)
+class BestWorld:
+    """A world to draw (a directory or a loaded :class:`World`) with its runs' tracks and a title."""
+
+    world: World | str | Path
+    tracks: Sequence[RunTrack]
+    title: str = ""
+
+
+def tracks_of(records: Iterable[RunRecord], root: str | Path, *, max_points: int = 2000) -> list[RunTrack]:
+    """The tracks of ``records`` from their traces (a relative trace path is under ``root``, the
+    campaign directory), thinned to at most ``max_points`` points, with the place of the first
+    collision; a run without a readable trace is left out."""
+    out = []
+    for r in records:
+        if not r.trace:
+            continue
+        p = Path(r.trace)
+        try:
+            truth = read_poses(p if p.is_absolute() else Path(root) / p)
+        except NavstressError:
+            continue
+        if not len(truth):
+            continue
+        col = None
+        if r.first_collision_s is not None:
+            k = int(np.argmin(np.abs(truth[:, 0] - r.first_collision_s)))
+            col = (float(truth[k, 1]), float(truth[k, 2]))
+        if max_points > 0 and len(truth) > max_points:
+            idx = np.unique(np.append(np.linspace(0, len(truth) - 1, max_points).astype(int), len(truth) - 1))
+            truth = truth[idx]
+        out.append(RunTrack(f"r{r.run_index} {r.navigator} {r.fault or 'nominal'}", r.outcome, truth, None, col))
+    return out
+
+
+def best_worlds_figure(worlds: Sequence[BestWorld], *, columns: int = 3, dpi: int = 80) -> bytes:
+    """The best worlds side by side, each its height map (hillshaded terrain, obstacles, start and
+    goal) with its runs' trajectories coloured by outcome."""
+    if not worlds:
+        raise SpecError("worlds", [], "at least one world to draw")
+    if isinstance(columns, bool) or not isinstance(columns, int) or columns < 1:
+        raise SpecError("columns", columns, "an integer >= 1")
+    cols = min(columns, len(worlds))
+    rows = -(-len(worlds) // cols)
+    fig = _figure(4.4 * cols, 4.2 * rows, dpi)
+    axes = np.atleast_1d(fig.subplots(rows, cols, squeeze=False)).ravel()
+    for ax, bw in zip(axes, worlds):
+        w = bw.world if isinstance(bw.world, World) else World.load(bw.world)
+        draw_world(ax, w, legend=False)
+        draw_tracks(ax, list(bw.tracks))
+        if bw.tracks:
+            legend(ax, loc="upper left", fontsize=6, framealpha=0.85)
+        ax.set_title(bw.title, fontsize=8, loc="left")
+    for ax in axes[len(worlds):]:
+        ax.set_axis_off()
+    return png_bytes(fig)
