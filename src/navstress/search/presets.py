@@ -19,9 +19,8 @@ from navstress.search.spec import OBJECTIVES
 
 _HEAD = """\
 # navstress search spec ({what}).
-# Run it:    navstress search THIS_FILE -o DIR     (killed, the same command resumes it)
-# Then:      navstress report DIR -o report.html;  the suite found: DIR/suite/suite.yaml
-# Every field is explained in docs/search.md.
+# The command that runs it (navstress search THIS_FILE -o DIR) is being built: see the Status
+# paragraph of docs/search.md, which explains every field.
 name: {name}
 seed: 0                      # every map seed, run seed and algorithm draw derives from it
 
@@ -101,7 +100,7 @@ objective:
   name: illumination
   outcome: any
   descriptors:
-    - {name: obstruction_total_pct, low: 0, high: 35, cells: 7}
+    - {name: obstruction, low: 0, high: 35, cells: 7}
     - {name: ground.deformation, low: 0, high: 2, cells: 8}
 """,
 }

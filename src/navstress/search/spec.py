@@ -34,6 +34,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from navstress.campaign.spec import AdaptiveRuns, NavigatorSpec, repetition
 from navstress.errors import SpecError
+from navstress.search.objectives import DESCRIPTORS
 from navstress.specfile import parse_text, read_text
 from navstress.world.spec import BUILTIN_TYPES, ObstacleType, WorldSpec, _pydantic_to_spec_error, parse_spec
 
@@ -44,13 +45,9 @@ OBJECTIVES = ("failure", "fault-revealing", "boundary", "illumination")
 ALGORITHMS = ("random", "map-elites", "cma-me", "ga", "nsga2")
 #: The outcome classes the failure (and illumination) objective may count: any failure, or one class.
 OUTCOME_CLASSES = ("any", "collision", "timeout", "error")
-#: Scalar world descriptors (navstress.world.descriptors) a descriptor may name; a path of the
-#: space may be named too (the parameter's own value).
-WORLD_DESCRIPTORS = (
-    "obstruction_total_pct", "height_std_m", "height_max_m", "height_min_m",
-    "slope_mean_deg", "slope_p95_deg", "slope_max_deg", "roughness_m", "barn_dist_closest_m",
-    "barn_visibility_m", "barn_dispersion", "barn_characteristic_dim_m", "path_length_m", "path_ratio",
-)
+#: The descriptors a descriptor spec may name (the registry of navstress.search.objectives, with
+#: their units and ranges); a path of the space may be named too (the parameter's own value).
+WORLD_DESCRIPTORS = tuple(DESCRIPTORS)
 #: Options of each objective besides ``name``.
 OBJECTIVE_OPTIONS: dict[str, tuple[str, ...]] = {
     "failure": ("outcome",), "fault-revealing": ("fault",), "boundary": ("target",),
@@ -66,7 +63,7 @@ ALGORITHM_SETTINGS: dict[str, tuple[str, ...]] = {
 }
 #: The archive of MAP-Elites and CMA-ME when the objective names no descriptors.
 DEFAULT_DESCRIPTORS: tuple[dict[str, Any], ...] = (
-    {"name": "obstruction_total_pct", "low": 0.0, "high": 40.0, "cells": 10},
+    {"name": "obstruction", "low": 0.0, "high": 40.0, "cells": 10},
     {"name": "path_ratio", "low": 1.0, "high": 2.0, "cells": 10},
 )
 #: Most runs a search may be given.
@@ -537,7 +534,7 @@ def _check_objective(spec: SearchSpec, paths: set[str]) -> None:
     if obj.name == "illumination":
         if obj.descriptors is None:
             raise SpecError("objective.descriptors", None, "two descriptors, each {name, low, high, cells}",
-                            "e.g. obstruction_total_pct and path_ratio")
+                            "e.g. obstruction and path_ratio")
         _check_descriptors("objective.descriptors", obj.descriptors, paths)
 
 

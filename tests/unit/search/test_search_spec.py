@@ -105,19 +105,19 @@ BAD: list[tuple[str, Callable[[dict[str, Any]], None], str]] = [
     ("illumination without descriptors", lambda d: d.update(objective={"name": "illumination"}),
      "objective.descriptors"),
     ("illumination with one descriptor", lambda d: d.update(objective={"name": "illumination", "descriptors": [
-        {"name": "roughness_m", "low": 0, "high": 1}]}), "objective.descriptors"),
+        {"name": "roughness", "low": 0, "high": 1}]}), "objective.descriptors"),
     ("illumination with an unknown descriptor", lambda d: d.update(objective={"name": "illumination", "descriptors": [
-        {"name": "roughness_m", "low": 0, "high": 1}, {"name": "rugosity", "low": 0, "high": 1}]}),
+        {"name": "roughness", "low": 0, "high": 1}, {"name": "rugosity", "low": 0, "high": 1}]}),
      "objective.descriptors[1].name"),
     ("illumination with a descriptor twice", lambda d: d.update(objective={"name": "illumination", "descriptors": [
-        {"name": "roughness_m", "low": 0, "high": 1}, {"name": "roughness_m", "low": 0, "high": 2}]}),
+        {"name": "roughness", "low": 0, "high": 1}, {"name": "roughness", "low": 0, "high": 2}]}),
      "objective.descriptors"),
     ("illumination with an empty descriptor range", lambda d: d.update(objective={
-        "name": "illumination", "descriptors": [{"name": "roughness_m", "low": 1, "high": 1},
+        "name": "illumination", "descriptors": [{"name": "roughness", "low": 1, "high": 1},
                                                 {"name": "path_ratio", "low": 1, "high": 2}]}),
      "objective.descriptors[0]"),
     ("illumination with zero cells", lambda d: d.update(objective={"name": "illumination", "descriptors": [
-        {"name": "roughness_m", "low": 0, "high": 1, "cells": 0}, {"name": "path_ratio", "low": 1, "high": 2}]}),
+        {"name": "roughness", "low": 0, "high": 1, "cells": 0}, {"name": "path_ratio", "low": 1, "high": 2}]}),
      "objective.descriptors[0].cells"),
     ("descriptors in both places", lambda d: d.update(
         objective={"name": "illumination", "descriptors": [dict(x) for x in DEFAULT_DESCRIPTORS]},
@@ -185,7 +185,7 @@ def test_every_objective_with_every_algorithm(objective: str, algorithm: str) ->
     if objective == "fault-revealing":
         obj["fault"] = "small-footprint"
     if objective == "illumination":
-        obj["descriptors"] = [{"name": "roughness_m", "low": 0, "high": 0.5, "cells": 5},
+        obj["descriptors"] = [{"name": "roughness", "low": 0, "high": 0.5, "cells": 5},
                               {"name": "obstacles.obstruction.tree", "low": 0, "high": 20, "cells": 4}]
     spec = parse_search({**BASE, "objective": obj, "algorithm": {"name": algorithm, "batch": 8},
                          "budget": {"runs": 1000}})
