@@ -16,6 +16,7 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "unit" / "analysis"))
 from analysis_synth import line, make_store, record, save_flat_worlds, write_trace  # noqa: E402
 
+from navstress._percent import percent  # noqa: E402
 from navstress.analysis.report import build_report  # noqa: E402
 from navstress.analysis.stats import wilson  # noqa: E402
 from navstress.campaign.store import Store  # noqa: E402
@@ -87,8 +88,11 @@ def test_report_renders_in_chromium(page, tmp_path: Path) -> None:  # type: igno
         ok = sum(r.outcome == "success" for r in mine)
         row = page.locator(f"#difficulty-table tr[data-config='{key}'][data-fault='nominal']")
         assert row.locator("td[data-field='runs']").inner_text() == f"{len(mine)}/4"
-        assert row.locator("td[data-field='success-rate']").inner_text() == f"{100 * ok / len(mine):.1f}"
-        assert row.locator("td[data-field='ci-low']").inner_text() == f"{100 * wilson(ok, len(mine))[0]:.1f}"
+        # the cells read as every rate a person reads (navstress._percent); the data-value holds the number
+        assert row.locator("td[data-field='success-rate']").inner_text() == percent(ok / len(mine))
+        assert row.locator("td[data-field='ci-low']").inner_text() == percent(wilson(ok, len(mine))[0])
+        assert float(row.locator("td[data-field='success-rate']").get_attribute("data-value") or "nan") == \
+            pytest.approx(ok / len(mine))
     assert page.locator("#difficulty-table tr[data-config='tree=0'][data-fault='nominal'] "
                         "td[data-field='level']").inner_text() == "easy"
     # the per-configuration sections link from the table and hold map pictures

@@ -5,18 +5,16 @@ their world and a navigator's perceived map. Runs are drawn with :mod:`navstress
 
 from __future__ import annotations
 
-import io
 from typing import Any
 
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.collections import PolyCollection
 from matplotlib.colors import ListedColormap
-from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 
 from navstress._percent import percent
-from navstress.run.figures import RunTrack, draw_tracks, legend
+from navstress.run.figures import RunTrack, draw_tracks, legend, png_bytes
+from navstress.run.figures import new_figure as _figure
 from navstress.world.export.images import draw_world
 from navstress.world.world import World
 
@@ -29,18 +27,6 @@ LEVEL_STYLE: dict[str, tuple[str, str]] = {  # level -> (marker, colour)
     "no data": ("o", "#bbbbbb"),
 }
 
-
-def _figure(w: float, h: float, dpi: int) -> Any:
-    fig = Figure(figsize=(w, h), dpi=dpi, layout="constrained")
-    FigureCanvasAgg(fig)
-    return fig
-
-
-def png_bytes(fig: Any) -> bytes:
-    """Render a matplotlib Figure to PNG bytes."""
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png")
-    return buf.getvalue()
 
 
 def _xs(values: list[Any]) -> tuple[list[float], list[str] | None]:

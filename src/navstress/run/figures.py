@@ -10,6 +10,7 @@ pyplot, no global backend set).
 
 from __future__ import annotations
 
+import io
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -98,3 +99,17 @@ def save_png(fig: Figure, path: str | Path) -> Path:
     fig.savefig(tmp, format="png")
     tmp.replace(out)
     return out
+
+
+def new_figure(w: float, h: float, dpi: int, *, constrained: bool = True) -> Any:
+    """A matplotlib Figure on the Agg canvas (no global pyplot state), ``w`` x ``h`` inches."""
+    fig = Figure(figsize=(w, h), dpi=dpi, layout="constrained" if constrained else None)
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def png_bytes(fig: Any) -> bytes:
+    """Render a matplotlib Figure to PNG bytes."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    return buf.getvalue()

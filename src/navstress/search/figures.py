@@ -18,7 +18,6 @@ with :mod:`navstress.run.figures` (its outcome colours everywhere in navstress) 
 
 from __future__ import annotations
 
-import io
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
@@ -26,12 +25,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.colors import Normalize
-from matplotlib.figure import Figure
 
 from navstress.errors import NavstressError, SpecError
-from navstress.run.figures import RunTrack, draw_tracks, legend
+from navstress.run.figures import RunTrack, draw_tracks, legend, png_bytes
+from navstress.run.figures import new_figure as _figure
 from navstress.run.record import RunRecord
 from navstress.run.trace import read_poses
 from navstress.search.objectives import get_descriptor
@@ -45,18 +43,6 @@ MAP_CMAP = "plasma"
 #: Line colours of the methods in :func:`found_figure` (others get matplotlib's cycle).
 METHOD_COLOURS = {"search": "#d7191c", "random": "#2b83ba"}
 
-
-def _figure(w: float, h: float, dpi: int, *, constrained: bool = True) -> Any:
-    fig = Figure(figsize=(w, h), dpi=dpi, layout="constrained" if constrained else None)
-    FigureCanvasAgg(fig)
-    return fig
-
-
-def png_bytes(fig: Any) -> bytes:
-    """Render a matplotlib Figure to PNG bytes."""
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png")
-    return buf.getvalue()
 
 
 def _get(obj: Any, name: str) -> Any:

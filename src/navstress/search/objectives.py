@@ -48,7 +48,7 @@ a-priori descriptors (:mod:`navstress.world.descriptors`) or from its spec.
 from __future__ import annotations
 
 import difflib
-import json
+from navstress import _json
 import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -248,7 +248,7 @@ def world_key(r: RunRecord) -> str:
     parts = r.run_id.split("/")
     if len(parts) >= 6 and parts[0] == r.experiment:
         return "/".join(parts[1:-4])
-    return json.dumps(r.config, sort_keys=True)
+    return _json.dumps(r.config, sort_keys=True)
 
 
 def by_world(records: Iterable[RunRecord]) -> dict[tuple[str, str, int], list[RunRecord]]:
@@ -272,7 +272,7 @@ def pair_key(r: RunRecord) -> tuple[Any, ...]:
     parts = r.run_id.split("/")
     if len(parts) >= 6 and parts[0] == r.experiment:
         return ("id", "/".join(parts[:-1]))
-    return ("fields", r.navigator, r.experiment, json.dumps(r.config, sort_keys=True), r.map_index, r.map_seed,
+    return ("fields", r.navigator, r.experiment, _json.dumps(r.config, sort_keys=True), r.map_index, r.map_seed,
             r.run_index)
 
 
