@@ -102,7 +102,9 @@ class ParameterSpec(BaseModel):
         if self.path == SIZE_PATH:
             k_lo, k_hi = math.ceil(self.low / cell_m - 1e-9), math.floor(self.high / cell_m + 1e-9)
             k = min(max(round((self.low + u * width) / cell_m), k_lo), k_hi)
-            return round(k * cell_m, 10)
+            # the tolerance above may take a multiple a rounding error below low (or above high):
+            # the range's own end is then the grid point, up to that error
+            return min(max(round(k * cell_m, 10), self.low), self.high)
         digits = 6 - math.floor(math.log10(width))
         v = round(self.low + u * width, digits)
         return min(max(v, self.low), self.high)

@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 
 from navstress.campaign.spec import _NAME
 from navstress.search.space import MAP_SEED_PATH, Candidate, Space, candidate_key
-from navstress.search.spec import SearchSpec, parse_search
+from navstress.search.spec import ParameterSpec, SearchSpec, parse_search
 from navstress.seeding import derive_seed
 from navstress.world.spec import parse_spec
 
@@ -154,3 +154,15 @@ def test_the_key_depends_on_values_and_map_seed_only() -> None:
     assert candidate_key({"a": 1.0}, 3) == candidate_key({"a": 1.0}, 3)
     assert candidate_key({"a": 1.0}, 3) != candidate_key({"a": 1.0}, 4)
     assert candidate_key({"a": 1.0}, 3) != candidate_key({"a": 1.5}, 3)
+
+
+@pytest.mark.parametrize("low,high,cell", [(20.000000000000004, 21.0, 0.5), (20.0, 20.999999999999996, 0.5),
+                                           (10.1, 12.0, 0.4), (30.0, 30.0000000001, 0.5)])
+def test_size_snaps_to_the_grid_inside_its_range(low: float, high: float, cell: float) -> None:
+    """A bound a rounding error off the grid (found by the property test above on a fresh run):
+    the snapped side never leaves [low, high], and makes a valid world, at both ends and between."""
+    p = ParameterSpec(path="size_m", low=low, high=high, kind="float")
+    for u in (0.0, 0.25, 0.5, 1.0):
+        v = p.value(u, cell)
+        assert low <= v <= high, (u, v)
+        parse_spec({"size_m": [v, v], "cell_m": cell})
