@@ -56,6 +56,14 @@ from navstress.world.spec import WorldSpec, _pydantic_to_spec_error, parse_spec
 
 _STRICT = ConfigDict(frozen=True, extra="forbid")
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
+
+
+def check_name(v: str) -> str:
+    """``v`` when it is a name of letters, digits, '_', '.', '-' (a campaign's or a search's),
+    else ValueError (pydantic turns it into the field's SpecError)."""
+    if not _NAME.match(v):
+        raise ValueError("a name of letters, digits, '_', '.', '-'")
+    return v
 #: Most values a single experiment may expand to (guards against a typo'd step of 1e-9).
 MAX_CONFIGS_PER_EXPERIMENT = 10_000
 #: Most runs a campaign may plan unless the user accepts more (``campaign run --yes``).
@@ -301,9 +309,7 @@ class CampaignSpec(BaseModel):
     @field_validator("name")
     @classmethod
     def _name(cls, v: str) -> str:
-        if not _NAME.match(v):
-            raise ValueError("a name of letters, digits, '_', '.', '-'")
-        return v
+        return check_name(v)
 
     @field_validator("runs_per_map", mode="before")
     @classmethod

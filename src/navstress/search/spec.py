@@ -32,7 +32,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from navstress.campaign.spec import AdaptiveRuns, NavigatorSpec, repetition
+from navstress.campaign.spec import AdaptiveRuns, NavigatorSpec, check_name, repetition
 from navstress.errors import SpecError
 from navstress.search.objectives import DESCRIPTORS
 from navstress.specfile import parse_text, read_text
@@ -217,9 +217,7 @@ class SearchSpec(BaseModel):
     @field_validator("name")
     @classmethod
     def _name(cls, v: str) -> str:
-        if not _NAME.match(v):
-            raise ValueError("a name of letters, digits, '_', '.', '-'")
-        return v
+        return check_name(v)
 
     @field_validator("runs_per_candidate", mode="before")
     @classmethod
