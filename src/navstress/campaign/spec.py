@@ -271,10 +271,10 @@ class ExperimentSpec(BaseModel):
     def configurations(self, base: dict[str, Any]) -> list["Configuration"]:
         """Every point of the sweep (cartesian product, in sweep order), or every explicit world
         (in list order, with its map seed), with its WorldSpec."""
-        merged = _deep_merge(base, self.overrides)
+        merged = deep_merge(base, self.overrides)
         if self.worlds is not None:
             return [Configuration(experiment=self.name, key=w.key, values=flatten(w.world),
-                                  world=_deep_merge(merged, w.world), map_seed=w.map_seed) for w in self.worlds]
+                                  world=deep_merge(merged, w.world), map_seed=w.map_seed) for w in self.worlds]
         paths = list(self.sweep)
         short = _short_names(paths)
         grids = [self.sweep[p].expand() for p in paths]
@@ -450,7 +450,7 @@ def parse_campaign(data: Any, *, max_runs: int | None = MAX_PLANNED_RUNS) -> Cam
             except ValueError as e:
                 raise SpecError(f"{where}.sweep.{path}", rng.model_dump(exclude_none=True), str(e)) from None
         try:
-            parse_spec(_deep_merge(base_data, exp.overrides))
+            parse_spec(deep_merge(base_data, exp.overrides))
         except SpecError as err:
             raise SpecError(f"{where}.overrides.{err.field}", err.value, err.expected, err.fix) from None
         for j, cfg in enumerate(exp.configurations(base_data)):
@@ -540,11 +540,12 @@ def _fmt(v: Any) -> str:
     return str(v)
 
 
-def _deep_merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
+def deep_merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
+    """``over`` deep-merged onto a copy of ``base`` (mappings merged key by key, the rest replaced)."""
     out = copy.deepcopy(base)
     for k, v in over.items():
         if isinstance(v, dict) and isinstance(out.get(k), dict):
-            out[k] = _deep_merge(out[k], v)
+            out[k] = deep_merge(out[k], v)
         else:
             out[k] = copy.deepcopy(v)
     return out

@@ -36,7 +36,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from navstress.seeding import derive_seed
-from navstress.search.spec import ParameterSpec, SearchSpec, base_cell_m, merge_world, world_overrides
+from navstress.campaign.spec import deep_merge
+from navstress.search.spec import ParameterSpec, SearchSpec, base_cell_m, world_overrides
 
 #: The seed path of the map seeds of a search (under the search's seed).
 MAP_SEED_PATH = "search-map"
@@ -102,7 +103,7 @@ class Space:
 
     def world(self, candidate: Candidate) -> dict[str, Any]:
         """The candidate's whole WorldSpec mapping (its overrides on the base world)."""
-        return merge_world(self.base, candidate.world_overrides)
+        return deep_merge(self.base, candidate.world_overrides)
 
 
 def candidate_key(params: dict[str, float | int], map_seed: int) -> str:

@@ -32,7 +32,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from navstress.campaign.spec import AdaptiveRuns, NavigatorSpec, check_name, repetition
+from navstress.campaign.spec import AdaptiveRuns, NavigatorSpec, check_name, deep_merge, repetition
 from navstress.errors import SpecError
 from navstress.search.objectives import DESCRIPTORS
 from navstress.specfile import parse_text, read_text
@@ -280,17 +280,6 @@ def world_overrides(values: dict[str, float | int], base: dict[str, Any]) -> dic
     return out
 
 
-def merge_world(base: dict[str, Any], overrides: dict[str, Any]) -> dict[str, Any]:
-    """``overrides`` deep-merged onto a copy of ``base`` (mappings merged key by key)."""
-    out = copy.deepcopy(base)
-    for k, v in overrides.items():
-        if isinstance(v, dict) and isinstance(out.get(k), dict):
-            out[k] = merge_world(out[k], v)
-        else:
-            out[k] = copy.deepcopy(v)
-    return out
-
-
 def base_cell_m(world: dict[str, Any]) -> float:
     """The terrain cell of the base world (WorldSpec's default when not set)."""
     return float(world.get("cell_m", WorldSpec.model_fields["cell_m"].default))
@@ -396,7 +385,7 @@ def _check_corners(spec: SearchSpec) -> None:
     for corner in _corners(params):
         values = {p.path: p.value(u, cell) for p, u in zip(params, corner)}
         try:
-            parse_spec(merge_world(spec.world, world_overrides(values, spec.world)))
+            parse_spec(deep_merge(spec.world, world_overrides(values, spec.world)))
         except SpecError as err:
             shown = ", ".join(f"{k}={v:g}" for k, v in values.items())
             raise SpecError("space", shown, f"ranges whose extreme values make valid worlds (here "
