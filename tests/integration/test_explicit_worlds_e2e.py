@@ -16,10 +16,9 @@ import pyarrow.parquet as pq
 import pytest
 import yaml
 from junitparser import JUnitXml
-from typer.testing import CliRunner
 
 from navstress.campaign.store import Store
-from navstress.cli import app
+from cli_run import cli as _cli
 
 pytestmark = pytest.mark.slow
 
@@ -32,13 +31,6 @@ SPEC: dict[str, Any] = {
     "maps_per_config": 1, "runs_per_map": 2, "navigators": [{"name": "reference-v1"}],
     "faults": [None, "small-footprint"], "timeout_s": 20.0}
 RUNS = 4 * 2 * 2  # (2 swept + 2 explicit configurations) x 2 runs x 2 faults
-
-
-def _cli(*argv: str) -> tuple[int, str, str]:
-    r = CliRunner().invoke(app, list(argv))
-    if r.exception is not None and not isinstance(r.exception, SystemExit):
-        raise AssertionError(f"{argv} raised {r.exception!r}") from r.exception
-    return r.exit_code, r.stdout, r.stderr
 
 
 @pytest.fixture(scope="module")

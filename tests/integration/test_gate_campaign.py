@@ -13,15 +13,14 @@ from typing import Any
 import pytest
 import yaml
 from junitparser import Failure, JUnitXml
-from typer.testing import CliRunner
 
 HELPERS = str(Path(__file__).resolve().parents[1] / "unit" / "campaign")
 if HELPERS not in sys.path:
     sys.path.insert(0, HELPERS)
 
 from navstress.campaign.store import Store  # noqa: E402
-from navstress.cli import app  # noqa: E402
 from navstress.run.record import RunRecord  # noqa: E402
+from cli_run import cli as _cli  # noqa: E402
 
 pytestmark = pytest.mark.slow
 
@@ -32,13 +31,6 @@ SPEC: dict[str, Any] = {
     "navigators": [{"name": "reference-v1"},
                    {"name": "raises-v1", "target": "campaign_navs:Raises", "config": {"after_s": 0.5}}],
     "timeout_s": 60.0, "goal_tolerance_m": 2.0}
-
-
-def _cli(*argv: str) -> tuple[int, str, str]:
-    r = CliRunner().invoke(app, list(argv))
-    if r.exception is not None and not isinstance(r.exception, SystemExit):
-        raise AssertionError(f"{argv} raised {r.exception!r}") from r.exception
-    return r.exit_code, r.stdout, r.stderr
 
 
 @pytest.fixture(scope="module")

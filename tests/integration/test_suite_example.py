@@ -9,21 +9,13 @@ from pathlib import Path
 
 import pytest
 import yaml
-from typer.testing import CliRunner
 
 from navstress.campaign.spec import load_campaign
 from navstress.campaign.store import Store
-from navstress.cli import app
+from cli_run import cli as _cli
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "suite.yaml"
 KEYS = ("open", "wooded", "rough")
-
-
-def _cli(*argv: str) -> tuple[int, str, str]:
-    r = CliRunner().invoke(app, list(argv))
-    if r.exception is not None and not isinstance(r.exception, SystemExit):
-        raise AssertionError(f"{argv} raised {r.exception!r}") from r.exception
-    return r.exit_code, r.stdout, r.stderr
 
 
 def test_the_example_suite_is_a_valid_campaign_spec() -> None:
