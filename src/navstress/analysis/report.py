@@ -269,16 +269,16 @@ def _verdicts(a: Analysis, max_worlds: int = 2000) -> str:
     v = a.verdicts
     r = v.rule
     conf = setting(r.confidence)
+    minus, plus = (" minus the indifference", " plus the indifference") if r.indifference else ("", "")
     out = ['<h2 id="verdicts">Verdicts per world and per configuration</h2>',
            f'<p class="note" id="verdict-rule" data-threshold="{r.threshold!r}" data-confidence="{r.confidence!r}">'
            f'A world is one map run by one navigator with one fault; a configuration pools its maps. Pass probability: '
            f'successes / runs with its exact (Clopper-Pearson) {conf} interval. Verdict ({_e(r.source)}, threshold '
            f'{setting(r.threshold)}, confidence {conf}{_zone(r.indifference)}), proven by an anytime-valid confidence '
            'sequence, so it holds however many runs were made: <i>passes</i> (pass probability at least the threshold'
-           '{minus}), <i>fails</i> (below it{plus}), <i>flaky</i> (both outcomes likely: proven between '
+           f'{minus}), <i>fails</i> (below it{plus}), <i>flaky</i> (both outcomes likely: proven between '
            f'{setting(FLAKY_BAND[0])} and {setting(FLAKY_BAND[1])}) or <i>undecided</i> (more runs needed). '
-           'See docs/statistics.md.</p>'.replace("{minus}", " minus the indifference" if r.indifference else "")
-           .replace("{plus}", " plus the indifference" if r.indifference else "")]
+           'See docs/statistics.md.</p>']
     own = [(e, x) for e, x in v.rules.items() if x != r]
     if own:
         out.append('<p class="note" id="verdict-rules">Experiments with their own adaptive rule: ' + "; ".join(
