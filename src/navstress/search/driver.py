@@ -27,7 +27,8 @@ from navstress.errors import StoreError
 from navstress.run.batch import default_wall_limit_s
 from navstress.run.record import RunRecord
 from navstress.search.algorithms import make_algorithm
-from navstress.search.objectives import by_world, descriptor_values, evaluate, world_feasible
+from navstress import _files, _json
+from navstress.search.objectives import Confirmation, by_world, confirm, descriptor_values, evaluate, world_feasible
 from navstress.search.space import Candidate, Space
 from navstress.search.spec import SearchSpec, load_search, with_budget
 
@@ -55,6 +56,22 @@ class SearchResult:
     generations: int
     runs: int
     evaluated: list[Evaluated] = field(default_factory=list)
+    elites: list[tuple[Candidate, float, Confirmation]] = field(default_factory=list)
+
+    def to_json(self) -> dict[str, Any]:
+        return {"generations": self.generations, "runs": self.runs,
+                "evaluated": [{"generation": e.generation, "key": e.candidate.key, "map_seed": e.candidate.map_seed,
+                               "params": e.candidate.params, "fitness": e.fitness,
+                               "descriptors": list(e.descriptors), "runs": e.runs} for e in self.evaluated],
+                "elites": [{"key": c.key, "map_seed": c.map_seed, "params": c.params, "world": c.world_overrides,
+                            "fitness": f, "confirmed": k.confirmed, "confirmation": k.kind, "reason": k.reason,
+                            "events": k.events, "trials": k.trials, "interval": list(k.interval)}
+                           for c, f, k in self.elites]}
+
+
+#: the confirmation each objective asks of its elites
+CONFIRM_KIND = {"failure": "failing", "illumination": "failing", "fault-revealing": "revealing",
+                "boundary": "boundary"}
 
 
 def _entry(c: Candidate) -> dict[str, Any]:
@@ -98,10 +115,16 @@ def run_search(spec_path: str | Path, directory: str | Path, *, budget: int | No
     algo = make_algorithm(spec, space)
     root = Path(directory)
     stored: list[dict[str, Any]] = []
+    finished = False  # the elites' confirmation is stored: the search ran to its end
+    stored_confirm: list[dict[str, Any]] = []
     if (root / DB_NAME).exists():
         with Store.open(root) as s:
             stored = [{"name": e.name, "worlds": [w.model_dump(mode="json") for w in e.worlds or []]}
                       for e in s.spec.experiments if e.name != CONFIRM]
+            confirmed = [e for e in s.spec.experiments if e.name == CONFIRM]
+            finished = bool(confirmed)
+            stored_confirm = [{"name": CONFIRM, "worlds": [w.model_dump(mode="json") for w in e.worlds or []],
+                               "runs_per_map": e.runs_per_map} for e in confirmed]
     limit = wall_limit_s if wall_limit_s is not None else default_wall_limit_s(spec.timeout_s)
     ex = LocalExecutor(workers, {})
     experiments: list[dict[str, Any]] = []
@@ -111,7 +134,7 @@ def run_search(spec_path: str | Path, directory: str | Path, *, budget: int | No
     per_candidate = _max_runs(spec) * len(spec.faults)
     try:
         if stored:  # resume: the store as it is (the same search spec gives the same campaign text)
-            store = Store.create(root, *_campaign(spec, stored))
+            store = Store.create(root, *_campaign(spec, stored + stored_confirm))
         g = 0
         while True:
             X = algo.ask()
@@ -123,7 +146,7 @@ def run_search(spec_path: str | Path, directory: str | Path, *, budget: int | No
                 if [w["key"] for w in stored[g].get("worlds", [])] != list(uniq):
                     raise StoreError(f"search={str(root)!r}: generation {g} differs from the stored one (another "
                                      "spec, seed or navstress version); resume with the same, or choose a new -o")
-            elif result.runs + len(uniq) * per_candidate > spec.budget.runs:
+            elif finished or result.runs + len(uniq) * per_candidate > spec.budget.runs:
                 break
             experiments.append(exp)
             cspec, text = _campaign(spec, experiments)
@@ -151,7 +174,25 @@ def run_search(spec_path: str | Path, directory: str | Path, *, budget: int | No
                 break
             if spec.budget.wall_s is not None and time.monotonic() - t0 >= spec.budget.wall_s:
                 break
-        # TODO(next): confirmation experiment of the elites (fresh seeds), search.json, suite/.
+        # the elites, re-run with fresh run seeds (another experiment name) before they are reported
+        assert store is not None
+        elites: dict[str, tuple[Candidate, float]] = {}
+        for el in algo.elites():
+            c = space.decode(np.asarray(el.x))
+            elites.setdefault(c.key, (c, el.fitness))
+        conf = {"name": CONFIRM, "worlds": [_entry(c) for c, _ in elites.values()], "runs_per_map": spec.confirm_runs}
+        if CONFIRM not in {e.name for e in store.spec.experiments}:
+            cspec, text = _campaign(spec, [*experiments, conf])
+            store.extend(cspec, text)
+        resume(store, ex, wall_limit_s=limit)
+        groups = by_world(r for r in store.records() if r.experiment == CONFIRM)
+        obj = spec.objective
+        for key, (c, f) in elites.items():
+            rs = groups.get((CONFIRM, key, 0), [])
+            k = confirm(rs, CONFIRM_KIND[obj.name], fault=obj.fault if obj.name == "fault-revealing" else None,
+                        failure_class=obj.outcome, target=obj.target)
+            result.elites.append((c, f, k))
+        _files.write_atomic(root / "search.json", _json.dumps(result.to_json(), indent=1, sort_keys=True))
     finally:
         if store is not None:
             store.close()
