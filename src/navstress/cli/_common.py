@@ -7,12 +7,13 @@ from pathlib import Path
 from typing import Any
 
 from navstress import _files
+from navstress.campaign.spec import MAX_WORKERS
 from navstress._flags import bounded_int, integer, number
 from navstress.errors import SpecError, WorldFileError
 from navstress.nav.registry import load_config
 from navstress.world.world import is_world_dir
 
-__all__ = ["MAX_RUNS", "MAX_SEED", "MAX_TIMEOUT_S", "MAX_WALL_S", "NAV_CONFIG_HELP", "bounded_int",
+__all__ = ["MAX_RUNS", "MAX_SEED", "MAX_TIMEOUT_S", "MAX_WALL_S", "MAX_WORKERS", "Stopped", "NAV_CONFIG_HELP", "bounded_int",
            "check_file_out", "check_out_dir", "integer", "load_navigator_config", "number", "probe_writable"]
 
 #: Largest seed a flag takes (seeds are stored as signed 64-bit integers).
@@ -51,3 +52,12 @@ def probe_writable(dest: Path) -> None:
     """Fail now (OSError naming ``dest``) if a file cannot be created where ``dest`` will be
     written, before long work whose result would be lost; leaves nothing behind."""
     _files.probe_writable(dest)
+
+
+class Stopped(BaseException):
+    """SIGTERM received by a long command (``campaign run``, ``search``): a BaseException, like
+    KeyboardInterrupt, so that no ``except Exception`` on the way swallows it."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(f"signal {signum}")
+        self.signum = signum

@@ -32,7 +32,7 @@ from navstress.campaign.progress import CampaignProgress, format_counts
 from navstress.campaign.replay import replay as do_replay
 from navstress.campaign.spec import MAX_WORKERS
 from navstress.campaign.store import OUTCOMES, Store
-from navstress.cli._common import bounded_int
+from navstress.cli._common import Stopped, bounded_int
 from navstress.errors import SpecError, WorldFileError
 
 app = typer.Typer(rich_markup_mode=None)
@@ -86,7 +86,7 @@ def run(
     resume = f"navstress campaign run {_quote(spec)} -o {_quote(out)}" + (" --yes" if yes else "")
 
     def on_term(signum: int, frame: object) -> None:
-        raise _Stopped(signum)
+        raise Stopped(signum)
 
     old = signal.signal(signal.SIGTERM, on_term)
     try:
@@ -94,8 +94,8 @@ def run(
             res = run_campaign(spec, out, workers=workers, executor=executor,  # type: ignore[arg-type]
                                ray_address=ray_address, wall_limit_s=wall_limit, on_start=bar.on_start,
                                on_record=bar.on_record, accept_large=yes, on_planned=bar.on_planned)
-    except (KeyboardInterrupt, _Stopped) as err:
-        signum = err.signum if isinstance(err, _Stopped) else signal.SIGINT
+    except (KeyboardInterrupt, Stopped) as err:
+        signum = err.signum if isinstance(err, Stopped) else signal.SIGINT
         signal.signal(signal.SIGTERM, signal.SIG_IGN)  # a second SIGTERM must not cut the message
         typer.echo(literal(f"stopped by {signal.Signals(signum).name}; nothing recorded is lost; resume with: {resume}"),
                    err=True)
@@ -110,15 +110,6 @@ def run(
         typer.echo(literal(f"{len(res.unfinished)} run(s) not recorded: navstress itself failed on each attempt "
                    f"(e.g. {first}: {why}); fix the cause and resume with: {resume}"), err=True)
         raise typer.Exit(1)
-
-
-class _Stopped(BaseException):
-    """SIGTERM received by ``campaign run`` (a BaseException, like KeyboardInterrupt, so that no
-    ``except Exception`` on the way swallows it)."""
-
-    def __init__(self, signum: int) -> None:
-        super().__init__(f"signal {signum}")
-        self.signum = signum
 
 
 def _quote(p: Path) -> str:

@@ -1,77 +1,185 @@
-"""The generation loop of a search (DRAFT: not wired to the CLI, not tested yet).
+"""The generation loop of a search: ``navstress search SPEC -o DIR`` (docs/search.md, "Running").
 
-A search directory is a campaign directory: generation ``g`` is the experiment ``gNNNN`` of
+A search directory is a campaign directory. Generation ``g`` is the experiment ``gNNNN`` of
 explicit worlds (one entry per distinct candidate of the generation), appended to the campaign
 spec with :meth:`Store.extend`; the elites' confirmation is the experiment ``confirm`` (fresh run
-seeds: another experiment name). A generation is a barrier: all its runs are recorded before the
-algorithm is told, so the asks depend on the seed and the outcomes only, never on workers or
-interruptions. Resume is replay: generation ``g`` is asked again, checked against the stored
-experiment, its runs completed by :func:`resume`, its records told.
+seeds: run seeds derive from the experiment's name). So every evaluated world and every run is in
+the store, and ``campaign status``, ``analyze``, ``replay`` and ``export`` read a search as they
+read any campaign.
+
+Determinism. A generation is a barrier: all its runs are recorded before the algorithm is told,
+and the algorithm's draws derive from the search's seed alone. So the points it asks depend on the
+seed and the recorded outcomes only, never on the number of workers, the executor or the order in
+which runs finish; and every run's outcome depends on its world and run seed only (docs/design.md).
+
+Resume is replay: each stored generation is asked again, checked against the stored experiment
+(a different spec, seed or navstress version gives other points: refused), its missing runs are
+run by the campaign scheduler (:func:`navstress.campaign.scheduler.resume`), its records told. A
+search killed at any moment therefore resumes with no evaluation lost or doubled, and ends with
+the same result as one never interrupted.
 """
 
 from __future__ import annotations
 
+import json
+import os
+import re
+import shutil
 import time
+from collections.abc import Callable
+from contextlib import ExitStack
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import yaml
 
+from navstress import _files, _json
+from navstress.campaign.executors import check_runnable
 from navstress.campaign.local import LocalExecutor
-from navstress.campaign.scheduler import resume
-from navstress.campaign.spec import CampaignSpec, parse_campaign
+from navstress.campaign.ray_executor import RayExecutor
+from navstress.campaign.scheduler import RecordCallback, resume
+from navstress.campaign.spec import AdaptiveRuns, CampaignSpec, parse_campaign
 from navstress.campaign.store import DB_NAME, Store
-from navstress.errors import StoreError
+from navstress.errors import SpecError, StoreError
 from navstress.run.batch import default_wall_limit_s
 from navstress.run.record import RunRecord
 from navstress.search.algorithms import make_algorithm
-from navstress import _files, _json
-from navstress.search.objectives import Confirmation, by_world, confirm, descriptor_values, evaluate, world_feasible
+from navstress.search.objectives import (Confirmation, by_world, confirm, descriptor_values, evaluate,
+                                         get_descriptor, world_feasible)
 from navstress.search.space import Candidate, Space
 from navstress.search.spec import SearchSpec, load_search, with_budget
 
+#: The experiment of the elites' confirmation runs.
 CONFIRM = "confirm"
+#: The search's result, in its directory.
+RESULT_NAME = "search.json"
+#: The search spec as run (budget override included), in its directory.
+SEARCH_SPEC_NAME = "search.yaml"
+#: The suite of confirmed worlds, in its directory.
+SUITE_DIR = "suite"
+FORMAT = "navstress-search/1"
+_GENERATION = re.compile(r"^g\d{4,}$")
+
+#: The confirmation each objective asks of its elites (objectives.confirm's kinds).
+CONFIRM_KIND = {"failure": "failing", "illumination": "failing", "fault-revealing": "revealing",
+                "boundary": "boundary"}
+#: What a found world is called, per objective (progress lines, the report).
+FOUND_WHAT = {"failure": "failing worlds", "illumination": "failing worlds",
+              "fault-revealing": "revealing worlds", "boundary": "boundary worlds"}
 
 
 def generation_name(g: int) -> str:
     return f"g{g:04d}"
 
 
-@dataclass
+@dataclass(frozen=True)
 class Evaluated:
-    """One candidate of one generation: its world, fitness, descriptors and run count."""
+    """One candidate of one generation: its world, fitness, descriptors, runs, and whether its
+    runs showed what the objective looks for (``found``; before any confirmation)."""
 
     generation: int
     candidate: Candidate
     fitness: float
+    estimate: float | None
+    events: int
+    trials: int
     descriptors: tuple[float, ...]
     runs: int
+    runs_spent: int  # the search's runs when this candidate's generation ended
+    found: bool
+
+    def to_json(self) -> dict[str, Any]:
+        c = self.candidate
+        return {"generation": self.generation, "key": c.key, "map_seed": c.map_seed, "params": c.params,
+                "fitness": self.fitness, "estimate": self.estimate, "events": self.events, "trials": self.trials,
+                "descriptors": list(self.descriptors), "runs": self.runs, "runs_spent": self.runs_spent,
+                "found": self.found}
+
+
+@dataclass(frozen=True)
+class Elite:
+    """An elite of the search (best first) and its confirmation with fresh run seeds."""
+
+    candidate: Candidate
+    fitness: float
+    descriptors: tuple[float, ...]
+    generation: int
+    confirmation: Confirmation
+
+    def to_json(self) -> dict[str, Any]:
+        c = self.candidate
+        return {"key": c.key, "map_seed": c.map_seed, "params": c.params, "world": c.world_overrides,
+                "fitness": self.fitness, "descriptors": list(self.descriptors), "generation": self.generation,
+                "confirmed": self.confirmation.confirmed, "confirmation": self.confirmation.to_json()}
 
 
 @dataclass
 class SearchResult:
+    """What a search did (``search.json`` holds its :meth:`to_json`)."""
+
     directory: Path
-    generations: int
-    runs: int
+    spec: SearchSpec
+    generations: int = 0
+    runs: int = 0  # the generations' runs (the budget counts these)
+    confirm_runs: int = 0
+    sim_hours: float = 0.0
+    stopped: str = ""  # why the generations stopped: budget.runs, budget.sim_hours, budget.wall_s
     evaluated: list[Evaluated] = field(default_factory=list)
-    elites: list[tuple[Candidate, float, Confirmation]] = field(default_factory=list)
+    elites: list[Elite] = field(default_factory=list)
+    recorded: int = 0  # runs recorded by this call (0 when a finished search is run again)
+    wall_s: float = 0.0
+    workers: int = 0
+    unfinished: dict[str, str] = field(default_factory=dict)  # run_id -> why (machinery failures)
+    suite: Path | None = None
+
+    @property
+    def confirmed(self) -> list[Elite]:
+        return [e for e in self.elites if e.confirmation.confirmed]
+
+    def found_curve(self) -> list[tuple[int, int]]:
+        """(runs spent, distinct worlds found so far) after each generation, from (0, 0)."""
+        seen: set[str] = set()
+        curve = [(0, 0)]
+        for g in range(self.generations):
+            evs = [e for e in self.evaluated if e.generation == g]
+            seen.update(e.candidate.key for e in evs if e.found)
+            if evs:
+                curve.append((evs[0].runs_spent, len(seen)))
+        return curve
 
     def to_json(self) -> dict[str, Any]:
-        return {"generations": self.generations, "runs": self.runs,
-                "evaluated": [{"generation": e.generation, "key": e.candidate.key, "map_seed": e.candidate.map_seed,
-                               "params": e.candidate.params, "fitness": e.fitness,
-                               "descriptors": list(e.descriptors), "runs": e.runs} for e in self.evaluated],
-                "elites": [{"key": c.key, "map_seed": c.map_seed, "params": c.params, "world": c.world_overrides,
-                            "fitness": f, "confirmed": k.confirmed, "confirmation": k.kind, "reason": k.reason,
-                            "events": k.events, "trials": k.trials, "interval": list(k.interval)}
-                           for c, f, k in self.elites]}
+        s = self.spec
+        descs = [d.model_dump(mode="json") for d in s.archive_descriptors()]
+        return {"format": FORMAT, "name": s.name, "seed": s.seed, "objective": s.objective.model_dump(mode="json"),
+                "algorithm": s.algorithm.name, "batch": s.algorithm.batch,
+                "navigator": s.navigator.model_dump(mode="json", exclude_none=True), "faults": list(s.faults),
+                "budget": s.budget.model_dump(mode="json"), "descriptors": descs,
+                "parameters": [p.path for p in s.space.parameters], "found_what": FOUND_WHAT[s.objective.name],
+                "generations": self.generations, "runs": self.runs, "confirm_runs": self.confirm_runs,
+                "sim_hours": self.sim_hours, "stopped": self.stopped,
+                "evaluated": [e.to_json() for e in self.evaluated],
+                "found_curve": [list(p) for p in self.found_curve()],
+                "found": len({e.candidate.key for e in self.evaluated if e.found}),
+                "elites": [e.to_json() for e in self.elites], "confirmed": len(self.confirmed),
+                "suite": f"{SUITE_DIR}/suite.yaml" if self.confirmed else None}
 
 
-#: the confirmation each objective asks of its elites
-CONFIRM_KIND = {"failure": "failing", "illumination": "failing", "fault-revealing": "revealing",
-                "boundary": "boundary"}
+@dataclass(frozen=True)
+class GenerationReport:
+    """What ``on_generation`` is told after each generation (and once for the confirmation)."""
+
+    generation: int  # -1: the confirmation
+    runs: int
+    budget: int
+    best: float
+    found: int
+    evaluated: int
+
+
+GenerationCallback = Callable[[GenerationReport], None]
+StartCallback = Callable[[int, int], None]  # (runs already spent, run budget)
 
 
 def _entry(c: Candidate) -> dict[str, Any]:
@@ -84,116 +192,298 @@ def _campaign(spec: SearchSpec, experiments: list[dict[str, Any]]) -> tuple[Camp
     return parse_campaign(data, max_runs=None), text
 
 
-def _max_runs(spec: SearchSpec) -> int:
-    r = spec.runs_per_candidate
-    return r if isinstance(r, int) else r.adaptive.max
+def _under_test(spec: SearchSpec) -> str | None:
+    """The fault whose runs the failure, boundary and illumination objectives read: the first of
+    ``faults`` (null: the nominal stack); fault-revealing reads the objective's fault."""
+    return spec.objective.fault if spec.objective.name == "fault-revealing" else spec.faults[0]
 
 
 def _descriptors(spec: SearchSpec, c: Candidate, world_dir: Path) -> tuple[float, ...]:
-    descs = spec.archive_descriptors()
-    names = [d.name for d in descs]
-    reg = [n for n in names if n not in c.params]
-    vals = dict(zip(reg, descriptor_values(reg, world_dir))) if reg else {}
-    return tuple(float(c.params[n]) if n in c.params else float(vals[n]) for n in names)
+    """The archive's descriptor values of ``c``: a path of the space is the parameter's value,
+    a registry descriptor is read from the generated world (its ``missing`` value when the world
+    could not be generated)."""
+    out = []
+    for d in spec.archive_descriptors():
+        if d.name in c.params:
+            out.append(float(c.params[d.name]))
+        elif world_dir.exists():
+            out.append(float(descriptor_values([d.name], world_dir)[0]))
+        else:
+            out.append(float(get_descriptor(d.name).missing))
+    return tuple(out)
 
 
-def _evaluate(spec: SearchSpec, records: list[RunRecord], world_dir: Path) -> float:
-    obj = spec.objective
-    feasible = world_feasible(world_dir) if world_dir.exists() else None
-    fault = obj.fault if obj.name == "fault-revealing" else None
-    return evaluate(obj.name, records, fault=fault, failure_class=obj.outcome, target=obj.target,
-                    feasible=feasible).fitness
+def _found(spec: SearchSpec, events: int, trials: int, fitness: float) -> bool:
+    """Whether a candidate's runs showed what the objective looks for: a failure of a feasible world
+    (failure, illumination), a revealing pair (fault-revealing), both outcomes (boundary)."""
+    if spec.objective.name == "boundary":
+        return 0 < events < trials
+    return fitness > 0.0
+
+
+def _stored(root: Path) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+    """The generations and the confirmation stored in ``root`` (empty when there is no store);
+    StoreError when ``root`` holds a campaign that is no search."""
+    if not (root / DB_NAME).exists():
+        return [], []
+    with Store.open(root) as s:
+        exps = s.spec.experiments
+        gens, conf = [], []
+        for e in exps:
+            worlds = [w.model_dump(mode="json") for w in e.worlds or []]
+            if e.name == CONFIRM:
+                conf.append({"name": CONFIRM, "worlds": worlds, "runs_per_map": _runs_json(e.runs_per_map)})
+            elif _GENERATION.match(e.name) and e.worlds:
+                gens.append({"name": e.name, "worlds": worlds})
+            else:
+                raise StoreError(f"output={str(root)!r} holds campaign {s.spec.name!r}, which is not a search "
+                                 f"(experiment {e.name!r}); choose a new -o")
+    return gens, conf
+
+
+def _runs_json(r: int | AdaptiveRuns | None) -> Any:
+    return r.model_dump(mode="json") if isinstance(r, AdaptiveRuns) else r
 
 
 def run_search(spec_path: str | Path, directory: str | Path, *, budget: int | None = None,
-               workers: int = 2, wall_limit_s: float | None = None) -> SearchResult:
-    """Run (or resume) the search of ``spec_path`` into ``directory`` (DRAFT)."""
+               workers: int | None = None, executor: Literal["local", "ray"] = "local",
+               ray_address: str | None = None, wall_limit_s: float | None = None,
+               on_record: RecordCallback | None = None, on_generation: GenerationCallback | None = None,
+               on_start: StartCallback | None = None) -> SearchResult:
+    """Run (or resume) the search of ``spec_path`` into ``directory``; ``budget`` replaces the
+    spec's ``budget.runs``. Writes ``search.json``, ``search.yaml`` and the suite of confirmed worlds
+    (``suite/``) at the end. Raises SpecError / StoreError before running anything when the spec, its
+    navigator or the directory is unusable. When some runs stay pending after repeated failures of
+    the machinery, returns early with ``unfinished`` set (run again to retry them)."""
     spec, _ = load_search(spec_path)
     if budget is not None:
         spec = with_budget(spec, budget)
+    if workers is not None and workers < 1:
+        raise SpecError("--workers", workers, "an integer >= 1")
+    if executor not in ("local", "ray"):
+        raise SpecError("--executor", executor, "local or ray")
     space = Space.from_spec(spec)
     algo = make_algorithm(spec, space)
     root = Path(directory)
-    stored: list[dict[str, Any]] = []
-    finished = False  # the elites' confirmation is stored: the search ran to its end
-    stored_confirm: list[dict[str, Any]] = []
-    if (root / DB_NAME).exists():
-        with Store.open(root) as s:
-            stored = [{"name": e.name, "worlds": [w.model_dump(mode="json") for w in e.worlds or []]}
-                      for e in s.spec.experiments if e.name != CONFIRM]
-            confirmed = [e for e in s.spec.experiments if e.name == CONFIRM]
-            finished = bool(confirmed)
-            stored_confirm = [{"name": CONFIRM, "worlds": [w.model_dump(mode="json") for w in e.worlds or []],
-                               "runs_per_map": e.runs_per_map} for e in confirmed]
-    limit = wall_limit_s if wall_limit_s is not None else default_wall_limit_s(spec.timeout_s)
-    ex = LocalExecutor(workers, {})
-    experiments: list[dict[str, Any]] = []
-    result = SearchResult(root, 0, 0)
-    store: Store | None = None
+    if root.exists() and not root.is_dir():
+        raise StoreError(f"output={str(root)!r} exists and is not a directory; choose another -o")
+    stored, stored_confirm = _stored(root)
     t0 = time.monotonic()
-    per_candidate = _max_runs(spec) * len(spec.faults)
-    try:
+    result = SearchResult(root, spec)
+    limit = wall_limit_s if wall_limit_s is not None else default_wall_limit_s(spec.timeout_s)
+    per_candidate = spec.max_runs_per_candidate() * len(spec.faults)
+    fault = _under_test(spec)
+    obj = spec.objective
+    experiments: list[dict[str, Any]] = []
+    targets = {n.name: n.target for n in [spec.navigator] if n.target}
+    with ExitStack() as stack:
+        # the first generation's campaign is checked before anything is written or started
+        X = algo.ask()
+        first = [space.decode(x) for x in X]
+        check_runnable(_campaign(spec, [{"name": generation_name(0),
+                                         "worlds": [_entry(c) for c in {c.key: c for c in first}.values()]}])[0])
+        ex: LocalExecutor | RayExecutor
+        if executor == "ray":
+            ex = stack.enter_context(RayExecutor(workers, targets, address=ray_address))
+        else:
+            ex = LocalExecutor(workers if workers is not None else (os.cpu_count() or 1), targets)
+        result.workers = ex.workers
+        store: Store | None = None
         if stored:  # resume: the store as it is (the same search spec gives the same campaign text)
-            store = Store.create(root, *_campaign(spec, stored + stored_confirm))
+            store = stack.enter_context(Store.create(root, *_campaign(spec, stored + stored_confirm)))
+        if on_start is not None:
+            on_start(store.progress()[0] if store is not None else 0, spec.budget.runs)
         g = 0
         while True:
-            X = algo.ask()
+            if g > 0:
+                X = algo.ask()
             cands = [space.decode(x) for x in X]
             uniq = {c.key: c for c in cands}
             name = generation_name(g)
             exp = {"name": name, "worlds": [_entry(c) for c in uniq.values()]}
             if g < len(stored):
-                if [w["key"] for w in stored[g].get("worlds", [])] != list(uniq):
-                    raise StoreError(f"search={str(root)!r}: generation {g} differs from the stored one (another "
-                                     "spec, seed or navstress version); resume with the same, or choose a new -o")
-            elif finished or result.runs + len(uniq) * per_candidate > spec.budget.runs:
+                if [w["key"] for w in stored[g]["worlds"]] != list(uniq):
+                    raise StoreError(f"output={str(root)!r}: generation {g} of the stored search differs from this "
+                                     "spec's (another spec, seed or navstress version); run it with the spec it was "
+                                     "made with, or choose a new -o")
+            elif stored_confirm:
+                break  # a finished search: its generations end where they ended
+            elif result.runs + len(uniq) * per_candidate > spec.budget.runs:
+                result.stopped = "budget.runs"
                 break
             experiments.append(exp)
             cspec, text = _campaign(spec, experiments)
             if store is None:
-                store = Store.create(root, cspec, text)
+                store = stack.enter_context(Store.create(root, cspec, text))
             elif g >= len(stored):
                 store.extend(cspec, text)
-            resume(store, ex, wall_limit_s=limit)
+            session = resume(store, ex, wall_limit_s=limit, on_record=on_record)
+            result.recorded += session.recorded
+            if session.unfinished:
+                result.unfinished = dict(session.unfinished)
+                result.wall_s = time.monotonic() - t0
+                return result
             recs = [r for r in store.records() if r.experiment == name]
             groups = by_world(recs)
+            result.runs += len(recs)
             fit: dict[str, float] = {}
             desc: dict[str, tuple[float, ...]] = {}
             for key, c in uniq.items():
                 wdir = root / "worlds" / name / key / "m0"
                 rs = groups.get((name, key, 0), [])
-                fit[key] = _evaluate(spec, rs, wdir)
+                feasible = world_feasible(wdir) if wdir.exists() else None
+                ev = evaluate(obj.name, rs, fault=fault, failure_class=obj.outcome, target=obj.target,
+                              feasible=feasible)
+                fit[key] = ev.fitness
                 desc[key] = _descriptors(spec, c, wdir)
-                result.evaluated.append(Evaluated(g, c, fit[key], desc[key], len(rs)))
+                result.evaluated.append(Evaluated(g, c, ev.fitness, ev.estimate, ev.events, ev.trials, desc[key],
+                                                  len(rs), result.runs, _found(spec, ev.events, ev.trials, ev.fitness)))
             algo.tell(X, np.array([fit[c.key] for c in cands]), np.array([desc[c.key] for c in cands]))
-            result.runs += len(recs)
             g += 1
             result.generations = g
-            hours = sum(r.duration_s for r in store.records()) / 3600.0
-            if spec.budget.sim_hours is not None and hours >= spec.budget.sim_hours:
+            result.sim_hours = sum(r.duration_s for r in store.records() if r.experiment != CONFIRM) / 3600.0
+            if on_generation is not None:
+                on_generation(GenerationReport(g - 1, result.runs, spec.budget.runs,
+                                               max(e.fitness for e in result.evaluated),
+                                               len({e.candidate.key for e in result.evaluated if e.found}),
+                                               len(result.evaluated)))
+            if g < len(stored):
+                continue
+            if spec.budget.sim_hours is not None and result.sim_hours >= spec.budget.sim_hours:
+                result.stopped = "budget.sim_hours"
                 break
             if spec.budget.wall_s is not None and time.monotonic() - t0 >= spec.budget.wall_s:
+                result.stopped = "budget.wall_s"
                 break
-        # the elites, re-run with fresh run seeds (another experiment name) before they are reported
-        assert store is not None
-        elites: dict[str, tuple[Candidate, float]] = {}
-        for el in algo.elites():
-            c = space.decode(np.asarray(el.x))
-            elites.setdefault(c.key, (c, el.fitness))
-        conf = {"name": CONFIRM, "worlds": [_entry(c) for c, _ in elites.values()], "runs_per_map": spec.confirm_runs}
-        if CONFIRM not in {e.name for e in store.spec.experiments}:
-            cspec, text = _campaign(spec, [*experiments, conf])
-            store.extend(cspec, text)
-        resume(store, ex, wall_limit_s=limit)
-        groups = by_world(r for r in store.records() if r.experiment == CONFIRM)
-        obj = spec.objective
-        for key, (c, f) in elites.items():
-            rs = groups.get((CONFIRM, key, 0), [])
-            k = confirm(rs, CONFIRM_KIND[obj.name], fault=obj.fault if obj.name == "fault-revealing" else None,
-                        failure_class=obj.outcome, target=obj.target)
-            result.elites.append((c, f, k))
-        _files.write_atomic(root / "search.json", _json.dumps(result.to_json(), indent=1, sort_keys=True))
-    finally:
-        if store is not None:
-            store.close()
+        if store is None:  # the budget holds no generation (the spec checks it does; defensive)
+            raise SpecError("budget.runs", spec.budget.runs, "at least one generation's runs")
+        if not result.stopped:  # a finished search run again: why it stopped is in its search.json
+            result.stopped = _previous_stop(root)
+        _confirm(spec, space, algo, store, ex, limit, experiments, result, on_record)
+        result.sim_hours = sum(r.duration_s for r in store.records() if r.experiment != CONFIRM) / 3600.0
+        if result.unfinished:
+            result.wall_s = time.monotonic() - t0
+            return result
+        if on_generation is not None:
+            on_generation(GenerationReport(-1, result.runs, spec.budget.runs,
+                                           max((e.fitness for e in result.evaluated), default=0.0),
+                                           len(result.confirmed), len(result.elites)))
+        result.suite = write_suite(spec, result, root)
+        _files.write_atomic(root / SEARCH_SPEC_NAME, yaml.safe_dump(
+            spec.model_dump(mode="json", exclude_unset=True), sort_keys=False))
+        _files.write_atomic(root / RESULT_NAME, _json.dumps(result.to_json(), indent=1, sort_keys=True) + "\n")
+    result.wall_s = time.monotonic() - t0
     return result
+
+
+def _previous_stop(root: Path) -> str:
+    try:
+        return str(json.loads((root / RESULT_NAME).read_text(encoding="utf-8")).get("stopped", ""))
+    except (OSError, ValueError, AttributeError):
+        return ""
+
+
+def _confirm(spec: SearchSpec, space: Space, algo: Any, store: Store, ex: LocalExecutor | RayExecutor,
+             limit: float, experiments: list[dict[str, Any]], result: SearchResult,
+             on_record: RecordCallback | None) -> None:
+    """Re-run the elites (best first, those whose runs showed what the objective looks for) with
+    fresh run seeds in the experiment ``confirm``, and judge each with the confirmation rule."""
+    found = {e.candidate.key: e for e in result.evaluated if e.found}
+    elites: dict[str, tuple[Candidate, float, tuple[float, ...], int]] = {}
+    for el in algo.elites(len(result.evaluated)):
+        c = space.decode(np.asarray(el.x))
+        if c.key in found and c.key not in elites:
+            first = min(e.generation for e in result.evaluated if e.candidate.key == c.key)
+            elites[c.key] = (c, el.fitness, found[c.key].descriptors, first)
+        if len(elites) >= spec.elites:
+            break
+    if not elites:
+        return
+    conf = {"name": CONFIRM, "worlds": [_entry(c) for c, *_ in elites.values()], "runs_per_map": spec.confirm_runs}
+    if CONFIRM not in {e.name for e in store.spec.experiments}:
+        store.extend(*_campaign(spec, [*experiments, conf]))
+    else:
+        stored = next(e for e in store.spec.experiments if e.name == CONFIRM)
+        if [w.key for w in stored.worlds or []] != list(elites):
+            raise StoreError(f"output={str(store.root)!r}: the stored confirmation differs from this search's elites "
+                             "(another spec or navstress version); choose a new -o")
+    session = resume(store, ex, wall_limit_s=limit, on_record=on_record)
+    result.recorded += session.recorded
+    if session.unfinished:
+        result.unfinished = dict(session.unfinished)
+        return
+    recs = [r for r in store.records() if r.experiment == CONFIRM]
+    result.confirm_runs = len(recs)
+    groups = by_world(recs)
+    obj = spec.objective
+    for key, (c, f, d, g) in elites.items():
+        k = confirm(groups.get((CONFIRM, key, 0), []), CONFIRM_KIND[obj.name], fault=_under_test(spec),
+                    failure_class=obj.outcome, target=obj.target)
+        result.elites.append(Elite(c, f, d, g, k))
+
+
+_SUITE_HEAD = """\
+# navstress regression suite, written by `navstress search` ({name}, objective {objective}).
+# Its worlds are those the search found and confirmed with fresh run seeds ({confirmed} of {elites}
+# elites); suite.json holds their measured verdicts and how they were found, worlds/ the worlds.
+#
+#   navstress campaign run {path} -o suite-run
+#   navstress gate suite-run --min-success 0.5
+#
+# To test another version of the stack, edit `navigators` (or `faults`) and run it into a new
+# directory: the worlds and the run seeds stay the same.
+"""
+
+
+def write_suite(spec: SearchSpec, result: SearchResult, root: Path) -> Path | None:
+    """Write ``suite/``: suite.yaml (a campaign spec, one experiment ``suite`` of the confirmed
+    worlds), suite.json (their verdicts and provenance) and worlds/KEY (the generated worlds).
+    Returns suite.yaml's path, or None when no world was confirmed (then suite/ holds suite.json
+    alone). The directory is built aside and renamed into place."""
+    final = root / SUITE_DIR
+    tmp = root / f".{SUITE_DIR}.tmp"
+    shutil.rmtree(tmp, ignore_errors=True)
+    tmp.mkdir()
+    ok = result.confirmed
+    data = {"name": f"{spec.name}-suite", "seed": spec.seed, "world": spec.world,
+            "experiments": [{"name": "suite", "worlds": [_entry(e.candidate) for e in ok]}],
+            "runs_per_map": spec.confirm_runs,
+            "navigators": [spec.navigator.model_dump(mode="json", exclude_none=True)],
+            "faults": list(spec.faults), "timeout_s": spec.timeout_s, "goal_tolerance_m": spec.goal_tolerance_m,
+            "sim": spec.sim}
+    path: Path | None = None
+    if ok:
+        parse_campaign(data, max_runs=None)  # the suite is a valid campaign spec
+        text = _SUITE_HEAD.format(name=spec.name, objective=spec.objective.name, confirmed=len(ok),
+                                  elites=len(result.elites), path=final / "suite.yaml")
+        (tmp / "suite.yaml").write_text(text + yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
+        path = final / "suite.yaml"
+        for e in ok:
+            src = root / "worlds" / CONFIRM / e.candidate.key / "m0"
+            if src.is_dir():
+                shutil.copytree(src, tmp / "worlds" / e.candidate.key)
+    info = {"format": FORMAT, "search": spec.name, "objective": spec.objective.model_dump(mode="json"),
+            "algorithm": spec.algorithm.name, "worlds": [
+                {**e.to_json(), "found_in_generation": e.generation} for e in result.elites]}
+    (tmp / "suite.json").write_text(_json.dumps(info, indent=1, sort_keys=True) + "\n", encoding="utf-8")
+    if final.exists():
+        old = root / f".{SUITE_DIR}.old"
+        shutil.rmtree(old, ignore_errors=True)
+        os.replace(final, old)
+        os.replace(tmp, final)
+        shutil.rmtree(old, ignore_errors=True)
+    else:
+        os.replace(tmp, final)
+    _files.fsync_dir(root)
+    return path
+
+
+def load_result(directory: str | Path) -> dict[str, Any] | None:
+    """The ``search.json`` of ``directory`` (None when it holds none): for the report and status."""
+    p = Path(directory) / RESULT_NAME
+    if not p.is_file():
+        return None
+    data = json.loads(p.read_text(encoding="utf-8"))
+    if not isinstance(data, dict) or data.get("format") != FORMAT:
+        raise StoreError(f"{p}: not a navstress search result (format {FORMAT!r} expected)")
+    return data
