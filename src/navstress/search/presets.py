@@ -3,7 +3,10 @@
 Each searches 40 m maps (the demo campaign's size: runs of seconds) over tree and building
 obstruction, the terrain's subdivisions and deformation, and the map seed, with 3 runs per
 candidate and a budget of 1,920 runs: 40 generations of 16 candidates with the nominal stack
-alone, 20 with the nominal and the faulty one.
+alone, 20 with the nominal and the faulty one. The ranges keep most worlds passable (on 40 m
+maps, buildings above about 9 %, or trees and buildings together above about 20 %, or a
+deformation above 1 m with many subdivisions, often leave no path from start to goal: such a
+world fails every stack, gets no fitness and teaches nothing).
 
 * ``failure``: where the reference stack fails (any class), MAP-Elites over the default map
   (obstruction x path ratio);
@@ -19,8 +22,8 @@ from navstress.search.spec import OBJECTIVES
 
 _HEAD = """\
 # navstress search spec ({what}).
-# The command that runs it (navstress search THIS_FILE -o DIR) is being built: see the Status
-# paragraph of docs/search.md, which explains every field.
+# Run it: navstress search THIS_FILE -o DIR (killed: the same command resumes). docs/search.md
+# explains every field.
 name: {name}
 seed: 0                      # every map seed, run seed and algorithm draw derives from it
 
@@ -33,10 +36,10 @@ world:
 # with map_seed: true, the map seed (one of map_seeds seeds; false: one seed for every candidate).
 space:
   parameters:
-    - {{path: obstacles.obstruction.tree, low: 0, high: 20}}
-    - {{path: obstacles.obstruction.building, low: 0, high: 15}}
+    - {{path: obstacles.obstruction.tree, low: 0, high: 16}}
+    - {{path: obstacles.obstruction.building, low: 0, high: 8}}
     - {{path: ground.subdivisions, low: 0, high: 6, kind: int}}
-    - {{path: ground.deformation, low: 0, high: 2}}
+    - {{path: ground.deformation, low: 0, high: 1.2}}
   map_seed: true
   map_seeds: 10000
 
@@ -100,8 +103,8 @@ objective:
   name: illumination
   outcome: any
   descriptors:
-    - {name: obstruction, low: 0, high: 35, cells: 7}
-    - {name: ground.deformation, low: 0, high: 2, cells: 8}
+    - {name: obstruction, low: 0, high: 24, cells: 8}
+    - {name: ground.deformation, low: 0, high: 1.2, cells: 6}
 """,
 }
 

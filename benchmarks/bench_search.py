@@ -1,0 +1,133 @@
+"""Search against random sampling at equal run budget, side by side in one run.
+
+Two cases, each run twice through the real search machinery (:func:`run_search`: campaign store,
+executor, repeated runs per candidate, elites re-run with fresh run seeds):
+
+- **(a) fault-revealing**: worlds where the ``small-footprint`` fault fails and the nominal
+  reference stack succeeds, on the same world with paired run seeds;
+- **(b) failure**: worlds where the nominal reference stack fails.
+
+Each case runs the search algorithm (``--algorithm``, default ``ga``: pymoo's genetic algorithm)
+and ``random`` (uniform points over the same space) with the same spec otherwise: the same space,
+seed, runs per candidate, batch and run budget. Every candidate whose runs showed the event is an
+elite (``elites`` is set above any possible count), so both methods confirm *all* their finds
+with the same rule and the same number of fresh-seed runs: the confirmation runs come on top of
+the budget, for both, and are printed.
+
+The figure is the number of **distinct confirmed worlds** (distinct keys: distinct parameters or
+map seed, so distinct generated worlds), and the target is search >= 3x random. Worlds of one
+map seed with nearby parameters share most of their layout (the generator is continuous in the
+obstruction and the terrain's deformation for a given seed), so the benchmark also prints the
+distinct **map seeds** (layouts) among the confirmed worlds: a search that only varies one
+layout finds many worlds but few layouts, and this column says how far that goes.
+
+    .venv/bin/python benchmarks/bench_search.py [--budget-a 160] [--budget-b 128] [--batch 8] [--workers 2]
+        [--algorithm ga] [--keep DIR]
+
+``--keep DIR`` keeps the four searches in DIR (a later call with the same DIR resumes them:
+only what is missing runs, and the wall times then count only that). Exit status 1 when a case
+misses the target.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from navstress.search.driver import SearchResult, run_search
+
+TARGET = 3.0
+
+#: The space both cases search: 30 m maps (start and goal 5 m from opposite corners, 28 m
+#: apart), tree obstruction, the terrain's subdivisions and deformation (mild: most worlds are
+#: passable by the nominal stack), and the map seed.
+BASE: dict[str, Any] = {
+    "seed": 11,
+    "world": {"size_m": [30.0, 30.0], "cell_m": 0.4},
+    "space": {"parameters": [
+        {"path": "obstacles.obstruction.tree", "low": 0, "high": 20},
+        {"path": "ground.subdivisions", "low": 0, "high": 3, "kind": "int"},
+        {"path": "ground.deformation", "low": 0, "high": 0.6},
+    ], "map_seed": True, "map_seeds": 10000},
+    "navigator": {"name": "reference-v1", "config": {}},
+    "runs_per_candidate": 2,
+    "timeout_s": 90.0,
+    "goal_tolerance_m": 2.0,
+    "elites": 10000,
+}
+
+CASES: dict[str, dict[str, Any]] = {
+    "a-fault-revealing": {"objective": {"name": "fault-revealing", "fault": "small-footprint"},
+                          "faults": [None, "small-footprint"], "confirm_runs": 10},
+    "b-failure": {"objective": {"name": "failure"}, "faults": [None], "confirm_runs": 6},
+}
+
+
+def spec_for(case: str, algorithm: str, budget: int, batch: int) -> dict[str, Any]:
+    algo: dict[str, Any] = {"name": algorithm, "batch": batch}
+    return {"name": f"{case}-{algorithm}", **BASE, **CASES[case], "budget": {"runs": budget}, "algorithm": algo}
+
+
+def summary(res: SearchResult) -> dict[str, Any]:
+    ok = res.confirmed
+    return {"candidates": len(res.evaluated), "distinct": len({e.candidate.key for e in res.evaluated}),
+            "seen": len({e.candidate.key for e in res.evaluated if e.found}), "runs": res.runs,
+            "confirm_runs": res.confirm_runs, "elites": len(res.elites), "confirmed": len(ok),
+            "layouts": len({e.candidate.map_seed for e in ok}), "sim_h": res.sim_hours}
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--budget-a", type=int, default=160, help="run budget of case (a) (4 runs per candidate)")
+    ap.add_argument("--budget-b", type=int, default=128, help="run budget of case (b) (2 runs per candidate)")
+    ap.add_argument("--batch", type=int, default=8)
+    ap.add_argument("--algorithm", default="ga")
+    ap.add_argument("--workers", "-j", type=int, default=os.cpu_count() or 1)
+    ap.add_argument("--keep", type=Path, default=None)
+    args = ap.parse_args()
+    root = args.keep or Path(tempfile.mkdtemp(prefix="bench-search-"))
+    root.mkdir(parents=True, exist_ok=True)
+    print(f"bench_search: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+          f"{args.workers} workers; searches in {root}")
+    failed = []
+    for case, budget in (("a-fault-revealing", args.budget_a), ("b-failure", args.budget_b)):
+        rows = {}
+        for algo in (args.algorithm, "random"):
+            spec = spec_for(case, algo, budget, args.batch)
+            path = root / f"{case}-{algo}.yaml"
+            path.write_text(yaml.safe_dump(spec, sort_keys=False), encoding="utf-8")
+            t0 = time.perf_counter()
+            res = run_search(path, root / f"{case}-{algo}", workers=args.workers)
+            wall = time.perf_counter() - t0
+            if res.unfinished:
+                print(f"{case} {algo}: {len(res.unfinished)} runs unfinished; run again with --keep {root}")
+                return 2
+            rows[algo] = {**summary(res), "wall_s": wall}
+        print(f"\n{case} (budget {budget} runs; every seen world confirmed with {CASES[case]['confirm_runs']} "
+              "fresh-seed runs per stack)")
+        cols = ("candidates", "distinct", "seen", "runs", "confirm_runs", "confirmed", "layouts", "sim_h", "wall_s")
+        print(f"  {'method':<8}" + "".join(f"{c:>13}" for c in cols))
+        for algo, r in rows.items():
+            print(f"  {algo:<8}" + "".join(f"{r[c]:>13.1f}" if isinstance(r[c], float) else f"{r[c]:>13}"
+                                           for c in cols))
+        s, r = rows[args.algorithm]["confirmed"], rows["random"]["confirmed"]
+        ratio = s / r if r else float("inf") if s else 0.0
+        ls, lr = rows[args.algorithm]["layouts"], rows["random"]["layouts"]
+        lratio = ls / lr if lr else float("inf") if ls else 0.0
+        met = ratio >= TARGET
+        print(f"  distinct confirmed worlds: {args.algorithm} {s} vs random {r} = {ratio:.2f}x "
+              f"(target >= {TARGET:g}x: {'met' if met else 'MISSED'}); distinct layouts {ls} vs {lr} = {lratio:.2f}x")
+        if not met:
+            failed.append(case)
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
