@@ -213,6 +213,19 @@ def _descriptors(spec: SearchSpec, c: Candidate, world_dir: Path) -> tuple[float
     return tuple(out)
 
 
+def _objectives(spec: SearchSpec, fitness: list[float], descriptors: list[tuple[float, ...]]) -> np.ndarray:
+    """What the algorithm is told: the fitness; for NSGA-II a second objective too, the first
+    archive descriptor's closeness to its low end (1 at ``low``, 0 at ``high``), so that its Pareto
+    front holds the worlds that fail most for the least of that descriptor (by default the least
+    obstruction: failures in the simplest worlds, the most telling)."""
+    f = np.asarray(fitness, dtype=np.float64)
+    if spec.algorithm.name != "nsga2":
+        return f
+    d = spec.archive_descriptors()[0]
+    v = np.array([x[0] for x in descriptors], dtype=np.float64)
+    return np.column_stack([f, np.clip((d.high - v) / (d.high - d.low), 0.0, 1.0)])
+
+
 def _found(spec: SearchSpec, events: int, trials: int, fitness: float) -> bool:
     """Whether a candidate's runs showed what the objective looks for: a failure of a feasible world
     (failure, illumination), a revealing pair (fault-revealing), both outcomes (boundary)."""
@@ -263,7 +276,7 @@ def run_search(spec_path: str | Path, directory: str | Path, *, budget: int | No
     if executor not in ("local", "ray"):
         raise SpecError("--executor", executor, "local or ray")
     space = Space.from_spec(spec)
-    algo = make_algorithm(spec, space)
+    algo = make_algorithm(spec, space, n_obj=2 if spec.algorithm.name == "nsga2" else 1)
     root = Path(directory)
     if root.exists() and not root.is_dir():
         raise StoreError(f"output={str(root)!r} exists and is not a directory; choose another -o")
@@ -338,7 +351,8 @@ def run_search(spec_path: str | Path, directory: str | Path, *, budget: int | No
                 desc[key] = _descriptors(spec, c, wdir)
                 result.evaluated.append(Evaluated(g, c, ev.fitness, ev.estimate, ev.events, ev.trials, desc[key],
                                                   len(rs), result.runs, _found(spec, ev.events, ev.trials, ev.fitness)))
-            algo.tell(X, np.array([fit[c.key] for c in cands]), np.array([desc[c.key] for c in cands]))
+            algo.tell(X, _objectives(spec, [fit[c.key] for c in cands], [desc[c.key] for c in cands]),
+                      np.array([desc[c.key] for c in cands]))
             g += 1
             result.generations = g
             result.sim_hours = sum(r.duration_s for r in store.records() if r.experiment != CONFIRM) / 3600.0
