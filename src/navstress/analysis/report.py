@@ -108,6 +108,11 @@ def figure_html(png: bytes, name: str, alt: str, navigator: str | None = None, f
     return _img(png, name, alt, navigator, fault)
 
 
+def cell_html(field: str, value: Any, text: str | None = None, cls: str = "") -> str:
+    """A table cell as every cell of the report is written (``data-field``, exact ``data-value``)."""
+    return _cell(field, value, text, cls)
+
+
 def _img(png: bytes, name: str, alt: str, navigator: str | None = None, fault: str | None = None) -> str:
     b64 = base64.b64encode(png).decode("ascii")
     who = "".join(f' data-{k}="{_e(v)}"' for k, v in (("navigator", navigator), ("fault", fault)) if v is not None)
@@ -558,4 +563,4 @@ def build_report(directory: str | Path, out: str | Path, *, params: DifficultyPa
     return dest
 
 
-__all__ = ["Section", "build_report", "figure_html", "render_report"]
+__all__ = ["Section", "build_report", "cell_html", "figure_html", "render_report"]

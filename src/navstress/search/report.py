@@ -24,6 +24,7 @@ from typing import Any
 import yaml
 
 from navstress.analysis.report import Section, figure_html
+from navstress.analysis.report import cell_html as _cell
 from navstress.analysis.stats import config_key
 from navstress.campaign.store import DB_NAME, Store
 from navstress.errors import NavstressError, SpecError
@@ -55,12 +56,6 @@ def _num(v: Any, digits: int = 3) -> str:
     if isinstance(v, int):
         return str(v)
     return f"{v:.{digits}g}" if math.isfinite(v) else "\u2013"
-
-
-def _cell(field: str, value: Any, text: str | None = None, cls: str = "") -> str:
-    c = f' class="{cls}"' if cls else ""
-    dv = "" if value is None else str(value)
-    return f'<td{c} data-field="{_e(field)}" data-value="{_e(dv)}">{_e(text if text is not None else value)}</td>'
 
 
 def load_search_dir(directory: str | Path, field: str = "directory") -> dict[str, Any]:
