@@ -14,6 +14,7 @@ from pathlib import Path
 
 import pytest
 
+from search_dirs import SearchDirs, search_dirs
 from trace_check import TraceChecker
 from world_fixtures import small_world
 from navstress.world import World
@@ -44,3 +45,9 @@ def _traces_checked(request: pytest.FixtureRequest) -> Iterator[None]:
         return
     bad = _CHECKER.check_under(tmp)
     assert not bad, "traces written by this test are invalid:\n" + "\n".join(bad)
+
+
+@pytest.fixture(scope="session")
+def tiny_searches(tmp_path_factory: pytest.TempPathFactory, worker_id: str) -> SearchDirs:
+    """Two tiny real search directories (``search_dirs``), run once per session."""
+    return search_dirs(tmp_path_factory, worker_id)

@@ -1,11 +1,14 @@
 """The HTML report in a real headless Chromium (Debian ``chromium`` driven by Playwright).
 
 Checks that the page renders, that every figure loads (decoded, non-zero size), that nothing
-is fetched from outside the file, and that the numbers shown match the store. Fails (does not
+is fetched from outside the file, and that the numbers shown match the store; a search
+directory's report (``navstress report DIR --baseline DIR2``) shows its Search section, figures
+loaded, without a script error. Fails (does not
 skip) when chromium or playwright is missing under CI (``CI=true``)."""
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import sys
@@ -16,10 +19,12 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "unit" / "analysis"))
 from analysis_synth import line, make_store, record, save_flat_worlds, write_trace  # noqa: E402
 
+from cli_run import cli  # noqa: E402
 from navstress._percent import percent  # noqa: E402
 from navstress.analysis.report import build_report  # noqa: E402
 from navstress.analysis.stats import wilson  # noqa: E402
 from navstress.campaign.store import Store  # noqa: E402
+from search_dirs import SearchDirs  # noqa: E402
 
 CHROMIUM = os.environ.get("NAVSTRESS_CHROMIUM") or shutil.which("chromium") or "/usr/bin/chromium"
 
@@ -114,3 +119,35 @@ def test_empty_campaign_renders(page, tmp_path: Path) -> None:  # type: ignore[n
     page.goto(out.resolve().as_uri())
     assert page.locator("#empty-campaign").is_visible()
     assert page.inner_text("#runs-done") == "0"
+
+
+def test_a_search_report_renders_its_search_section(page, tiny_searches: SearchDirs,  # type: ignore[no-untyped-def]
+                                                    tmp_path: Path) -> None:
+    out = tmp_path / "search.html"
+    code, _, err = cli("report", str(tiny_searches.search), "-o", str(out), "--baseline", str(tiny_searches.baseline))
+    assert code == 0, err
+    errors: list[str] = []
+    outside: list[str] = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+    page.on("request", lambda req: outside.append(req.url) if not req.url.startswith(("file:", "data:")) else None)
+    page.goto(out.resolve().as_uri())
+    section = page.locator("section#search")
+    assert section.is_visible()
+    # after the summary, before the campaign's own sections, and linked from the navigation bar
+    order = page.evaluate("['summary', 'search', 'difficulty'].map(i => document.getElementById(i))"
+                          ".map((e, _, a) => a[0].compareDocumentPosition(e))")
+    assert order[1] & 4 and order[2] & 4  # DOCUMENT_POSITION_FOLLOWING
+    assert page.evaluate("document.getElementById('search').compareDocumentPosition("
+                         "document.getElementById('difficulty'))") & 4
+    page.locator("nav a[href='#search']").click()
+    for fig in ("search-illumination", "search-found", "search-best-worlds"):
+        img = page.locator(f"section#search img[data-figure='{fig}']")
+        assert img.evaluate("i => i.complete && i.naturalWidth > 300"), fig
+        assert img.bounding_box()["width"] > 300, fig  # laid out, visible
+    d = json.loads((tiny_searches.search / "search.json").read_text(encoding="utf-8"))
+    assert page.inner_text("#search-confirmed") == str(d["confirmed"])
+    assert page.locator("#search-found tr[data-method]").count() == 2
+    assert page.locator("#search-elites tr[data-key]").count() == len(d["elites"])
+    assert str(tiny_searches.search / "suite" / "suite.yaml") in page.inner_text("#search-suite")
+    assert errors == [] and outside == []

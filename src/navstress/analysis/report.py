@@ -30,9 +30,10 @@ import math
 import os
 import re
 import time
+from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
-
 
 from navstress._percent import percent, setting
 from navstress.analysis.analyze import Analysis, TrajectoryCache, analyze, trace_path
@@ -89,6 +90,27 @@ def _dv(v: Any) -> str:
 def _cell(field: str, value: Any, text: str | None = None, cls: str = "") -> str:
     c = f' class="{cls}"' if cls else ""
     return f'<td{c} data-field="{field}" data-value="{_e(_dv(value))}">{_e(text if text is not None else value)}</td>'
+
+
+@dataclass(frozen=True)
+class Section:
+    """A section a higher layer adds to the report (the search's, ``navstress.search.report``):
+    its anchor ``id``, its title in the navigation bar and its HTML (headings included), shown
+    after the summary."""
+
+    id: str
+    title: str
+    html: str
+
+
+def figure_html(png: bytes, name: str, alt: str, navigator: str | None = None, fault: str | None = None) -> str:
+    """An embedded figure as every figure of the report is written (``data-figure`` = ``name``)."""
+    return _img(png, name, alt, navigator, fault)
+
+
+def cell_html(field: str, value: Any, text: str | None = None, cls: str = "") -> str:
+    """A table cell as every cell of the report is written (``data-field``, exact ``data-value``)."""
+    return _cell(field, value, text, cls)
 
 
 def _img(png: bytes, name: str, alt: str, navigator: str | None = None, fault: str | None = None) -> str:
@@ -502,28 +524,34 @@ def _configs(a: Analysis, cache: TrajectoryCache, max_points: int) -> str:
     return "\n".join(out)
 
 
-def render_report(a: Analysis, *, cache: TrajectoryCache | None = None, max_points: int = 600) -> str:
-    """The report's HTML text for an :class:`Analysis`."""
+def render_report(a: Analysis, *, cache: TrajectoryCache | None = None, max_points: int = 600,
+                  sections: Sequence[Section] = ()) -> str:
+    """The report's HTML text for an :class:`Analysis`; ``sections`` come after the summary."""
     cache = cache or TrajectoryCache()
-    body = [_summary(a)]
+    body = [_summary(a)] + [s.html for s in sections]
     if a.done:
         body += [_difficulty(a), _class_figures(a), _verdicts(a), _indeterminism(a), _fault_power(a), _correlations(a),
                  _configs(a, cache, max_points)]
-    nav = ("<nav>" + "".join(f'<a href="#{i}">{t}</a>' for i, t in (
-        ("summary", "Summary"), ("difficulty", "Difficulty"), ("classes", "Classes"), ("verdicts", "Verdicts"), ("indeterminism", "Indeterminism"),
-        ("fault-power", "Fault power"), ("descriptors", "Descriptors"), ("configurations", "Configurations")))
-           + "</nav>") if a.done else ""
+    links = [("summary", "Summary"), *((s.id, s.title) for s in sections)]
+    if a.done:
+        links += [("difficulty", "Difficulty"), ("classes", "Classes"), ("verdicts", "Verdicts"),
+                  ("indeterminism", "Indeterminism"), ("fault-power", "Fault power"), ("descriptors", "Descriptors"),
+                  ("configurations", "Configurations")]
+    nav = ("<nav>" + "".join(f'<a href="#{_e(i)}">{_e(t)}</a>' for i, t in links) + "</nav>") \
+        if a.done or sections else ""
     return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
             f"<title>navstress report: {_e(a.name)}</title><style>{_CSS}</style></head>"
             f"<body data-campaign=\"{_e(a.name)}\">{nav}\n" + "\n".join(body) + "\n</body></html>\n")
 
 
 def build_report(directory: str | Path, out: str | Path, *, params: DifficultyParams | None = None,
-                 navigator: str | None = None, dt: float = 1.0, max_points: int = 600) -> Path:
-    """Analyse the campaign in ``directory`` and write the report to ``out`` atomically; returns ``out``."""
+                 navigator: str | None = None, dt: float = 1.0, max_points: int = 600,
+                 sections: Sequence[Section] = ()) -> Path:
+    """Analyse the campaign in ``directory`` and write the report to ``out`` atomically (with
+    ``sections`` after the summary); returns ``out``."""
     cache = TrajectoryCache()
     a = analyze(directory, params=params, navigator=navigator, dt=dt, cache=cache)
-    text = render_report(a, cache=cache, max_points=max_points)
+    text = render_report(a, cache=cache, max_points=max_points, sections=sections)
     dest = Path(out)
     dest.parent.mkdir(parents=True, exist_ok=True)
     tmp = dest.with_name(f".{dest.name}.partial")
@@ -535,4 +563,4 @@ def build_report(directory: str | Path, out: str | Path, *, params: DifficultyPa
     return dest
 
 
-__all__ = ["build_report", "render_report"]
+__all__ = ["Section", "build_report", "cell_html", "figure_html", "render_report"]

@@ -51,7 +51,7 @@ MOUNTS: dict[str, tuple[str, str]] = {
     "replay": ("navstress.cli.campaign", "Re-run one run from its recorded seeds; exit 0 if the new trace is "
                "byte-identical, 1 if not."),
     "analyze": ("navstress.cli.analysis", "Print the campaign's difficulty levels, indeterminism and fault power."),
-    "report": ("navstress.cli.analysis", "Write one self-contained HTML report (figures embedded) of a campaign."),
+    "report": ("navstress.cli.analysis", "Write one self-contained HTML report (figures embedded) of a campaign or a search."),
     "compare": ("navstress.cli.compare", "Compare two navigators, faults or stack versions run by run on the same worlds and seeds."),
     "world": ("navstress.cli.world", "Generate, inspect and export worlds (terrain, obstacles, mission)."),
     "nav": ("navstress.cli.nav", "Navigators under test: list them, list faults, check conformance."),

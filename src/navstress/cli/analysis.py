@@ -1,4 +1,5 @@
-"""``navstress analyze DIR`` and ``navstress report DIR -o report.html``.
+"""``navstress analyze DIR`` and ``navstress report DIR -o report.html [--baseline DIR2]`` (a search
+directory's report has a Search section, ``navstress.search.report``).
 
 User errors raise :class:`~navstress.errors.NavstressError` subclasses (the root CLI prints
 them on one line and exits 2).
@@ -20,6 +21,7 @@ from navstress.analysis.report import build_report
 from navstress.analysis.stats import dumps, params_text
 from navstress.cli._common import probe_writable
 from navstress.errors import SpecError
+from navstress.search.report import load_search_dir, search_sections
 
 app = typer.Typer(rich_markup_mode=None)
 
@@ -153,13 +155,20 @@ def report_cmd(
     out: Annotated[Path, typer.Option("--output", "-o", help="HTML file to write.")] = Path("report.html"),
     threshold: Threshold = 0.25, k: K = 2, weights: Weights = "0.5,0.25,0.25", navigator: Navigator = None,
     dt: Dt = 1.0,
+    baseline: Annotated[Path | None, typer.Option(
+        "--baseline", help="Another search directory (e.g. the same spec with algorithm random) whose worlds "
+                           "found against runs spent are drawn beside this search's.")] = None,
 ) -> None:
-    """Write one self-contained HTML report (figures embedded) of a campaign."""
+    """Write one self-contained HTML report (figures embedded) of a campaign or a search."""
     params = _params(threshold, k, weights, dt)
     if out.exists() and out.is_dir():
         raise SpecError("--output", str(out), "an HTML file path, not a directory")
+    if baseline is not None:  # both must be searches: checked before anything is drawn or written
+        load_search_dir(baseline, "--baseline")
+        load_search_dir(directory, "directory")
     probe_writable(out)  # before the analysis and the figures, not after
-    path = build_report(directory, out, params=params, navigator=navigator, dt=dt)
+    sections = search_sections(directory, baseline=baseline)
+    path = build_report(directory, out, params=params, navigator=navigator, dt=dt, sections=sections)
     typer.echo(literal(f"report: {path.resolve()}"))
 
 

@@ -32,7 +32,7 @@ from navstress.run.figures import RunTrack, draw_tracks, legend, png_bytes
 from navstress.run.figures import new_figure as _figure
 from navstress.run.record import RunRecord
 from navstress.run.trace import read_poses
-from navstress.search.objectives import get_descriptor
+from navstress.search.objectives import DESCRIPTORS, get_descriptor
 from navstress.world.export.images import draw_world
 from navstress.world.world import World
 
@@ -109,19 +109,31 @@ def illumination_grid(points: Iterable[MapPoint | Mapping[str, Any]], x_range: t
     return fit, keys
 
 
+def _axis(name: str, field: str, rng: tuple[float, float] | None, label: str | None
+          ) -> tuple[tuple[float, float], str]:
+    """(range, label) of one map axis: a registry descriptor (its natural range and unit unless
+    given), or any other name (a path of the search space, e.g. ``ground.deformation``), which
+    needs its range and is labelled by its name unless ``label`` is given."""
+    if name in DESCRIPTORS or rng is None:
+        d = get_descriptor(name, field)  # an unknown name without a range: the error lists the known ones
+        return rng or (d.low, d.high), label or d.axis_label
+    return rng, label or name
+
+
 def illumination_figure(points: Iterable[MapPoint | Mapping[str, Any]], *, x: str, y: str,
                         x_range: tuple[float, float] | None = None, y_range: tuple[float, float] | None = None,
                         bins: tuple[int, int] = (10, 10), fitness_label: str = "failure probability",
-                        vmax: float = 1.0, title: str | None = None, dpi: int = 90) -> bytes:
+                        vmax: float = 1.0, title: str | None = None, dpi: int = 90,
+                        x_label: str | None = None, y_label: str | None = None) -> bytes:
     """The illumination map: a heatmap over the descriptors ``x`` and ``y`` (names of
-    :data:`~navstress.search.objectives.DESCRIPTORS`; ranges default to their natural ones), each
+    :data:`~navstress.search.objectives.DESCRIPTORS`, ranges defaulting to their natural ones, or
+    paths of the search space such as ``ground.deformation``, whose ranges must be given), each
     cell coloured by its best world's fitness (0 to ``vmax``), empty cells blank; the axes say the
-    descriptors' units and the title how many cells are filled."""
-    dx, dy = get_descriptor(x, "x"), get_descriptor(y, "y")
+    descriptors' units (``x_label``/``y_label`` replace them) and the title how many cells are filled."""
+    xr, xl = _axis(x, "x", x_range, x_label)
+    yr, yl = _axis(y, "y", y_range, y_label)
     if isinstance(vmax, bool) or not isinstance(vmax, (int, float)) or not (math.isfinite(vmax) and vmax > 0):
         raise SpecError("vmax", vmax, "a number > 0 (the fitness of the brightest colour)")
-    xr = x_range or (dx.low, dx.high)
-    yr = y_range or (dy.low, dy.high)
     fit, _ = illumination_grid(points, xr, yr, bins)
     fig = _figure(6.4, 5.0, dpi, constrained=False)
     ax = fig.add_axes(MAP_AXES)
@@ -137,8 +149,8 @@ def illumination_figure(points: Iterable[MapPoint | Mapping[str, Any]], *, x: st
     ax.set_xlim(*xr)
     ax.set_ylim(*yr)
     ax.set_facecolor("white")
-    ax.set_xlabel(dx.axis_label)
-    ax.set_ylabel(dy.axis_label)
+    ax.set_xlabel(xl)
+    ax.set_ylabel(yl)
     filled = int(np.isfinite(fit).sum())
     ax.set_title(title or f"Illumination map: {filled} of {fit.size} cells filled", fontsize=10, loc="left")
     cb = fig.colorbar(mesh, cax=cax)
@@ -179,9 +191,11 @@ def found_curve(evaluations: Iterable[Found | Mapping[str, Any]]) -> list[tuple[
 
 
 def found_figure(methods: Mapping[str, Iterable[Found | Mapping[str, Any]]], *, what: str = "revealing worlds",
-                 budget: int | None = None, title: str | None = None, dpi: int = 90) -> bytes:
+                 budget: int | None = None, title: str | None = None, dpi: int = 90,
+                 confirmed: Mapping[str, tuple[int, int]] | None = None) -> bytes:
     """Distinct worlds found against runs spent, one step line per method (e.g. ``search`` and
-    ``random``) on one axis; ``budget`` draws the run budget as a dashed line."""
+    ``random``) on one axis; ``budget`` draws the run budget as a dashed line; ``confirmed`` maps
+    a method to (runs spent, worlds confirmed), drawn as a star of the method's colour."""
     fig = _figure(6.4, 4.0, dpi)
     ax = fig.subplots()
     top = 0
@@ -191,6 +205,11 @@ def found_figure(methods: Mapping[str, Iterable[Found | Mapping[str, Any]]], *, 
         top = max(top, ys[-1])
         col = METHOD_COLOURS.get(name, f"C{i}")
         ax.step(xs, ys, where="post", color=col, lw=2.0, label=f"{name}: {ys[-1]} in {xs[-1]} runs")
+        if confirmed is not None and name in confirmed:
+            runs, n = confirmed[name]
+            top = max(top, n)
+            ax.plot([runs], [n], marker="*", ms=14, color=col, mec="black", mew=0.6, ls="none",
+                    label=f"{name}: {n} confirmed")
     if budget is not None:
         ax.axvline(budget, color="#555555", ls="--", lw=0.8)
     ax.set_xlabel("evaluations [runs spent]")
