@@ -26,6 +26,7 @@ import os
 import re
 import shutil
 import time
+from collections import Counter
 from collections.abc import Callable
 from contextlib import ExitStack
 from dataclasses import dataclass, field
@@ -263,14 +264,16 @@ def _found(spec: SearchSpec, events: int, trials: int, fitness: float) -> bool:
     return fitness > 0.0
 
 
-def _stored(root: Path) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
-    """The generations and the confirmation stored in ``root`` (empty when there is no store);
-    StoreError when ``root`` holds a campaign that is no search."""
+def _stored(root: Path) -> tuple[list[dict[str, Any]], list[dict[str, Any]], list[int]]:
+    """The generations and the confirmation stored in ``root`` (empty when there is no store), and
+    the runs recorded in each generation; StoreError when ``root`` holds a campaign that is no search."""
     if not (root / DB_NAME).exists():
-        return [], []
+        return [], [], []
     with Store.open(root) as s:
         exps = s.spec.experiments
-        gens, conf = [], []
+        gens: list[dict[str, Any]] = []
+        conf: list[dict[str, Any]] = []
+        recorded = Counter(r.experiment for r in s.records())
         for e in exps:
             worlds = [w.model_dump(mode="json") for w in e.worlds or []]
             if e.name == CONFIRM:
@@ -280,7 +283,7 @@ def _stored(root: Path) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
             else:
                 raise StoreError(f"output={str(root)!r} holds campaign {s.spec.name!r}, which is not a search "
                                  f"(experiment {e.name!r}); choose a new -o")
-    return gens, conf
+    return gens, conf, [recorded[g["name"]] for g in gens]
 
 
 def _runs_json(r: int | AdaptiveRuns | None) -> Any:
@@ -309,7 +312,7 @@ def run_search(spec_path: str | Path, directory: str | Path, *, budget: int | No
     root = Path(directory)
     if root.exists() and not root.is_dir():
         raise StoreError(f"output={str(root)!r} exists and is not a directory; choose another -o")
-    stored, stored_confirm = _stored(root)
+    stored, stored_confirm, stored_runs = _stored(root)
     t0 = time.monotonic()
     ended = _ended_budget(root) if stored_confirm else None
     unused = None
@@ -320,6 +323,12 @@ def run_search(spec_path: str | Path, directory: str | Path, *, budget: int | No
     result = SearchResult(root, spec, ended_before=bool(stored_confirm), budget_unused=unused)
     limit = wall_limit_s if wall_limit_s is not None else default_wall_limit_s(spec.timeout_s)
     per_candidate = spec.max_runs_per_candidate() * len(spec.faults)
+    # the least budget that makes every stored generation (the loop's test before each one)
+    need = max((sum(stored_runs[:g]) + len(gen["worlds"]) * per_candidate for g, gen in enumerate(stored)), default=0)
+    if need > spec.budget.runs:
+        raise StoreError(f"output={str(root)!r} holds {len(stored)} generations of this search, more than a budget of "
+                         f"{spec.budget.runs} runs makes; resume it with the budget it was run with (--budget {need} "
+                         "holds them), or choose a new -o")
     fault = _under_test(spec)
     obj = spec.objective
     experiments: list[dict[str, Any]] = []
@@ -357,11 +366,6 @@ def run_search(spec_path: str | Path, directory: str | Path, *, budget: int | No
                     raise StoreError(f"output={str(root)!r}: generation {g} of the stored search differs from this "
                                      "spec's (another spec, seed or navstress version); run it with the spec it was "
                                      "made with, or choose a new -o")
-                if result.runs + len(uniq) * per_candidate > spec.budget.runs:  # a budget that would not make it
-                    need = sum(len(x["worlds"]) for x in stored) * per_candidate
-                    raise StoreError(f"output={str(root)!r} holds {len(stored)} generations of this search, more than a "
-                                     f"budget of {spec.budget.runs} runs makes; resume it with the budget it was run "
-                                     f"with (--budget {need} holds them), or choose a new -o")
             elif result.runs + len(uniq) * per_candidate > spec.budget.runs:
                 result.stopped = "budget.runs"
                 break
