@@ -24,7 +24,8 @@ if HELPERS not in sys.path:
 
 import executor_contract  # noqa: E402
 
-pytestmark = pytest.mark.slow
+# one worker builds each contract fixture once (pytest -n: --dist loadgroup)
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("executor-contract")]
 
 
 @pytest.fixture(scope="module")
@@ -72,7 +73,8 @@ def test_runs_end_the_same_way(contract: dict[str, Any]) -> None:
     runs, worker = contract["runs"], contract["worker"]
     assert runs["recorded"] == 2 and runs["unfinished"] == []
     recs = runs["records"]
-    assert recs["hangs-v1"] == ["fail-other", "run exceeded wall-clock limit (40 s); worker killed"]
+    hang = f"run exceeded wall-clock limit ({executor_contract.HANG_LIMIT_S:g} s); worker killed"
+    assert recs["hangs-v1"] == ["fail-other", hang]
     assert recs["exits-v1"][0] == "fail-other"
     assert executor_contract.normalised(recs["exits-v1"][1], worker) == \
         "run killed its WORKER (...), in 3 of 3 attempts with the same seeds"
