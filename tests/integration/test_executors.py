@@ -16,6 +16,7 @@ from typing import Any
 import pytest
 
 import loopback
+from built_once import built_once
 
 ROOT = Path(__file__).resolve().parents[2]
 HELPERS = str(ROOT / "tests" / "unit" / "campaign")
@@ -24,16 +25,10 @@ if HELPERS not in sys.path:
 
 import executor_contract  # noqa: E402
 
-# one worker builds each contract fixture once (pytest -n: --dist loadgroup)
-pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("executor-contract")]
+pytestmark = pytest.mark.slow
 
 
-@pytest.fixture(scope="module")
-def ray_contract(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
-    """The scenarios on a Ray cluster that navstress starts (in a fresh interpreter), with the
-    sockets its processes held while it ran."""
-    pytest.importorskip("ray", reason="ray is not installed (pip extra 'ray'; the 'test' extra installs it)")
-    root = tmp_path_factory.mktemp("ray-contract")
+def _ray_contract(root: Path) -> dict[str, Any]:
     env = {k: v for k, v in os.environ.items() if not k.startswith("RAY_")}
     env["PYTHONPATH"] = os.pathsep.join([str(ROOT / "src"), HELPERS, str(ROOT / "tests"),
                                          os.environ.get("PYTHONPATH", "")])
@@ -45,13 +40,27 @@ def ray_contract(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
     return out
 
 
-@pytest.fixture(scope="module")
-def local_contract(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
-    root = tmp_path_factory.mktemp("local-contract")
+def _local_contract(root: Path) -> dict[str, Any]:
     ex = executor_contract.LocalExecutor(2, {n["name"]: n["target"] for n in executor_contract.NAVS
                                              if "target" in n})
     out = executor_contract.scenarios(ex, root)
     out["worker"] = ex.worker
+    return out
+
+
+# each contract is built once in the session, also when pytest -n deals its tests to two workers
+@pytest.fixture(scope="module")
+def ray_contract(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    """The scenarios on a Ray cluster that navstress starts (in a fresh interpreter), with the
+    sockets its processes held while it ran."""
+    pytest.importorskip("ray", reason="ray is not installed (pip extra 'ray'; the 'test' extra installs it)")
+    out: dict[str, Any] = built_once(tmp_path_factory, "ray-contract", _ray_contract)
+    return out
+
+
+@pytest.fixture(scope="module")
+def local_contract(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    out: dict[str, Any] = built_once(tmp_path_factory, "local-contract", _local_contract)
     return out
 
 

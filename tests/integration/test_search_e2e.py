@@ -25,13 +25,14 @@ from typing import Any
 import pytest
 import yaml
 
+from built_once import built_once
 from campaign_kill import descendants, recorded, wait_gone
 from cli_run import cli
 from search_checks import check_search, result, traces
 from navstress.campaign.store import Store
 from navstress.search.driver import run_search
 
-pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("search-e2e")]
+pytestmark = pytest.mark.slow
 
 ROOT = Path(__file__).resolve().parents[2]
 ENV = {k: v for k, v in os.environ.items() if not k.startswith("RAY_")}
@@ -57,15 +58,20 @@ def _write(path: Path, data: dict[str, Any]) -> Path:
     return path
 
 
-@pytest.fixture(scope="module")
-def reference(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, str]:
-    """(spec, search directory, stdout) of the uninterrupted search, two workers."""
-    root = tmp_path_factory.mktemp("search-ref")
+def _reference(root: Path) -> list[str]:
     spec = _write(root / "tiny.yaml", SPEC)
     out = root / "ref"
     code, stdout, stderr = cli("search", str(spec), "-o", str(out), "--budget", str(BUDGET), "-j", "2", "-q")
     assert code == 0, stderr
-    return spec, out, stdout
+    return [str(spec), str(out), stdout]
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, str]:
+    """(spec, search directory, stdout) of the uninterrupted search, two workers: built once in
+    the session (the tests only read it)."""
+    spec, out, stdout = built_once(tmp_path_factory, "search-reference", _reference)
+    return Path(spec), Path(out), stdout
 
 
 def test_search_json_is_the_store_and_the_elites_are_confirmed(reference: tuple[Path, Path, str]) -> None:
