@@ -13,6 +13,7 @@ from typing import Any
 import pytest
 import yaml
 
+from built_once import built_once
 from navstress.analysis.compare import Arm, compare
 from navstress.campaign.executors import run_campaign
 
@@ -28,15 +29,20 @@ def _spec() -> dict[str, Any]:
             "faults": [None, "small-footprint"], "timeout_s": 4.0}
 
 
-@pytest.fixture(scope="module")
-def campaigns(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
-    root = tmp_path_factory.mktemp("ab")
+def _campaigns(root: Path) -> list[str]:
     spec = root / "spec.yaml"
     spec.write_text(yaml.safe_dump(_spec(), sort_keys=False))
     for out in ("v1", "v2"):
         res = run_campaign(spec, root / out, workers=2)
         assert res.recorded == res.planned == 8
-    return root / "v1", root / "v2"
+    return [str(root / "v1"), str(root / "v2")]
+
+
+@pytest.fixture(scope="module")
+def campaigns(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """Two campaigns of one spec, built once in the session (the tests only read them)."""
+    v1, v2 = built_once(tmp_path_factory, "compare-campaigns", _campaigns)
+    return Path(v1), Path(v2)
 
 
 def test_nominal_against_fault_in_one_campaign(campaigns: tuple[Path, Path], tmp_path: Path) -> None:

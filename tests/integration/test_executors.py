@@ -16,6 +16,7 @@ from typing import Any
 import pytest
 
 import loopback
+from built_once import built_once
 
 ROOT = Path(__file__).resolve().parents[2]
 HELPERS = str(ROOT / "tests" / "unit" / "campaign")
@@ -27,12 +28,7 @@ import executor_contract  # noqa: E402
 pytestmark = pytest.mark.slow
 
 
-@pytest.fixture(scope="module")
-def ray_contract(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
-    """The scenarios on a Ray cluster that navstress starts (in a fresh interpreter), with the
-    sockets its processes held while it ran."""
-    pytest.importorskip("ray", reason="ray is not installed (pip extra 'ray'; the 'test' extra installs it)")
-    root = tmp_path_factory.mktemp("ray-contract")
+def _ray_contract(root: Path) -> dict[str, Any]:
     env = {k: v for k, v in os.environ.items() if not k.startswith("RAY_")}
     env["PYTHONPATH"] = os.pathsep.join([str(ROOT / "src"), HELPERS, str(ROOT / "tests"),
                                          os.environ.get("PYTHONPATH", "")])
@@ -44,13 +40,27 @@ def ray_contract(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
     return out
 
 
-@pytest.fixture(scope="module")
-def local_contract(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
-    root = tmp_path_factory.mktemp("local-contract")
+def _local_contract(root: Path) -> dict[str, Any]:
     ex = executor_contract.LocalExecutor(2, {n["name"]: n["target"] for n in executor_contract.NAVS
                                              if "target" in n})
     out = executor_contract.scenarios(ex, root)
     out["worker"] = ex.worker
+    return out
+
+
+# each contract is built once in the session, also when pytest -n deals its tests to two workers
+@pytest.fixture(scope="module")
+def ray_contract(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    """The scenarios on a Ray cluster that navstress starts (in a fresh interpreter), with the
+    sockets its processes held while it ran."""
+    pytest.importorskip("ray", reason="ray is not installed (pip extra 'ray'; the 'test' extra installs it)")
+    out: dict[str, Any] = built_once(tmp_path_factory, "ray-contract", _ray_contract)
+    return out
+
+
+@pytest.fixture(scope="module")
+def local_contract(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    out: dict[str, Any] = built_once(tmp_path_factory, "local-contract", _local_contract)
     return out
 
 
@@ -72,7 +82,8 @@ def test_runs_end_the_same_way(contract: dict[str, Any]) -> None:
     runs, worker = contract["runs"], contract["worker"]
     assert runs["recorded"] == 2 and runs["unfinished"] == []
     recs = runs["records"]
-    assert recs["hangs-v1"] == ["fail-other", "run exceeded wall-clock limit (40 s); worker killed"]
+    hang = f"run exceeded wall-clock limit ({executor_contract.HANG_LIMIT_S:g} s); worker killed"
+    assert recs["hangs-v1"] == ["fail-other", hang]
     assert recs["exits-v1"][0] == "fail-other"
     assert executor_contract.normalised(recs["exits-v1"][1], worker) == \
         "run killed its WORKER (...), in 3 of 3 attempts with the same seeds"

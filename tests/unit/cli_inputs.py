@@ -20,14 +20,21 @@ from navstress.run.record import RunRecord
 CAMPAIGN = {"name": "tiny", "seed": 1, "world": {"size_m": [20.0, 20.0], "cell_m": 0.5},
             "experiments": [{"name": "flat", "sweep": {"obstacles.obstruction.tree": {"values": [0]}}}],
             "maps_per_config": 1, "runs_per_map": 1, "timeout_s": 5.0}
+#: A search of one generation of two worlds, one run each, on the campaign's small world.
+SEARCH = {"name": "tiny-search", "seed": 1, "world": {"size_m": [20.0, 20.0], "cell_m": 0.5},
+          "space": {"parameters": [{"path": "obstacles.obstruction.tree", "low": 0, "high": 10}]},
+          "objective": {"name": "failure"}, "budget": {"runs": 2}, "runs_per_candidate": 1,
+          "algorithm": {"name": "random", "batch": 2}, "confirm_runs": 1, "elites": 1, "timeout_s": 5.0}
 TRACEBACK = re.compile(r"Traceback|^\s+File \"", re.M)
 
 
 def prepare(root: Path) -> None:
-    """``root/w`` a world, ``root/c`` a campaign store holding one record, ``root/spec.yaml``."""
+    """``root/w`` a world, ``root/c`` a campaign store holding one record, ``root/spec.yaml``,
+    ``root/search.yaml`` (a search spec)."""
     root.mkdir(parents=True, exist_ok=True)
     small_world().save(root / "w")
     (root / "spec.yaml").write_text(yaml.safe_dump(CAMPAIGN), encoding="utf-8")
+    (root / "search.yaml").write_text(yaml.safe_dump(SEARCH), encoding="utf-8")
     with Store.create(root / "c", parse_campaign(CAMPAIGN), yaml.safe_dump(CAMPAIGN)) as s:
         s.add(RunRecord(run_id=s.planned_ids()[0], experiment="flat", config={"obstacles.obstruction.tree": 0}, map_index=0,
                         run_index=0, map_seed=1, run_seed=2, navigator="reference-v1", fault=None,
@@ -59,6 +66,7 @@ OUTPUT_COMMANDS = [
     OutputCommand("campaign init", ("campaign", "init", "-o", "{out}"), "file"),
     OutputCommand("search init", ("search", "init", "--objective", "illumination", "-o", "{out}"), "file"),
     OutputCommand("campaign run", ("campaign", "run", "{root}/spec.yaml", "-q", "-o", "{out}"), "dir"),
+    OutputCommand("search", ("search", "{root}/search.yaml", "-q", "-o", "{out}"), "dir"),
     OutputCommand("campaign export csv", ("campaign", "export", "{root}/c", "-o", "{out}"), "file"),
     OutputCommand("campaign export parquet", ("campaign", "export", "{root}/c", "-f", "parquet", "-o", "{out}"),
                   "file"),

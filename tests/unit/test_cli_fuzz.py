@@ -52,6 +52,7 @@ BASE: dict[str, dict[str, str]] = {
     "campaign init": {"out": "{root}/afile"},
     "campaign run": {"out": "{root}/afile"},
     "search init": {"out": "{root}/afile", "objective": "failure"},
+    "search run": {"spec": "{root}/search.yaml", "out": "{root}/afile"},
     "campaign export": {"out": "{root}/adir"},
     "report": {"out": "{root}/adir"},
     "nav check": {"name": "no-such-nav-v1"},
@@ -67,8 +68,8 @@ EXIT_1_OK = {"nav check", "replay", "gate"}
 WRITES = {"output", "out", "json_out", "keep", "junit"}
 PATHS = WRITES | {"world_dir", "directory", "spec"}
 NUMERIC = {"size", "cell", "subdivisions", "deformation", "trees", "buildings", "obstruction", "seed", "runs",
-           "timeout", "goal_tolerance", "workers", "wall_limit", "threshold", "k", "dt", "min_success", "confidence",
-           "max_collisions"}
+           "timeout", "goal_tolerance", "workers", "wall_limit", "budget", "threshold", "k", "dt", "min_success",
+           "confidence", "max_collisions"}
 
 _text = st.text(st.characters(blacklist_categories=("Cs",), blacklist_characters="\x00"), max_size=40)
 _huge = st.sampled_from(["9" * 5000, "1e309", "-1e309", "nan", "inf", "-inf", "1" * 30, "-" + "9" * 40,

@@ -120,6 +120,13 @@ def run(
         typer.echo(literal(f"{len(res.unfinished)} run(s) not recorded: navstress itself failed on each attempt "
                            f"(e.g. {first}: {why}); fix the cause and resume with: {again}"), err=True)
         raise typer.Exit(1)
+    if res.budget_unused is not None:
+        given = f"--budget {budget}" if budget is not None else f"budget.runs={res.budget_unused}"
+        typer.echo(literal(f"note: this search had already ended: {given} changes nothing (its generations stopped at "
+                           f"{res.runs} runs, under a budget of {res.spec.budget.runs}); to search with another "
+                           "budget, run it into a new -o"))
+    elif res.ended_before and res.recorded == 0:
+        typer.echo(literal("this search had already ended: nothing was run"))
     what = FOUND_WHAT[res.spec.objective.name]
     found = len({e.candidate.key for e in res.evaluated if e.found})
     typer.echo(literal(

@@ -26,6 +26,7 @@ import os
 import re
 import shutil
 import time
+from collections import Counter
 from collections.abc import Callable
 from contextlib import ExitStack
 from dataclasses import dataclass, field
@@ -39,10 +40,10 @@ from navstress import _files, _json
 from navstress.campaign.executors import check_runnable
 from navstress.campaign.local import LocalExecutor
 from navstress.campaign.ray_executor import RayExecutor
-from navstress.campaign.scheduler import RecordCallback, resume
+from navstress.campaign.scheduler import Event, Job, RecordCallback, resume
 from navstress.campaign.spec import AdaptiveRuns, CampaignSpec, parse_campaign
 from navstress.campaign.store import DB_NAME, Store
-from navstress.errors import SpecError, StoreError
+from navstress.errors import NavstressError, SpecError, StoreError
 from navstress.run.batch import default_wall_limit_s
 from navstress.run.record import RunRecord
 from navstress.search.algorithms import make_algorithm
@@ -133,6 +134,8 @@ class SearchResult:
     workers: int = 0
     unfinished: dict[str, str] = field(default_factory=dict)  # run_id -> why (machinery failures)
     suite: Path | None = None
+    ended_before: bool = False  # the generations had ended in an earlier call (its confirmation stored)
+    budget_unused: int | None = None  # a run budget given to a search whose generations had ended: not used
 
     @property
     def confirmed(self) -> list[Elite]:
@@ -180,6 +183,46 @@ class GenerationReport:
 
 GenerationCallback = Callable[[GenerationReport], None]
 StartCallback = Callable[[int, int], None]  # (runs already spent, run budget)
+
+
+class _KeptPool:
+    """The local pool kept from one generation to the next. The campaign scheduler ends its
+    executor's workers when a session ends, and a search runs one session per generation (and
+    one for the confirmation): each would start fresh workers (an interpreter, the imports, the
+    warm-up mission: seconds each, more than a small generation's runs). This executor keeps
+    them between sessions; an interrupted session (``shutdown(now=True)``) still kills them, and
+    :meth:`close` ends them when the search ends."""
+
+    def __init__(self, pool: LocalExecutor) -> None:
+        self.pool = pool
+        self.worker = pool.worker
+        self.workers = pool.workers
+        self._slots = 0
+
+    def start(self, jobs: int) -> int:
+        if self._slots < max(1, min(self.workers, jobs)):  # none yet, or fewer than this session can use
+            if self._slots:
+                self.pool.shutdown(now=False)
+            self._slots = self.pool.start(jobs)
+        return self._slots
+
+    def submit(self, job: Job) -> None:
+        self.pool.submit(job)
+
+    def wait(self, timeout_s: float) -> list[Event]:
+        return self.pool.wait(timeout_s)
+
+    def kill(self, job: Job) -> None:
+        self.pool.kill(job)
+
+    def shutdown(self, *, now: bool) -> None:
+        if now:
+            self.pool.shutdown(now=True)
+            self._slots = 0
+
+    def close(self) -> None:
+        self.pool.shutdown(now=False)
+        self._slots = 0
 
 
 def _entry(c: Candidate) -> dict[str, Any]:
@@ -234,14 +277,16 @@ def _found(spec: SearchSpec, events: int, trials: int, fitness: float) -> bool:
     return fitness > 0.0
 
 
-def _stored(root: Path) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
-    """The generations and the confirmation stored in ``root`` (empty when there is no store);
-    StoreError when ``root`` holds a campaign that is no search."""
+def _stored(root: Path) -> tuple[list[dict[str, Any]], list[dict[str, Any]], list[int]]:
+    """The generations and the confirmation stored in ``root`` (empty when there is no store), and
+    the runs recorded in each generation; StoreError when ``root`` holds a campaign that is no search."""
     if not (root / DB_NAME).exists():
-        return [], []
+        return [], [], []
     with Store.open(root) as s:
         exps = s.spec.experiments
-        gens, conf = [], []
+        gens: list[dict[str, Any]] = []
+        conf: list[dict[str, Any]] = []
+        recorded = Counter(r.experiment for r in s.records())
         for e in exps:
             worlds = [w.model_dump(mode="json") for w in e.worlds or []]
             if e.name == CONFIRM:
@@ -251,7 +296,7 @@ def _stored(root: Path) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
             else:
                 raise StoreError(f"output={str(root)!r} holds campaign {s.spec.name!r}, which is not a search "
                                  f"(experiment {e.name!r}); choose a new -o")
-    return gens, conf
+    return gens, conf, [recorded[g["name"]] for g in gens]
 
 
 def _runs_json(r: int | AdaptiveRuns | None) -> Any:
@@ -280,11 +325,23 @@ def run_search(spec_path: str | Path, directory: str | Path, *, budget: int | No
     root = Path(directory)
     if root.exists() and not root.is_dir():
         raise StoreError(f"output={str(root)!r} exists and is not a directory; choose another -o")
-    stored, stored_confirm = _stored(root)
+    stored, stored_confirm, stored_runs = _stored(root)
     t0 = time.monotonic()
-    result = SearchResult(root, spec)
+    ended = _ended_budget(root) if stored_confirm else None
+    unused = None
+    if ended is not None and ended != spec.budget.runs:
+        # the generations ended under another budget: they stay as they are (the confirmation
+        # follows them in the campaign), and the result says the budget they ended with
+        unused, spec = spec.budget.runs, with_budget(spec, ended)
+    result = SearchResult(root, spec, ended_before=bool(stored_confirm), budget_unused=unused)
     limit = wall_limit_s if wall_limit_s is not None else default_wall_limit_s(spec.timeout_s)
     per_candidate = spec.max_runs_per_candidate() * len(spec.faults)
+    # the least budget that makes every stored generation (the loop's test before each one)
+    need = max((sum(stored_runs[:g]) + len(gen["worlds"]) * per_candidate for g, gen in enumerate(stored)), default=0)
+    if need > spec.budget.runs:
+        raise StoreError(f"output={str(root)!r} holds {len(stored)} generations of this search, more than a budget of "
+                         f"{spec.budget.runs} runs makes; resume it with the budget it was run with (--budget {need} "
+                         "holds them), or choose a new -o")
     fault = _under_test(spec)
     obj = spec.objective
     experiments: list[dict[str, Any]] = []
@@ -293,19 +350,22 @@ def run_search(spec_path: str | Path, directory: str | Path, *, budget: int | No
         # the first generation's campaign is checked before anything is written or started
         X = algo.ask()
         first = [space.decode(x) for x in X]
-        check_runnable(_campaign(spec, [{"name": generation_name(0),
-                                         "worlds": [_entry(c) for c in {c.key: c for c in first}.values()]}])[0])
-        ex: LocalExecutor | RayExecutor
+        exp0 = {"name": generation_name(0), "worlds": [_entry(c) for c in {c.key: c for c in first}.values()]}
+        check_runnable(_campaign(spec, [exp0])[0])
+        ex: _KeptPool | RayExecutor
         if executor == "ray":
             ex = stack.enter_context(RayExecutor(workers, targets, address=ray_address))
         else:
-            ex = LocalExecutor(workers if workers is not None else (os.cpu_count() or 1), targets)
+            ex = _KeptPool(LocalExecutor(workers if workers is not None else (os.cpu_count() or 1), targets))
+            stack.callback(ex.close)
         result.workers = ex.workers
-        store: Store | None = None
         if stored:  # resume: the store as it is (the same search spec gives the same campaign text)
             store = stack.enter_context(Store.create(root, *_campaign(spec, stored + stored_confirm)))
+        else:  # a new search: its store, with the first generation, before anything is shown or run
+            store = stack.enter_context(Store.create(root, *_campaign(spec, [exp0])))
+            stored = [exp0]
         if on_start is not None:
-            on_start(store.progress()[0] if store is not None else 0, spec.budget.runs)
+            on_start(store.progress()[0], spec.budget.runs)
         g = 0
         while True:
             if g > 0:
@@ -319,17 +379,17 @@ def run_search(spec_path: str | Path, directory: str | Path, *, budget: int | No
                     raise StoreError(f"output={str(root)!r}: generation {g} of the stored search differs from this "
                                      "spec's (another spec, seed or navstress version); run it with the spec it was "
                                      "made with, or choose a new -o")
-            elif stored_confirm:
-                break  # a finished search: its generations end where they ended
             elif result.runs + len(uniq) * per_candidate > spec.budget.runs:
                 result.stopped = "budget.runs"
                 break
+            elif stored_confirm:
+                # the generations ended in an earlier call, neither at budget.runs nor at
+                # budget.sim_hours (both checked again, as then): at budget.wall_s
+                result.stopped = "budget.wall_s" if spec.budget.wall_s is not None else _previous_stop(root)
+                break
             experiments.append(exp)
-            cspec, text = _campaign(spec, experiments)
-            if store is None:
-                store = stack.enter_context(Store.create(root, cspec, text))
-            elif g >= len(stored):
-                store.extend(cspec, text)
+            if g >= len(stored):
+                store.extend(*_campaign(spec, experiments))
             session = resume(store, ex, wall_limit_s=limit, on_record=on_record)
             result.recorded += session.recorded
             if session.unfinished:
@@ -369,10 +429,7 @@ def run_search(spec_path: str | Path, directory: str | Path, *, budget: int | No
             if spec.budget.wall_s is not None and time.monotonic() - t0 >= spec.budget.wall_s:
                 result.stopped = "budget.wall_s"
                 break
-        if store is None:  # the budget holds no generation (the spec checks it does; defensive)
-            raise SpecError("budget.runs", spec.budget.runs, "at least one generation's runs")
-        if not result.stopped:  # a finished search run again: why it stopped is in its search.json
-            result.stopped = _previous_stop(root)
+        _write_spec(root, spec)  # before the confirmation: the budget the generations ended with
         _confirm(spec, space, algo, store, ex, limit, experiments, result, on_record)
         result.sim_hours = sum(r.duration_s for r in store.records() if r.experiment != CONFIRM) / 3600.0
         if result.unfinished:
@@ -383,11 +440,25 @@ def run_search(spec_path: str | Path, directory: str | Path, *, budget: int | No
                                            max((e.fitness for e in result.evaluated), default=0.0),
                                            len(result.confirmed), len(result.elites)))
         result.suite = write_suite(spec, result, root)
-        _files.write_atomic(root / SEARCH_SPEC_NAME, yaml.safe_dump(
-            spec.model_dump(mode="json", exclude_unset=True), sort_keys=False))
+        _write_spec(root, spec)
         _files.write_atomic(root / RESULT_NAME, _json.dumps(result.to_json(), indent=1, sort_keys=True) + "\n")
     result.wall_s = time.monotonic() - t0
     return result
+
+
+def _write_spec(root: Path, spec: SearchSpec) -> None:
+    """``search.yaml``: the spec as run (its budget override included)."""
+    _files.write_atomic(root / SEARCH_SPEC_NAME, yaml.safe_dump(spec.model_dump(mode="json", exclude_unset=True),
+                                                                sort_keys=False))
+
+
+def _ended_budget(root: Path) -> int | None:
+    """The run budget the stored generations ended with (search.yaml, written when they ended);
+    None when it cannot be read."""
+    try:
+        return load_search(root / SEARCH_SPEC_NAME)[0].budget.runs
+    except (NavstressError, OSError):
+        return None
 
 
 def _previous_stop(root: Path) -> str:
@@ -397,7 +468,7 @@ def _previous_stop(root: Path) -> str:
         return ""
 
 
-def _confirm(spec: SearchSpec, space: Space, algo: Any, store: Store, ex: LocalExecutor | RayExecutor,
+def _confirm(spec: SearchSpec, space: Space, algo: Any, store: Store, ex: _KeptPool | RayExecutor,
              limit: float, experiments: list[dict[str, Any]], result: SearchResult,
              on_record: RecordCallback | None) -> None:
     """Re-run the elites (best first, those whose runs showed what the objective looks for) with

@@ -24,8 +24,12 @@ from navstress.campaign.scheduler import Executor, resume
 from navstress.campaign.spec import load_campaign
 from navstress.campaign.store import Store
 
-#: The wall-clock limit of the runs (the hanging navigator's runs last that long).
+#: The wall-clock limit of the crashing navigator's runs (a Ray task's clock starts when it is
+#: submitted: the limit leaves a fresh Ray worker the time to start on a busy machine).
 WALL_LIMIT_S = 40.0
+#: The wall-clock limit of the hanging navigator's run (it lasts that long; started late on a
+#: busy machine, it ends the same way).
+HANG_LIMIT_S = 8.0
 NAVS = [{"name": "reference-v1"},
         {"name": "hangs-v1", "target": "campaign_navs:Hangs", "config": {"after_s": 0.2}},
         {"name": "exits-v1", "target": "campaign_navs:Exits", "config": {"after_s": 0.2}}]
@@ -50,13 +54,16 @@ def _session(ex: Executor, spec: Path, out: Path, **limits: float) -> dict[str, 
 
 
 def scenarios(ex: Executor, root: Path) -> dict[str, Any]:
-    """Two campaigns on one executor: a world that never generates within its limit; then the
-    hanging and the crashing navigator on a world that does (the limit leaves a Ray worker, whose
-    clock starts when the task is submitted, the time to start on a busy machine)."""
+    """Three campaigns on one executor: a world that never generates within its limit; then the
+    hanging navigator (a short limit: its run lasts that long), and the crashing navigator (a long
+    one, which its crashes never reach), on a world that does."""
     # a 200 m world takes about a second to generate: far over its limit, whatever the load
     world = _session(ex, _spec(root, "world", NAVS[:1], 200.0), root / "world", wall_limit_s=60.0,
                      world_limit_s=0.01)
-    runs = _session(ex, _spec(root, "runs", NAVS[1:]), root / "runs", wall_limit_s=WALL_LIMIT_S)
+    hang = _session(ex, _spec(root, "hang", NAVS[1:2]), root / "hang", wall_limit_s=HANG_LIMIT_S)
+    crash = _session(ex, _spec(root, "crash", NAVS[2:]), root / "crash", wall_limit_s=WALL_LIMIT_S)
+    runs = {"recorded": hang["recorded"] + crash["recorded"], "unfinished": hang["unfinished"] + crash["unfinished"],
+            "attempts": hang["attempts"] + crash["attempts"], "records": {**hang["records"], **crash["records"]}}
     return {"world": world, "runs": runs}
 
 

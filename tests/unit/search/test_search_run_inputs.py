@@ -1,0 +1,93 @@
+"""``navstress search SPEC -o DIR``: every bad input is one line ``error: ...``, exit 2, before
+anything runs, and nothing is written. A table: the spec (an unknown parameter, an empty
+range, a budget of 0, an unknown objective or algorithm), the options (--budget, --workers,
+--executor, --wall-limit) and the output (a file, a campaign that is no search, a search made
+from another spec)."""
+
+from __future__ import annotations
+
+import copy
+import sys
+from pathlib import Path
+from typing import Any
+
+import pytest
+import yaml
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # tests/unit: the CLI input helpers
+from cli_inputs import SEARCH, assert_one_line_error, invoke, prepare, snapshot  # noqa: E402
+from navstress.campaign.store import Store  # noqa: E402
+from navstress.search.driver import _campaign, _entry, generation_name  # noqa: E402
+from navstress.search.algorithms import make_algorithm  # noqa: E402
+from navstress.search.space import Space  # noqa: E402
+from navstress.search.spec import parse_search  # noqa: E402
+
+
+def _with(**over: Any) -> dict[str, Any]:
+    d = copy.deepcopy(SEARCH)
+    for path, v in over.items():
+        *head, last = path.split("__")
+        node = d
+        for k in head:
+            node = node[k]
+        node[last] = v
+    return d
+
+
+# (case, spec, extra argv, output: "new" | "file" | "campaign" | "other-search", what the line names)
+CASES: list[tuple[str, dict[str, Any], list[str], str, str]] = [
+    ("unknown parameter", _with(space__parameters=[{"path": "obstacles.nope", "low": 0, "high": 1}]), [], "new",
+     "space.parameters[0].path"),
+    ("unknown obstacle type", _with(space__parameters=[{"path": "obstacles.obstruction.castle", "low": 0, "high": 1}]),
+     [], "new", "space.parameters[0].path"),
+    ("empty range", _with(space__parameters=[{"path": "obstacles.obstruction.tree", "low": 5, "high": 5}]), [], "new",
+     "space.parameters[0]="),
+    ("reversed range", _with(space__parameters=[{"path": "ground.deformation", "low": 2, "high": 1}]), [], "new",
+     "space.parameters[0]="),
+    ("budget 0", _with(budget={"runs": 0}), [], "new", "budget.runs=0"),
+    ("budget negative", _with(budget={"runs": -3}), [], "new", "budget.runs=-3"),
+    ("unknown objective", _with(objective={"name": "nope"}), [], "new", "objective.name="),
+    ("unknown algorithm", _with(algorithm={"name": "nope", "batch": 2}), [], "new", "algorithm.name="),
+    ("--budget 0", SEARCH, ["--budget", "0"], "new", "--budget=0"),
+    ("--budget under a generation", SEARCH, ["--budget", "1"], "new", "--budget=1"),
+    ("--workers 0", SEARCH, ["--workers", "0"], "new", "--workers=0"),
+    ("--executor foo", SEARCH, ["--executor", "foo"], "new", "--executor="),
+    ("--wall-limit 0", SEARCH, ["--wall-limit", "0"], "new", "--wall-limit="),
+    ("output is a file", SEARCH, [], "file", "exists and is not a directory"),
+    ("output holds a campaign", SEARCH, [], "campaign", "which is not a search"),
+    ("output holds another search", _with(seed=2), [], "other-search", "different spec"),
+    ("output holds another algorithm's search", _with(algorithm={"name": "ga", "batch": 2}), [], "other-search",
+     "generation 0 of the stored search differs"),
+]
+
+
+@pytest.fixture(scope="module")
+def root(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The prepared folder (``c``: a campaign store), ``afile``, and ``s``: the search of
+    :data:`SEARCH` with its first generation planned (nothing run)."""
+    r = tmp_path_factory.mktemp("search-inputs")
+    prepare(r)
+    (r / "afile").write_text("a file")
+    spec = parse_search(SEARCH)
+    space = Space.from_spec(spec)
+    first = [space.decode(x) for x in make_algorithm(spec, space).ask()]
+    cspec, text = _campaign(spec, [{"name": generation_name(0), "worlds": [_entry(c) for c in first]}])
+    Store.create(r / "s", cspec, text).close()
+    return r
+
+
+@pytest.mark.parametrize("case,spec,argv,output,names", CASES, ids=[c[0] for c in CASES])
+def test_bad_input_is_one_line_exit_2_and_nothing_written(root: Path, tmp_path: Path, case: str,
+                                                          spec: dict[str, Any], argv: list[str], output: str,
+                                                          names: str) -> None:
+    path = tmp_path / "s.yaml"
+    path.write_text(yaml.safe_dump(spec), encoding="utf-8")
+    out = {"new": tmp_path / "new", "file": root / "afile", "campaign": root / "c", "other-search": root / "s"}[output]
+    before, mine = snapshot(root), snapshot(tmp_path)
+    full = ["search", str(path), "-o", str(out), "-q", *argv]
+    line = assert_one_line_error(*invoke(full), full)
+    assert names in line, line
+    assert snapshot(root) == before and snapshot(tmp_path) == mine
+    # the same through the subcommand's own name
+    full = ["search", "run", str(path), "-o", str(out), "-q", *argv]
+    assert assert_one_line_error(*invoke(full), full) == line
