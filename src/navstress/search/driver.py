@@ -326,6 +326,10 @@ def run_search(spec_path: str | Path, directory: str | Path, *, budget: int | No
     if root.exists() and not root.is_dir():
         raise StoreError(f"output={str(root)!r} exists and is not a directory; choose another -o")
     stored, stored_confirm, stored_runs = _stored(root)
+    if stored_confirm and stored_confirm[0]["runs_per_map"] != spec.confirm_runs:
+        raise StoreError(f"output={str(root)!r} holds this search's confirmation, run with confirm_runs="
+                         f"{stored_confirm[0]['runs_per_map']}, not {spec.confirm_runs}; resume with the spec it was "
+                         "made with, or choose a new -o")
     t0 = time.monotonic()
     ended = _ended_budget(root) if stored_confirm else None
     unused = None

@@ -2,7 +2,7 @@
 anything runs, and nothing is written. A table: the spec (an unknown parameter, an empty
 range, a budget of 0, an unknown objective or algorithm), the options (--budget, --workers,
 --executor, --wall-limit) and the output (a file, a campaign that is no search, a search made
-from another spec)."""
+from another spec, a confirmation planned with another confirm_runs)."""
 
 from __future__ import annotations
 
@@ -58,13 +58,16 @@ CASES: list[tuple[str, dict[str, Any], list[str], str, str]] = [
     ("output holds another search", _with(seed=2), [], "other-search", "different spec"),
     ("output holds another algorithm's search", _with(algorithm={"name": "ga", "batch": 2}), [], "other-search",
      "generation 0 of the stored search differs"),
+    ("output holds its confirmation made with other confirm_runs", SEARCH, [], "confirmed",
+     "run with confirm_runs=3, not 1"),
 ]
 
 
 @pytest.fixture(scope="module")
 def root(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The prepared folder (``c``: a campaign store), ``afile``, and ``s``: the search of
-    :data:`SEARCH` with its first generation planned (nothing run)."""
+    """The prepared folder (``c``: a campaign store), ``afile``, ``s``: the search of
+    :data:`SEARCH` with its first generation planned (nothing run), and ``sc``: the same with a
+    confirmation planned with another ``confirm_runs``."""
     r = tmp_path_factory.mktemp("search-inputs")
     prepare(r)
     (r / "afile").write_text("a file")
@@ -73,6 +76,9 @@ def root(tmp_path_factory: pytest.TempPathFactory) -> Path:
     first = [space.decode(x) for x in make_algorithm(spec, space).ask()]
     cspec, text = _campaign(spec, [{"name": generation_name(0), "worlds": [_entry(c) for c in first]}])
     Store.create(r / "s", cspec, text).close()
+    conf = {"name": "confirm", "worlds": [_entry(first[0])], "runs_per_map": 3}
+    cspec, text = _campaign(spec, [{"name": generation_name(0), "worlds": [_entry(c) for c in first]}, conf])
+    Store.create(r / "sc", cspec, text).close()
     return r
 
 
@@ -82,7 +88,8 @@ def test_bad_input_is_one_line_exit_2_and_nothing_written(root: Path, tmp_path: 
                                                           names: str) -> None:
     path = tmp_path / "s.yaml"
     path.write_text(yaml.safe_dump(spec), encoding="utf-8")
-    out = {"new": tmp_path / "new", "file": root / "afile", "campaign": root / "c", "other-search": root / "s"}[output]
+    out = {"new": tmp_path / "new", "file": root / "afile", "campaign": root / "c", "other-search": root / "s",
+           "confirmed": root / "sc"}[output]
     before, mine = snapshot(root), snapshot(tmp_path)
     full = ["search", str(path), "-o", str(out), "-q", *argv]
     line = assert_one_line_error(*invoke(full), full)
