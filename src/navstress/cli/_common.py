@@ -13,7 +13,7 @@ from navstress.errors import SpecError, WorldFileError
 from navstress.nav.registry import load_config
 from navstress.world.world import is_world_dir
 
-__all__ = ["MAX_RUNS", "MAX_SEED", "MAX_TIMEOUT_S", "MAX_WALL_S", "MAX_WORKERS", "Stopped", "NAV_CONFIG_HELP", "bounded_int",
+__all__ = ["MAX_RUNS", "MAX_SEED", "MAX_TIMEOUT_S", "MAX_WALL_S", "MAX_WORKERS", "Stopped", "check_executor_flags", "NAV_CONFIG_HELP", "bounded_int",
            "check_file_out", "check_out_dir", "integer", "load_navigator_config", "number", "probe_writable"]
 
 #: Largest seed a flag takes (seeds are stored as signed 64-bit integers).
@@ -61,3 +61,14 @@ class Stopped(BaseException):
     def __init__(self, signum: int) -> None:
         super().__init__(f"signal {signum}")
         self.signum = signum
+
+
+def check_executor_flags(executor: str, workers: int | None, wall_limit: float | None) -> None:
+    """The flags of a command that runs a campaign's runs (``campaign run``, ``search``):
+    ``--executor``, ``--workers`` and ``--wall-limit`` (SpecError naming the flag)."""
+    if executor not in ("local", "ray"):
+        raise SpecError("--executor", executor, "local or ray")
+    if workers is not None and not 1 <= workers <= MAX_WORKERS:
+        raise SpecError("--workers", workers, f"an integer in [1, {MAX_WORKERS}]")
+    if wall_limit is not None and not 0 < wall_limit <= MAX_WALL_S:
+        raise SpecError("--wall-limit", wall_limit, "seconds in (0, 2592000]")

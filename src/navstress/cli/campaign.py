@@ -32,7 +32,7 @@ from navstress.campaign.progress import CampaignProgress, format_counts
 from navstress.campaign.replay import replay as do_replay
 from navstress.campaign.spec import MAX_WORKERS
 from navstress.campaign.store import OUTCOMES, Store
-from navstress.cli._common import Stopped, bounded_int
+from navstress.cli._common import Stopped, bounded_int, check_executor_flags
 from navstress.errors import SpecError, WorldFileError
 
 app = typer.Typer(rich_markup_mode=None)
@@ -77,12 +77,7 @@ def run(
     `navstress gate` turns results into pass or fail), 1 when some runs stayed pending after repeated
     failures of the machinery (run again to retry them), 2 for a bad spec or directory or a
     full disk, 130 on Ctrl-C and 143 on SIGTERM (run the same command again to resume)."""
-    if executor not in ("local", "ray"):
-        raise SpecError("--executor", executor, "local or ray")
-    if workers is not None and not 1 <= workers <= MAX_WORKERS:
-        raise SpecError("--workers", workers, f"an integer in [1, {MAX_WORKERS}]")
-    if wall_limit is not None and not 0 < wall_limit <= 30 * 86_400:
-        raise SpecError("--wall-limit", wall_limit, "seconds in (0, 2592000]")
+    check_executor_flags(executor, workers, wall_limit)
     resume = f"navstress campaign run {_quote(spec)} -o {_quote(out)}" + (" --yes" if yes else "")
 
     def on_term(signum: int, frame: object) -> None:

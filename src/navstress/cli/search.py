@@ -22,7 +22,7 @@ from typer.core import TyperGroup
 
 from navstress._console import literal
 from navstress.errors import SpecError
-from navstress.cli._common import MAX_WORKERS, Stopped
+from navstress.cli._common import MAX_WORKERS, Stopped, check_executor_flags
 from navstress.search.driver import FOUND_WHAT, run_search
 from navstress.search.presets import template_yaml
 from navstress.search.progress import SearchProgress
@@ -87,12 +87,7 @@ def run(
     Exit 0 when the search ended, 1 when some runs stayed pending after repeated failures of the
     machinery (run again to retry them), 2 for a bad spec or directory, 130 on Ctrl-C and 143 on
     SIGTERM (run the same command again to resume: nothing recorded is lost or run twice)."""
-    if executor not in ("local", "ray"):
-        raise SpecError("--executor", executor, "local or ray")
-    if workers is not None and not 1 <= workers <= MAX_WORKERS:
-        raise SpecError("--workers", workers, f"an integer in [1, {MAX_WORKERS}]")
-    if wall_limit is not None and not 0 < wall_limit <= 30 * 86_400:
-        raise SpecError("--wall-limit", wall_limit, "seconds in (0, 2592000]")
+    check_executor_flags(executor, workers, wall_limit)
     if budget is not None and (budget < 1 or budget > MAX_BUDGET_RUNS):
         raise SpecError("--budget", budget, f"a number of runs in [1, {MAX_BUDGET_RUNS}]")
     again = f"navstress search {shlex.quote(str(spec))} -o {shlex.quote(str(out))}" + (
