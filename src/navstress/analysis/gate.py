@@ -271,6 +271,10 @@ def gate(directory: str | Path, rule: GateRule, *, navigators: tuple[str, ...] |
         k = (r.experiment, config_key(r), r.navigator, fault_name(r.fault))
         if k[2] in navs and k[3] in fset:
             worlds.setdefault(k, {}).setdefault(r.map_index, []).append(_evidence(r, root))
+    if not worlds:  # a gate over nothing would pass: say what there is to gate instead
+        ran = ", ".join(fault_names)
+        raise SpecError("--fault", ",".join(sorted(fset)), f"a stack the campaign ran (its faults: {ran})",
+                        f"gate them by name, e.g. --fault {fault_names[0]}" if fault_names else None)
     configs = tuple(_judge(k, by_map, rule) for k, by_map in worlds.items())
     return GateResult(spec.name, str(root), rule, recorded, planned, configs)
 

@@ -181,6 +181,14 @@ def test_bad_input_is_refused(tmp_path: Path) -> None:
         gate(d, GateRule(0.5), navigators=("nope-v1",))
     with pytest.raises(SpecError, match="fault='nope'"):
         gate(d, GateRule(0.5), faults=("nope",))
+    with make_store(tmp_path / "faulty", defs=[], maps=1, runs=2, faults=["small-footprint"]) as s:
+        for r in range(2):
+            s.add(record("trees", "tree=0", 0, r, "fail-collision", fault="small-footprint", collisions=1))
+    # a campaign of faulty runs only: the default gate (the nominal stack) has nothing to judge and
+    # would pass vacuously; it is refused, naming the faults there are
+    with pytest.raises(SpecError, match=r"--fault='nominal'.*its faults: small-footprint.*--fault small-footprint"):
+        gate(tmp_path / "faulty", GateRule(0.5))
+    assert not gate(tmp_path / "faulty", GateRule(0.5), faults=("small-footprint",)).passed
     make_store(tmp_path / "empty").close()
     with pytest.raises(StoreError, match="recorded runs"):
         gate(tmp_path / "empty", GateRule(0.5))
