@@ -68,7 +68,7 @@ runs_per_candidate: 3
 algorithm:
 {algorithm}
 
-confirm_runs: 10             # fresh-seed runs per elite before it is reported
+confirm_runs: {confirm_runs}             # fresh-seed runs per elite (and stack) before it is reported{confirm_why}
 elites: 10                   # how many of the best worlds to report
 timeout_s: 120.0             # per run (simulated seconds)
 goal_tolerance_m: 2.0
@@ -123,10 +123,16 @@ _WHAT = {
 }
 
 
+#: Why an objective's confirmation takes the runs it does (a comment after ``confirm_runs``).
+_CONFIRM_WHY = {"fault-revealing": "\n# (a revealing world needs at least 8 revealing pairs of the fresh ones, and one that reveals\n"
+                                   "# half the time about 20: docs/search.md, \"Confirmation\")"}
+
+
 def template_yaml(objective: str) -> str:
     """The ready spec of ``objective`` (SpecError naming ``--objective`` for an unknown one)."""
     if objective not in OBJECTIVES:
         raise SpecError("--objective", objective, f"one of {list(OBJECTIVES)}")
     faults = "[null, small-footprint]" if objective == "fault-revealing" else "[null]"
     return (_HEAD.format(what=_WHAT[objective], name=objective, faults=faults) + _OBJECTIVE[objective]
-            + _TAIL.format(algorithm=_ALGORITHM[objective]))
+            + _TAIL.format(algorithm=_ALGORITHM[objective], confirm_runs=20 if objective == "fault-revealing" else 10,
+                           confirm_why=_CONFIRM_WHY.get(objective, "")))
