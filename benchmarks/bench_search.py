@@ -22,7 +22,7 @@ places mostly the same trees at a nearby obstruction), so the benchmark also pri
 distinct **map seeds** (layouts) among the confirmed worlds: a search that only varies one
 layout finds many worlds but few layouts, and this column says how far that goes.
 
-    .venv/bin/python benchmarks/bench_search.py [--budget-a 320] [--budget-b 160] [--batch N] [--case a|b|both] [--workers 2]
+    .venv/bin/python benchmarks/bench_search.py [--budget-a 320] [--budget-b 160] [--batch N] [--case a|b|both] [--seed 11] [--workers 2]
         [--algorithm ga] [--keep DIR]
 
 ``--keep DIR`` keeps the four searches in DIR (a later call with the same DIR resumes them:
@@ -80,9 +80,10 @@ CASES: dict[str, dict[str, Any]] = {
 BATCH = {"a-fault-revealing": 4, "b-failure": 8}
 
 
-def spec_for(case: str, algorithm: str, budget: int, batch: int) -> dict[str, Any]:
+def spec_for(case: str, algorithm: str, budget: int, batch: int, seed: int) -> dict[str, Any]:
     algo: dict[str, Any] = {"name": algorithm, "batch": batch, **SEARCH_SETTINGS.get(algorithm, {})}
-    return {"name": f"{case}-{algorithm}", **BASE, **CASES[case], "budget": {"runs": budget}, "algorithm": algo}
+    return {"name": f"{case}-{algorithm}", **BASE, **CASES[case], "seed": seed, "budget": {"runs": budget},
+            "algorithm": algo}
 
 
 def summary(res: SearchResult) -> dict[str, Any]:
@@ -102,6 +103,7 @@ def main() -> int:
     ap.add_argument("--workers", "-j", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--keep", type=Path, default=None)
     ap.add_argument("--case", choices=("a", "b", "both"), default="both")
+    ap.add_argument("--seed", type=int, default=BASE["seed"], help="the search seed (map seeds, run seeds, draws)")
     args = ap.parse_args()
     root = args.keep or Path(tempfile.mkdtemp(prefix="bench-search-"))
     root.mkdir(parents=True, exist_ok=True)
@@ -112,7 +114,7 @@ def main() -> int:
     for case, budget in [c for c in cases if args.case in ("both", c[0][0])]:
         rows = {}
         for algo in (args.algorithm, "random"):
-            spec = spec_for(case, algo, budget, args.batch or BATCH[case])
+            spec = spec_for(case, algo, budget, args.batch or BATCH[case], args.seed)
             path = root / f"{case}-{algo}.yaml"
             path.write_text(yaml.safe_dump(spec, sort_keys=False), encoding="utf-8")
             t0 = time.perf_counter()
