@@ -123,7 +123,7 @@ def run(
     elif res.ended_before and res.recorded == 0:
         typer.echo(literal("this search had already ended: nothing was run"))
     what = FOUND_WHAT[res.spec.objective.name]
-    found = len({e.candidate.key for e in res.evaluated if e.found})
+    found = len(res.found_keys)
     typer.echo(literal(
         f"{out}: {res.generations} generations, {len(res.evaluated)} candidates, {res.runs}/{res.spec.budget.runs} "
         f"runs (stopped at {res.stopped or 'the end'}), {res.confirm_runs} confirmation runs; {found} {what} seen, "

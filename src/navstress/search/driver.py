@@ -50,6 +50,7 @@ from navstress.search.algorithms import make_algorithm
 from navstress.search.objectives import (Confirmation, by_world, confirm, descriptor_values, evaluate,
                                          get_descriptor, world_feasible)
 from navstress.search.space import Candidate, Space
+from navstress.world.world import World
 from navstress.search.spec import SearchSpec, load_search, with_budget
 
 #: The experiment of the elites' confirmation runs.
@@ -138,6 +139,11 @@ class SearchResult:
     budget_unused: int | None = None  # a run budget given to a search whose generations had ended: not used
 
     @property
+    def found_keys(self) -> set[str]:
+        """The distinct worlds whose runs showed what the objective looks for (seen, not confirmed)."""
+        return {e.candidate.key for e in self.evaluated if e.found}
+
+    @property
     def confirmed(self) -> list[Elite]:
         return [e for e in self.elites if e.confirmation.confirmed]
 
@@ -164,7 +170,7 @@ class SearchResult:
                 "sim_hours": self.sim_hours, "stopped": self.stopped,
                 "evaluated": [e.to_json() for e in self.evaluated],
                 "found_curve": [list(p) for p in self.found_curve()],
-                "found": len({e.candidate.key for e in self.evaluated if e.found}),
+                "found": len(self.found_keys),
                 "elites": [e.to_json() for e in self.elites], "confirmed": len(self.confirmed),
                 "suite": f"{SUITE_DIR}/suite.yaml" if self.confirmed else None}
 
@@ -241,7 +247,7 @@ def _under_test(spec: SearchSpec) -> str | None:
     return spec.objective.fault if spec.objective.name == "fault-revealing" else spec.faults[0]
 
 
-def _descriptors(spec: SearchSpec, c: Candidate, world_dir: Path) -> tuple[float, ...]:
+def _descriptors(spec: SearchSpec, c: Candidate, world: World | None) -> tuple[float, ...]:
     """The archive's descriptor values of ``c``: a path of the space is the parameter's value,
     a registry descriptor is read from the generated world (its ``missing`` value when the world
     could not be generated)."""
@@ -249,8 +255,8 @@ def _descriptors(spec: SearchSpec, c: Candidate, world_dir: Path) -> tuple[float
     for d in spec.archive_descriptors():
         if d.name in c.params:
             out.append(float(c.params[d.name]))
-        elif world_dir.exists():
-            out.append(float(descriptor_values([d.name], world_dir)[0]))
+        elif world is not None:
+            out.append(float(descriptor_values([d.name], world)[0]))
         else:
             out.append(float(get_descriptor(d.name).missing))
     return tuple(out)
@@ -349,6 +355,7 @@ def run_search(spec_path: str | Path, directory: str | Path, *, budget: int | No
     fault = _under_test(spec)
     obj = spec.objective
     experiments: list[dict[str, Any]] = []
+    durations: list[float] = []  # simulated seconds of every generation run so far
     targets = {n.name: n.target for n in [spec.navigator] if n.target}
     with ExitStack() as stack:
         # the first generation's campaign is checked before anything is written or started
@@ -403,27 +410,29 @@ def run_search(spec_path: str | Path, directory: str | Path, *, budget: int | No
             recs = [r for r in store.records() if r.experiment == name]
             groups = by_world(recs)
             result.runs += len(recs)
+            durations += [r.duration_s for r in recs]  # the generations' runs, in plan order
             fit: dict[str, float] = {}
             desc: dict[str, tuple[float, ...]] = {}
             for key, c in uniq.items():
                 wdir = root / "worlds" / name / key / "m0"
                 rs = groups.get((name, key, 0), [])
-                feasible = world_feasible(wdir) if wdir.exists() else None
+                world = World.load(wdir) if wdir.exists() else None  # read once: feasibility and descriptors
+                feasible = world_feasible(world) if world is not None else None
                 ev = evaluate(obj.name, rs, fault=fault, failure_class=obj.outcome, target=obj.target,
                               feasible=feasible)
                 fit[key] = ev.fitness
-                desc[key] = _descriptors(spec, c, wdir)
+                desc[key] = _descriptors(spec, c, world)
                 result.evaluated.append(Evaluated(g, c, ev.fitness, ev.estimate, ev.events, ev.trials, desc[key],
                                                   len(rs), result.runs, _found(spec, ev.events, ev.trials, ev.fitness)))
             algo.tell(X, _objectives(spec, [fit[c.key] for c in cands], [desc[c.key] for c in cands]),
                       np.array([desc[c.key] for c in cands]))
             g += 1
             result.generations = g
-            result.sim_hours = sum(r.duration_s for r in store.records() if r.experiment != CONFIRM) / 3600.0
+            result.sim_hours = sum(durations) / 3600.0
             if on_generation is not None:
                 on_generation(GenerationReport(g - 1, result.runs, spec.budget.runs,
                                                max(e.fitness for e in result.evaluated),
-                                               len({e.candidate.key for e in result.evaluated if e.found}),
+                                               len(result.found_keys),
                                                len(result.evaluated)))
             if g < len(stored):
                 continue
@@ -435,7 +444,6 @@ def run_search(spec_path: str | Path, directory: str | Path, *, budget: int | No
                 break
         _write_spec(root, spec)  # before the confirmation: the budget the generations ended with
         _confirm(spec, space, algo, store, ex, limit, experiments, result, on_record)
-        result.sim_hours = sum(r.duration_s for r in store.records() if r.experiment != CONFIRM) / 3600.0
         if result.unfinished:
             result.wall_s = time.monotonic() - t0
             return result
