@@ -58,7 +58,6 @@ BASE: dict[str, Any] = {
         {"path": "obstacles.types.tree.variability", "low": 0, "high": 0.6},
     ], "map_seed": True, "map_seeds": 10000},
     "navigator": {"name": "reference-v1", "config": {}},
-    "runs_per_candidate": 2,
     "timeout_s": 120.0,
     "goal_tolerance_m": 2.0,
     "elites": 10000,
@@ -71,13 +70,17 @@ SEARCH_SETTINGS: dict[str, dict[str, Any]] = {"ga": {"crossover_prob": 0.5}}
 
 CASES: dict[str, dict[str, Any]] = {
     "a-fault-revealing": {"objective": {"name": "fault-revealing", "fault": "small-footprint"},
-                          "faults": [None, "small-footprint"], "confirm_runs": 20, "elites": 10},
-    "b-failure": {"objective": {"name": "failure"}, "faults": [None], "confirm_runs": 5},
+                          "faults": [None, "small-footprint"], "runs_per_candidate": 4, "confirm_runs": 20},
+    "b-failure": {"objective": {"name": "failure"}, "faults": [None], "runs_per_candidate": 2, "confirm_runs": 5},
 }
 #: Candidates per generation: revealing worlds are rare and flaky (a revealing world reveals
 #: about half the time), so case (a) runs small generations (more of them: a found world is
 #: recombined sooner); its elites are capped at 10 per method, each confirmed with 20 pairs.
-BATCH = {"a-fault-revealing": 4, "b-failure": 8}
+BATCH = {"a-fault-revealing": 8, "b-failure": 8}
+#: The run budget of each case (search runs; the confirmation runs come on top, for both methods).
+BUDGET = {"a-fault-revealing": 480, "b-failure": 320}
+#: The default search seeds (``--seeds``); the target is judged on the counts pooled over them.
+SEEDS = (11,)
 
 
 def spec_for(case: str, algorithm: str, budget: int, batch: int, seed: int) -> dict[str, Any]:
@@ -94,50 +97,77 @@ def summary(res: SearchResult) -> dict[str, Any]:
             "layouts": len({e.candidate.map_seed for e in ok}), "sim_h": res.sim_hours}
 
 
+def run_case(case: str, algorithm: str, budget: int, batch: int, seed: int, root: Path,
+             workers: int) -> dict[str, dict[str, Any]] | None:
+    """Both methods on one case and seed: their summaries (None when runs were left unfinished)."""
+    rows = {}
+    for algo in (algorithm, "random"):
+        spec = spec_for(case, algo, budget, batch, seed)
+        name = f"{case}-{algo}" + (f"-s{seed}" if seed != BASE["seed"] else "")
+        path = root / f"{name}.yaml"
+        path.write_text(yaml.safe_dump(spec, sort_keys=False), encoding="utf-8")
+        t0 = time.perf_counter()
+        res = run_search(path, root / name, workers=workers)
+        wall = time.perf_counter() - t0
+        if res.unfinished:
+            print(f"{name}: {len(res.unfinished)} runs unfinished; run again with --keep {root}")
+            return None
+        rows[algo] = {**summary(res), "wall_s": wall}
+    return rows
+
+
+def ratio(s: int, r: int) -> float:
+    return s / r if r else float("inf") if s else 0.0
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--budget-a", type=int, default=320, help="run budget of case (a) (4 runs per candidate)")
-    ap.add_argument("--budget-b", type=int, default=160, help="run budget of case (b) (2 runs per candidate)")
+    ap.add_argument("--budget-a", type=int, default=BUDGET["a-fault-revealing"], help="run budget of case (a)")
+    ap.add_argument("--budget-b", type=int, default=BUDGET["b-failure"], help="run budget of case (b)")
     ap.add_argument("--batch", type=int, default=None, help="candidates per generation (default: BATCH)")
     ap.add_argument("--algorithm", default="ga")
     ap.add_argument("--workers", "-j", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--keep", type=Path, default=None)
     ap.add_argument("--case", choices=("a", "b", "both"), default="both")
-    ap.add_argument("--seed", type=int, default=BASE["seed"], help="the search seed (map seeds, run seeds, draws)")
+    ap.add_argument("--seeds", default=",".join(map(str, SEEDS)),
+                    help="comma-separated search seeds (map seeds, run seeds, draws); the target is judged on "
+                         "the counts pooled over them")
     args = ap.parse_args()
+    try:
+        seeds = [int(x) for x in args.seeds.split(",") if x.strip()]
+    except ValueError:
+        ap.error(f"--seeds={args.seeds!r}: comma-separated integers expected, e.g. 11,12,13")
+    if not seeds:
+        ap.error("--seeds: at least one seed")
     root = args.keep or Path(tempfile.mkdtemp(prefix="bench-search-"))
     root.mkdir(parents=True, exist_ok=True)
     print(f"bench_search: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
-          f"{args.workers} workers; searches in {root}")
+          f"{args.workers} workers; seeds {seeds}; searches in {root}")
     failed = []
     cases = [("a-fault-revealing", args.budget_a), ("b-failure", args.budget_b)]
+    cols = ("candidates", "distinct", "seen", "runs", "confirm_runs", "confirmed", "layouts", "sim_h", "wall_s")
     for case, budget in [c for c in cases if args.case in ("both", c[0][0])]:
-        rows = {}
-        for algo in (args.algorithm, "random"):
-            spec = spec_for(case, algo, budget, args.batch or BATCH[case], args.seed)
-            path = root / f"{case}-{algo}.yaml"
-            path.write_text(yaml.safe_dump(spec, sort_keys=False), encoding="utf-8")
-            t0 = time.perf_counter()
-            res = run_search(path, root / f"{case}-{algo}", workers=args.workers)
-            wall = time.perf_counter() - t0
-            if res.unfinished:
-                print(f"{case} {algo}: {len(res.unfinished)} runs unfinished; run again with --keep {root}")
+        c = CASES[case]
+        print(f"\n{case} (budget {budget} runs, {c['runs_per_candidate']} runs per candidate and stack, batch "
+              f"{args.batch or BATCH[case]}; every seen world confirmed with {c['confirm_runs']} fresh-seed runs per stack)")
+        print(f"  {'seed':>5} {'method':<8}" + "".join(f"{col:>13}" for col in cols))
+        total = {args.algorithm: [0, 0], "random": [0, 0]}
+        for seed in seeds:
+            rows = run_case(case, args.algorithm, budget, args.batch or BATCH[case], seed, root, args.workers)
+            if rows is None:
                 return 2
-            rows[algo] = {**summary(res), "wall_s": wall}
-        print(f"\n{case} (budget {budget} runs; every seen world confirmed with {CASES[case]['confirm_runs']} "
-              "fresh-seed runs per stack)")
-        cols = ("candidates", "distinct", "seen", "runs", "confirm_runs", "confirmed", "layouts", "sim_h", "wall_s")
-        print(f"  {'method':<8}" + "".join(f"{c:>13}" for c in cols))
-        for algo, r in rows.items():
-            print(f"  {algo:<8}" + "".join(f"{r[c]:>13.1f}" if isinstance(r[c], float) else f"{r[c]:>13}"
-                                           for c in cols))
-        s, r = rows[args.algorithm]["confirmed"], rows["random"]["confirmed"]
-        ratio = s / r if r else float("inf") if s else 0.0
-        ls, lr = rows[args.algorithm]["layouts"], rows["random"]["layouts"]
-        lratio = ls / lr if lr else float("inf") if ls else 0.0
-        met = ratio >= TARGET
-        print(f"  distinct confirmed worlds: {args.algorithm} {s} vs random {r} = {ratio:.2f}x "
-              f"(target >= {TARGET:g}x: {'met' if met else 'MISSED'}); distinct layouts {ls} vs {lr} = {lratio:.2f}x")
+            for algo, r in rows.items():
+                print(f"  {seed:>5} {algo:<8}" + "".join(f"{r[col]:>13.1f}" if isinstance(r[col], float)
+                                                        else f"{r[col]:>13}" for col in cols))
+                total[algo][0] += r["confirmed"]
+                total[algo][1] += r["layouts"]
+            s, r_ = rows[args.algorithm]["confirmed"], rows["random"]["confirmed"]
+            print(f"        seed {seed}: {s} vs {r_} distinct confirmed worlds = {ratio(s, r_):.2f}x")
+        (s, ls), (r_, lr) = total[args.algorithm], total["random"]
+        met = ratio(s, r_) >= TARGET
+        print(f"  pooled over {len(seeds)} seed(s): distinct confirmed worlds {args.algorithm} {s} vs random {r_} = "
+              f"{ratio(s, r_):.2f}x (target >= {TARGET:g}x: {'met' if met else 'MISSED'}); distinct map seeds "
+              f"{ls} vs {lr} = {ratio(ls, lr):.2f}x")
         if not met:
             failed.append(case)
     return 1 if failed else 0

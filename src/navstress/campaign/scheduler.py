@@ -36,7 +36,7 @@ from navstress.campaign.plan import MapJob, Plan, Stream
 from navstress.campaign.store import Store, disk_full
 from navstress.campaign.work import Infra
 from navstress.run.batch import drop_partial_trace, failure_record
-from navstress.run.record import RunRecord, RunTask
+from navstress.run.record import GENERATION_FAILED, RunRecord, RunTask
 from navstress.world.world import is_world_dir
 
 RecordCallback = Callable[[RunRecord], None]
@@ -168,7 +168,7 @@ class Recorder:
         run; a machinery failure counts as a failed attempt of each run."""
         if isinstance(result, str):
             for t in tasks:
-                self.record(failure_record(t, f"world generation failed: {result}"))
+                self.record(failure_record(t, f"{GENERATION_FAILED}: {result}"))
             return []
         kind = "disk-full" if result.kind == "disk-full" else "world"
         return [t for t in tasks if self.failed(t, kind, result.reason)]
@@ -304,7 +304,7 @@ def job_ended(job: Job, status: str, value: Any, wall_s: float, q: WorkQueue, re
         if status == "ok":
             q.world_ended(payload, value, rec)
         elif status == "error":
-            q.world_ended(payload, Infra("error", f"world generation failed: {_first_line(value)}"), rec)
+            q.world_ended(payload, Infra("error", f"{GENERATION_FAILED}: {_first_line(value)}"), rec)
         elif status == "died":
             q.world_ended(payload, Infra("error", f"world generation killed its {worker} ({value})"), rec)
         else:

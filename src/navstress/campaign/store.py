@@ -465,11 +465,19 @@ class Store:
             else self.con.execute(q + " ORDER BY run_id, attempt")
         return [(str(r[0]), int(r[1]), str(r[2]), str(r[3])) for r in rows]
 
-    def records(self) -> list[RunRecord]:
-        """Every recorded run, in plan order."""
-        q = (f"SELECT {', '.join('r.' + c for c in COLUMNS)} FROM runs r LEFT JOIN planned p USING (run_id) "
-             "ORDER BY p.seq")
-        return [_record(dict(r), self.root) for r in self.con.execute(q)]
+    def records(self, experiment: str | None = None) -> list[RunRecord]:
+        """Every recorded run (of ``experiment`` only, when given), in plan order."""
+        q = f"SELECT {', '.join('r.' + c for c in COLUMNS)} FROM runs r LEFT JOIN planned p USING (run_id)"
+        if experiment is None:
+            rows = self.con.execute(q + " ORDER BY p.seq")
+        else:
+            rows = self.con.execute(q + " WHERE r.experiment = ? ORDER BY p.seq", (experiment,))
+        return [_record(dict(r), self.root) for r in rows]
+
+    def recorded_by_experiment(self) -> Counter[str]:
+        """experiment -> how many of its runs are recorded."""
+        return Counter({str(e): int(n) for e, n in
+                        self.con.execute("SELECT experiment, COUNT(*) FROM runs GROUP BY experiment")})
 
     def outcomes(self) -> dict[str, str]:
         """run_id -> outcome of every recorded run."""

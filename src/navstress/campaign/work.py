@@ -19,7 +19,7 @@ from navstress.errors import GenerationError, SpecError, WorldFileError
 from navstress.nav import registry
 from navstress.run.batch import failure_record
 from navstress.run.mission import execute
-from navstress.run.record import RunRecord, RunTask
+from navstress.run.record import GENERATION_FAILED, RunRecord, RunTask
 from navstress.world.generate import generate
 from navstress.world.spec import WorldSpec, parse_spec
 from navstress.world.world import World, is_world_dir
@@ -66,7 +66,7 @@ def attempt_world(job: MapJob) -> str | Infra | None:
     except Exception as err:
         if is_disk_full(err):
             return Infra("disk-full", _line(err))
-        return Infra("error", f"world generation failed: {_line(err)}")
+        return Infra("error", f"{GENERATION_FAILED}: {_line(err)}")
 
 
 def attempt_run(task: RunTask) -> RunRecord | Infra:

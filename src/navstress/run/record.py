@@ -21,6 +21,10 @@ from typing import Any
 from navstress import _json
 
 
+#: The start of the reason of every record of a run whose world could not be generated (the
+#: search's objectives leave such records out: they say nothing about the stack).
+GENERATION_FAILED = "world generation failed"
+
 @dataclass(frozen=True)
 class RunTask:
     """One planned run. ``run_id`` is unique and stable within a campaign (resume key)."""

@@ -26,7 +26,6 @@ import os
 import re
 import shutil
 import time
-from collections import Counter
 from collections.abc import Callable
 from contextlib import ExitStack
 from dataclasses import dataclass, field
@@ -292,7 +291,7 @@ def _stored(root: Path) -> tuple[list[dict[str, Any]], list[dict[str, Any]], lis
         exps = s.spec.experiments
         gens: list[dict[str, Any]] = []
         conf: list[dict[str, Any]] = []
-        recorded = Counter(r.experiment for r in s.records())
+        recorded = s.recorded_by_experiment()
         for e in exps:
             worlds = [w.model_dump(mode="json") for w in e.worlds or []]
             if e.name == CONFIRM:
@@ -407,7 +406,7 @@ def run_search(spec_path: str | Path, directory: str | Path, *, budget: int | No
                 result.unfinished = dict(session.unfinished)
                 result.wall_s = time.monotonic() - t0
                 return result
-            recs = [r for r in store.records() if r.experiment == name]
+            recs = store.records(name)
             groups = by_world(recs)
             result.runs += len(recs)
             durations += [r.duration_s for r in recs]  # the generations' runs, in plan order
@@ -509,7 +508,7 @@ def _confirm(spec: SearchSpec, space: Space, algo: Any, store: Store, ex: _KeptP
     if session.unfinished:
         result.unfinished = dict(session.unfinished)
         return
-    recs = [r for r in store.records() if r.experiment == CONFIRM]
+    recs = store.records(CONFIRM)
     result.confirm_runs = len(recs)
     groups = by_world(recs)
     obj = spec.objective

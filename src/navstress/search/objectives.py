@@ -58,7 +58,7 @@ from typing import Any, Literal
 from navstress.errors import SpecError
 from navstress.nav.faults import list_faults
 from navstress.run.outcome import Outcome
-from navstress.run.record import RunRecord
+from navstress.run.record import GENERATION_FAILED, RunRecord
 from navstress.sequential import FLAKY_BAND, confidence_sequence
 from navstress.world.descriptors import describe_world
 from navstress.world.spec import WorldSpec
@@ -85,9 +85,6 @@ DEFAULT_TARGET = 0.5
 DEFAULT_BAND = 0.4
 
 
-#: How a campaign records the runs of a world its generator could not make (Fail-Other records
-#: whose reason starts so, :meth:`navstress.campaign.scheduler.Recorder.world_failed`).
-GENERATION_FAILED = "world generation failed"
 
 
 def ungenerated(r: RunRecord) -> bool:

@@ -10,6 +10,7 @@ import signal
 import subprocess
 import sys
 import time
+from collections import Counter
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -266,3 +267,17 @@ def test_extended_records_and_export_keep_plan_order(tmp_path: Path) -> None:
     rows = read_export(out)
     assert [r["run_id"] for r in rows] == [ids[0], ids[len(ids) // 2], ids[-1]]
     assert json.loads(rows[2]["config"]) == {"obstacles.obstruction.tree": 1}
+
+
+def test_records_of_one_experiment_are_that_experiments_records_in_plan_order(tmp_path: Path) -> None:
+    a, ta = spec_of(spec_data(3))
+    with Store.create(tmp_path, a, ta) as s:
+        ids = s.planned_ids()
+        for rid in reversed(ids[::3]):  # recorded out of plan order, every experiment touched
+            s.add(failure_record(s.task(rid), "x"))
+        every = s.records()
+        exps = {r.experiment for r in every}
+        assert exps == {"base", "g0000", "g0001", "g0002"}
+        for e in sorted(exps) + ["none-such"]:
+            assert [r.run_id for r in s.records(e)] == [r.run_id for r in every if r.experiment == e]
+        assert s.recorded_by_experiment() == Counter(r.experiment for r in every)
