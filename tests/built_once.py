@@ -2,7 +2,10 @@
 every worker process of a session shares the parent of its base temporary directory, and the
 first worker that asks builds the value there under a file lock while the others wait and read
 it. (A module-scoped fixture alone is built by each worker that runs one of its tests: under -n,
-tests of one module are dealt out to both workers.)"""
+tests of one module are dealt out to both workers.)
+
+The traces the build writes are checked here (``trace_check``), once: under -n its directory lies
+outside every worker's own base temporary directory, which the session's own check covers."""
 
 from __future__ import annotations
 
@@ -15,6 +18,8 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+
+from trace_check import TraceChecker
 
 
 def built_once(factory: pytest.TempPathFactory, name: str, build: Callable[[Path], Any]) -> Any:
@@ -30,5 +35,7 @@ def built_once(factory: pytest.TempPathFactory, name: str, build: Callable[[Path
         shutil.rmtree(d, ignore_errors=True)  # an earlier attempt that failed
         d.mkdir()
         value = build(d)
+        bad = TraceChecker().check_under(d)
+        assert not bad, f"traces written by the {name!r} build are invalid:\n" + "\n".join(bad)
         done.write_text(json.dumps(value), encoding="utf-8")
         return json.loads(done.read_text(encoding="utf-8"))

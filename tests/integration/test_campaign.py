@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -24,6 +25,7 @@ from navstress.campaign.executors import run_campaign
 from navstress.campaign.replay import replay
 from navstress.campaign.store import Store, read_export
 import loopback
+from built_once import built_once
 from campaign_kill import kill_when_recorded
 
 HELPERS = str(Path(__file__).resolve().parents[1] / "unit" / "campaign")
@@ -38,7 +40,7 @@ def _spec(**over: Any) -> dict[str, Any]:
         "name": "small", "seed": 11, "world": {"size_m": [30.0, 30.0], "cell_m": 0.4},
         "experiments": [{"name": "trees", "sweep": {"obstacles.obstruction.tree": {"values": [0, 3]}}}],
         "maps_per_config": 1, "runs_per_map": 2, "navigators": [{"name": "reference-v1"}],
-        "faults": [None], "timeout_s": 40.0, "goal_tolerance_m": 2.0}
+        "faults": [None], "timeout_s": 15.0, "goal_tolerance_m": 2.0}
     d.update(over)
     return d
 
@@ -52,10 +54,8 @@ def _partials(d: Path) -> list[Path]:
     return [p for p in d.rglob(".*") if p.name != ".lock"]
 
 
-@pytest.fixture(scope="module")
-def resumed(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def _resumed(root: Path) -> str:
     """A campaign SIGKILLed mid-way by a subprocess driver, then resumed to the end."""
-    root = tmp_path_factory.mktemp("resume")
     spec = _write(root / "spec.yaml", _spec())
     out = root / "out"
     code = ("import sys; from navstress.campaign.executors import run_campaign;"
@@ -67,7 +67,14 @@ def resumed(tmp_path_factory: pytest.TempPathFactory) -> Path:
         assert 1 <= s.progress()[0] < s.progress()[1]
     res = run_campaign(spec, out, workers=2)
     assert res.already_done >= 1 and res.already_done + res.recorded == res.planned
-    return out
+    return str(out)
+
+
+@pytest.fixture(scope="module")
+def resumed(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The resumed campaign, built once in the session (the tests only read it; the replay test
+    tampers with a copy)."""
+    return Path(built_once(tmp_path_factory, "campaign-resumed", _resumed))
 
 
 def test_resume_after_sigkill_loses_and_doubles_nothing(resumed: Path) -> None:
@@ -85,6 +92,7 @@ def test_resume_after_sigkill_loses_and_doubles_nothing(resumed: Path) -> None:
 
 
 def test_replay_identity(resumed: Path, tmp_path: Path) -> None:
+    resumed = shutil.copytree(resumed, tmp_path / "campaign")  # its stored trace is tampered with below
     with Store.open(resumed) as s:
         rec = s.records()[-1]
     r = replay(resumed, rec.run_id, keep=tmp_path / "new.mcap")
@@ -139,7 +147,7 @@ MISBEHAVING = [
 def test_crashing_and_hanging_navigators_are_classified(tmp_path: Path) -> None:
     spec = _write(tmp_path / "spec.yaml", _spec(
         experiments=[{"name": "flat", "sweep": {"obstacles.obstruction.tree": {"values": [0]}}}],
-        runs_per_map=1, navigators=MISBEHAVING, timeout_s=30.0))
+        runs_per_map=1, navigators=MISBEHAVING))
     # the limit stops hangs-v1; it leaves reference-v1's short run room on a loaded 2-core machine
     # (5 s was too tight there: the good run itself was killed)
     res = run_campaign(spec, tmp_path / "out", workers=2, wall_limit_s=12.0)
@@ -180,7 +188,7 @@ def test_ray_executor_on_local_cluster(tmp_path: Path) -> None:
     pytest.importorskip("ray", reason="ray is not installed (pip extra 'ray'; the 'test' extra installs it)")
     spec = _write(tmp_path / "spec.yaml", _spec(
         experiments=[{"name": "flat", "sweep": {"obstacles.obstruction.tree": {"values": [0]}}}],
-        runs_per_map=2, navigators=[{"name": "reference-v1"}, MISBEHAVING[0]], timeout_s=30.0))
+        runs_per_map=2, navigators=[{"name": "reference-v1"}, MISBEHAVING[0]]))
     tests = Path(__file__).resolve().parents[1]
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tests.parent / "src"), HELPERS, str(tests),
                                                         os.environ.get("PYTHONPATH", "")])}

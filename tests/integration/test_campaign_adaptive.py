@@ -20,6 +20,7 @@ import pytest
 import yaml
 
 import loopback
+from built_once import built_once
 from campaign_kill import kill_when_recorded
 from navstress.campaign.executors import run_campaign
 from navstress.campaign.store import Store
@@ -56,12 +57,16 @@ def _runs(out: Path) -> dict[str, str]:
         return s.outcomes()
 
 
-@pytest.fixture(scope="module")
-def uninterrupted(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    root = tmp_path_factory.mktemp("adaptive")
+def _uninterrupted(root: Path) -> str:
     res = run_campaign(_write(root / "spec.yaml"), root / "out", workers=2)
     assert res.recorded == res.planned and res.already_done == 0 and not res.unfinished
-    return root / "out"
+    return str(root / "out")
+
+
+@pytest.fixture(scope="module")
+def uninterrupted(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The campaign run without interruption, built once in the session (the tests only read it)."""
+    return Path(built_once(tmp_path_factory, "adaptive-uninterrupted", _uninterrupted))
 
 
 def test_each_stream_stops_where_the_rule_says(uninterrupted: Path) -> None:

@@ -17,6 +17,7 @@ import pytest
 import yaml
 from junitparser import JUnitXml
 
+from built_once import built_once
 from navstress.campaign.store import Store
 from cli_run import cli as _cli
 
@@ -33,14 +34,18 @@ SPEC: dict[str, Any] = {
 RUNS = 4 * 2 * 2  # (2 swept + 2 explicit configurations) x 2 runs x 2 faults
 
 
-@pytest.fixture(scope="module")
-def campaign(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    root = tmp_path_factory.mktemp("mixed")
+def _campaign(root: Path) -> str:
     (root / "spec.yaml").write_text(yaml.safe_dump(SPEC, sort_keys=False))
     code, out, err = _cli("campaign", "run", str(root / "spec.yaml"), "-o", str(root / "c"), "-q", "-j", "2")
     assert code == 0, (out, err)
     assert out.startswith(f"{root / 'c'}: {RUNS}/{RUNS} runs recorded"), out
-    return root / "c"
+    return str(root / "c")
+
+
+@pytest.fixture(scope="module")
+def campaign(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The campaign, built once in the session (every reader only reads it)."""
+    return Path(built_once(tmp_path_factory, "explicit-worlds-campaign", _campaign))
 
 
 def _suite_rows(rows: list[dict[str, Any]], key: str = "experiment") -> list[dict[str, Any]]:

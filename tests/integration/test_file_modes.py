@@ -19,6 +19,8 @@ from pathlib import Path
 import pytest
 import yaml
 
+from built_once import built_once
+
 pytestmark = pytest.mark.slow
 
 UMASKS = (0o022, 0o002, 0o077)
@@ -67,10 +69,9 @@ print("CODES=" + json.dumps(codes))
 """
 
 
-@pytest.fixture(scope="module", params=UMASKS, ids=lambda u: f"umask{u:03o}")
-def written(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory) -> tuple[int, Path, dict[str, object]]:
-    umask: int = request.param
-    root = tmp_path_factory.mktemp(f"modes{umask:03o}")
+def _written(umask: int, root: Path) -> list[object]:
+    """Every command run in one subprocess whose umask is ``umask``, each into its own folder of
+    ``root``: [umask, root, each command's exit code]."""
     os.chmod(root, 0o755)
     (root / "spec.yaml").write_text(yaml.safe_dump(SPEC, sort_keys=False))
     run_id = _first_run_id(root)
@@ -81,7 +82,15 @@ def written(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFac
                          timeout=500, umask=umask, env=env)
     line = [ln for ln in out.stdout.splitlines() if ln.startswith("CODES=")]
     assert line, out.stdout[-3000:] + out.stderr[-3000:]
-    return umask, root, json.loads(line[-1][len("CODES="):])
+    return [umask, str(root), json.loads(line[-1][len("CODES="):])]
+
+
+@pytest.fixture(scope="module", params=UMASKS, ids=lambda u: f"umask{u:03o}")
+def written(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory) -> tuple[int, Path, dict[str, object]]:
+    """Built once per umask in the session (the tests only read what the commands wrote)."""
+    umask: int = request.param
+    got = built_once(tmp_path_factory, f"file-modes-umask{umask:03o}", lambda root: _written(umask, root))
+    return got[0], Path(got[1]), got[2]
 
 
 def _first_run_id(root: Path) -> str:

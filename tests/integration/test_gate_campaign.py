@@ -18,6 +18,7 @@ HELPERS = str(Path(__file__).resolve().parents[1] / "unit" / "campaign")
 if HELPERS not in sys.path:
     sys.path.insert(0, HELPERS)
 
+from built_once import built_once  # noqa: E402
 from navstress.campaign.store import Store  # noqa: E402
 from navstress.run.record import RunRecord  # noqa: E402
 from cli_run import cli as _cli  # noqa: E402
@@ -33,17 +34,22 @@ SPEC: dict[str, Any] = {
     "timeout_s": 60.0, "goal_tolerance_m": 2.0}
 
 
-@pytest.fixture(scope="module")
-def campaign(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, list[RunRecord]]:
-    root = tmp_path_factory.mktemp("gate")
+def _campaign(root: Path) -> str:
     (root / "spec.yaml").write_text(yaml.safe_dump(SPEC, sort_keys=False))
     code, out, err = _cli("campaign", "run", str(root / "spec.yaml"), "-o", str(root / "c"), "-q", "-j", "1")
     assert code == 0, (out, err)  # four runs failed: results, not errors
-    with Store.open(root / "c") as s:
+    return str(root / "c")
+
+
+@pytest.fixture(scope="module")
+def campaign(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, list[RunRecord]]:
+    """The campaign, built once in the session (the tests only read it), and its records."""
+    c = Path(built_once(tmp_path_factory, "gate-campaign", _campaign))
+    with Store.open(c) as s:
         recs = s.records()
     ends = {n: sorted({r.outcome for r in recs if r.navigator == n}) for n in ("reference-v1", "raises-v1")}
     assert ends == {"reference-v1": ["success"], "raises-v1": ["fail-other"]}, ends
-    return root / "c", recs
+    return c, recs
 
 
 def test_exit_0_when_every_gated_configuration_meets_the_bar(campaign: tuple[Path, list[RunRecord]]) -> None:

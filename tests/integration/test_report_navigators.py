@@ -18,6 +18,7 @@ HELPERS = str(Path(__file__).resolve().parents[1] / "unit" / "campaign")
 if HELPERS not in sys.path:
     sys.path.insert(0, HELPERS)
 
+from built_once import built_once  # noqa: E402
 from navstress.analysis.report import build_report  # noqa: E402
 from navstress.campaign.executors import run_campaign  # noqa: E402
 from navstress.campaign.store import Store  # noqa: E402
@@ -36,18 +37,23 @@ SPEC: dict[str, Any] = {
     "faults": [None], "timeout_s": 4.0, "goal_tolerance_m": 2.0}
 
 
-@pytest.fixture(scope="module")
-def campaign(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, list[RunRecord]]:
-    root = tmp_path_factory.mktemp("twonav")
+def _campaign(root: Path) -> str:
     (root / "spec.yaml").write_text(yaml.safe_dump(SPEC, sort_keys=False))
     res = run_campaign(root / "spec.yaml", root / "c", workers=1)
     assert res.recorded == res.planned == 8
-    with Store.open(root / "c") as s:
+    return str(root / "c")
+
+
+@pytest.fixture(scope="module")
+def campaign(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, list[RunRecord]]:
+    """The campaign, built once in the session (the tests only read it), and its records."""
+    c = Path(built_once(tmp_path_factory, "two-navigators-campaign", _campaign))
+    with Store.open(c) as s:
         recs = s.records()
     # the two navigators end differently: a caption that credits one with the other's runs shows
     ends = {n: {r.outcome for r in recs if r.navigator == n} for n in NAVS}
     assert len(ends["raises-v1"]) == 1 and not ends["raises-v1"] & ends["reference-v1"], ends
-    return root / "c", recs
+    return c, recs
 
 
 class _Page(HTMLParser):
