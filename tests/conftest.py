@@ -13,6 +13,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from hypothesis import settings
 
 from search_dirs import SearchDirs, search_dirs
 from trace_check import TraceChecker
@@ -20,6 +21,12 @@ from world_fixtures import small_world
 from navstress.world import World
 
 _CHECKER = TraceChecker()
+
+# No per-example time limit for property tests: the suite runs on loaded 2-core machines, where
+# hypothesis's default 200 ms deadline fails a correct test by wall-clock luck (speed is checked by
+# benchmarks, never by timed tests). Every other setting stays hypothesis's default or the test's own.
+settings.register_profile("navstress", deadline=None)
+settings.load_profile("navstress")
 
 
 @pytest.fixture
