@@ -25,6 +25,7 @@ from navstress import _json
 #: search's objectives leave such records out: they say nothing about the stack).
 GENERATION_FAILED = "world generation failed"
 
+
 @dataclass(frozen=True)
 class RunTask:
     """One planned run. ``run_id`` is unique and stable within a campaign (resume key)."""

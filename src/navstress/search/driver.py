@@ -49,8 +49,8 @@ from navstress.search.algorithms import make_algorithm
 from navstress.search.objectives import (Confirmation, by_world, confirm, descriptor_values, evaluate,
                                          get_descriptor, world_feasible)
 from navstress.search.space import Candidate, Space
-from navstress.world.world import World
 from navstress.search.spec import SearchSpec, load_search, with_budget
+from navstress.world.world import World
 
 #: The experiment of the elites' confirmation runs.
 CONFIRM = "confirm"
@@ -354,7 +354,7 @@ def run_search(spec_path: str | Path, directory: str | Path, *, budget: int | No
     fault = _under_test(spec)
     obj = spec.objective
     experiments: list[dict[str, Any]] = []
-    durations: list[float] = []  # simulated seconds of every generation run so far
+    sim_s = 0.0  # simulated seconds of the generations' runs so far, summed in plan order
     targets = {n.name: n.target for n in [spec.navigator] if n.target}
     with ExitStack() as stack:
         # the first generation's campaign is checked before anything is written or started
@@ -409,7 +409,8 @@ def run_search(spec_path: str | Path, directory: str | Path, *, budget: int | No
             recs = store.records(name)
             groups = by_world(recs)
             result.runs += len(recs)
-            durations += [r.duration_s for r in recs]  # the generations' runs, in plan order
+            for r in recs:
+                sim_s += r.duration_s
             fit: dict[str, float] = {}
             desc: dict[str, tuple[float, ...]] = {}
             for key, c in uniq.items():
@@ -427,7 +428,7 @@ def run_search(spec_path: str | Path, directory: str | Path, *, budget: int | No
                       np.array([desc[c.key] for c in cands]))
             g += 1
             result.generations = g
-            result.sim_hours = sum(durations) / 3600.0
+            result.sim_hours = sim_s / 3600.0
             if on_generation is not None:
                 on_generation(GenerationReport(g - 1, result.runs, spec.budget.runs,
                                                max(e.fitness for e in result.evaluated),

@@ -85,8 +85,6 @@ DEFAULT_TARGET = 0.5
 DEFAULT_BAND = 0.4
 
 
-
-
 def ungenerated(r: RunRecord) -> bool:
     """Whether ``r`` is the record of a run that never ran because its world could not be
     generated: a result about the world spec, not about the stack, so no objective counts it."""

@@ -123,9 +123,9 @@ _WHAT = {
 }
 
 
-#: Why an objective's confirmation takes the runs it does (a comment after ``confirm_runs``).
-_CONFIRM_WHY = {"fault-revealing": "\n# (a revealing world needs at least 8 revealing pairs of the fresh ones, and one that reveals\n"
-                                   "# half the time about 20: docs/search.md, \"Confirmation\")"}
+#: Each objective's confirmation runs and why (a comment after ``confirm_runs``); the others: 10.
+_CONFIRM = {"fault-revealing": (20, "\n# (a revealing world needs at least 8 revealing pairs of the fresh ones, and one that reveals\n"
+                                    "# half the time about 20: docs/search.md, \"Confirmation\")")}
 
 
 def template_yaml(objective: str) -> str:
@@ -133,6 +133,6 @@ def template_yaml(objective: str) -> str:
     if objective not in OBJECTIVES:
         raise SpecError("--objective", objective, f"one of {list(OBJECTIVES)}")
     faults = "[null, small-footprint]" if objective == "fault-revealing" else "[null]"
+    confirm_runs, why = _CONFIRM.get(objective, (10, ""))
     return (_HEAD.format(what=_WHAT[objective], name=objective, faults=faults) + _OBJECTIVE[objective]
-            + _TAIL.format(algorithm=_ALGORITHM[objective], confirm_runs=20 if objective == "fault-revealing" else 10,
-                           confirm_why=_CONFIRM_WHY.get(objective, "")))
+            + _TAIL.format(algorithm=_ALGORITHM[objective], confirm_runs=confirm_runs, confirm_why=why))
