@@ -4,8 +4,10 @@ A pure, deterministic function: the same spec and seed give an equal World and b
 saved files. Draws come from independent sub-streams of the seed (``navstress.seeding.rng``):
 ``"terrain"`` (ground heights), ``"mission"`` (random start/goal) and ``"obstacles", <type>``
 (one per obstacle type), so that changing the obstruction does not change the raw terrain or
-the mission. Order: raw terrain, mission, obstacles (which keep out of the mission's free
-discs), levelling of the ground under each obstacle, descriptors.
+the mission, and ``"movers", <type>`` (one per mover type, drawn last: adding movers changes
+nothing else). Order: raw terrain, mission, obstacles (which keep out of the mission's free
+discs), levelling of the ground under each obstacle, movers (:mod:`navstress.world.movers`),
+descriptors (with the movers' only when the spec has a ``movers`` field).
 
     >>> from navstress.world.spec import WorldSpec
     >>> w = generate(WorldSpec(size_m=(20.0, 20.0), obstacles={"obstruction": {"tree": 5}}), seed=3)
@@ -22,6 +24,7 @@ from navstress.robot import RobotSpec
 from navstress.seeding import rng
 from navstress.world.descriptors import describe
 from navstress.world.mission import make_mission
+from navstress.world.movers import mover_descriptors, place_movers
 from navstress.world.placement import level_terrain, place_obstacles
 from navstress.world.spec import WorldSpec
 from navstress.world.terrain import make_heights
@@ -46,5 +49,8 @@ def generate(spec: WorldSpec, seed: int, *, robot: RobotSpec | None = None) -> W
     desc = describe(spec, terrain, tuple(obstacles), mission, robot=robot, placement=placement)
     desc["levelled_clusters"] = lev.n_clusters
     desc["levelled_largest_cluster"] = lev.largest_cluster
+    movers = place_movers(spec, mission, tuple(obstacles), seed)
+    if not spec.movers.empty:
+        desc.update(mover_descriptors(spec, movers))
     return World(spec=spec, seed=seed, terrain=terrain, obstacles=tuple(obstacles), mission=mission,
-                 descriptors=desc)
+                 descriptors=desc, movers=movers)

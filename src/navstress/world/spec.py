@@ -18,7 +18,7 @@ import os
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, SerializerFunctionWrapHandler, ValidationError, model_serializer, model_validator
 
 from navstress.errors import SpecError
 from navstress.specfile import load_file
@@ -154,6 +154,192 @@ class MissionSpec(BaseModel):
     min_distance_m: float = Field(50.0, ge=0.0)
 
 
+#: The behaviours a mover type may have (docs/worlds.md, "Movers").
+BEHAVIOURS = ("crossing", "patrol", "intercept", "still-then-move")
+#: Most movers a world may have (all types together).
+MAX_MOVERS = 1000
+
+
+class MoverType(BaseModel):
+    """A kind of mover (an obstacle that moves during a run).
+
+    ``shape="disc"``: an upright cylinder of diameter ``length_m`` (``width_m`` must equal it);
+    ``shape="box"``: a box ``length_m`` (along its heading) x ``width_m`` x ``height_m``. Each
+    mover's cruise speed is drawn in ``[speed_min_m_s, speed_max_m_s]`` (from the map seed) and
+    its speed never exceeds ``speed_max_m_s``; ``accel_m_s2`` bounds the change of its velocity
+    vector. ``variability`` v draws each size in ``[size*(1-v), size*(1+v)]`` (a disc: one draw
+    for its diameter), as for static obstacle types.
+    """
+
+    model_config = _STRICT
+    shape: Literal["disc", "box"] = "box"
+    length_m: float = Field(gt=0.0, le=50.0)
+    width_m: float = Field(gt=0.0, le=50.0)
+    height_m: float = Field(gt=0.0, le=50.0)
+    speed_min_m_s: float = Field(0.0, ge=0.0, le=50.0)
+    speed_max_m_s: float = Field(gt=0.0, le=50.0)
+    accel_m_s2: float = Field(1.0, gt=0.0, le=50.0)
+    variability: float = Field(0.0, ge=0.0, lt=1.0)
+
+    @property
+    def radius_m(self) -> float:
+        """The largest radius of this type's footprint (at the top of its size envelope): the disc's
+        radius, a box's half diagonal."""
+        f = 1.0 + self.variability
+        if self.shape == "disc":
+            return self.length_m * f / 2
+        return math.hypot(self.length_m, self.width_m) * f / 2
+
+
+BUILTIN_MOVER_TYPES: dict[str, MoverType] = {
+    # a pedestrian: a 0.5 m disc (an upright cylinder), 1.8 m tall, 0.5-1.5 m/s
+    "pedestrian": MoverType(shape="disc", length_m=0.5, width_m=0.5, height_m=1.8, speed_min_m_s=0.5,
+                            speed_max_m_s=1.5, accel_m_s2=1.0),
+    # a car: a 4.5 x 1.8 x 1.5 m box, up to 5 m/s
+    "vehicle": MoverType(shape="box", length_m=4.5, width_m=1.8, height_m=1.5, speed_min_m_s=2.0,
+                         speed_max_m_s=5.0, accel_m_s2=2.0),
+}
+
+#: The behaviour parameters each behaviour uses (the others must keep their defaults).
+BEHAVIOUR_PARAMS: dict[str, tuple[str, ...]] = {
+    "crossing": ("waypoints", "pause_max_s"),
+    "patrol": ("waypoints", "pause_max_s"),
+    "intercept": ("waypoints", "pause_max_s", "aim", "ttc_s", "clearance_m", "reaction_s", "engage_m",
+                  "cross_m", "speed_m_s", "accel_m_s2"),
+    "still-then-move": ("trigger_m", "reaction_s", "aim", "ttc_s", "clearance_m", "cross_m", "speed_m_s",
+                        "accel_m_s2"),
+}
+
+
+class BehaviourSpec(BaseModel):
+    """How the movers of one type move (docs/worlds.md, "Movers", states the controller's rules).
+
+    * ``crossing``: straight free segments between ``waypoints`` random points of the free space
+      (drawn from the map seed), walked there and back; a pause of ``U(0, pause_max_s)`` (run
+      seed) at each point.
+    * ``patrol``: a closed loop of ``waypoints`` (>= 3) points, walked round and round.
+    * ``intercept``: wanders as ``crossing`` until the robot is within ``engage_m``; then every
+      ``reaction_s`` seconds it aims, from the robot's true pose and velocity (constant-velocity
+      prediction), at the point of the robot's predicted path that it reaches ``lead`` ahead of
+      the robot (``aim: ttc``: lead = ``ttc_s`` x the robot's speed; ``aim: clearance``: lead =
+      ``clearance_m``; 0: a collision course), and walks on ``cross_m`` past it; at
+      ``speed_m_s``/``accel_m_s2`` (default: the type's limits).
+    * ``still-then-move``: parked until the robot comes within ``trigger_m``; ``reaction_s``
+      later it aims once as ``intercept`` does and crosses (``cross_m`` past the aim point), then
+      parks again.
+    """
+
+    model_config = _STRICT
+    kind: Literal["crossing", "patrol", "intercept", "still-then-move"] = "crossing"
+    waypoints: int = Field(4, ge=1, le=64)
+    pause_max_s: float = Field(0.0, ge=0.0, le=600.0)
+    aim: Literal["ttc", "clearance"] = "ttc"
+    ttc_s: float = Field(2.0, ge=0.0, le=60.0)
+    clearance_m: float = Field(2.0, ge=0.0, le=100.0)
+    reaction_s: float = Field(0.5, ge=0.0, le=60.0)
+    engage_m: float = Field(30.0, gt=0.0, le=10_000.0)
+    cross_m: float = Field(3.0, ge=0.0, le=100.0)
+    speed_m_s: float | None = Field(None, gt=0.0, le=50.0)
+    accel_m_s2: float | None = Field(None, gt=0.0, le=50.0)
+    trigger_m: float = Field(10.0, gt=0.0, le=10_000.0)
+
+
+_BEHAVIOUR_DEFAULTS = BehaviourSpec()
+
+
+class MoversSpec(BaseModel):
+    """Obstacles that move during a run (none by default).
+
+    ``types`` adds mover types or overrides fields of the built-ins (``pedestrian``, ``vehicle``:
+    the fields given replace the built-in's, the others are kept). How many of each type: either
+    ``count`` (movers) or ``density_per_ha`` (movers per hectare of the map, rounded to the
+    nearest whole number, halves up), not both for one type. ``behaviour`` gives each type its
+    :class:`BehaviourSpec` (default: ``crossing``).
+
+        >>> m = MoversSpec.model_validate({"count": {"pedestrian": 3}, "density_per_ha": {"vehicle": 0.5}})
+        >>> m.counts((40.0, 50.0))
+        {'pedestrian': 3, 'vehicle': 0}
+    """
+
+    model_config = _STRICT
+    types: dict[str, MoverType] = Field(default_factory=dict)
+    count: dict[str, int] = Field(default_factory=dict)
+    density_per_ha: dict[str, float] = Field(default_factory=dict)
+    behaviour: dict[str, BehaviourSpec] = Field(default_factory=dict)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _over_builtins(cls, data: Any) -> Any:
+        """A built-in type's fields given under ``types`` replace only those fields."""
+        if isinstance(data, dict) and isinstance(data.get("types"), dict):
+            types = {}
+            for name, t in data["types"].items():
+                if name in BUILTIN_MOVER_TYPES and isinstance(t, dict):
+                    t = {**BUILTIN_MOVER_TYPES[name].model_dump(), **t}
+                types[name] = t
+            data = {**data, "types": types}
+        return data
+
+    def all_types(self) -> dict[str, MoverType]:
+        return {**BUILTIN_MOVER_TYPES, **self.types}
+
+    def behaviour_of(self, name: str) -> BehaviourSpec:
+        return self.behaviour.get(name, _BEHAVIOUR_DEFAULTS)
+
+    def counts(self, size_m: tuple[float, float]) -> dict[str, int]:
+        """Movers per type named in ``count`` or ``density_per_ha``: the ``count``, or
+        ``density_per_ha`` x the map's hectares rounded half up."""
+        ha = size_m[0] * size_m[1] / 10_000.0
+        out = {k: int(v) for k, v in self.count.items()}
+        out.update({k: int(math.floor(d * ha + 0.5)) for k, d in self.density_per_ha.items()})
+        return dict(sorted(out.items()))
+
+    @property
+    def empty(self) -> bool:
+        """Whether this is the default (no movers field at all): such a spec's dump leaves it out."""
+        return self == _NO_MOVERS
+
+    @model_validator(mode="after")
+    def _check(self) -> "MoversSpec":
+        known = self.all_types()
+        for name, t in self.types.items():
+            at = f"movers.types.{name}"
+            if t.speed_min_m_s > t.speed_max_m_s:
+                raise SpecError(f"{at}.speed_min_m_s", t.speed_min_m_s, f"a speed <= speed_max_m_s={t.speed_max_m_s:g}",
+                                "lower speed_min_m_s or raise speed_max_m_s")
+            if t.shape == "disc" and t.width_m != t.length_m:
+                raise SpecError(f"{at}.width_m", t.width_m, f"the disc's diameter length_m={t.length_m:g} (a disc "
+                                "has one size)", "set width_m equal to length_m, or shape: box")
+        for field, table in (("count", self.count), ("density_per_ha", self.density_per_ha),
+                             ("behaviour", self.behaviour)):
+            for name in table:
+                if name not in known:
+                    raise SpecError(f"movers.{field}.{name}", name, f"one of the mover types {sorted(known)}",
+                                    "add it under movers.types or fix the spelling")
+        for name, n in self.count.items():
+            if not 0 <= n <= MAX_MOVERS:
+                raise SpecError(f"movers.count.{name}", n, f"a number of movers in [0, {MAX_MOVERS}]")
+        for name, d in self.density_per_ha.items():
+            if not (0.0 <= d <= 10_000.0):
+                raise SpecError(f"movers.density_per_ha.{name}", d, "movers per hectare in [0, 10000]")
+            if name in self.count:
+                raise SpecError(f"movers.density_per_ha.{name}", d, f"either count.{name} or density_per_ha.{name}, "
+                                "not both", "remove one of them")
+        for name, b in self.behaviour.items():
+            used = BEHAVIOUR_PARAMS[b.kind]
+            for p in BehaviourSpec.model_fields:
+                if p != "kind" and p not in used and getattr(b, p) != getattr(_BEHAVIOUR_DEFAULTS, p):
+                    raise SpecError(f"movers.behaviour.{name}.{p}", getattr(b, p),
+                                    f"no {p} for kind {b.kind} (it takes {', '.join(used)})",
+                                    "remove it or change the kind")
+            if b.kind == "patrol" and b.waypoints < 3:
+                raise SpecError(f"movers.behaviour.{name}.waypoints", b.waypoints, "at least 3 waypoints for a patrol loop")
+        return self
+
+
+_NO_MOVERS = MoversSpec()
+
+
 class WorldSpec(BaseModel):
     """Everything that defines a family of worlds; with a seed, one world."""
 
@@ -163,6 +349,16 @@ class WorldSpec(BaseModel):
     ground: GroundSpec = GroundSpec()
     obstacles: ObstaclesSpec = ObstaclesSpec()
     mission: MissionSpec = MissionSpec()
+    movers: MoversSpec = MoversSpec()
+
+    @model_serializer(mode="wrap")
+    def _dump(self, handler: SerializerFunctionWrapHandler) -> Any:
+        """A spec without movers dumps as before movers existed (no ``movers`` key), so the
+        files of every world without movers keep their bytes."""
+        data = handler(self)
+        if isinstance(data, dict) and self.movers.empty:
+            data.pop("movers", None)
+        return data
 
     @model_validator(mode="after")
     def _check(self) -> "WorldSpec":
@@ -179,6 +375,21 @@ class WorldSpec(BaseModel):
         for name, pt in (("start", m.start), ("goal", m.goal)):
             if pt is not None and not (0 <= pt[0] <= self.size_m[0] and 0 <= pt[1] <= self.size_m[1]):
                 raise SpecError(f"mission.{name}", list(pt), f"a point inside the map [0, {self.size_m[0]:g}] x [0, {self.size_m[1]:g}]")
+        counts = self.movers.counts(self.size_m)
+        total = sum(counts.values())
+        if total > MAX_MOVERS:
+            raise SpecError("movers", f"{total} movers", f"at most {MAX_MOVERS} movers in a world",
+                            "lower movers.count or movers.density_per_ha")
+        types = self.movers.all_types()
+        side = min(self.size_m)
+        for name, n in counts.items():
+            t = types[name]
+            diameter = 2 * t.radius_m
+            if n > 0 and diameter >= side / 2:
+                raise SpecError(f"movers.types.{name}", f"{t.length_m:g}x{t.width_m:g} m (variability {t.variability:g})",
+                                f"a mover that fits the {self.size_m[0]:g}x{self.size_m[1]:g} m map (its largest "
+                                f"footprint, {diameter:.3g} m across, must be under half the map's side)",
+                                "use a smaller type or a larger map")
         return self
 
     @property

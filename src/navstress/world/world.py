@@ -1,6 +1,7 @@
 """World: the phenotype. A value object that round-trips exactly through a directory.
 
-A world directory holds ``world.json`` (spec, seed, descriptors, obstacles, mission) and
+A world directory holds ``world.json`` (spec, seed, descriptors, obstacles, mission, and its
+movers when it has any: a world without movers has no ``movers`` key, as before movers existed) and
 ``terrain.npz`` (``heights``: 2-D float32 meters, rows along +y, columns along +x, vertex
 (i, j) at (x, y) = (j*cell_m, i*cell_m); plus ``cell_m``).
 
@@ -94,6 +95,67 @@ class Mission:
                    free_radius_m=float(d["free_radius_m"]))
 
 
+@dataclass(frozen=True)
+class Mover:
+    """An obstacle that moves during a run (its plan, drawn from the map seed; the controller,
+    :mod:`navstress.sim.movers`, moves it).
+
+    ``id``: its index in ``World.movers``; ``kind``: its mover type; ``shape``: ``"disc"`` (an
+    upright cylinder of diameter ``size[0]``) or ``"box"``; ``size`` = (length along its heading,
+    width, height); ``start`` = (x, y, yaw) of its centre at time 0; ``speed_m_s`` its cruise
+    speed, ``speed_max_m_s`` and ``accel_m_s2`` its limits (for ``intercept`` and
+    ``still-then-move``, the behaviour's own when it sets them); ``behaviour`` its behaviour's
+    kind and ``params`` that behaviour's parameters (name, value) in name order; ``waypoints`` the
+    points of its path (``crossing``, ``patrol``, ``intercept`` while it wanders: each segment
+    from the start through the waypoints, and for a patrol back to the start, is free of static
+    obstacles by ``radius_m`` plus a margin); ``radius_m`` the radius of its footprint's
+    circumscribed circle (what the controller keeps clear of obstacles and other movers)."""
+
+    id: int
+    kind: str
+    shape: str
+    size: tuple[float, float, float]
+    start: tuple[float, float, float]
+    speed_m_s: float
+    speed_max_m_s: float
+    accel_m_s2: float
+    behaviour: str
+    params: tuple[tuple[str, float | str], ...] = ()
+    waypoints: tuple[tuple[float, float], ...] = ()
+
+    @property
+    def radius_m(self) -> float:
+        if self.shape == "disc":
+            return self.size[0] / 2
+        return math.hypot(self.size[0], self.size[1]) / 2
+
+    def param(self, name: str) -> float | str:
+        """The value of behaviour parameter ``name`` (KeyError when the behaviour has none)."""
+        for k, v in self.params:
+            if k == name:
+                return v
+        raise KeyError(name)
+
+    def to_json(self) -> dict[str, Any]:
+        return {"id": self.id, "kind": self.kind, "shape": self.shape, "size": list(self.size),
+                "start": list(self.start), "speed_m_s": self.speed_m_s, "speed_max_m_s": self.speed_max_m_s,
+                "accel_m_s2": self.accel_m_s2, "behaviour": self.behaviour, "params": dict(self.params),
+                "waypoints": [list(w) for w in self.waypoints]}
+
+    @classmethod
+    def from_json(cls, d: dict[str, Any]) -> "Mover":
+        sz, st = d["size"], d["start"]
+        params = d.get("params", {})
+        if not isinstance(params, dict):
+            raise TypeError("mover params must be a mapping")
+        return cls(id=int(d["id"]), kind=str(d["kind"]), shape=str(d["shape"]),
+                   size=(float(sz[0]), float(sz[1]), float(sz[2])), start=(float(st[0]), float(st[1]), float(st[2])),
+                   speed_m_s=float(d["speed_m_s"]), speed_max_m_s=float(d["speed_max_m_s"]),
+                   accel_m_s2=float(d["accel_m_s2"]), behaviour=str(d["behaviour"]),
+                   params=tuple(sorted((str(k), v if isinstance(v, str) else float(v)) for k, v in params.items())),
+                   waypoints=tuple((float(w[0]), float(w[1])) for w in d.get("waypoints", [])))
+
+
 @dataclass(frozen=True, eq=False)
 class Terrain:
     """Height grid in meters. ``heights[i, j]`` is the ground at (x, y) = (j*cell_m, i*cell_m)."""
@@ -138,7 +200,7 @@ class Terrain:
 
 @dataclass(frozen=True, eq=False)
 class World:
-    """A generated world: terrain, obstacles, mission, and where it came from."""
+    """A generated world: terrain, obstacles, mission, movers (none by default), and where it came from."""
 
     spec: WorldSpec
     seed: int
@@ -146,11 +208,13 @@ class World:
     obstacles: tuple[Obstacle, ...]
     mission: Mission
     descriptors: dict[str, Any] = field(default_factory=dict)
+    movers: tuple[Mover, ...] = ()
 
     def __eq__(self, other: object) -> bool:
         return (isinstance(other, World) and self.spec == other.spec and self.seed == other.seed
                 and self.terrain == other.terrain and self.obstacles == other.obstacles
-                and self.mission == other.mission and self.descriptors == other.descriptors)
+                and self.mission == other.mission and self.descriptors == other.descriptors
+                and self.movers == other.movers)
 
     __hash__ = None  # type: ignore[assignment]
 
@@ -160,18 +224,18 @@ class World:
 
     @classmethod
     def flat(cls, spec: WorldSpec, seed: int = 0, obstacles: tuple[Obstacle, ...] = (),
-             mission: Mission | None = None) -> "World":
-        """A flat world with given obstacles (for tests and hand-made scenes)."""
+             mission: Mission | None = None, movers: tuple[Mover, ...] = ()) -> "World":
+        """A flat world with given obstacles and movers (for tests and hand-made scenes)."""
         rows, cols = spec.grid_shape
         sx, sy = spec.size_m
         m = mission or Mission(start=(5.0, 5.0, math.atan2(sy - 10, sx - 10)),
                                goal=(sx - 5.0, sy - 5.0), free_radius_m=spec.mission.free_radius_m)
         return cls(spec=spec, seed=seed, terrain=Terrain(np.zeros((rows, cols), np.float32), spec.cell_m),
-                   obstacles=tuple(obstacles), mission=m)
+                   obstacles=tuple(obstacles), mission=m, movers=tuple(movers))
 
     # ---- persistence -------------------------------------------------------------------
     def to_json(self) -> dict[str, Any]:
-        return {
+        out = {
             "format": "navstress-world", "version": FORMAT_VERSION,
             "seed": self.seed,
             "spec": self.spec.model_dump(mode="json"),
@@ -179,6 +243,9 @@ class World:
             "obstacles": [o.to_json() for o in self.obstacles],
             "descriptors": self.descriptors,
         }
+        if self.movers:  # a world without movers: the text of before movers existed
+            out["movers"] = [m.to_json() for m in self.movers]
+        return out
 
     def save(self, path: str | os.PathLike[str]) -> None:
         """Write the world directory atomically (a temp dir renamed into place).
@@ -222,7 +289,8 @@ class World:
             spec = WorldSpec.model_validate(meta["spec"])
             return cls(spec=spec, seed=int(meta["seed"]), terrain=Terrain(heights, cell),
                        obstacles=tuple(Obstacle.from_json(o) for o in meta["obstacles"]),
-                       mission=Mission.from_json(meta["mission"]), descriptors=dict(meta.get("descriptors", {})))
+                       mission=Mission.from_json(meta["mission"]), descriptors=dict(meta.get("descriptors", {})),
+                       movers=tuple(Mover.from_json(m) for m in meta.get("movers", [])))
         except (KeyError, ValueError, TypeError, OSError, ValidationError, RecursionError, EOFError,
                 zipfile.BadZipFile) as err:
             raise WorldFileError(f"world={str(d)!r} is corrupt: {type(err).__name__}: {err}".splitlines()[0]) from None
