@@ -497,7 +497,8 @@ def parse_campaign_text(text: str, name: str = "campaign", *,
 
 
 def _path_exists(model: type[BaseModel], parts: list[str]) -> bool:
-    """Whether ``parts`` names a leaf of the pydantic ``model`` (dict fields accept any key)."""
+    """Whether ``parts`` names a leaf of the pydantic ``model`` (dict fields accept any key; a
+    dict of models is entered: ``movers.behaviour.pedestrian.ttc_s``)."""
     if not parts:
         return False
     field = model.model_fields.get(parts[0])
@@ -509,6 +510,9 @@ def _path_exists(model: type[BaseModel], parts: list[str]) -> bool:
         return _path_exists(ann, rest)
     origin = typing.get_origin(ann)
     if origin is dict:
+        value_type = typing.get_args(ann)[1]
+        if isinstance(value_type, type) and issubclass(value_type, BaseModel):
+            return len(rest) >= 2 and _path_exists(value_type, rest[1:])
         return len(rest) == 1
     return not rest
 
