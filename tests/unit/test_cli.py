@@ -37,6 +37,13 @@ def _prepare(tmp: Path) -> None:
     (tmp / "broken.yaml").write_text("ground: [1, \n")
     (tmp / "typo.yaml").write_text("grund: {}\n")
     (tmp / "nonnum.json").write_text('{"cell_m": "fine"}')
+    (tmp / "mover_speed.yaml").write_text("movers: {types: {pedestrian: {speed_min_m_s: -0.5}}}\n")
+    (tmp / "mover_minmax.yaml").write_text("movers: {types: {vehicle: {speed_min_m_s: 6}}}\n")
+    (tmp / "mover_kind.yaml").write_text("movers: {behaviour: {pedestrian: {kind: zigzag}}}\n")
+    (tmp / "mover_type.yaml").write_text("movers: {count: {bicycle: 2}}\n")
+    (tmp / "mover_param.yaml").write_text("movers: {behaviour: {pedestrian: {kind: patrol, trigger_m: 4}}}\n")
+    (tmp / "mover_big.yaml").write_text("size_m: [20, 20]\nmovers: {types: {bus: {length_m: 12, width_m: 2.5, "
+                                        "height_m: 3, speed_max_m_s: 4}}, count: {bus: 1}}\n")
     small_world().save(tmp / "w")
 
 
@@ -71,6 +78,21 @@ BAD = [
     (["world", "generate", "--spec", "{tmp}/broken.yaml", "-o", "{tmp}/out"], "spec", "broken.yaml"),
     (["world", "generate", "--spec", "{tmp}/typo.yaml", "-o", "{tmp}/out"], "grund", "{}"),
     (["world", "generate", "--spec", "{tmp}/nonnum.json", "-o", "{tmp}/out"], "cell_m", "fine"),
+    (["world", "generate", "--spec", "{tmp}/mover_speed.yaml", "-o", "{tmp}/out"],
+     "movers.types.pedestrian.speed_min_m_s", "-0.5"),
+    (["world", "generate", "--spec", "{tmp}/mover_minmax.yaml", "-o", "{tmp}/out"],
+     "movers.types.vehicle.speed_min_m_s", "6"),
+    (["world", "generate", "--spec", "{tmp}/mover_kind.yaml", "-o", "{tmp}/out"], "movers.behaviour.pedestrian.kind",
+     "zigzag"),
+    (["world", "generate", "--spec", "{tmp}/mover_type.yaml", "-o", "{tmp}/out"], "movers.count.bicycle", "bicycle"),
+    (["world", "generate", "--spec", "{tmp}/mover_param.yaml", "-o", "{tmp}/out"],
+     "movers.behaviour.pedestrian.trigger_m", "4"),
+    (["world", "generate", "--spec", "{tmp}/mover_big.yaml", "-o", "{tmp}/out"], "movers.types.bus", "12x2.5"),
+    (["world", "generate", "--movers", "pedestrians=-2", "-o", "{tmp}/out"], "--movers", "pedestrians=-2"),
+    (["world", "generate", "--movers", "pedestrians", "-o", "{tmp}/out"], "--movers", "pedestrians"),
+    (["world", "generate", "--movers", "bicycles=2", "-o", "{tmp}/out"], "--movers", "bicycles"),
+    (["world", "generate", "--movers", "pedestrian=1", "--mover-behaviour", "pedestrian=fly", "-o", "{tmp}/out"],
+     "--mover-behaviour", "fly"),
     (["world", "generate", *SMALL, "-o", "{tmp}/notaworld"], "--output", "notaworld"),
     (["world", "generate", *SMALL, "-o", "{tmp}/bad.yaml"], "--output", "bad.yaml"),
     (["world", "generate", "--bogus", "1", "-o", "{tmp}/out"], "--bogus", ""),
@@ -206,3 +228,13 @@ def test_help_explains_every_flag(path: list[str]) -> None:
                 assert opt in out, (opt, out)
         if param.param_type_name == "option" and not getattr(param, "hidden", False):
             assert param.help, f"{param.name} has no help"
+
+
+def test_generate_with_movers_from_flags(tmp_path: Path) -> None:
+    code, out, err = run("world", "generate", "--size", "30", "--movers", "pedestrians=3,vehicle=0",
+                         "--mover-behaviour", "pedestrians=patrol", "--seed", "2", "-o", str(tmp_path / "w"))
+    assert code == 0, err
+    w = World.load(tmp_path / "w")
+    assert [m.behaviour for m in w.movers] == ["patrol"] * 3
+    assert w.descriptors["n_movers"] == {"pedestrian": 3, "vehicle": 0}
+    assert "n_movers" in out

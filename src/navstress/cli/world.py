@@ -117,6 +117,13 @@ def world_generate(
     mix: Annotated[str | None, typer.Option(metavar="TYPE=W,...", help=(
         "Weights splitting --obstruction between obstacle types, e.g. trees=3,buildings=1 "
         "(weights >= 0; 'tree'/'trees' and 'building'/'buildings' both accepted)."))] = None,
+    movers: Annotated[str | None, typer.Option("--movers", metavar="TYPE=N,...", help=(
+        "Movers (obstacles that move during a run) per type, e.g. pedestrians=5,vehicles=1 "
+        "(built-in types: pedestrian, a 0.5 m disc 1.8 m tall at 0.5-1.5 m/s; vehicle, a 4.5 x 1.8 x "
+        "1.5 m box up to 5 m/s; others under movers.types in a --spec file). Default none."))] = None,
+    mover_behaviour: Annotated[str | None, typer.Option("--mover-behaviour", metavar="TYPE=KIND,...", help=(
+        "Behaviour per mover type: crossing (the default), patrol, intercept or still-then-move, "
+        "e.g. pedestrians=intercept; their parameters go under movers.behaviour in a --spec file."))] = None,
     spec: Annotated[Path | None, typer.Option("--spec", metavar="FILE", help=(
         "WorldSpec file (YAML or JSON); the flags above override its fields."))] = None,
     seed: Annotated[str, typer.Option(metavar="N", help=(
@@ -126,7 +133,7 @@ def world_generate(
     seed_v = bounded_int("--seed", seed, 0, MAX_SEED)
     world_spec = build_spec(spec_file=spec, size=size, cell=cell, subdivisions=subdivisions,
                             deformation=deformation, ground=ground, trees=trees, buildings=buildings,
-                            obstruction=obstruction, mix=mix)
+                            obstruction=obstruction, mix=mix, movers=movers, mover_behaviour=mover_behaviour)
     check_out_dir(output)
     world = generate(world_spec, seed_v)
     save_with_preview(world, output)

@@ -3,6 +3,8 @@ flag values overriding its fields; an invalid value names the flag that set it.
 
     >>> build_spec(size="40", trees="5").size_m
     (40.0, 40.0)
+    >>> build_spec(movers="pedestrians=5,vehicle=1", mover_behaviour="vehicle=intercept").movers.counts((100.0, 100.0))
+    {'pedestrian': 5, 'vehicle': 1}
 """
 
 from __future__ import annotations
@@ -16,6 +18,37 @@ from navstress.errors import SpecError
 from navstress.world.spec import WorldSpec, load_spec, parse_spec
 
 _KIND_ALIASES = {"trees": "tree", "buildings": "building"}
+_MOVER_ALIASES = {"pedestrians": "pedestrian", "vehicles": "vehicle"}
+
+
+def parse_pairs(flag: str, raw: str, expected: str, fix: str) -> dict[str, str]:
+    """``"a=1,b=2"`` -> ``{"a": "1", "b": "2"}`` (names lower-cased, plural mover names singular);
+    SpecError naming ``flag`` on a malformed or repeated pair."""
+    out: dict[str, str] = {}
+    for part in raw.split(","):
+        name, sep, value = part.partition("=")
+        name = name.strip().lower()
+        name = _MOVER_ALIASES.get(name, name)
+        if not sep or not name or not value.strip() or name in out:
+            raise SpecError(flag, raw, expected, fix)
+        out[name] = value.strip()
+    return out
+
+
+def parse_mover_counts(raw: str) -> dict[str, int]:
+    """``"pedestrians=5,vehicle=1"`` -> ``{"pedestrian": 5, "vehicle": 1}``."""
+    expected = "comma-separated TYPE=COUNT pairs with whole counts >= 0, each type once"
+    fix = "e.g. --movers pedestrians=5,vehicles=1"
+    out: dict[str, int] = {}
+    for name, value in parse_pairs("--movers", raw, expected, fix).items():
+        try:
+            n = int(value)
+        except ValueError:
+            raise SpecError("--movers", raw, expected, fix) from None
+        if n < 0:
+            raise SpecError("--movers", raw, expected, fix)
+        out[name] = n
+    return out
 
 
 def parse_mix(raw: str) -> dict[str, float]:
@@ -47,13 +80,14 @@ _FIELD_FLAGS = {
     "ground.deformation": "--deformation", "ground.model": "--ground",
     "obstacles.obstruction.tree": "--trees", "obstacles.obstruction.building": "--buildings",
     "obstacles.total": "--obstruction", "obstacles.mix": "--mix",
+    "movers.count": "--movers", "movers.behaviour": "--mover-behaviour",
 }
 
 
 def build_spec(*, spec_file: Path | None = None, size: str | None = None, cell: str | None = None,
                subdivisions: str | None = None, deformation: str | None = None, ground: str | None = None,
                trees: str | None = None, buildings: str | None = None, obstruction: str | None = None,
-               mix: str | None = None) -> WorldSpec:
+               mix: str | None = None, movers: str | None = None, mover_behaviour: str | None = None) -> WorldSpec:
     """The WorldSpec from an optional spec file with flags overriding it (raises SpecError
     naming the flag when a flag value is the culprit)."""
     data: dict[str, Any] = load_spec(spec_file).model_dump(mode="python") if spec_file else {}
@@ -101,6 +135,20 @@ def build_spec(*, spec_file: Path | None = None, size: str | None = None, cell: 
         o["mix"] = parse_mix(mix)
         given.add("--mix")
     data["obstacles"] = o
+    mv = dict(data.get("movers", {}))
+    if movers is not None:
+        mv["count"] = {**dict(mv.get("count", {})), **parse_mover_counts(movers)}
+        given.add("--movers")
+    if mover_behaviour is not None:
+        kinds = parse_pairs("--mover-behaviour", mover_behaviour, "comma-separated TYPE=BEHAVIOUR pairs, each type once",
+                            "e.g. --mover-behaviour pedestrians=intercept,vehicles=crossing")
+        beh = {k: dict(v) for k, v in dict(mv.get("behaviour", {})).items()}
+        for name, kind in kinds.items():
+            beh[name] = {**beh.get(name, {}), "kind": kind}
+        mv["behaviour"] = beh
+        given.add("--mover-behaviour")
+    if mv:
+        data["movers"] = mv
     try:
         return parse_spec(data)
     except SpecError as e:
