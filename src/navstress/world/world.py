@@ -29,7 +29,10 @@ from pydantic import ValidationError
 
 from navstress import _files
 from navstress.errors import WorldFileError
+from navstress.world.spec import BEHAVIOURS as MOVER_BEHAVIOURS
 from navstress.world.spec import WorldSpec
+
+MOVER_SHAPES = ("disc", "box")
 
 FORMAT_VERSION = 1
 WORLD_JSON = "world.json"
@@ -148,6 +151,8 @@ class Mover:
         params = d.get("params", {})
         if not isinstance(params, dict):
             raise TypeError("mover params must be a mapping")
+        if d["shape"] not in MOVER_SHAPES or d["behaviour"] not in MOVER_BEHAVIOURS:
+            raise ValueError(f"mover shape {d['shape']!r} or behaviour {d['behaviour']!r} is unknown")
         return cls(id=int(d["id"]), kind=str(d["kind"]), shape=str(d["shape"]),
                    size=(float(sz[0]), float(sz[1]), float(sz[2])), start=(float(st[0]), float(st[1]), float(st[2])),
                    speed_m_s=float(d["speed_m_s"]), speed_max_m_s=float(d["speed_max_m_s"]),

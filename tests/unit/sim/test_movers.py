@@ -4,11 +4,14 @@ behaviour against a robot that drives a scripted straight line (pure kinematics,
 from __future__ import annotations
 
 import doctest
+import functools
 import math
 from typing import Any
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from navstress.sim import movers as M
 from navstress.sim.movers import (HARD_STOPS, P_AMAX, P_RADIUS, P_VMAX, PH_COMMITTED, PH_DONE, PH_PARKED, PHASE,
@@ -205,3 +208,24 @@ def test_no_movers_is_a_no_op() -> None:
     state = initial_state(plan)
     assert state.shape == (0, M.N_STATE)
     step(plan, state, 0.1, (1, 1, 0), (1, 0), np.random.default_rng(0))
+
+
+@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 2**20), dt=st.floats(0.02, 0.25), heading=st.floats(-math.pi, math.pi),
+       speed=st.floats(0.0, 2.0), x0=st.floats(5.0, 55.0), y0=st.floats(5.0, 55.0))
+def test_limits_hold_for_any_time_step_and_robot_line(seed: int, dt: float, heading: float, speed: float, x0: float,
+                                                       y0: float) -> None:
+    world = every_world(21 + seed % 2)
+    plan = make_plan(world)
+    hist = simulate(world, seed, 300, dt, start=(x0, y0), heading=heading, speed=speed)
+    r, vmax, amax = plan.params[:, P_RADIUS], plan.params[:, P_VMAX], plan.params[:, P_AMAX]
+    assert (np.hypot(hist[:, :, VX], hist[:, :, VY]) <= vmax * (1 + 1e-9)).all()
+    dv = np.hypot(np.diff(hist[:, :, VX], axis=0), np.diff(hist[:, :, VY], axis=0))
+    assert (dv <= amax * dt * (1 + 1e-9)).all() and (hist[-1, :, HARD_STOPS] == 0).all()
+    for o in world.obstacles:
+        assert (box_disc_distance(o, hist[:, :, X], hist[:, :, Y]) >= r - 1e-9).all(), o
+
+
+@functools.cache
+def every_world(seed: int) -> World:
+    return generate(parse_spec(EVERY), seed)

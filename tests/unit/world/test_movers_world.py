@@ -245,3 +245,13 @@ def test_mover_json_and_descriptors() -> None:
     spec = spec_with({"count": {"pedestrian": 2, "vehicle": 0}})
     assert mover_descriptors(spec, (m,)) == {"n_movers": {"pedestrian": 1, "vehicle": 0}, "movers_total": 1,
                                              "mover_density_per_ha": 1 / 0.16}
+
+
+def test_a_corrupt_mover_in_world_json_is_a_world_file_error(tmp_path: Path) -> None:
+    from navstress.errors import WorldFileError
+    generate(spec_with({"count": {"pedestrian": 1}}), 0).save(tmp_path / "w")
+    meta = json.loads((tmp_path / "w" / "world.json").read_text())
+    meta["movers"][0]["behaviour"] = "teleport"
+    (tmp_path / "w" / "world.json").write_text(json.dumps(meta))
+    with pytest.raises(WorldFileError, match="is corrupt"):
+        World.load(tmp_path / "w")
