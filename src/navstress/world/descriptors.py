@@ -23,6 +23,8 @@ All lengths in meters, angles in degrees, obstruction in percent of the map area
   free cells of the smallest "axis visibility" (ray length in direction k plus in direction
   k + 180 degrees, minimised over the 8 axes), i.e. the width of the narrowest passage through
   the cell. On a map with no obstacles they are None (distance, dispersion 0) or the cap.
+* Movers (only for a spec with a ``movers`` field: :func:`navstress.world.movers.mover_descriptors`):
+  ``n_movers`` {type: count}, ``movers_total``, ``mover_density_per_ha``.
 * Path: ``path_length_m`` (shortest 8-connected path on the terrain vertex grid from start to
   goal, edges weighted by their 3-D length), ``path_ratio`` (path / straight distance),
   ``feasible`` (bool), ``infeasible_reason`` (str or None). A vertex is impassable when the
@@ -48,6 +50,7 @@ import navstress._jit  # noqa: F401  (numba's cache directory, before any @njit(
 from navstress.robot import RobotSpec
 from navstress.world.spec import WorldSpec
 from navstress.world.terrain import slope_deg
+from navstress.world.movers import mover_descriptors
 from navstress.world.placement import PlacementResult
 from navstress.world.world import Mission, Obstacle, Terrain, World
 
@@ -297,6 +300,10 @@ def describe(spec: WorldSpec, terrain: Terrain, obstacles: tuple[Obstacle, ...],
 
 def describe_world(world: World, *, robot: RobotSpec | None = None,
                    max_slope_deg: float = MAX_SLOPE_DEG) -> dict[str, Any]:
-    """Recompute the geometric descriptors of an existing (e.g. loaded) world."""
-    return describe(world.spec, world.terrain, world.obstacles, world.mission, robot=robot,
-                    max_slope_deg=max_slope_deg)
+    """Recompute the geometric descriptors of an existing (e.g. loaded) world (with the movers'
+    when its spec has a ``movers`` field, as :func:`~navstress.world.generate.generate` adds them)."""
+    out = describe(world.spec, world.terrain, world.obstacles, world.mission, robot=robot,
+                   max_slope_deg=max_slope_deg)
+    if not world.spec.movers.empty:
+        out.update(mover_descriptors(world.spec, world.movers))
+    return out

@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 
 from navstress.errors import GenerationError, SpecError
 from navstress.world import World, generate, parse_spec
+from navstress.world.descriptors import describe_world
 from navstress.world.movers import GAP_M, mover_descriptors
 from navstress.world.spec import BUILTIN_MOVER_TYPES, MoversSpec, WorldSpec
 from navstress.world.world import Mover, Obstacle
@@ -207,6 +208,9 @@ def test_adding_movers_changes_nothing_else(seed: int) -> None:
     extra = set(moving.descriptors) - set(still.descriptors)
     assert extra == {"n_movers", "movers_total", "mover_density_per_ha"}
     assert {k: v for k, v in moving.descriptors.items() if k not in extra} == still.descriptors
+    again = describe_world(moving)
+    assert {k: again[k] for k in extra} == {k: moving.descriptors[k] for k in extra}
+    assert not extra & set(describe_world(still))
     # types are placed in name order, each from its own sub-stream: more vehicles (placed after
     # the pedestrians) change none of the pedestrians
     more = generate(parse_spec({**base, "movers": {**MIXED, "count": {"pedestrian": 6, "vehicle": 2}}}), seed)
