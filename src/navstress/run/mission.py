@@ -200,7 +200,7 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
         truth = np.zeros((0, 7))
         duration = 0.0
         goal_d = float("inf")
-        collisions, first_col = 0, None
+        collisions, collisions_hit, first_col = 0, 0, None
     else:
         final = _true_pose(sim)
         obs_poses = sim.observer.poses
@@ -211,8 +211,16 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
         duration = sim.t
         goal_d = math.hypot(float(p[0]) - world.mission.goal[0], float(p[1]) - world.mission.goal[1])
         collisions = len(sim.observer.collisions)
+        collisions_hit = sum(c.robot_hit for c in sim.observer.collisions)
         first_col = sim.observer.collisions[0].t if collisions else None
         for c in sim.observer.collisions:
+            if c.mover is not None:
+                mk = world.movers[c.mover].kind if 0 <= c.mover < len(world.movers) else "?"
+                how = "hit by" if c.robot_hit else "collision with"
+                events.append((c.t, "warning", f"{how} mover {c.mover} ({mk}) at ({c.x:.2f}, {c.y:.2f}), relative "
+                                               f"speed {c.relative_speed:.2f} m/s (robot {c.robot_speed:.2f}, "
+                                               f"mover {c.mover_speed:.2f})"))
+                continue
             kind = world.obstacles[c.obstacle].kind if 0 <= c.obstacle < len(world.obstacles) else "?"
             events.append((c.t, "warning", f"collision with obstacle {c.obstacle} ({kind}) at ({c.x:.2f}, {c.y:.2f})"))
         st = sim.stopped
@@ -224,7 +232,7 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
             events.append((st.t, "error", st.reason))
 
     facts = RunFacts(arrived=arrived, goal_distance_m=goal_d, goal_tolerance_m=goal_tolerance_m,
-                     collisions=collisions, first_collision_s=first_col, error=error,
+                     collisions=collisions, collisions_hit=collisions_hit, first_collision_s=first_col, error=error,
                      navigator_failure=nav_failure, timed_out=timed_out, other=tuple(other), left_area=left_area)
     cls = classify(facts)
     events.sort(key=lambda e: e[0])

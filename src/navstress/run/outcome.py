@@ -16,6 +16,14 @@ process died, hung or spoke garbage, simulation unstable). Success requires: the
 normally (said "arrived"), no timeout, no error, no collision, and the final *real*
 position within the goal tolerance.
 
+Fail-Collision has two reasons: the robot hit something (an obstacle or a mover: "N
+collision(s) ..."), or every collision was a mover hitting the robot while it stood ("hit by a
+mover while stationary ...", ``RunFacts.collisions_hit``): the stack did not drive into it,
+but it did not get out of the way either.
+
+    >>> classify(RunFacts(collisions=1, collisions_hit=1, first_collision_s=3.0)).reason
+    'hit by a mover while stationary: 1 collision(s) (first at t=3.0 s)'
+
     >>> classify(RunFacts(arrived=True, goal_distance_m=0.8, goal_tolerance_m=2.0)).outcome
     <Outcome.SUCCESS: 'success'>
     >>> classify(RunFacts(arrived=True, goal_distance_m=0.8, goal_tolerance_m=2.0, collisions=1)).outcome
@@ -51,6 +59,10 @@ SEVERITY: tuple[Outcome, ...] = (
 )
 
 
+#: The reason of a Fail-Collision run whose every collision was a mover hitting the standing robot.
+HIT_WHILE_STATIONARY = "hit by a mover while stationary"
+
+
 @dataclass(frozen=True)
 class RunFacts:
     """What happened in a run, as observed by the framework (never by the navigator)."""
@@ -59,6 +71,7 @@ class RunFacts:
     goal_distance_m: float = float("inf")  # final real position to goal
     goal_tolerance_m: float = 2.0
     collisions: int = 0
+    collisions_hit: int = 0  # of ``collisions``: a mover hit the robot while it stood
     first_collision_s: float | None = None
     error: str | None = None  # navigator Status("error", msg), or its exception / process failure
     navigator_failure: bool = False  # the error came from the navigator crashing/hanging, not its own verdict
@@ -79,7 +92,11 @@ def classify(f: RunFacts) -> Classification:
     problems: list[tuple[Outcome, str]] = []
     if f.collisions > 0:
         when = f" (first at t={f.first_collision_s:.1f} s)" if f.first_collision_s is not None else ""
-        problems.append((Outcome.FAIL_COLLISION, f"{f.collisions} collision(s){when}"))
+        if f.collisions_hit >= f.collisions:
+            problems.append((Outcome.FAIL_COLLISION, f"{HIT_WHILE_STATIONARY}: {f.collisions} collision(s){when}"))
+        else:
+            hit = f", {f.collisions_hit} of them {HIT_WHILE_STATIONARY}" if f.collisions_hit else ""
+            problems.append((Outcome.FAIL_COLLISION, f"{f.collisions} collision(s){when}{hit}"))
     if f.error is not None:
         # A crashed or hung navigator process is infrastructure: Fail-Other with its reason.
         kind = Outcome.FAIL_OTHER if f.navigator_failure else Outcome.FAIL_ERROR

@@ -252,11 +252,12 @@ def box_pass(boxes: np.ndarray, origin: np.ndarray, rot: np.ndarray, cos_el: np.
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def body_scan_ranges(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray, moff: np.ndarray,
-                     mnx: np.ndarray, grad_max: float, boxes: np.ndarray, qpos: np.ndarray, mount: np.ndarray,
+                     mnx: np.ndarray, grad_max: float, boxes: np.ndarray, discs: np.ndarray, qpos: np.ndarray,
+                     mount: np.ndarray,
                      cos_el: np.ndarray, sin_el: np.ndarray, cos_az: np.ndarray, sin_az: np.ndarray,
                      max_range: float, min_range: float, plane_march: bool, out: np.ndarray,
                      rot: np.ndarray, origin: np.ndarray, walk: int) -> int:
-    """One scan's ranges (terrain, then boxes) from a body pose ``qpos[:7]`` = (x, y, z, qw, qx,
+    """One scan's ranges (terrain, then upright cylinders ``discs``, then boxes) from a body pose ``qpos[:7]`` = (x, y, z, qw, qx,
     qy, qz) with the sensor at ``mount`` in the body frame and oriented as the body; returns the
     number of returns, or -1 (nothing computed) if the pose is not finite or not a rotation.
 
@@ -291,5 +292,84 @@ def body_scan_ranges(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarr
         return -1
     terrain_kernel(h, cell, mip, mipf, moff, mnx, grad_max, origin, rot, cos_el, sin_el, cos_az, sin_az,
                    max_range, plane_march, out, walk)
+    if discs.shape[0] > 0:
+        disc_pass(discs, origin, rot, cos_el, sin_el, cos_az, sin_az, max_range, out)
     box_pass(boxes, origin, rot, cos_el, sin_el, cos_az, sin_az, max_range, min_range, out)
     return count_finite(out)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _ray_cylinder(cx: float, cy: float, r: float, zb: float, zt: float, ox: float, oy: float, oz: float,
+                  dx: float, dy: float, dz: float) -> float:
+    """Distance along the unit ray (o, d) to the upright solid cylinder (centre cx, cy, radius r,
+    from zb to zt), inf if none; surfaces two-sided (a ray from inside hits its exit)."""
+    best = INF
+    ex, ey = ox - cx, oy - cy
+    a = dx * dx + dy * dy
+    if a > 1e-18:
+        b = ex * dx + ey * dy
+        c = ex * ex + ey * ey - r * r
+        disc = b * b - a * c
+        if disc >= 0.0:
+            sq = math.sqrt(disc)
+            for t in ((-b - sq) / a, (-b + sq) / a):
+                if t >= 0.0:
+                    z = oz + t * dz
+                    if zb <= z <= zt:
+                        best = min(best, t)
+                        break
+    if dz != 0.0:
+        for zc in (zb, zt):
+            t = (zc - oz) / dz
+            if 0.0 <= t < best:
+                x, y = ex + t * dx, ey + t * dy
+                if x * x + y * y <= r * r:
+                    best = t
+    return best
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def disc_pass(discs: np.ndarray, origin: np.ndarray, rot: np.ndarray, cos_el: np.ndarray, sin_el: np.ndarray,
+              cos_az: np.ndarray, sin_az: np.ndarray, max_range: float, out: np.ndarray) -> None:
+    """Lower ``out[channel, azimuth]`` with the hits on upright cylinders (rows ``[x, y, r, zb,
+    zt]``: the disc movers); the ray directions as :func:`box_pass` computes them. Per cylinder
+    only the azimuth columns its bounding circle in the sensor's xy plane can span (with a margin)
+    are tested; no range filter (the box pass applies it)."""
+    nch = cos_el.shape[0]
+    naz = cos_az.shape[0]
+    ox, oy, oz = origin[0], origin[1], origin[2]
+    uwx, uwy, uwz = rot[0, 2], rot[1, 2], rot[2, 2]
+    step = TWO_PI / naz
+    for i in range(discs.shape[0]):
+        cx, cy, r, zb, zt = discs[i, 0], discs[i, 1], discs[i, 2], discs[i, 3], discs[i, 4]
+        hz = 0.5 * (zt - zb)
+        px, py, pz = cx - ox, cy - oy, 0.5 * (zb + zt) - oz
+        sx = rot[0, 0] * px + rot[1, 0] * py + rot[2, 0] * pz
+        sy = rot[0, 1] * px + rot[1, 1] * py + rot[2, 1] * pz
+        wid = r + hz * math.sqrt(rot[2, 0] ** 2 + rot[2, 1] ** 2) + 1e-6
+        rho = math.sqrt(sx * sx + sy * sy)
+        if rho - wid > max_range:
+            continue
+        if rho <= wid * 1.001:
+            q0, q1 = 0, naz - 1
+        else:
+            dl = math.asin(wid / rho) * 1.001 + 1e-6
+            th = math.atan2(sy, sx)
+            q0 = int(math.floor((th - dl) / step))
+            q1 = int(math.ceil((th + dl) / step))
+            if q1 - q0 >= naz - 1:
+                q0, q1 = 0, naz - 1
+        for q in range(q0, q1 + 1):
+            a = q % naz
+            ca = cos_az[a]
+            sa = sin_az[a]
+            awx = rot[0, 0] * ca + rot[0, 1] * sa
+            awy = rot[1, 0] * ca + rot[1, 1] * sa
+            awz = rot[2, 0] * ca + rot[2, 1] * sa
+            for k in range(nch):
+                ce = cos_el[k]
+                se = sin_el[k]
+                t = _ray_cylinder(cx, cy, r, zb, zt, ox, oy, oz, ce * awx + se * uwx, ce * awy + se * uwy,
+                                  ce * awz + se * uwz)
+                if t < out[k, a]:
+                    out[k, a] = t

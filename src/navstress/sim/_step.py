@@ -43,7 +43,7 @@ from navstress.sim.mjabi import (CF_DIST, CF_FRAME, CF_FRICTION, CF_POS, CI_EFC,
 from navstress.sim.model import PoolArrays, fill_obstacle_slots
 
 # status bits returned by run_steps
-DONE, LIDAR, CONTACT, LEFT_MAP, FLIPPED, UNSTABLE, FLUSH = 0, 1, 2, 4, 8, 16, 32
+DONE, LIDAR, CONTACT, LEFT_MAP, FLIPPED, UNSTABLE, FLUSH, MOVERS = 0, 1, 2, 4, 8, 16, 32, 64
 # sensor rows of the schedule arrays (the order in which sensors fire within a step)
 ODOM, IMU, POSE, SCAN, OBSERVER = 0, 1, 2, 3, 4
 NSENSORS = 5
@@ -75,6 +75,8 @@ STATE = np.dtype([
     ("ncontact", _I),  # obstacles the bumper touched after the last step
     ("starts", _I), ("nevent", _I),  # contact starts / collision events not yet flushed
     ("up_z", _F),  # z of the chassis up-vector after the last step
+    ("mover_k", _I),  # step at which the movers' controller runs next (NO_CMD: never, no movers)
+    ("mover_k0", _I),  # step of its last run (MoverArrays.pose0 is the movers' pose then)
 ], align=True)
 PARAMS = np.dtype([
     ("model", _I), ("data", _I), ("ncon_addr", _I), ("contact_field", _I),  # mjabi.Addresses
@@ -99,6 +101,8 @@ PARAMS = np.dtype([
     ("warn0", _I),  # MuJoCo's bad-qpos/qvel/qacc warning count at the start
     ("pool_every", _I), ("pool_contype", _I), ("park_z", _F),  # obstacle pool refill (0: no pool)
     ("hfield_x0", _F), ("hfield_y0", _F), ("hfield_dx", _F), ("hfield_dy", _F),  # WheelContactArrays.hfield grid
+    ("mover_every", _I),  # steps per control period of the movers (0: no movers)
+    ("n_obstacles", _I),  # contact index n_obstacles + i is mover i (RobotArrays.obstacle_of_geom)
 ], align=True)
 STATE_FIELDS: frozenset[str] = frozenset(STATE.names or ())
 PARAMS_FIELDS: frozenset[str] = frozenset(PARAMS.names or ())
@@ -165,7 +169,18 @@ class CollisionArrays(NamedTuple):
     current: np.ndarray  # obstacles touched after this step
     previous: np.ndarray  # the touching set (STATE.touching entries)
     last_touch: np.ndarray  # per obstacle: time last touched (-inf: never)
-    events: np.ndarray  # (E, 4) collision events (t, x, y, obstacle), STATE.nevent rows
+    events: np.ndarray  # (E, EVENT_COLS) collision events, STATE.nevent rows (EVENT_FIELDS)
+
+
+class MoverArrays(NamedTuple):
+    """The movers' bodies between two runs of their controller (:func:`_place_movers`): each moves
+    linearly from ``pose0`` (at step ``STATE.mover_k0``) to ``pose1`` (``PARAMS.mover_every``
+    steps later); empty without movers."""
+
+    mocap: np.ndarray  # (n,) mocap index of each mover body
+    pose0: np.ndarray  # (n, 4) x, y, z (body centre), yaw at the last controller run
+    pose1: np.ndarray  # (n, 4) the same one control period later
+    vel: np.ndarray  # (n, 2) the planar velocity in between (m/s)
 
 
 class WheelContactArrays(NamedTuple):
@@ -177,7 +192,12 @@ class WheelContactArrays(NamedTuple):
     scratch: np.ndarray  # (4, 7) contacts of one wheel
 
 
-GROUPS = (MjArrays, RobotArrays, PoolArrays, SensorArrays, CollisionArrays, WheelContactArrays)
+#: Columns of CollisionArrays.events: the robot's and the obstacle's planar speed (m/s, 0 for a
+#: static obstacle) and the norm of their velocity difference, at the step of the contact.
+EVENT_FIELDS = ("t", "x", "y", "obstacle", "robot_speed", "obstacle_speed", "relative_speed")
+EVENT_COLS = len(EVENT_FIELDS)
+
+GROUPS = (MjArrays, RobotArrays, PoolArrays, SensorArrays, CollisionArrays, WheelContactArrays, MoverArrays)
 # where each group ends in run_steps' flat argument list
 _E_MJ = len(MjArrays._fields)
 _E_ROBOT = _E_MJ + len(RobotArrays._fields)
@@ -185,16 +205,24 @@ _E_POOL = _E_ROBOT + len(PoolArrays._fields)
 _E_SENSORS = _E_POOL + len(SensorArrays._fields)
 _E_COLLISIONS = _E_SENSORS + len(CollisionArrays._fields)
 _E_WHEELS = _E_COLLISIONS + len(WheelContactArrays._fields)
+_E_MOVERS = _E_WHEELS + len(MoverArrays._fields)
 
 
 def loop_arrays(mj: MjArrays, robot: RobotArrays, pool: PoolArrays, sensors: SensorArrays,
-                collisions: CollisionArrays, wheels: WheelContactArrays) -> tuple[np.ndarray, ...]:
-    """The array groups as :func:`run_steps` takes them (one flat tuple, in :data:`GROUPS` order)."""
-    groups = (mj, robot, pool, sensors, collisions, wheels)
+                collisions: CollisionArrays, wheels: WheelContactArrays,
+                movers: MoverArrays | None = None) -> tuple[np.ndarray, ...]:
+    """The array groups as :func:`run_steps` takes them (one flat tuple, in :data:`GROUPS` order;
+    ``movers`` None: no movers)."""
+    groups = (mj, robot, pool, sensors, collisions, wheels, movers if movers is not None else empty_mover_arrays())
     for g, cls in zip(groups, GROUPS):
         if type(g) is not cls:
             raise TypeError(f"expected {cls.__name__}, got {type(g).__name__}")
     return tuple(a for g in groups for a in g)
+
+
+def empty_mover_arrays() -> MoverArrays:
+    """The :class:`MoverArrays` of a world without movers."""
+    return MoverArrays(np.zeros(0, np.int64), np.zeros((0, 4)), np.zeros((0, 4)), np.zeros((0, 2)))
 
 
 def contact_template(m: mujoco.MjModel, d0: mujoco.MjData, wheel_geoms: np.ndarray, chassis_qpos: int) -> np.ndarray:
@@ -628,12 +656,41 @@ def run_steps(k_stop: int, state: np.ndarray, params: np.ndarray, *arrays: np.nd
     return _steps(k_stop, state[0], params[0], MjArrays(*arrays[:_E_MJ]), RobotArrays(*arrays[_E_MJ:_E_ROBOT]),
                   PoolArrays(*arrays[_E_ROBOT:_E_POOL]), SensorArrays(*arrays[_E_POOL:_E_SENSORS]),
                   CollisionArrays(*arrays[_E_SENSORS:_E_COLLISIONS]),
-                  WheelContactArrays(*arrays[_E_COLLISIONS:_E_WHEELS]))
+                  WheelContactArrays(*arrays[_E_COLLISIONS:_E_WHEELS]), MoverArrays(*arrays[_E_WHEELS:_E_MOVERS]))
+
+
+@numba.njit(cache=True)
+def _place_movers(f: float, mv: MoverArrays, mocap_pos: np.ndarray, mocap_quat: np.ndarray) -> None:  # pragma: no cover
+    """Put every mover body at ``pose0 + f (pose1 - pose0)`` (the yaw along the shorter turn)."""
+    p0, p1 = mv.pose0, mv.pose1
+    for i in range(mv.mocap.shape[0]):
+        b = mv.mocap[i]
+        mocap_pos[b, 0] = p0[i, 0] + f * (p1[i, 0] - p0[i, 0])
+        mocap_pos[b, 1] = p0[i, 1] + f * (p1[i, 1] - p0[i, 1])
+        mocap_pos[b, 2] = p0[i, 2] + f * (p1[i, 2] - p0[i, 2])
+        yaw = p0[i, 3] + f * _wrap(p1[i, 3] - p0[i, 3])
+        mocap_quat[b, 0] = math.cos(0.5 * yaw)
+        mocap_quat[b, 1] = 0.0
+        mocap_quat[b, 2] = 0.0
+        mocap_quat[b, 3] = math.sin(0.5 * yaw)
+
+
+@numba.njit(cache=True)
+def _event_speeds(s: Any, p: Any, e0: int, vx: float, vy: float, mv: MoverArrays,
+                  events: np.ndarray) -> None:  # pragma: no cover
+    """Fill the speed columns of the collision events ``e0 .. s.nevent`` (:data:`EVENT_FIELDS`):
+    (vx, vy) is the robot's planar velocity at the start of the step (before the contact's push)."""
+    for e in range(e0, s.nevent):
+        o = int(events[e, 3]) - p.n_obstacles
+        ox, oy = (mv.vel[o, 0], mv.vel[o, 1]) if o >= 0 else (0.0, 0.0)
+        events[e, 4] = (vx * vx + vy * vy) ** 0.5
+        events[e, 5] = (ox * ox + oy * oy) ** 0.5
+        events[e, 6] = ((vx - ox) ** 2 + (vy - oy) ** 2) ** 0.5
 
 
 @numba.njit(cache=True)
 def _steps(k_stop: int, s: Any, p: Any, mj: MjArrays, rb: RobotArrays, pool: PoolArrays, sens: SensorArrays,
-           col: CollisionArrays, wc: WheelContactArrays) -> int:  # pragma: no cover - compiled
+           col: CollisionArrays, wc: WheelContactArrays, mv: MoverArrays) -> int:  # pragma: no cover - compiled
     """:func:`run_steps` on the records and groups. The step count is ``s.k``. The pending
     command (``s.cmd_k``) is applied at the start of its step. Bumper contacts go through
     :func:`contact_events` (collision events in ``col.events[:s.nevent]``, contact starts counted
@@ -649,11 +706,16 @@ def _steps(k_stop: int, s: Any, p: Any, mj: MjArrays, rb: RobotArrays, pool: Poo
         st = _fire(k, s, p, qpos, qvel, wqpos, sens)
         if st != DONE or k >= k_stop:
             return st
+        if k >= s.mover_k:  # the movers' controller runs (in Python) before this step
+            return MOVERS
         # ---- one physics step
         if k >= s.cmd_k:  # the pending command takes effect at the start of its step
             s.tv, s.tw = s.cmd_v, s.cmd_w
             s.cmd_k = NO_CMD
         _drive(s, p, qpos, qvel, mj.ctrl, wqpos)
+        vx0, vy0 = qvel[0], qvel[1]  # the robot's velocity before this step (collision speeds)
+        if p.mover_every > 0:
+            _place_movers((k - s.mover_k0) / p.mover_every, mv, mj.mocap_pos, mj.mocap_quat)
         if pool_every > 0 and k % pool_every == 0:
             fill_obstacle_slots(qpos[0], qpos[1], pool, obstacle_of_geom, mj.mocap_pos, mj.mocap_quat, mj.geom_size,
                                 mj.geom_rbound, mj.geom_aabb, mj.bvh_aabb, mj.geom_contype, p.park_z, p.pool_contype)
@@ -699,9 +761,11 @@ def _steps(k_stop: int, s: Any, p: Any, mj: MjArrays, rb: RobotArrays, pool: Poo
                     nk += 1
         s.ncontact = nk
         if nk > 0 or s.touching > 0:
+            e0 = s.nevent
             if not contact_events(k * p.dt, qpos[0], qpos[1], contact_out, nk, col.previous, s, col.last_touch,
                                   p.debounce, col.events):
                 status |= FLUSH  # event buffer full: Python empties it before the next step
+            _event_speeds(s, p, e0, vx0, vy0, mv, col.events)
         x, y = qpos[0], qpos[1]
         mg = p.margin
         if not (mg <= x <= p.size_x - mg and mg <= y <= p.size_y - mg):

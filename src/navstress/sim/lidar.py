@@ -40,6 +40,8 @@ from navstress.world.world import World
 
 __all__ = ["LidarConfig", "LidarScene", "Lidar", "build_scene", "cast_rays"]
 
+_NO_DISCS = np.zeros((0, 5))
+
 
 @dataclass(frozen=True)
 class LidarConfig:
@@ -294,18 +296,29 @@ class Lidar:
         r = self._ranges(origin, rotation)
         return self._points(_raycast.count_finite(r), rng)
 
-    def scan_body(self, qpos: np.ndarray, mount: np.ndarray, rng: np.random.Generator | None = None) -> np.ndarray:
+    def scan_body(self, qpos: np.ndarray, mount: np.ndarray, rng: np.random.Generator | None = None, *,
+                  discs: np.ndarray | None = None, boxes: np.ndarray | None = None) -> np.ndarray:
         """:meth:`scan` from a body pose: ``qpos[:7]`` = (x, y, z, qw, qx, qy, qz) as in MuJoCo, the
         sensor at ``mount`` (3,) in the body frame and oriented as the body. Same points as
         ``scan(qpos[:3] + R @ mount, R)`` with R from the quaternion (``mju_quat2Mat``'s formula,
         equal to it within 1e-15), up to the rounding of that pose; the pose arithmetic, its check,
-        the terrain and box passes and the count run in one compiled call (the simulation's path)."""
+        the terrain and box passes and the count run in one compiled call (the simulation's path).
+
+        ``discs`` (rows x, y, radius, z bottom, z top: upright cylinders) and ``boxes`` (rows of
+        ``LidarScene.boxes`` without the cos/sin columns) are seen too, for this scan only (the
+        movers where they are at scan time): exact ray-cylinder hits before the box pass, the
+        boxes with the scene's."""
         s, c = self.scene, self.config
+        all_boxes = s.boxes
+        if boxes is not None and len(boxes):
+            b = np.asarray(boxes, dtype=np.float64).reshape(-1, 7)
+            all_boxes = np.concatenate([s.boxes, np.column_stack([b, np.cos(b[:, 2]), np.sin(b[:, 2])])])
+        d = _NO_DISCS if discs is None else np.ascontiguousarray(discs, dtype=np.float64).reshape(-1, 5)
         q, m = np.asarray(qpos), np.ascontiguousarray(mount, dtype=np.float64)
         if q.dtype != np.float64 or q.ndim != 1 or q.shape[0] < 7 or m.shape != (3,):
             raise SpecError("qpos", getattr(qpos, "shape", qpos), "a float64 (>= 7,) body pose and a (3,) mount")
         n = _raybox.body_scan_ranges(s.heights, s.cell_m, s.mip, s.mipf, s.mip_offsets, s.mip_widths, s.grad_max,
-                                     s.boxes, q, m, self._cos_el,
+                                     all_boxes, d, q, m, self._cos_el,
                                      self._sin_el, self._cos_az, self._sin_az, float(c.max_range_m),
                                      float(c.min_range_m), self.plane_march, self._out, self._rot, self._origin,
                                      self._walk)

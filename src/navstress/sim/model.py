@@ -15,6 +15,12 @@ robot (geom group 3) is an RMP 400 class skid steer: a chassis body with a belly
 touches the ground (bit 1), a massless bumper box of the full footprint that touches obstacles
 (bit 2), and four sphere wheels (bit 1: ground only) on velocity-servo hinges.
 
+Movers (``World.movers``) are mocap bodies ``mover_<id>`` (geom group 2, collision bit 4: they
+touch only the bumper; an upright cylinder for a ``disc`` mover, a box for a ``box`` one, standing
+on the ground), always present; the simulation moves them (:mod:`navstress.sim.movers`). Being
+mocap bodies they push the robot and the robot does not push them. A world without movers
+compiles to the same model as before.
+
 Skid steer friction: every wheel-ground contact frame is turned so that its first tangent is
 the wheel's rolling direction and the pyramidal friction limits are split between rolling and
 lateral directions in proportion to the slip direction (``navstress.sim._step``): the
@@ -25,7 +31,7 @@ do not do for a four-wheel skid steer (it barely turns). See docs/simulation.md.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import mujoco
@@ -43,6 +49,8 @@ OBSTACLE_GROUP = 1
 ROBOT_GROUP = 3
 GROUND_BIT = 1
 OBSTACLE_BIT = 2
+MOVER_BIT = 4  # movers touch only the bumper (whose conaffinity has this bit only in worlds with movers)
+MOVER_GROUP = 2
 HFIELD_BASE_M = 1.0
 FLAT_ELEVATION_M = 1e-3
 CHASSIS_CLEARANCE_M = 0.12  # belly height above the ground
@@ -108,8 +116,10 @@ def world_to_mjcf(world: World) -> str:
             f"<asset>\n{asset}\n</asset>\n<worldbody>\n{body}\n</worldbody>\n</mujoco>\n")
 
 
-def _robot_xml(robot: RobotSpec, cfg: SimConfig, pose: tuple[float, float, float, float]) -> tuple[str, str]:
-    """(worldbody xml, actuator xml) of the robot placed at (x, y, z_ground, yaw)."""
+def _robot_xml(robot: RobotSpec, cfg: SimConfig, pose: tuple[float, float, float, float],
+               movers: bool = False) -> tuple[str, str]:
+    """(worldbody xml, actuator xml) of the robot placed at (x, y, z_ground, yaw); ``movers``: the
+    bumper touches movers too."""
     x, y, zg, yaw = pose
     r = robot.wheel_radius_m
     mw = WHEEL_MASS_FRACTION * robot.mass_kg
@@ -132,6 +142,7 @@ def _robot_xml(robot: RobotSpec, cfg: SimConfig, pose: tuple[float, float, float
             f'contype="{GROUND_BIT}" conaffinity="{GROUND_BIT}" condim="3" {fric} rgba="0.1 0.1 0.1 1"/>'
             f"</body>")
     lm = robot.lidar
+    bumper_aff = OBSTACLE_BIT | (MOVER_BIT if movers else 0)
     body = (
         f'<body name="chassis" pos="{_f(x)} {_f(y)} {_f(zg + r + 0.002)}" euler="0 0 {_f(yaw)}">'
         f'<freejoint name="chassis"/>'
@@ -139,13 +150,35 @@ def _robot_xml(robot: RobotSpec, cfg: SimConfig, pose: tuple[float, float, float
         f'<geom name="belly" type="box" size="{_f(bx)} {_f(by)} {_f(H / 2)}" pos="0 0 {_f(zc)}" mass="0" '
         f'group="{ROBOT_GROUP}" contype="{GROUND_BIT}" conaffinity="{GROUND_BIT}" {fric} rgba="0.8 0.3 0.1 1"/>'
         f'<geom name="bumper" type="box" size="{_f(L / 2)} {_f(W / 2)} {_f(H / 2)}" pos="0 0 {_f(zc)}" mass="0" '
-        f'group="{ROBOT_GROUP}" contype="{OBSTACLE_BIT}" conaffinity="{OBSTACLE_BIT}" rgba="0.8 0.3 0.1 0.3"/>'
+        f'group="{ROBOT_GROUP}" contype="{OBSTACLE_BIT}" conaffinity="{bumper_aff}" rgba="0.8 0.3 0.1 0.3"/>'
         f'<site name="lidar" pos="{_f(lm.x_m)} {_f(lm.y_m)} {_f(lm.z_m)}"/>'
         + "".join(wheels) + "</body>")
     act = "".join(
         f'<velocity name="wheel_{n}" joint="wheel_{n}" kv="{_f(cfg.wheel_kv)}" '
         f'forcerange="{_f(-cfg.wheel_torque_nm)} {_f(cfg.wheel_torque_nm)}"/>' for n in names)
     return body, act
+
+
+def mover_centre_z(world: World, k: int, x: float, y: float) -> float:
+    """Height of mover ``k``'s body centre standing at (x, y): the ground under its centre plus
+    half its height."""
+    return world.terrain.height_at(x, y) + world.movers[k].size[2] / 2
+
+
+def _movers_xml(world: World) -> str:
+    """The movers' mocap bodies at their start poses."""
+    out = []
+    for k, mv in enumerate(world.movers):
+        x, y, yaw = mv.start
+        ln, wd, h = mv.size
+        if mv.shape == "disc":
+            geom = f'type="cylinder" size="{_f(ln / 2)} {_f(h / 2)}"'
+        else:
+            geom = f'type="box" size="{_f(ln / 2)} {_f(wd / 2)} {_f(h / 2)}"'
+        out.append(f'<body name="mover_{mv.id}" mocap="true" pos="{_f(x)} {_f(y)} {_f(mover_centre_z(world, k, x, y))}" '
+                   f'euler="0 0 {_f(yaw)}"><geom name="mover_{mv.id}" {geom} group="{MOVER_GROUP}" '
+                   f'contype="{MOVER_BIT}" conaffinity="0" rgba="0.2 0.3 0.8 1"/></body>')
+    return "\n".join(out)
 
 
 @dataclass(frozen=True, eq=False)
@@ -164,6 +197,8 @@ class RobotModel:
     map_size: tuple[float, float]
     slot_geoms: np.ndarray  # (K,) geom of each obstacle slot (empty: obstacles are static geoms)
     slot_bodies: np.ndarray  # (K,) mocap body of each slot
+    mover_geoms: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # (n,) geom of each mover (World.movers order)
+    mover_mocap: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # (n,) mocap index of each mover body
 
 
 def build_model(world: World, robot: RobotSpec = RobotSpec(), cfg: SimConfig = SimConfig(),
@@ -184,7 +219,9 @@ def build_model(world: World, robot: RobotSpec = RobotSpec(), cfg: SimConfig = S
              for dx in (-robot.wheelbase_m / 2, 0.0, robot.wheelbase_m / 2)
              for dy in (-robot.track_m / 2, 0.0, robot.track_m / 2))
     asset, wbody, norm = _world_xml(world, inline=False, pool=obstacle_pool)
-    rbody, act = _robot_xml(robot, cfg, (sx, sy, zg, syaw))
+    if world.movers:
+        wbody += "\n" + _movers_xml(world)
+    rbody, act = _robot_xml(robot, cfg, (sx, sy, zg, syaw), movers=bool(world.movers))
     xml = (f'<mujoco model="navstress">\n<compiler angle="radian"/>\n'
            f'<option timestep="{_f(cfg.timestep_s)}" integrator="implicitfast" solver="Newton" '
            f'iterations="{cfg.solver_iterations}" ls_iterations="10" cone="pyramidal"/>\n'
@@ -217,7 +254,9 @@ def build_model(world: World, robot: RobotSpec = RobotSpec(), cfg: SimConfig = S
         bumper_geom=name(G, "bumper"), lidar_site=mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, "lidar"),
         map_size=(float(size[0]), float(size[1])),
         slot_geoms=np.array([name(G, f"obstacle_slot_{k}") for k in range(obstacle_pool)], np.int64),
-        slot_bodies=np.array([name(B, f"obstacle_slot_{k}") for k in range(obstacle_pool)], np.int64))
+        slot_bodies=np.array([name(B, f"obstacle_slot_{k}") for k in range(obstacle_pool)], np.int64),
+        mover_geoms=np.array([name(G, f"mover_{mv.id}") for mv in world.movers], np.int64),
+        mover_mocap=np.array([m.body_mocapid[name(B, f"mover_{mv.id}")] for mv in world.movers], np.int64))
     m.geom_contype[rm.slot_geoms] = 0  # parked
     return rm
 

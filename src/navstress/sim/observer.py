@@ -10,14 +10,32 @@ from dataclasses import dataclass
 import numpy as np
 
 
+#: A robot slower than this (m/s, planar, true) when a mover touches it was standing: it was hit.
+STATIONARY_MPS = 0.05
+
+
 @dataclass(frozen=True)
 class CollisionEvent:
-    """The robot's bumper touched obstacle ``obstacle`` at time ``t`` at robot position (x, y)."""
+    """The robot's bumper touched obstacle ``obstacle`` at time ``t`` at robot position (x, y).
+
+    A contact with a mover has ``obstacle`` -1 and ``mover`` its id, with the robot's and the
+    mover's planar speeds and the norm of their velocity difference at the step of the contact
+    (true values, m/s)."""
 
     t: float
     x: float
     y: float
     obstacle: int
+    mover: int | None = None
+    robot_speed: float = 0.0
+    mover_speed: float = 0.0
+    relative_speed: float = 0.0
+
+    @property
+    def robot_hit(self) -> bool:
+        """A mover hit the robot while it stood (robot slower than :data:`STATIONARY_MPS`, the
+        mover not): the robot did not cause it."""
+        return self.mover is not None and self.robot_speed < STATIONARY_MPS <= self.mover_speed
 
 
 @dataclass(frozen=True)

@@ -27,6 +27,7 @@ from navstress.sim.config import SimConfig
 from navstress.sim.lidar import Lidar, build_scene
 from navstress.sim import _step as K
 from navstress.sim import mjabi
+from navstress.sim import movers as M
 from navstress.sim.model import OBSTACLE_BIT, PARK_Z_M, ObstaclePool, RobotModel, build_model, empty_pool_arrays
 from navstress.sim.observer import CollisionEvent, Observer, StopEvent
 from navstress.world.world import World
@@ -34,6 +35,9 @@ from navstress.world.world import World
 _SENSORS = ("odom", "imu", "pose", "lidar", "observer")  # the order of the _step sensor rows
 _JITTER_BATCH = 64  # rate-jitter uniforms drawn at a time from each sensor's timing generator
 _SAMPLES = 64  # raw sensor samples buffered in the compiled loop between flushes
+#: Control period of the movers (s): their controller (:mod:`navstress.sim.movers`) runs every
+#: this long from the robot's true state; in between each mover body moves linearly.
+MOVER_PERIOD_S = 0.1
 
 
 class Simulation:
@@ -44,7 +48,13 @@ class Simulation:
     ``start`` overrides the mission start (x, y, yaw).
 
     The steps run in one compiled loop (``navstress.sim._step.run_steps``) that returns to Python
-    only for lidar scans, commands, collisions, stop events and to flush its sensor samples.
+    only for lidar scans, commands, collisions, stop events, the movers' controller and to flush
+    its sensor samples.
+
+    Movers (``world.movers``): their controller runs every :data:`MOVER_PERIOD_S` from the robot's
+    TRUE pose and velocity (they are part of the world; the navigator sees them only through its
+    lidar), drawing from ``navstress.seeding.rng(seed, "movers")``; :meth:`mover_track` holds
+    their poses at every run of it.
     """
 
     def __init__(self, world: World, robot: RobotSpec = RobotSpec(), config: SimConfig = SimConfig(), *,
@@ -107,12 +117,16 @@ class Simulation:
         self.observer = Observer(cfg.collision_debounce_s)
         self._contact_buf = np.zeros(64, np.int64)
         self._contact_prev = np.zeros(64, np.int64)
-        self._last_touch = np.full(max(1, len(world.obstacles)), -np.inf)  # per obstacle, for the debounce
-        self._event_buf = np.zeros((128, 4))
+        n_obst, n_mov = len(world.obstacles), len(world.movers)
+        # per obstacle then per mover (contact index n_obst + i), for the debounce
+        self._last_touch = np.full(max(1, n_obst + n_mov), -np.inf)
+        self._event_buf = np.zeros((128, K.EVENT_COLS))
+        self._init_movers(n_obst)
         # compiled-loop state and constants (named records, see _step.STATE / PARAMS) and arrays
         r = robot
         wheel_angles = d.qpos[rm.wheel_qpos]
         self._state = K.new_state(cmd_k=K.NO_CMD, ref=wheel_angles, odom_a=wheel_angles, next_k=next_k,
+                                  mover_k=0 if self._mover_every else K.NO_CMD,
                                   # noise and jitter rows: drawn on first use
                                   n_imu=K.NOISE_BATCH, n_pose=K.NOISE_BATCH, jitter_idx=_JITTER_BATCH)
         # views of the fields Python reads or writes every cycle (a view reads ~4x faster than a
@@ -143,7 +157,8 @@ class Simulation:
             warn0=int(sum(int(warn[w]) for w in bad)),
             pool_every=max(1, int(round(0.1 / self._dt))) if pool is not None else 0,
             pool_contype=OBSTACLE_BIT, park_z=PARK_Z_M,
-            hfield_x0=grid[0], hfield_y0=grid[1], hfield_dx=grid[2], hfield_dy=grid[3])
+            hfield_x0=grid[0], hfield_y0=grid[1], hfield_dx=grid[2], hfield_dy=grid[3],
+            mover_every=self._mover_every, n_obstacles=n_obst)
         self._arrays = K.loop_arrays(
             K.MjArrays(d.qpos, d.qvel, d.ctrl, d.xpos, d.xmat, warn, d.mocap_pos, d.mocap_quat, m.geom_size,
                        m.geom_rbound, m.geom_aabb, m.bvh_aabb, m.geom_contype),
@@ -151,7 +166,7 @@ class Simulation:
             pool.arrays if pool is not None else empty_pool_arrays(),
             K.SensorArrays(self._jit, self._samples, self._noise),
             K.CollisionArrays(self._contact_buf, self._contact_prev, self._last_touch, self._event_buf),
-            wheel_arrays)
+            wheel_arrays, self._mover_arrays)
         # readings since the last observe()
         self._scans: list[LidarScan] = []
         self._mount = (robot.lidar.x_m, robot.lidar.y_m, robot.lidar.z_m)
@@ -211,7 +226,94 @@ class Simulation:
         self._pose = None
         return obs
 
+    def mover_track(self) -> tuple[np.ndarray, np.ndarray]:
+        """The movers' poses at every run of their controller so far: times (m,) and poses
+        (m, n, 3) x, y, yaw (``world.movers`` order); empty without movers."""
+        n = len(self.world.movers)
+        if not self._mover_t:
+            return np.zeros(0), np.zeros((0, n, 3))
+        return np.array(self._mover_t), np.stack(self._mover_poses)
+
+    def mover_poses(self) -> np.ndarray:
+        """(n, 4) x, y, z (body centre), yaw of every mover body now."""
+        mv = self._mover_arrays
+        every = self._mover_every
+        if not every:
+            return np.zeros((0, 4))
+        f = (int(self._sk[0]) - int(self._state["mover_k0"][0])) / every
+        out: np.ndarray = mv.pose0 + f * (mv.pose1 - mv.pose0)
+        d = (mv.pose1[:, 3] - mv.pose0[:, 3] + math.pi) % (2 * math.pi) - math.pi
+        out[:, 3] = mv.pose0[:, 3] + f * d
+        return out
+
     # ---- internals --------------------------------------------------------------------
+    def _init_movers(self, n_obst: int) -> None:
+        """The movers' controller, bodies and contact indices (nothing without movers)."""
+        world, rm = self.world, self.rm
+        n = len(world.movers)
+        self._mover_t: list[float] = []
+        self._mover_poses: list[np.ndarray] = []
+        if n == 0:
+            self._mover_every = 0
+            self._mover_arrays = K.empty_mover_arrays()
+            return
+        self._mover_every = max(1, int(round(MOVER_PERIOD_S / self._dt)))
+        self._mover_plan = M.make_plan(world)
+        self._mover_state = M.initial_state(self._mover_plan)
+        self._mover_rng = rng(self.seed, "movers")
+        self._mover_half_h = np.array([mv.size[2] / 2 for mv in world.movers])
+        rm.obstacle_of_geom[rm.mover_geoms] = n_obst + np.arange(n)
+        pose = np.zeros((n, 4))
+        pose[:, :2] = self._mover_state[:, M.X:M.Y + 1]
+        pose[:, 2] = self._ground(pose[:, 0], pose[:, 1]) + self._mover_half_h
+        pose[:, 3] = self._mover_state[:, M.YAW]
+        self._mover_arrays = K.MoverArrays(rm.mover_mocap.astype(np.int64), pose, pose.copy(), np.zeros((n, 2)))
+        # lidar shapes: discs (x, y, r, z bottom, z top) and boxes (LidarScene rows, after the static ones)
+        self._disc_movers = np.array([i for i, mv in enumerate(world.movers) if mv.shape == "disc"], np.int64)
+        self._box_movers = np.array([i for i, mv in enumerate(world.movers) if mv.shape != "disc"], np.int64)
+        size = np.array([mv.size for mv in world.movers], np.float64).reshape(n, 3)
+        self._mover_size = size
+        self._scan_discs = np.zeros((len(self._disc_movers), 5))
+        self._scan_discs[:, 2] = size[self._disc_movers, 0] / 2
+
+    def _ground(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """``Terrain.height_at`` at many points (the same triangles and arithmetic)."""
+        t = self.world.terrain
+        h = t.heights
+        rows, cols = h.shape
+        fx = np.minimum(np.maximum(x / t.cell_m, 0.0), cols - 1.000001)
+        fy = np.minimum(np.maximum(y / t.cell_m, 0.0), rows - 1.000001)
+        j, i = fx.astype(np.int64), fy.astype(np.int64)
+        u, v = fx - j, fy - i
+        h00 = h[i, j].astype(np.float64)
+        h10 = h[i, j + 1].astype(np.float64)
+        h01 = h[i + 1, j].astype(np.float64)
+        h11 = h[i + 1, j + 1].astype(np.float64)
+        out: np.ndarray = np.where(u >= v, h00 + u * (h10 - h00) + v * (h11 - h10), h00 + v * (h01 - h00) + u * (h11 - h01))
+        return out
+
+    def _step_movers(self) -> None:
+        """Run the movers' controller for the next period from the robot's true state; the bodies
+        then move linearly to where it puts them."""
+        k, every = int(self._sk[0]), self._mover_every
+        q, qv = self.data.qpos, self.data.qvel
+        qw, qx, qy, qz = float(q[3]), float(q[4]), float(q[5]), float(q[6])
+        yaw = math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
+        mv, st = self._mover_arrays, self._mover_state
+        mv.pose0[:] = mv.pose1
+        self._mover_t.append(k * self._dt)
+        self._mover_poses.append(mv.pose0[:, [0, 1, 3]].copy())
+        period = every * self._dt
+        M.step(self._mover_plan, st, period, (float(q[0]), float(q[1]), yaw), (float(qv[0]), float(qv[1])),
+               self._mover_rng)
+        mv.pose1[:, 0] = st[:, M.X]
+        mv.pose1[:, 1] = st[:, M.Y]
+        mv.pose1[:, 2] = self._ground(st[:, M.X], st[:, M.Y]) + self._mover_half_h
+        mv.pose1[:, 3] = st[:, M.YAW]
+        mv.vel[:] = (mv.pose1[:, :2] - mv.pose0[:, :2]) / period
+        self._state["mover_k0"] = k
+        self._state["mover_k"] = k + every
+
     def _warnings(self) -> int:
         return sum(int(self.data.warning[w].number) for w in K.BAD_WARNINGS)
 
@@ -257,6 +359,8 @@ class Simulation:
                             state[field] = 0
             if st & K.LIDAR:
                 self._scan()
+            if st & K.MOVERS:
+                self._step_movers()
         self._flush()
 
     def _events(self, st: int) -> None:
@@ -285,8 +389,14 @@ class Simulation:
         ob, nevent, starts, touching = self.observer, self._nevent, self._starts, self._touching
         ne = int(nevent[0])
         if ne or starts[0]:
-            ob.collisions.extend(CollisionEvent(float(e[0]), float(e[1]), float(e[2]), int(e[3]))
-                                 for e in self._event_buf[:ne])
+            n_obst = len(self.world.obstacles)
+            for e in self._event_buf[:ne].tolist():
+                o = int(e[3])
+                if o < n_obst:
+                    ob.collisions.append(CollisionEvent(e[0], e[1], e[2], o))
+                else:
+                    ob.collisions.append(CollisionEvent(e[0], e[1], e[2], -1, mover=self.world.movers[o - n_obst].id,
+                                                        robot_speed=e[4], mover_speed=e[5], relative_speed=e[6]))
             ob.contact_starts += int(starts[0])
             nevent[0] = starts[0] = 0
         if touching[0] or ob._touching:
@@ -294,7 +404,17 @@ class Simulation:
 
     def _scan(self) -> None:
         assert self._lidar is not None
-        pts = self._lidar.scan_body(self.data.qpos, self._mount_v, self._lidar_gen if self.config.noise else None)
+        discs = boxes = None
+        if self._mover_every:  # the movers where they are now
+            p, sz = self.mover_poses(), self._mover_size
+            d, b = self._disc_movers, self._box_movers
+            discs = self._scan_discs
+            discs[:, 0], discs[:, 1] = p[d, 0], p[d, 1]
+            discs[:, 3], discs[:, 4] = p[d, 2] - sz[d, 2] / 2, p[d, 2] + sz[d, 2] / 2
+            boxes = np.column_stack([p[b, 0], p[b, 1], p[b, 3], sz[b, 0] / 2, sz[b, 1] / 2, p[b, 2] - sz[b, 2] / 2,
+                                     p[b, 2] + sz[b, 2] / 2])
+        pts = self._lidar.scan_body(self.data.qpos, self._mount_v, self._lidar_gen if self.config.noise else None,
+                                    discs=discs, boxes=boxes)
         self._scans.append(LidarScan(int(self._sk[0]) * self._dt, pts, self._mount))
 
     def _unstable(self) -> None:
