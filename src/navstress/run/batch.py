@@ -29,7 +29,7 @@ from navstress.isolate import Worker
 from navstress.run.figures import RunTrack, trajectories_png
 from navstress.run.mission import execute
 from navstress.run.record import RunRecord, RunTask
-from navstress.run.trace import TOPIC_PERCEIVED, read_poses
+from navstress.run.trace import TOPIC_PERCEIVED, read_movers, read_poses
 from navstress.seeding import derive_seed
 from navstress.world.world import World
 
@@ -162,5 +162,6 @@ def batch_picture(world_dir: Path, records: list[RunRecord], path: Path, title: 
         if r.first_collision_s is not None and len(truth):
             k = int(np.argmin(np.abs(truth[:, 0] - r.first_collision_s)))
             col = (float(truth[k, 1]), float(truth[k, 2]))
-        tracks.append(RunTrack(r.run_id, r.outcome, truth, perceived, col))
+        movers = read_movers(r.trace) if world.movers else None
+        tracks.append(RunTrack(r.run_id, r.outcome, truth, perceived, col, movers, r.first_collision_s))
     return trajectories_png(world, tracks, path, title=title, perceived=len(records) == 1)

@@ -42,12 +42,54 @@ class RunTrack:
     truth: np.ndarray
     perceived: np.ndarray | None = None
     collision_xy: tuple[float, float] | None = None
+    #: the movers of the run (``RunResult.movers`` / ``trace.read_movers``): times (m,), poses (m, n, 4)
+    movers: tuple[np.ndarray, np.ndarray] | None = None
+    collision_t: float | None = None  # when the first collision happened (where the movers were then)
 
 
-def draw_tracks(ax: Any, tracks: list[RunTrack], *, perceived: bool = False) -> None:
-    """Overlay tracks on an axes that already shows the world (see ``draw_world``)."""
+MOVER_COLOUR = "#2c5fd6"
+
+
+def draw_movers(ax: Any, world: World, times: np.ndarray, poses: np.ndarray, at: float | None,
+                seen: set[str], *, paths: bool = True) -> None:
+    """The movers' paths (``paths``: thin lines, a dot where each ended) and, at time ``at`` (a
+    collision), their footprints where they were then (interpolated between samples)."""
+    from matplotlib.patches import Circle, Polygon
+
+    if not len(times):
+        return
+    for i in range(poses.shape[1] if paths else 0):
+        ax.plot(poses[:, i, 0], poses[:, i, 1], "-", color=MOVER_COLOUR, lw=0.8, alpha=0.55, zorder=5,
+                label=None if "mover" in seen else "movers' paths")
+        seen.add("mover")
+        ax.plot(poses[-1, i, 0], poses[-1, i, 1], ".", color=MOVER_COLOUR, ms=4, zorder=5)
+    if at is None:
+        return
+    for i, mv in enumerate(world.movers[: poses.shape[1]]):
+        x = float(np.interp(at, times, poses[:, i, 0]))
+        y = float(np.interp(at, times, poses[:, i, 1]))
+        yaw = float(poses[min(int(np.searchsorted(times, at)), len(times) - 1), i, 3])
+        lab = None if "mover_at" in seen else "movers at the collision"
+        seen.add("mover_at")
+        if mv.shape == "disc":
+            ax.add_patch(Circle((x, y), mv.size[0] / 2, fc=MOVER_COLOUR, ec="black", lw=0.6, alpha=0.8, zorder=9,
+                                label=lab))
+        else:
+            c, s = np.cos(yaw), np.sin(yaw)
+            hl, hw = mv.size[0] / 2, mv.size[1] / 2
+            pts = [(x + c * a - s * b, y + s * a + c * b) for a, b in ((hl, hw), (-hl, hw), (-hl, -hw), (hl, -hw))]
+            ax.add_patch(Polygon(pts, closed=True, fc=MOVER_COLOUR, ec="black", lw=0.6, alpha=0.8, zorder=9,
+                                 label=lab))
+
+
+def draw_tracks(ax: Any, tracks: list[RunTrack], *, perceived: bool = False, world: World | None = None) -> None:
+    """Overlay tracks on an axes that already shows the world (see ``draw_world``); with
+    ``world``, the movers of tracks that have them too (:func:`draw_movers`)."""
     seen: set[str] = set()
     for tr in tracks:
+        if world is not None and tr.movers is not None:
+            # several runs: only where the movers were at each run's collision (paths would hide the runs)
+            draw_movers(ax, world, tr.movers[0], tr.movers[1], tr.collision_t, seen, paths=len(tracks) == 1)
         col = OUTCOME_COLOURS.get(tr.outcome, "#000000")
         lab = OUTCOME_LABELS.get(tr.outcome, tr.outcome)
         if len(tr.truth):
@@ -77,7 +119,7 @@ def trajectories_png(world: World, tracks: list[RunTrack], path: str | Path, *, 
     """Write a PNG of ``world`` with every track overlaid, colour-coded by outcome."""
     fig, ax = world_axes(dpi=dpi)
     draw_world(ax, world, legend=False)
-    draw_tracks(ax, tracks, perceived=perceived)
+    draw_tracks(ax, tracks, perceived=perceived, world=world)
     legend(ax, loc="upper left", fontsize=8, framealpha=0.85)
     if title:
         ax.set_title(title, fontsize=10, loc="left")

@@ -63,6 +63,9 @@ class RunResult:
     events: list[tuple[float, str, str]] = field(default_factory=list)  # (t, level, message)
     path_length_m: float = 0.0
     tortuousness: float = 0.0
+    #: the movers' poses (``Simulation.mover_track``): times (m,), poses (m, n, 4) x, y, z, yaw;
+    #: None in a world without movers
+    movers: tuple[np.ndarray, np.ndarray] | None = None
 
 
 def _attr_through_wrappers(nav: Any, name: str) -> Any:
@@ -254,7 +257,8 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
     xy = drop_jitter(truth[:, 1:3], 0.02) if len(truth) else np.zeros((0, 2))
     result = RunResult(classification=cls, facts=facts, duration_s=duration, wall_s=time.perf_counter() - wall0,
                        truth=truth, perceived=perceived_arr, final_map=fmap, events=events,
-                       path_length_m=path_length(xy), tortuousness=tortuousness(truth[:, 1:3]) if len(truth) else 0.0)
+                       path_length_m=path_length(xy), tortuousness=tortuousness(truth[:, 1:3]) if len(truth) else 0.0,
+                       movers=sim.mover_track() if sim is not None and world.movers else None)
     if trace is not None:
         _write_trace(trace, world, result)
         for t, pts, mount in clouds:
@@ -295,6 +299,8 @@ def _write_trace(tw: TraceWriter, world: World, r: RunResult) -> None:
     if r.final_map is not None:
         grid, origin, cell = r.final_map
         tw.grid(TOPIC_MAP, r.duration_s, np.asarray(grid, dtype=np.float32), origin, float(cell))
+    if r.movers is not None:
+        tw.movers(r.movers[0], r.movers[1], [(mv.id, mv.kind, mv.shape, mv.size) for mv in world.movers])
 
 
 def execute(task: RunTask) -> RunRecord:

@@ -3,6 +3,8 @@
 Open a trace in Foxglove to see the run: ``/truth/pose`` and ``/perceived/pose``
 (``foxglove.PoseInFrame``), ``/events`` (``foxglove.Log``: collisions, errors, end of run),
 ``/world/scene`` (``foxglove.SceneUpdate``: obstacles as cubes, start and goal),
+``/world/movers`` (``foxglove.SceneUpdate``, one per run of the movers' controller (10 Hz): every
+mover an entity ``mover/<id>``, a cylinder or a cube where it is; worlds with movers only),
 ``/world/terrain`` (``foxglove.Grid``: ground heights), ``/nav/map`` (``foxglove.Grid``: the
 navigator's final perceived elevation map, NaN = unknown), optionally ``/lidar``
 (``foxglove.PointCloud``, world frame). All timestamps are *simulated* time, so the same
@@ -13,7 +15,7 @@ log-time order whatever order they were handed over in (``mcap doctor
 by log time then order of submission) when the file is closed. The file is written under a
 temporary name and renamed into place when complete (DESIGN invariant 4).
 
-The analysis reads trajectories back with :func:`read_poses`.
+The analysis reads trajectories back with :func:`read_poses`, the movers with :func:`read_movers`.
 """
 
 from __future__ import annotations
@@ -28,7 +30,9 @@ from typing import IO, Any
 import numpy as np
 from foxglove_schemas_protobuf.Color_pb2 import Color
 from foxglove_schemas_protobuf.CubePrimitive_pb2 import CubePrimitive
+from foxglove_schemas_protobuf.CylinderPrimitive_pb2 import CylinderPrimitive
 from foxglove_schemas_protobuf.Grid_pb2 import Grid
+from foxglove_schemas_protobuf.KeyValuePair_pb2 import KeyValuePair
 from foxglove_schemas_protobuf.Log_pb2 import Log
 from foxglove_schemas_protobuf.PackedElementField_pb2 import PackedElementField
 from foxglove_schemas_protobuf.PointCloud_pb2 import PointCloud
@@ -57,6 +61,8 @@ TOPIC_SCENE = "/world/scene"
 TOPIC_TERRAIN = "/world/terrain"
 TOPIC_MAP = "/nav/map"
 TOPIC_LIDAR = "/lidar"
+TOPIC_MOVERS = "/world/movers"
+MOVER_COLOUR = Color(r=0.2, g=0.35, b=0.85, a=1.0)
 
 LEVELS = {"debug": 1, "info": 2, "warning": 3, "error": 4, "fatal": 5}
 
@@ -163,6 +169,26 @@ class TraceWriter:
                           cubes=cubes, spheres=marks)
         self._put(TOPIC_SCENE, SceneUpdate(entities=[ent]), 0)
 
+    def movers(self, times: np.ndarray, poses: np.ndarray,
+               movers: list[tuple[int, str, str, tuple[float, float, float]]]) -> None:
+        """The movers at each time: ``poses`` (m, n, 4) x, y, z (body centre), yaw; ``movers`` the
+        (id, kind, shape, size) of each (``World.movers``): one SceneUpdate per time, an entity
+        ``mover/<id>`` per mover (a cylinder for a disc, else a cube)."""
+        p = np.asarray(poses, dtype=np.float64)
+        for k, t in enumerate(np.asarray(times, dtype=np.float64).tolist()):
+            ents = []
+            for i, (mid, kind, shape, size) in enumerate(movers):
+                x, y, z, yaw = p[k, i].tolist()
+                pose = Pose(position=Vector3(x=x, y=y, z=z), orientation=quaternion(yaw, 0.0, 0.0))
+                dims = Vector3(x=size[0], y=size[1], z=size[2])
+                prim: dict[str, Any] = ({"cylinders": [CylinderPrimitive(pose=pose, size=dims, bottom_scale=1.0,
+                                                                         top_scale=1.0, color=MOVER_COLOUR)]}
+                                        if shape == "disc" else {"cubes": [CubePrimitive(pose=pose, size=dims,
+                                                                                          color=MOVER_COLOUR)]})
+                ents.append(SceneEntity(timestamp=_stamp(t), frame_id=FRAME, id=f"mover/{mid}", frame_locked=False,
+                                        metadata=[KeyValuePair(key="kind", value=kind)], **prim))
+            self._put(TOPIC_MOVERS, SceneUpdate(entities=ents), _ns(t))
+
     # -- lifecycle ---------------------------------------------------------------------
     def close(self) -> Path:
         """Write the queued messages in log-time order, finish the file and move it into place
@@ -241,6 +267,23 @@ def read_grid(path: str | os.PathLike[str], topic: str = TOPIC_MAP) -> tuple[np.
         return None
     vals = np.frombuffer(last.data, dtype="<f4").reshape(-1, last.column_count).copy()
     return vals, (last.pose.position.x, last.pose.position.y), last.cell_size.x
+
+
+def read_movers(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray]:
+    """The movers of a trace: times (m,) and poses (m, n, 4) x, y, z, yaw (entity order, which is
+    ``World.movers`` order); (0,) and (0, 0, 4) when it has none."""
+    ts, rows = [], []
+    for _t, lt, m in _messages(path, [TOPIC_MOVERS]):
+        ts.append(lt / 1e9)
+        row = []
+        for e in m.entities:
+            prim = e.cylinders[0] if len(e.cylinders) else e.cubes[0]
+            q, pos = prim.pose.orientation, prim.pose.position
+            row.append((pos.x, pos.y, pos.z, euler(q)[0]))
+        rows.append(row)
+    if not ts:
+        return np.zeros(0), np.zeros((0, 0, 4))
+    return np.array(ts), np.array(rows, dtype=np.float64).reshape(len(ts), -1, 4)
 
 
 def read_metadata(path: str | os.PathLike[str]) -> dict[str, str]:

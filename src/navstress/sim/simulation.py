@@ -228,10 +228,10 @@ class Simulation:
 
     def mover_track(self) -> tuple[np.ndarray, np.ndarray]:
         """The movers' poses at every run of their controller so far: times (m,) and poses
-        (m, n, 3) x, y, yaw (``world.movers`` order); empty without movers."""
+        (m, n, 4) x, y, z (body centre), yaw (``world.movers`` order); empty without movers."""
         n = len(self.world.movers)
         if not self._mover_t:
-            return np.zeros(0), np.zeros((0, n, 3))
+            return np.zeros(0), np.zeros((0, n, 4))
         return np.array(self._mover_t), np.stack(self._mover_poses)
 
     def mover_poses(self) -> np.ndarray:
@@ -302,7 +302,7 @@ class Simulation:
         mv, st = self._mover_arrays, self._mover_state
         mv.pose0[:] = mv.pose1
         self._mover_t.append(k * self._dt)
-        self._mover_poses.append(mv.pose0[:, [0, 1, 3]].copy())
+        self._mover_poses.append(mv.pose0.copy())
         period = every * self._dt
         M.step(self._mover_plan, st, period, (float(q[0]), float(q[1]), yaw), (float(qv[0]), float(qv[1])),
                self._mover_rng)

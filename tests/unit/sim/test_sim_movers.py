@@ -123,7 +123,7 @@ def test_the_bodies_follow_the_controller_from_the_robots_true_state() -> None:
         assert half == pytest.approx(before + (state[:, :2] - before) * (every // 2 - 1) / every, abs=1e-9)
         sim.advance(MOVER_PERIOD_S / 2)
     t, track = sim.mover_track()
-    assert len(t) == 60 and t[1] == pytest.approx(MOVER_PERIOD_S) and track.shape == (60, 5, 3)
+    assert len(t) == 60 and t[1] == pytest.approx(MOVER_PERIOD_S) and track.shape == (60, 5, 4)
     assert np.abs(state[:, :2] - M.initial_state(plan)[:, :2]).max() > 2.0  # they did move
 
 
