@@ -2,11 +2,13 @@
 
 The simulated-time / wall-time ratio of ``run_mission`` (MuJoCo simulation + lidar 32 x 360 at
 10 Hz + reference-v1 at 10 Hz) on the DESIGN benchmark worlds (100 m x 100 m, the paper's
-mission; flat with 6 % trees, and s=4 d=2; fixed seeds), for ``--seconds`` of simulated time;
+mission; flat with 6 % trees, the same with 20 movers (16 crossing pedestrians, 2 intercepting
+walkers, 2 vehicles: default fidelity), and s=4 d=2; fixed seeds), for ``--seconds`` of simulated time;
 in the same run, the baseline: the simulation alone driven by a scripted controller; and a
 breakdown from timers wrapped around the hot calls (physics+sensors = Simulation.advance minus
 the lidar; lidar = Lidar.scan_body, the scan the simulation makes; map integration = TerrainMap.integrate; planning =
-ArcPlanner.evaluate; the rest of the navigator = step minus those two), with the mean cost per
+ArcPlanner.evaluate; the rest of the navigator = step minus those two; movers = the movers'
+controller runs, Simulation._step_movers, inside physics+sensors), with the mean cost per
 call of map integration (per scan) and planning (per 10 Hz cycle).
 
     taskset -c 1 .venv/bin/python benchmarks/bench_loop.py [--seconds 60] [--repeat 3]
@@ -31,7 +33,16 @@ from navstress.sim.lidar import Lidar
 from navstress.world.generate import generate
 from navstress.world.spec import parse_spec
 
+#: The movers world: the trees world with 20 movers (runs end at a collision, as every mission).
+MOVERS_WORLD: dict[str, Any] = {
+    "size_m": [100, 100], "obstacles": {"obstruction": {"tree": 6}},
+    "movers": {"types": {"walker": {"shape": "disc", "length_m": 0.5, "width_m": 0.5, "height_m": 1.8,
+                                    "speed_min_m_s": 0.5, "speed_max_m_s": 1.5}},
+               "count": {"pedestrian": 16, "walker": 2, "vehicle": 2},
+               "behaviour": {"pedestrian": {"pause_max_s": 2.0}, "walker": {"kind": "intercept", "ttc_s": 3.0}}}}
+
 TIMES: dict[str, float] = defaultdict(float)
+CPU: dict[str, float] = {}
 CALLS: dict[str, int] = defaultdict(int)
 
 
@@ -52,13 +63,16 @@ def timed(cls: type, name: str, key: str) -> Callable[[], None]:
 
 
 def scripted(sim: Simulation, seconds: float) -> float:
-    """Drive a scripted course (straight, gentle turns) for ``seconds``; returns the wall time."""
+    """Drive a scripted course (straight, gentle turns) for ``seconds``; returns the wall time
+    (the process CPU time in ``CPU["baseline"]``)."""
+    c0 = time.process_time()
     t0 = time.perf_counter()
     while sim.t < seconds and sim.stopped is None:
         sim.observe()
         k = int(sim.t // 10.0) % 4
         sim.command(Command(0.8, 0.0 if k in (0, 2) else (0.3 if k == 1 else -0.3)))
         sim.advance(0.1)
+    CPU["baseline"] = time.process_time() - c0
     return time.perf_counter() - t0
 
 
@@ -71,11 +85,13 @@ def main() -> None:
     args = ap.parse_args()
     worlds = {
         "flat, 6% trees (seed 1)": generate(parse_spec({"size_m": [100, 100], "obstacles": {"obstruction": {"tree": 6}}}), 1),
+        "flat, 6% trees, 20 movers (seed 1)": generate(parse_spec(MOVERS_WORLD), 1),
         "s=4 d=2 (seed 1)": generate(parse_spec({"size_m": [100, 100], "ground": {"subdivisions": 4, "deformation": 2.0}}), 1),
     }
     # warm up the numba caches outside the timing
     # (20 s: past the scan manoeuvre, so the planning kernels are loaded too)
     run_mission(worlds["s=4 d=2 (seed 1)"], ReferenceNavigator(), run_seed=0, timeout_s=20.0)
+    run_mission(worlds["flat, 6% trees, 20 movers (seed 1)"], ReferenceNavigator(), run_seed=0, timeout_s=5.0)
     for name, world in worlds.items():
         sim = Simulation(world, seed=3)
         base_wall = scripted(sim, args.seconds)
@@ -84,17 +100,18 @@ def main() -> None:
         CALLS.clear()
         undo = [timed(Simulation, "advance", "sim"), timed(Lidar, "scan_body", "lidar"),
                 timed(ReferenceNavigator, "step", "nav"), timed(TerrainMap, "integrate", "map"),
-                timed(ArcPlanner, "evaluate", "plan")]
+                timed(ArcPlanner, "evaluate", "plan"), timed(Simulation, "_step_movers", "movers")]
         t0 = time.perf_counter()
         r = run_mission(world, ReferenceNavigator(), run_seed=3, timeout_s=args.seconds)
         wall = time.perf_counter() - t0
         for u in undo:
             u()
         # the same run again without the timers (same seed: the same work), for the spread
-        ratios = [r.duration_s / wall]
+        ratios, cpu_ratios = [r.duration_s / wall], []
         for _ in range(max(0, args.repeat - 1)):
-            t1 = time.perf_counter()
+            t1, c1 = time.perf_counter(), time.process_time()
             r2 = run_mission(world, ReferenceNavigator(), run_seed=3, timeout_s=args.seconds)
+            cpu_ratios.append(r2.duration_s / (time.process_time() - c1))
             ratios.append(r2.duration_s / (time.perf_counter() - t1))
         print(f"== {name}: {r.duration_s:.0f} s simulated, outcome {r.classification.outcome.value} "
               f"({r.classification.reason})")
@@ -102,16 +119,24 @@ def main() -> None:
         if len(ratios) > 1:
             print(f"  full loop, {len(ratios)} runs: median {statistics.median(ratios):6.1f} x real time "
                   f"(min {min(ratios):.1f}, max {max(ratios):.1f})")
-        print(f"  baseline (sim + lidar, scripted): {base_ratio:6.1f} x real time")
+        if cpu_ratios:  # CPU time: steadier than wall time on a loaded machine
+            print(f"  full loop, CPU time: median {statistics.median(cpu_ratios):6.1f} x real time "
+                  f"(min {min(cpu_ratios):.1f}, max {max(cpu_ratios):.1f})")
+        print(f"  baseline (sim + lidar, scripted): {base_ratio:6.1f} x real time "
+              f"({sim.t / CPU['baseline']:.1f} x in CPU time)")
         parts = {"physics+sensors": TIMES["sim"] - TIMES["lidar"], "lidar": TIMES["lidar"],
                  "map integration": TIMES["map"], "planning (P3D)": TIMES["plan"],
                  "navigator other (POM, fill, election)": TIMES["nav"] - TIMES["map"] - TIMES["plan"]}
         parts["loop/other"] = wall - sum(parts.values())
+        if CALLS["movers"]:
+            parts["  of physics+sensors: movers' controller"] = TIMES["movers"]
         for k, v in parts.items():
             print(f"    {k:40s} {v:7.3f} s  {100 * v / wall:5.1f} %")
         print(f"  per call: map integration {1e3 * TIMES['map'] / max(1, CALLS['map']):.3f} ms/scan "
               f"({CALLS['map']} scans), planning {1e3 * TIMES['plan'] / max(1, CALLS['plan']):.3f} ms/cycle "
-              f"({CALLS['plan']} cycles), navigator step {1e3 * TIMES['nav'] / max(1, CALLS['nav']):.3f} ms")
+              f"({CALLS['plan']} cycles), navigator step {1e3 * TIMES['nav'] / max(1, CALLS['nav']):.3f} ms"
+              + (f", movers' controller {1e6 * TIMES['movers'] / CALLS['movers']:.1f} us/run ({CALLS['movers']} runs)"
+                 if CALLS["movers"] else ""))
 
 
 if __name__ == "__main__":

@@ -676,6 +676,70 @@ def _place_movers(f: float, mv: MoverArrays, mocap_pos: np.ndarray, mocap_quat: 
 
 
 @numba.njit(cache=True)
+def ground_height(h: np.ndarray, cell: float, x: float, y: float) -> float:  # pragma: no cover - compiled
+    """``Terrain.height_at`` (the same triangles and arithmetic) on the heights ``h``."""
+    rows, cols = h.shape
+    fx = float(min(max(x / cell, 0.0), cols - 1.000001))
+    fy = float(min(max(y / cell, 0.0), rows - 1.000001))
+    j, i = int(fx), int(fy)
+    u, v = fx - j, fy - i
+    h00, h10, h01, h11 = float(h[i, j]), float(h[i, j + 1]), float(h[i + 1, j]), float(h[i + 1, j + 1])
+    if u >= v:
+        return h00 + u * (h10 - h00) + v * (h11 - h10)
+    return h00 + v * (h01 - h00) + u * (h11 - h01)
+
+
+@numba.njit(cache=True)
+def mover_targets(ctrl: np.ndarray, half_h: np.ndarray, h: np.ndarray, cell: float, period: float,
+                  pose0: np.ndarray, pose1: np.ndarray, vel: np.ndarray) -> None:  # pragma: no cover - compiled
+    """After a controller run (``ctrl``: its state, columns x, y, yaw first), on the
+    :class:`MoverArrays` (passed one by one: numba unboxes a tuple slowly): ``pose0`` takes
+    ``pose1`` (where the bodies are now), ``pose1`` the controller's poses (z: the ground under the
+    centre plus ``half_h``), ``vel`` the velocity in between."""
+    for i in range(pose0.shape[0]):
+        for a in range(4):
+            pose0[i, a] = pose1[i, a]
+        x, y = ctrl[i, 0], ctrl[i, 1]
+        pose1[i, 0] = x
+        pose1[i, 1] = y
+        pose1[i, 2] = ground_height(h, cell, x, y) + half_h[i]
+        pose1[i, 3] = ctrl[i, 2]
+        vel[i, 0] = (x - pose0[i, 0]) / period
+        vel[i, 1] = (y - pose0[i, 1]) / period
+
+
+@numba.njit(cache=True)
+def mover_shapes(f: float, p0: np.ndarray, p1: np.ndarray, size: np.ndarray, disc_idx: np.ndarray,
+                 box_idx: np.ndarray, discs: np.ndarray, boxes: np.ndarray, first_box: int) -> None:  # pragma: no cover
+    """The movers' lidar shapes at fraction ``f`` of the control period (as :func:`_place_movers`,
+    between ``MoverArrays.pose0`` and ``pose1``): ``discs`` rows (x, y, r, z bottom, z top),
+    ``boxes`` rows from ``first_box`` on (x, y, yaw, half length, half width, z bottom, z top, cos
+    yaw, sin yaw)."""
+    for r in range(disc_idx.shape[0]):
+        i = disc_idx[r]
+        z = p0[i, 2] + f * (p1[i, 2] - p0[i, 2])
+        discs[r, 0] = p0[i, 0] + f * (p1[i, 0] - p0[i, 0])
+        discs[r, 1] = p0[i, 1] + f * (p1[i, 1] - p0[i, 1])
+        discs[r, 2] = 0.5 * size[i, 0]
+        discs[r, 3] = z - 0.5 * size[i, 2]
+        discs[r, 4] = z + 0.5 * size[i, 2]
+    for r in range(box_idx.shape[0]):
+        i = box_idx[r]
+        b = first_box + r
+        z = p0[i, 2] + f * (p1[i, 2] - p0[i, 2])
+        yaw = p0[i, 3] + f * _wrap(p1[i, 3] - p0[i, 3])
+        boxes[b, 0] = p0[i, 0] + f * (p1[i, 0] - p0[i, 0])
+        boxes[b, 1] = p0[i, 1] + f * (p1[i, 1] - p0[i, 1])
+        boxes[b, 2] = yaw
+        boxes[b, 3] = 0.5 * size[i, 0]
+        boxes[b, 4] = 0.5 * size[i, 1]
+        boxes[b, 5] = z - 0.5 * size[i, 2]
+        boxes[b, 6] = z + 0.5 * size[i, 2]
+        boxes[b, 7] = math.cos(yaw)
+        boxes[b, 8] = math.sin(yaw)
+
+
+@numba.njit(cache=True)
 def _event_speeds(s: Any, p: Any, e0: int, vx: float, vy: float, mv: MoverArrays,
                   events: np.ndarray) -> None:  # pragma: no cover
     """Fill the speed columns of the collision events ``e0 .. s.nevent`` (:data:`EVENT_FIELDS`):

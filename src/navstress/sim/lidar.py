@@ -297,7 +297,8 @@ class Lidar:
         return self._points(_raycast.count_finite(r), rng)
 
     def scan_body(self, qpos: np.ndarray, mount: np.ndarray, rng: np.random.Generator | None = None, *,
-                  discs: np.ndarray | None = None, boxes: np.ndarray | None = None) -> np.ndarray:
+                  discs: np.ndarray | None = None, boxes: np.ndarray | None = None,
+                  scene_boxes: np.ndarray | None = None) -> np.ndarray:
         """:meth:`scan` from a body pose: ``qpos[:7]`` = (x, y, z, qw, qx, qy, qz) as in MuJoCo, the
         sensor at ``mount`` (3,) in the body frame and oriented as the body. Same points as
         ``scan(qpos[:3] + R @ mount, R)`` with R from the quaternion (``mju_quat2Mat``'s formula,
@@ -307,9 +308,10 @@ class Lidar:
         ``discs`` (rows x, y, radius, z bottom, z top: upright cylinders) and ``boxes`` (rows of
         ``LidarScene.boxes`` without the cos/sin columns) are seen too, for this scan only (the
         movers where they are at scan time): exact ray-cylinder hits before the box pass, the
-        boxes with the scene's."""
+        boxes with the scene's. ``scene_boxes`` (the simulation's path, no copy): every box of
+        this scan, in ``LidarScene.boxes``' 9-column layout (the scene's, then the extra ones)."""
         s, c = self.scene, self.config
-        all_boxes = s.boxes
+        all_boxes = s.boxes if scene_boxes is None else scene_boxes
         if boxes is not None and len(boxes):
             b = np.asarray(boxes, dtype=np.float64).reshape(-1, 7)
             all_boxes = np.concatenate([s.boxes, np.column_stack([b, np.cos(b[:, 2]), np.sin(b[:, 2])])])

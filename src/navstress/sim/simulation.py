@@ -112,16 +112,16 @@ class Simulation:
             rates[K.SCAN] = float(cfg.lidar.rate_hz)
         else:
             next_k[K.SCAN] = np.iinfo(np.int64).max  # never due
+        n_obst, n_mov = len(world.obstacles), len(world.movers)
+        self._init_movers(n_obst)
         self._jit = np.zeros((K.NSENSORS, _JITTER_BATCH))
         self._samples = np.zeros((K.NSENSORS, _SAMPLES, 7))
         self.observer = Observer(cfg.collision_debounce_s)
         self._contact_buf = np.zeros(64, np.int64)
         self._contact_prev = np.zeros(64, np.int64)
-        n_obst, n_mov = len(world.obstacles), len(world.movers)
         # per obstacle then per mover (contact index n_obst + i), for the debounce
         self._last_touch = np.full(max(1, n_obst + n_mov), -np.inf)
         self._event_buf = np.zeros((128, K.EVENT_COLS))
-        self._init_movers(n_obst)
         # compiled-loop state and constants (named records, see _step.STATE / PARAMS) and arrays
         r = robot
         wheel_angles = d.qpos[rm.wheel_qpos]
@@ -135,6 +135,7 @@ class Simulation:
         self._sk, self._cmd_k, self._cmd_v, self._cmd_w = st["k"], st["cmd_k"], st["cmd_v"], st["cmd_w"]
         self._touching, self._starts, self._nevent = st["touching"], st["starts"], st["nevent"]
         self._jit_idx, self._nsamp = st["jitter_idx"][0], st["nsamples"][0]
+        self._mover_k, self._mover_k0 = st["mover_k"], st["mover_k0"]
         warn = d.warning.number
         bad = [int(w) for w in K.BAD_WARNINGS]
         pool = self._pool
@@ -265,32 +266,21 @@ class Simulation:
         rm.obstacle_of_geom[rm.mover_geoms] = n_obst + np.arange(n)
         pose = np.zeros((n, 4))
         pose[:, :2] = self._mover_state[:, M.X:M.Y + 1]
-        pose[:, 2] = self._ground(pose[:, 0], pose[:, 1]) + self._mover_half_h
+        ter = world.terrain
+        pose[:, 2] = [K.ground_height(ter.heights, float(ter.cell_m), x, y) for x, y in pose[:, :2].tolist()]
+        pose[:, 2] += self._mover_half_h
         pose[:, 3] = self._mover_state[:, M.YAW]
         self._mover_arrays = K.MoverArrays(rm.mover_mocap.astype(np.int64), pose, pose.copy(), np.zeros((n, 2)))
         # lidar shapes: discs (x, y, r, z bottom, z top) and boxes (LidarScene rows, after the static ones)
         self._disc_movers = np.array([i for i, mv in enumerate(world.movers) if mv.shape == "disc"], np.int64)
         self._box_movers = np.array([i for i, mv in enumerate(world.movers) if mv.shape != "disc"], np.int64)
-        size = np.array([mv.size for mv in world.movers], np.float64).reshape(n, 3)
-        self._mover_size = size
+        self._mover_size = np.array([mv.size for mv in world.movers], np.float64).reshape(n, 3)
         self._scan_discs = np.zeros((len(self._disc_movers), 5))
-        self._scan_discs[:, 2] = size[self._disc_movers, 0] / 2
-
-    def _ground(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """``Terrain.height_at`` at many points (the same triangles and arithmetic)."""
-        t = self.world.terrain
-        h = t.heights
-        rows, cols = h.shape
-        fx = np.minimum(np.maximum(x / t.cell_m, 0.0), cols - 1.000001)
-        fy = np.minimum(np.maximum(y / t.cell_m, 0.0), rows - 1.000001)
-        j, i = fx.astype(np.int64), fy.astype(np.int64)
-        u, v = fx - j, fy - i
-        h00 = h[i, j].astype(np.float64)
-        h10 = h[i, j + 1].astype(np.float64)
-        h01 = h[i + 1, j].astype(np.float64)
-        h11 = h[i + 1, j + 1].astype(np.float64)
-        out: np.ndarray = np.where(u >= v, h00 + u * (h10 - h00) + v * (h11 - h10), h00 + v * (h01 - h00) + u * (h11 - h01))
-        return out
+        self._scan_boxes: np.ndarray | None = None
+        if self._lidar is not None:  # the scene's boxes, then one row per box mover (rewritten per scan)
+            nb = self._lidar.scene.boxes.shape[0]
+            self._scan_boxes = np.zeros((nb + len(self._box_movers), 9))
+            self._scan_boxes[:nb] = self._lidar.scene.boxes
 
     def _step_movers(self) -> None:
         """Run the movers' controller for the next period from the robot's true state; the bodies
@@ -300,19 +290,15 @@ class Simulation:
         qw, qx, qy, qz = float(q[3]), float(q[4]), float(q[5]), float(q[6])
         yaw = math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
         mv, st = self._mover_arrays, self._mover_state
-        mv.pose0[:] = mv.pose1
         self._mover_t.append(k * self._dt)
-        self._mover_poses.append(mv.pose0.copy())
+        self._mover_poses.append(mv.pose1.copy())  # where the bodies are now
         period = every * self._dt
         M.step(self._mover_plan, st, period, (float(q[0]), float(q[1]), yaw), (float(qv[0]), float(qv[1])),
                self._mover_rng)
-        mv.pose1[:, 0] = st[:, M.X]
-        mv.pose1[:, 1] = st[:, M.Y]
-        mv.pose1[:, 2] = self._ground(st[:, M.X], st[:, M.Y]) + self._mover_half_h
-        mv.pose1[:, 3] = st[:, M.YAW]
-        mv.vel[:] = (mv.pose1[:, :2] - mv.pose0[:, :2]) / period
-        self._state["mover_k0"] = k
-        self._state["mover_k"] = k + every
+        ter = self.world.terrain
+        K.mover_targets(st, self._mover_half_h, ter.heights, float(ter.cell_m), period, mv.pose0, mv.pose1, mv.vel)
+        self._mover_k0[0] = k
+        self._mover_k[0] = k + every
 
     def _warnings(self) -> int:
         return sum(int(self.data.warning[w].number) for w in K.BAD_WARNINGS)
@@ -406,15 +392,13 @@ class Simulation:
         assert self._lidar is not None
         discs = boxes = None
         if self._mover_every:  # the movers where they are now
-            p, sz = self.mover_poses(), self._mover_size
-            d, b = self._disc_movers, self._box_movers
-            discs = self._scan_discs
-            discs[:, 0], discs[:, 1] = p[d, 0], p[d, 1]
-            discs[:, 3], discs[:, 4] = p[d, 2] - sz[d, 2] / 2, p[d, 2] + sz[d, 2] / 2
-            boxes = np.column_stack([p[b, 0], p[b, 1], p[b, 3], sz[b, 0] / 2, sz[b, 1] / 2, p[b, 2] - sz[b, 2] / 2,
-                                     p[b, 2] + sz[b, 2] / 2])
+            assert self._scan_boxes is not None
+            f = (int(self._sk[0]) - int(self._mover_k0[0])) / self._mover_every
+            discs, boxes, mv = self._scan_discs, self._scan_boxes, self._mover_arrays
+            K.mover_shapes(f, mv.pose0, mv.pose1, self._mover_size, self._disc_movers, self._box_movers, discs,
+                           boxes, boxes.shape[0] - len(self._box_movers))
         pts = self._lidar.scan_body(self.data.qpos, self._mount_v, self._lidar_gen if self.config.noise else None,
-                                    discs=discs, boxes=boxes)
+                                    discs=discs, scene_boxes=boxes)
         self._scans.append(LidarScan(int(self._sk[0]) * self._dt, pts, self._mount))
 
     def _unstable(self) -> None:
