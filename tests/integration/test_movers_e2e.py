@@ -5,6 +5,7 @@ the picture) and a small campaign sweeping the mover count."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Any
 
@@ -94,3 +95,27 @@ def test_a_small_campaign_sweeping_the_mover_count(tmp_path: Path) -> None:
     assert movers == [0, 0, 4, 4]
     assert all(r.outcome in ("success", "fail-collision", "fail-error", "fail-timeout") for r in recs)
     assert TOPIC_MOVERS == "/world/movers"
+
+
+def test_navstress_run_on_a_world_with_intercepting_movers(tmp_path: Path) -> None:
+    """As a user calls it: generate a world with movers from flags, run the reference stack on it;
+    reference-v1 stands still for its first seconds, so intercepting pedestrians hit it there:
+    Fail-Collision with the reason of a robot hit while stationary; the trace holds the movers."""
+    import subprocess
+    import sys
+
+    def cli(*args: str) -> subprocess.CompletedProcess[str]:
+        return subprocess.run([sys.executable, "-m", "navstress.cli", *args], capture_output=True, text=True,
+                              timeout=600)
+
+    w, out = tmp_path / "w", tmp_path / "out"
+    r = cli("world", "generate", "-o", str(w), "--size", "60", "--movers", "pedestrian=8,vehicle=1",
+            "--mover-behaviour", "pedestrian=intercept", "--seed", "3")
+    assert r.returncode == 0, r.stderr
+    r = cli("run", str(w), "-o", str(out), "--timeout", "40", "--json")
+    assert r.returncode == 0, r.stderr
+    (rec,) = [json.loads(line) for line in (out / "runs.jsonl").read_text().splitlines()]
+    assert rec["outcome"] == "fail-collision"
+    assert rec["reason"].startswith("hit by a mover while stationary: 1 collision(s)")
+    assert read_movers(out / "run-000.mcap")[1].shape[1] == 9
+    assert (out / "trajectories.png").stat().st_size > 10_000
