@@ -13,13 +13,16 @@ import numpy as np
 import pytest
 import yaml
 
+from navstress.analysis.figures import world_runs_png_bytes
+from navstress.analysis.report import build_report
 from navstress.campaign.executors import run_campaign
 from navstress.campaign.store import Store
 from navstress.nav.api import Command
 from navstress.run.batch import batch_picture
 from navstress.run.mission import execute
 from navstress.run.record import RunTask
-from navstress.run.trace import TOPIC_MOVERS, read_movers
+from navstress.run.figures import RunTrack
+from navstress.run.trace import TOPIC_MOVERS, read_movers, read_poses
 from navstress.sim.config import SimConfig
 from navstress.sim.simulation import Simulation
 from navstress.world import World, generate, parse_spec
@@ -95,6 +98,19 @@ def test_a_small_campaign_sweeping_the_mover_count(tmp_path: Path) -> None:
     assert movers == [0, 0, 4, 4]
     assert all(r.outcome in ("success", "fail-collision", "fail-error", "fail-timeout") for r in recs)
     assert TOPIC_MOVERS == "/world/movers"
+    # the report's configuration pages say which movers a world has and draw them (their paths in
+    # the one-run picture, where they were at a collision in the all-runs picture)
+    html = build_report(tmp_path / "out", tmp_path / "report.html").read_text(encoding="utf-8")
+    crowd, empty = (html.split('data-config="pedestrian=4"><h3>')[1].split("</section>")[0],
+                    html.split('data-config="pedestrian=0"><h3>')[1].split("</section>")[0])
+    assert "movers: 4 pedestrian (intercept)" in crowd and "movers:" not in empty
+    rec = next(r for r in recs if r.trace and "pedestrian=4" in r.trace)
+    world = World.load(next((tmp_path / "out" / "worlds" / "crowd").glob("pedestrian=4/m0")))
+    truth = read_poses(tmp_path / "out" / rec.trace)
+    bare = RunTrack("r", rec.outcome, truth)
+    moving = RunTrack("r", rec.outcome, truth, movers=read_movers(tmp_path / "out" / rec.trace),
+                      collision_t=rec.first_collision_s)
+    assert world_runs_png_bytes(world, [moving]) != world_runs_png_bytes(world, [bare])
 
 
 def test_navstress_run_on_a_world_with_intercepting_movers(tmp_path: Path) -> None:

@@ -176,7 +176,7 @@ def world_runs_png_bytes(world: World, tracks: list[RunTrack], *, title: str | N
     fig = _figure(6.0, 5.6, dpi)
     ax = fig.subplots()
     draw_world(ax, world, legend=False)
-    draw_tracks(ax, tracks, perceived=perceived)
+    draw_tracks(ax, tracks, perceived=perceived, world=world)
     if tracks:
         legend(ax, loc="upper left", fontsize=7, framealpha=0.85)
     if title:
@@ -210,7 +210,7 @@ def perceived_map_png_bytes(world: World, grid: np.ndarray, origin_xy: tuple[flo
         ax.add_collection(PolyCollection([o.corners() for o in world.obstacles], facecolors="none",
                                          edgecolors="black", linewidths=0.6, zorder=3))
     if track is not None:
-        draw_tracks(ax, [track], perceived=True)
+        draw_tracks(ax, [track], perceived=True, world=world)
     m = world.mission
     ax.plot([m.start[0]], [m.start[1]], "o", color="#1565c0", mec="white", ms=8, zorder=7)
     ax.plot([m.goal[0]], [m.goal[1]], "*", color="#d62828", mec="white", ms=14, zorder=7)

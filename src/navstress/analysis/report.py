@@ -46,7 +46,7 @@ from navstress.analysis.verdicts import WorldVerdict
 from navstress.run.figures import OUTCOME_COLOURS, OUTCOME_LABELS, RunTrack
 from navstress.run.outcome import Outcome
 from navstress.run.record import RunRecord
-from navstress.run.trace import TOPIC_MAP, TOPIC_PERCEIVED, TOPIC_TRUTH, read_grid
+from navstress.run.trace import TOPIC_MAP, TOPIC_PERCEIVED, TOPIC_TRUTH, read_grid, read_movers
 from navstress.sequential import FLAKY_BAND
 from navstress.world.world import World
 
@@ -430,14 +430,34 @@ def _run_name(rec: RunRecord) -> str:
     return f"m{rec.map_index} r{rec.run_index} {rec.navigator} {fault_name(rec.fault)}"
 
 
-def _track(rec: RunRecord, root: Path, cache: TrajectoryCache, max_points: int, perceived: bool = False) -> RunTrack | None:
+def _track(rec: RunRecord, root: Path, cache: TrajectoryCache, max_points: int, perceived: bool = False,
+           world: World | None = None) -> RunTrack | None:
+    """The run's track from its trace; with a ``world`` that has movers, the movers' poses too (drawn
+    where they were at the run's first collision, and their paths in a one-run picture)."""
     tp = trace_path(root, rec)
     truth = cache.get(tp, TOPIC_TRUTH)
     if truth is None:
         return None
     per = cache.get(tp, TOPIC_PERCEIVED) if perceived else None
+    movers = None
+    if world is not None and world.movers and tp is not None:
+        try:
+            movers = read_movers(tp)
+        except Exception:  # a trace still being written: the track without its movers
+            movers = None
     return RunTrack(_run_name(rec), rec.outcome, cache.thin(truth, max_points),
-                    None if per is None else cache.thin(per, max_points))
+                    None if per is None else cache.thin(per, max_points), None, movers, rec.first_collision_s)
+
+
+def movers_note(world: World) -> str:
+    """``", movers: 3 pedestrian (intercept), 1 vehicle (crossing)"`` ('' without movers): what a
+    configuration picture's caption says of the world's movers (drawn in blue)."""
+    if not world.movers:
+        return ""
+    kinds: dict[tuple[str, str], int] = {}
+    for mv in world.movers:
+        kinds[(mv.kind, mv.behaviour)] = kinds.get((mv.kind, mv.behaviour), 0) + 1
+    return ", movers: " + ", ".join(f"{n} {k} ({b})" for (k, b), n in sorted(kinds.items()))
 
 
 def _groups(recs: list[RunRecord], navigators: list[str]) -> list[tuple[str, str]]:
@@ -481,7 +501,8 @@ def _configs(a: Analysis, cache: TrajectoryCache, max_points: int) -> str:
                 mrecs = [r for r in recs if r.map_index == m and r.navigator == nav and fault_name(r.fault) == fault]
                 if not mrecs:
                     continue
-                tracks = [t for t in (_track(r, a.root, cache, max_points) for r in mrecs) if t is not None]
+                tracks = [t for t in (_track(r, a.root, cache, max_points, world=worlds[m]) for r in mrecs)
+                          if t is not None]
                 counts = ", ".join(f"{sum(r.outcome == o for r in mrecs)} {OUTCOME_LABELS[o]}"
                                    for o in OUTCOME_LABELS if any(r.outcome == o for r in mrecs))
                 who = f"{nav}, {fault}"
@@ -489,8 +510,8 @@ def _configs(a: Analysis, cache: TrajectoryCache, max_points: int) -> str:
                                            title=f"{e} / {k} / map m{m}: {who}: {len(mrecs)} runs")
                 figs.append(f'<figure data-navigator="{_e(nav)}" data-fault="{_e(fault)}" data-map="{m}">'
                             f'{_img(png, f"map-{e}-{k}-m{m}-{nav}-{fault}", f"runs of {who} on map m{m}", nav, fault)}'
-                            f'<figcaption>map m{m} (seed {mrecs[0].map_seed}), <b>{_e(nav)}</b> ({_e(fault)}): '
-                            f'{_e(counts)}</figcaption></figure>')
+                            f'<figcaption>map m{m} (seed {mrecs[0].map_seed}){_e(movers_note(worlds[m]))}, '
+                            f'<b>{_e(nav)}</b> ({_e(fault)}): {_e(counts)}</figcaption></figure>')
         # per navigator, one run in detail: its first nominal failure if any, else its first run with a trace
         for nav in dict.fromkeys(n for n, _f in groups):
             nrecs = [r for r in recs if r.navigator == nav]
@@ -500,8 +521,8 @@ def _configs(a: Analysis, cache: TrajectoryCache, max_points: int) -> str:
             if pick is None:
                 continue
             fault = fault_name(pick.fault)
-            tr = _track(pick, a.root, cache, max_points, perceived=True)
             w = worlds[pick.map_index]
+            tr = _track(pick, a.root, cache, max_points, perceived=True, world=w)
             name = _run_name(pick)
             if tr is not None:
                 png = world_runs_png_bytes(w, [tr], perceived=True, title=f"real vs perceived: {name}")

@@ -1,4 +1,5 @@
-"""Ready campaign specs: ``paper`` (the paper's five classes, 5 maps x 5 runs) and ``demo``.
+"""Ready campaign specs: ``paper`` (the paper's five classes, 5 maps x 5 runs), ``demo`` and
+``dynamic`` (moving obstacles).
 
 ``paper`` (100 m maps, the paper's mission, timeout 400 s):
 
@@ -17,22 +18,36 @@ apart), 4 tree configurations (0-14 %: dense enough for the footprint fault to c
 2 maps x 3 runs, nominal plus the fault (48 runs); 3 terrain configurations whose maps are
 repeated adaptively (2 to 5 runs each, until the map is proven to pass, or to fail, at least
 half the time with 75 % confidence: 4 runs when every run agrees; at most 30 runs, 24 on
-the preset's seed); sized to finish in under a minute on 2 cores and still feed every
-analysis (difficulty needs several configurations incl. the flat empty one, indeterminism
-needs 2+ runs per map, fault power needs paired faulty runs).
+the preset's seed); a ``movers`` class, 1 and 4 intercepting pedestrians on open ground
+(:data:`DEMO_MOVERS`), 2 maps x 3 runs, nominal (12 runs); sized to finish in under a minute
+on 2 cores and still feed every analysis (difficulty needs several configurations incl. the
+flat empty one, indeterminism needs 2+ runs per map, fault power needs paired faulty runs).
+
+``dynamic``: 40 m maps with 4 % trees and pedestrians steered online to cross ahead of the
+robot (:data:`DEMO_MOVERS`); class ``count`` sweeps 0, 1, 2, 4, 8 pedestrians (clearance 2 m),
+class ``aggressiveness`` sweeps the clearance they aim at, 6, 4, 2, 1, 0 m (0: a collision
+course; 2 pedestrians); 3 maps x 3 runs, nominal (90 runs).
 """
 
 from __future__ import annotations
 
+import copy
 from typing import Any
 
 import yaml
 
 from navstress.errors import SpecError
 
-PRESETS = ("demo", "paper")
+PRESETS = ("demo", "paper", "dynamic")
 #: The demo's adaptive rule (its ``smooth-s4`` class): does a map pass at least half the time?
 DEMO_RULE = {"min": 2, "max": 5, "threshold": 0.5, "confidence": 0.75}
+
+
+#: The movers of the demo's ``movers`` class and of the ``dynamic`` preset: pedestrians steered
+#: online to cross 2 m ahead of the robot (``aim: clearance``: a robot that stands still sees them
+#: pass in front of it, not walk into it).
+DEMO_MOVERS: dict[str, Any] = {"count": {"pedestrian": 2},
+                               "behaviour": {"pedestrian": {"kind": "intercept", "aim": "clearance", "clearance_m": 2.0}}}
 
 
 def paper() -> dict[str, Any]:
@@ -71,11 +86,35 @@ def demo() -> dict[str, Any]:
             {"name": "smooth-s4", "overrides": {"ground": {"subdivisions": 4}},
              "sweep": {"ground.deformation": {"values": [0.5, 1.0, 1.5]}}, "faults": [None],
              "runs_per_map": {"adaptive": dict(DEMO_RULE)}},
+            {"name": "movers", "overrides": {"movers": copy.deepcopy(DEMO_MOVERS)},
+             "sweep": {"movers.count.pedestrian": {"values": [1, 4]}}, "faults": [None]},
         ],
         "maps_per_config": 2,
         "runs_per_map": 3,
         "navigators": [{"name": "reference-v1", "config": {}}],
         "faults": [None, "small-footprint"],
+        "timeout_s": 120.0,
+        "goal_tolerance_m": 2.0,
+    }
+
+
+def dynamic() -> dict[str, Any]:
+    """Moving obstacles (see module doc): mover count, and how close ahead of the robot the
+    intercepting pedestrians aim."""
+    return {
+        "name": "dynamic",
+        "seed": 15,
+        "world": {"size_m": [40.0, 40.0], "cell_m": 0.4, "obstacles": {"obstruction": {"tree": 4}},
+                  "movers": copy.deepcopy(DEMO_MOVERS)},
+        "experiments": [
+            {"name": "count", "sweep": {"movers.count.pedestrian": {"values": [0, 1, 2, 4, 8]}}},
+            {"name": "aggressiveness",
+             "sweep": {"movers.behaviour.pedestrian.clearance_m": {"values": [6.0, 4.0, 2.0, 1.0, 0.0]}}},
+        ],
+        "maps_per_config": 3,
+        "runs_per_map": 3,
+        "navigators": [{"name": "reference-v1", "config": {}}],
+        "faults": [None],
         "timeout_s": 120.0,
         "goal_tolerance_m": 2.0,
     }
@@ -87,6 +126,8 @@ def preset(name: str) -> dict[str, Any]:
         return paper()
     if name == "demo":
         return demo()
+    if name == "dynamic":
+        return dynamic()
     raise SpecError("preset", name, f"one of {list(PRESETS)}")
 
 

@@ -31,7 +31,7 @@ from navstress.errors import NavstressError, SpecError
 from navstress.run.figures import RunTrack, draw_tracks, legend, png_bytes
 from navstress.run.figures import new_figure as _figure
 from navstress.run.record import RunRecord
-from navstress.run.trace import read_poses
+from navstress.run.trace import read_movers, read_poses
 from navstress.search.objectives import DESCRIPTORS, get_descriptor
 from navstress.world.export.images import draw_world
 from navstress.world.world import World
@@ -234,10 +234,12 @@ class BestWorld:
     title: str = ""
 
 
-def tracks_of(records: Iterable[RunRecord], root: str | Path, *, max_points: int = 2000) -> list[RunTrack]:
+def tracks_of(records: Iterable[RunRecord], root: str | Path, *, max_points: int = 2000,
+              movers: bool = False) -> list[RunTrack]:
     """The tracks of ``records`` from their traces (a relative trace path is under ``root``, the
     campaign directory), thinned to at most ``max_points`` points, with the place of the first
-    collision; a run without a readable trace is left out."""
+    collision and (``movers``: the world has movers) the movers' poses; a run without a readable
+    trace is left out."""
     out = []
     for r in records:
         if not r.trace:
@@ -256,7 +258,9 @@ def tracks_of(records: Iterable[RunRecord], root: str | Path, *, max_points: int
         if max_points > 0 and len(truth) > max_points:
             idx = np.unique(np.append(np.linspace(0, len(truth) - 1, max_points).astype(int), len(truth) - 1))
             truth = truth[idx]
-        out.append(RunTrack(f"r{r.run_index} {r.navigator} {r.fault or 'nominal'}", r.outcome, truth, None, col))
+        mv = read_movers(p if p.is_absolute() else Path(root) / p) if movers else None
+        out.append(RunTrack(f"r{r.run_index} {r.navigator} {r.fault or 'nominal'}", r.outcome, truth, None, col, mv,
+                            r.first_collision_s))
     return out
 
 
@@ -274,7 +278,7 @@ def best_worlds_figure(worlds: Sequence[BestWorld], *, columns: int = 3, dpi: in
     for ax, bw in zip(axes, worlds):
         w = bw.world if isinstance(bw.world, World) else World.load(bw.world)
         draw_world(ax, w, legend=False)
-        draw_tracks(ax, list(bw.tracks))
+        draw_tracks(ax, list(bw.tracks), world=w)
         if bw.tracks:
             legend(ax, loc="upper left", fontsize=6, framealpha=0.85)
         ax.set_title(bw.title, fontsize=8, loc="left")

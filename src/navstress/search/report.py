@@ -32,6 +32,7 @@ from navstress.search.driver import CONFIRM, RESULT_NAME, SEARCH_SPEC_NAME, SUIT
 from navstress.search.figures import (BestWorld, Found, best_worlds_figure, found_figure,
                                       illumination_figure, illumination_grid, tracks_of)
 from navstress.search.objectives import DESCRIPTORS
+from navstress.world.world import World
 
 #: The anchor of the section (``<section id="search">``) and its title in the navigation bar.
 SECTION_ID = "search"
@@ -270,7 +271,12 @@ def _elites(data: Mapping[str, Any], root: Path) -> str:
         c = el.get("confirmation") or {}
         runs = sorted((r for r in records if config_key(r) == key), key=lambda r: (r.run_index, str(r.fault)))
         title = f"{key}: {_verdict(c)}, {c.get('events')}/{c.get('trials')} fresh-seed runs ({c.get('kind')})"
-        drawn.append(BestWorld(wdir, tracks_of(runs, root), title))
+        try:
+            world = World.load(wdir)
+        except NavstressError as err:  # a world still being written, or damaged
+            notes.append(f"{key}: world not readable ({type(err).__name__})")
+            continue
+        drawn.append(BestWorld(world, tracks_of(runs, root, movers=bool(world.movers)), title))
     parts = ['<h3 id="search-best-title">The best worlds</h3>',
              f'<p class="note">The elites (the best worlds the search kept among those whose runs showed {_e(what)}), '
              'confirmed ones first, each re-run with fresh run seeds (experiment <code>confirm</code>); drawn with '

@@ -677,13 +677,15 @@ def _place_movers(f: float, mv: MoverArrays, mocap_pos: np.ndarray, mocap_quat: 
 
 @numba.njit(cache=True)
 def ground_height(h: np.ndarray, cell: float, x: float, y: float) -> float:  # pragma: no cover - compiled
-    """``Terrain.height_at`` (the same triangles and arithmetic) on the heights ``h``."""
+    """``Terrain.height_at`` (the same triangles and arithmetic, in float64: numba's ``float()`` of
+    a float32 stays float32) on the heights ``h``."""
     rows, cols = h.shape
-    fx = float(min(max(x / cell, 0.0), cols - 1.000001))
-    fy = float(min(max(y / cell, 0.0), rows - 1.000001))
+    fx = np.float64(min(max(x / cell, 0.0), cols - 1.000001))
+    fy = np.float64(min(max(y / cell, 0.0), rows - 1.000001))
     j, i = int(fx), int(fy)
     u, v = fx - j, fy - i
-    h00, h10, h01, h11 = float(h[i, j]), float(h[i, j + 1]), float(h[i + 1, j]), float(h[i + 1, j + 1])
+    h00, h10 = np.float64(h[i, j]), np.float64(h[i, j + 1])
+    h01, h11 = np.float64(h[i + 1, j]), np.float64(h[i + 1, j + 1])
     if u >= v:
         return h00 + u * (h10 - h00) + v * (h11 - h10)
     return h00 + v * (h01 - h00) + u * (h11 - h01)

@@ -11,7 +11,7 @@ import yaml
 from hypothesis import given
 from hypothesis import strategies as st
 
-from navstress.campaign.presets import demo, paper, preset, preset_yaml
+from navstress.campaign.presets import PRESETS, demo, paper, preset, preset_yaml
 from navstress.campaign.spec import Range, load_campaign, parse_campaign, parse_campaign_text
 from navstress.errors import SpecError
 
@@ -116,7 +116,7 @@ def test_integer_range_stays_integer() -> None:
     assert all(isinstance(v, int) for v in Range(start=0, stop=4, step=1).expand())
 
 
-@pytest.mark.parametrize("name", ["demo", "paper"])
+@pytest.mark.parametrize("name", PRESETS)
 def test_presets_validate_and_roundtrip_yaml(name: str) -> None:
     spec = parse_campaign(preset(name))
     again = parse_campaign_text(preset_yaml(name))
@@ -132,6 +132,24 @@ def test_paper_preset_design() -> None:
     for s in (2, 4, 6):
         cfgs = spec.experiments[[e.name for e in spec.experiments].index(f"smooth-s{s}")].configurations(spec.world)
         assert {c.world_spec().ground.subdivisions for c in cfgs} == {s}
+
+
+def test_movers_in_the_demo_and_dynamic_presets() -> None:
+    demo_spec = parse_campaign(demo())
+    movers = demo_spec.experiments[[e.name for e in demo_spec.experiments].index("movers")]
+    worlds = [c.world_spec() for c in movers.configurations(demo_spec.world)]
+    assert [w.movers.counts(w.size_m) for w in worlds] == [{"pedestrian": 1}, {"pedestrian": 4}]
+    assert not any(v for w in worlds for v in w.obstacles.obstruction.values())  # movers on open ground
+    assert {(b.kind, b.aim, b.clearance_m) for w in worlds for b in [w.movers.behaviour_of("pedestrian")]} == \
+        {("intercept", "clearance", 2.0)}
+    dyn = parse_campaign(preset("dynamic"))
+    cfgs = {e.name: [c.world_spec() for c in e.configurations(dyn.world)] for e in dyn.experiments}
+    assert [w.movers.counts(w.size_m)["pedestrian"] for w in cfgs["count"]] == [0, 1, 2, 4, 8]
+    assert [w.movers.behaviour_of("pedestrian").clearance_m for w in cfgs["aggressiveness"]] == [6.0, 4.0, 2.0, 1.0, 0.0]
+    assert all(w.movers.counts(w.size_m)["pedestrian"] == 2 for w in cfgs["aggressiveness"])
+    assert list(dyn.faults) == [None]
+    # 10 configurations x 3 maps x 3 runs, one navigator
+    assert sum(len(c) for c in cfgs.values()) * dyn.maps_per_config * dyn.runs_per_map == 90
 
 
 def test_digest_ignores_formatting_but_not_content() -> None:

@@ -264,3 +264,20 @@ def test_the_disc_pass_is_the_exact_cylinder_on_every_ray(roll: float, pitch: fl
             ref[k, a] = _raybox._ray_cylinder(*disc[0], *o, ce * awx + se * rot[0, 2], ce * awy + se * rot[1, 2],
                                               ce * awz + se * rot[2, 2])
     assert np.array_equal(out, ref)
+
+
+@settings(max_examples=60)
+@given(rows=st.integers(2, 6), cols=st.integers(2, 6), cell=st.sampled_from([0.2, 0.4, 1.0, 2.5]),
+       seed=st.integers(0, 2**32 - 1), pts=st.lists(st.tuples(st.floats(-3.0, 20.0), st.floats(-3.0, 20.0)),
+                                                    min_size=1, max_size=12))
+def test_the_compiled_ground_height_is_terrain_height_at(rows: int, cols: int, cell: float, seed: int,
+                                                         pts: list[tuple[float, float]]) -> None:
+    """The loop's ``ground_height`` (where a mover body stands) is ``Terrain.height_at`` to the bit,
+    inside the map, on cell edges and clamped outside it."""
+    from navstress.sim._step import ground_height
+    from navstress.world.world import Terrain
+
+    ter = Terrain(np.random.default_rng(seed).normal(0.0, 1.0, (rows, cols)), cell)
+    edges = [(j * cell, i * cell) for i in range(rows) for j in range(cols)]
+    for x, y in [*pts, *edges]:
+        assert ground_height(ter.heights, cell, x, y) == ter.height_at(x, y)
