@@ -17,8 +17,10 @@ spec gives it one (the experiment's own, else the campaign's), else :data:`DEFAU
 :data:`DEFAULT_CONFIDENCE` (docs/statistics.md).
 
     >>> w = world_verdict("trees", "tree=4", 0, "dwa", "nominal", successes=10, runs=10)
-    >>> w.verdict, round(w.ci[0], 3)
-    ('passes', 0.692)
+    >>> w.verdict, round(w.ci[0], 3)  # 10 of 10 does not yet prove >= 0.8 with 95 % confidence
+    ('undecided', 0.692)
+    >>> world_verdict("trees", "tree=4", 0, "dwa", "nominal", successes=30, runs=30).verdict
+    'passes'
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 
     >>> from navstress.campaign import parse_campaign, plan, preset
     >>> len(plan(parse_campaign(preset("demo")), "/tmp/x").tasks)
-    32
+    90
 """
 
 from navstress.campaign.plan import Plan, plan

@@ -25,7 +25,7 @@ copy and the store is next opened for writing).
     >>> d = tempfile.mkdtemp()
     >>> with Store.create(d, parse_campaign(demo()), "...") as s:
     ...     s.progress()
-    (0, 78)
+    (0, 90)
 """
 
 from __future__ import annotations

@@ -73,8 +73,9 @@ def test_adding_a_fault_keeps_existing_seeds_and_ids() -> None:
 
 def test_task_carries_campaign_settings() -> None:
     spec = parse_campaign(demo())
-    t = plan(spec, "/tmp/c").tasks[-1]
-    last = spec.max_runs_of(spec.experiments[-1]) - 1  # the adaptive class plans its max
+    t = [t for t in plan(spec, "/tmp/c").tasks if t.experiment == "smooth-s4"][-1]
+    smooth = next(e for e in spec.experiments if e.name == "smooth-s4")
+    last = spec.max_runs_of(smooth) - 1  # the adaptive class plans its max
     assert t.timeout_s == spec.timeout_s and t.goal_tolerance_m == spec.goal_tolerance_m
     assert t.config == {"ground.deformation": 1.5} and t.experiment == "smooth-s4"
     assert t.map_seed == map_seed(spec.seed, "smooth-s4", "deformation=1.5", 1)

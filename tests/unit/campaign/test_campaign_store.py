@@ -37,12 +37,12 @@ def _record(store: Store, i: int, **over: object) -> RunRecord:
 def test_create_then_resume_same_spec(tmp_path: Path) -> None:
     d = tmp_path / "c"
     with Store.create(d, SPEC, TEXT) as s:
-        assert s.progress() == (0, 78)
+        assert s.progress() == (0, 90)
         assert s.add(_record(s, 0))
     assert (d / "spec.yaml").read_text() == TEXT  # as given, byte for byte
     with Store.create(d, parse_campaign(yaml.safe_load(TEXT)), "# reformatted\n" + TEXT) as s:
-        assert s.progress() == (1, 78)  # smooth-s4 is adaptive: up to 5 runs per map, 2 due at first
-        assert len(s.pending()) == 48 + 6 * 2 - 1 and s.plan().tasks[0].run_id not in {t.run_id for t in s.pending()}
+        assert s.progress() == (1, 90)  # smooth-s4 is adaptive: up to 5 runs per map, 2 due at first
+        assert len(s.pending()) == 48 + 6 * 2 + 12 - 1 and s.plan().tasks[0].run_id not in {t.run_id for t in s.pending()}
 
 
 def test_refuses_different_spec(tmp_path: Path) -> None:

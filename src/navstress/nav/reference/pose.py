@@ -14,7 +14,9 @@ no IMU reading is newer). The perceived trajectory therefore differs from the re
 
     >>> est = PoseEstimator(start=(0.0, 0.0, 0.0), tau_xy_s=2.0, tau_yaw_s=2.0)
     >>> from navstress.nav.api import Odometry
-    >>> est.update(1.0, Odometry(1.0, 1.0, 0.0, 0.0, 1.0, 0.0), None, None).x
+    >>> est.update(0.0, Odometry(0.0, 0.0, 0.0, 0.0, 1.0, 0.0), None, None).x  # the first reading: the reference
+    0.0
+    >>> est.update(1.0, Odometry(1.0, 1.0, 0.0, 0.0, 1.0, 0.0), None, None).x  # then its increments
     1.0
 """
 
