@@ -23,7 +23,10 @@ from built_once import built_once
 
 pytestmark = pytest.mark.slow
 
-UMASKS = (0o022, 0o002, 0o077)
+#: 002 and 077 bracket the common 022: a writer that ignores the umask (mkstemp's 0600, a fixed
+#: 0644) is caught by one of them (0644 under 002 lacks group write; under 077 it opens too much),
+#: while 022's expected 0644 would let a fixed 0644 pass.
+UMASKS = (0o002, 0o077)
 
 SPEC = {"name": "modes", "seed": 3, "world": {"size_m": [20.0, 20.0], "cell_m": 0.5},
         "experiments": [{"name": "e", "sweep": {"obstacles.obstruction.tree": {"values": [0]}}}],
