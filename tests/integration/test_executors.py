@@ -27,9 +27,15 @@ import executor_contract  # noqa: E402
 
 pytestmark = pytest.mark.slow
 
+#: What RAY_ADDRESS holds while the Ray contract runs: nothing listens there.
+DEAD_RAY_ADDRESS = "127.0.0.1:1"
+
 
 def _ray_contract(root: Path) -> dict[str, Any]:
     env = {k: v for k, v in os.environ.items() if not k.startswith("RAY_")}
+    # a dead address in RAY_ADDRESS: with no address given navstress must not follow it but start
+    # its own local cluster (test_ray_ignores_ray_address_and_starts_its_own_cluster)
+    env["RAY_ADDRESS"] = DEAD_RAY_ADDRESS
     env["PYTHONPATH"] = os.pathsep.join([str(ROOT / "src"), HELPERS, str(ROOT / "tests"),
                                          os.environ.get("PYTHONPATH", "")])
     code = "import sys, executor_contract; executor_contract.main('ray', sys.argv[1])"
@@ -68,6 +74,15 @@ def local_contract(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
 def contract(request: pytest.FixtureRequest) -> dict[str, Any]:
     got: dict[str, Any] = request.getfixturevalue(f"{request.param}_contract")
     return got
+
+
+def test_ray_ignores_ray_address_and_starts_its_own_cluster(ray_contract: dict[str, Any]) -> None:
+    """RAY_ADDRESS pointed at a dead address while the contract ran: RayExecutor with no address
+    did not follow it (ray.init would have failed to connect) but started its own cluster (its
+    GCS server and raylet among the contract's processes), on which the runs were recorded
+    (their words: the tests around)."""
+    assert {"gcs_server", "raylet"} <= {s[0] for s in ray_contract["sockets"]}, ray_contract["sockets"]
+    assert ray_contract["runs"]["recorded"] == 2
 
 
 def test_world_generation_over_its_limit_is_said_the_same_way(contract: dict[str, Any]) -> None:
