@@ -18,7 +18,8 @@ from navstress.world import World, generate, parse_spec
 from navstress.world.descriptors import describe_world
 from navstress.world.movers import GAP_M, mover_descriptors
 from navstress.world.spec import BUILTIN_MOVER_TYPES, MoversSpec, WorldSpec
-from navstress.world.world import Mover, Obstacle
+from navstress.world.world import Mover
+from test_worldgen_placement import box_disc_distance  # the placement tests' exact box-disc distance
 
 
 def spec_with(movers: dict[str, Any], **world: Any) -> WorldSpec:
@@ -120,13 +121,6 @@ def test_worlds_without_movers_keep_their_bytes(tmp_path: Path, data: dict[str, 
 
 
 # ---- placement ------------------------------------------------------------------------------
-
-def box_disc_distance(o: Obstacle, cx: float, cy: float) -> float:
-    c, s = math.cos(o.yaw), math.sin(o.yaw)
-    px, py = cx - o.x, cy - o.y
-    lx, ly = c * px + s * py, -s * px + c * py
-    return math.hypot(max(abs(lx) - o.size[0] / 2, 0.0), max(abs(ly) - o.size[1] / 2, 0.0))
-
 
 def check_movers(w: World) -> None:
     """Every placement constraint of docs/worlds.md, checked exactly."""
