@@ -5,6 +5,10 @@ PY ?= $(shell command -v python3.11 || command -v python3)
 VENV := .venv
 BIN := $(VENV)/bin
 DEMO_OUT ?= demo-out
+# what the tests read our files with, from Debian (besides chromium for the HTML report):
+# libsdformat 12 and ign-common 4 (Gazebo Fortress's SDF parser and heightmap loader) with a
+# compiler for the small loader program tests/oracles/sdf_load.cc
+GAZEBO_DEBS := libsdformat-dev libignition-common-graphics-dev g++ pkg-config
 
 .PHONY: demo test typecheck bench clean
 
@@ -28,6 +32,8 @@ typecheck: $(VENV)/.installed-test
 
 test: $(VENV)/.installed-test
 	command -v chromium >/dev/null || (apt-get update -qq && apt-get install -y -qq chromium)
+	dpkg -s $(GAZEBO_DEBS) >/dev/null 2>&1 || (apt-get update -qq && \
+	  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $(GAZEBO_DEBS))
 	$(BIN)/mypy
 	$(BIN)/python -m pytest -n 2 -q
 

@@ -50,12 +50,10 @@ def apply_file_mode(path: str | os.PathLike[str]) -> None:
     os.chmod(path, file_mode())
 
 
-def write_atomic(path: str | os.PathLike[str], data: bytes | str) -> None:
-    """Write ``data`` to ``path`` via a unique temporary file in the same folder (fsynced, with
-    the umask's mode), then rename it into place; nothing is left behind on failure."""
-    dest = Path(path)
+def _write_temp(dest: Path, raw: bytes) -> Path:
+    """``raw`` in a unique temporary file beside ``dest`` (fsynced, the umask's mode); removed
+    again on failure."""
     dest.parent.mkdir(parents=True, exist_ok=True)
-    raw = data.encode("utf-8") if isinstance(data, str) else data
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{dest.name}.", suffix=".tmp", dir=dest.parent)
     except OSError as e:  # name the file the user asked for, not our temporary one
@@ -66,9 +64,34 @@ def write_atomic(path: str | os.PathLike[str], data: bytes | str) -> None:
             f.write(raw)
             f.flush()
             os.fsync(f.fileno())
-        os.replace(tmp, dest)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
+        raise
+    return Path(tmp)
+
+
+def write_atomic(path: str | os.PathLike[str], data: bytes | str) -> None:
+    """Write ``data`` to ``path`` via a unique temporary file in the same folder (fsynced, with
+    the umask's mode), then rename it into place; nothing is left behind on failure."""
+    write_atomic_group({Path(path): data})
+
+
+def write_atomic_group(files: dict[Path, bytes | str]) -> None:
+    """Write several files that belong together (an SDF and its heightmap, an OBJ, its MTL and
+    texture): every one to a temporary file first, then all renamed into place, so that a failure
+    while writing (a full disk) leaves none of them, new or half-written, behind."""
+    temps: list[tuple[Path, Path]] = []
+    try:
+        for dest, data in files.items():
+            raw = data.encode("utf-8") if isinstance(data, str) else data
+            temps.append((_write_temp(Path(dest), raw), Path(dest)))
+        while temps:
+            tmp, dest = temps[0]
+            os.replace(tmp, dest)
+            temps.pop(0)
+    except BaseException:
+        for tmp, _ in temps:
+            tmp.unlink(missing_ok=True)
         raise
 
 

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from PIL import Image
 from typer.testing import CliRunner
 
 from world_fixtures import small_world
@@ -102,6 +103,10 @@ BAD = [
     (["world", "export", "{tmp}/notaworld", "--format", "sdf", "-o", "{tmp}/x.sdf"], "world", "notaworld"),
     (["world", "export", "{tmp}/w", "--format", "xyz", "-o", "{tmp}/x.xyz"], "--format", "xyz"),
     (["world", "export", "{tmp}/w", "--format", "png", "-o", "{tmp}/w"], "--output", "w"),
+    (["world", "export", "{tmp}/w", "-f", "sdf", "--heightmap-bits", "12", "-o", "{tmp}/x.sdf"], "--heightmap-bits", "12"),
+    (["world", "export", "{tmp}/w", "-f", "png", "--heightmap-bits", "eight", "-o", "{tmp}/x.png"], "--heightmap-bits",
+     "eight"),
+    (["world", "export", "{tmp}/w", "-f", "obj", "--heightmap-bits", "8", "-o", "{tmp}/x.obj"], "--heightmap-bits", "8"),
     (["demo", "-o", "{tmp}/notaworld"], "--output", "notaworld"),
     (["nosuchcommand"], "nosuchcommand", ""),
 ]
@@ -177,26 +182,35 @@ def test_show_prints_descriptors_and_writes_the_preview(tmp_path: Path) -> None:
     assert "20 m x 20 m" in out and "3 trees" not in out and "2 trees" in out and "1 building" in out
 
 
-@pytest.mark.parametrize("fmt,name", [("sdf", "w.sdf"), ("png", "h.png"), ("obj", "w.obj"),
-                                      ("gltf", "w.gltf"), ("glb", "w.glb")])
-def test_export_formats(tmp_path: Path, fmt: str, name: str) -> None:
+@pytest.mark.parametrize("fmt,name,bits,side_files", [
+    ("sdf", "w.sdf", None, ["w_heightmap.png"]), ("sdf", "w.sdf", "16", ["w_heightmap.png"]),
+    ("png", "h.png", None, []), ("png", "h.png", "8", []), ("obj", "w.obj", None, ["w_terrain.png", "w.mtl"]),
+    ("gltf", "w.gltf", None, []), ("glb", "w.glb", None, [])])
+def test_export_formats(tmp_path: Path, fmt: str, name: str, bits: str | None, side_files: list[str]) -> None:
     w = small_world()
     w.save(tmp_path / "w")
-    code, out, err = run("world", "export", str(tmp_path / "w"), "--format", fmt, "-o", str(tmp_path / name))
+    extra = [] if bits is None else ["--heightmap-bits", bits]
+    code, out, err = run("world", "export", str(tmp_path / "w"), "--format", fmt, *extra, "-o", str(tmp_path / name))
     assert code == 0, err
     data = (tmp_path / name).read_bytes()
+    assert out.strip().splitlines()[-1] == "wrote " + ", ".join(str(tmp_path / f) for f in [name, *side_files])
+    if fmt in ("sdf", "png"):
+        with Image.open(tmp_path / (side_files[0] if fmt == "sdf" else name)) as img:
+            expected_bits = int(bits) if bits else (8 if fmt == "sdf" else 16)
+            assert img.mode == ("L" if expected_bits == 8 else "I;16")
     if fmt == "sdf":
-        assert b"<sdf" in data and (tmp_path / "w_heightmap.png").is_file() and "65x65" in out
+        assert b"<sdf" in data and b'name="mission_goal"' in data and "65x65" in out
     elif fmt == "png":
         h, lo, hi = read_heightmap_png(tmp_path / name)
         assert h.shape == w.terrain.heights.shape and (lo, hi) == (float(w.terrain.heights.min()),
                                                                      float(w.terrain.heights.max()))
+        assert f"0..{(1 << (int(bits) if bits else 16)) - 1} =" in out
     elif fmt == "gltf":
         assert json.loads(data)["asset"]["version"] == "2.0"
     elif fmt == "glb":
         assert data[:4] == b"glTF"
     else:
-        assert data.count(b"\nf ") == 2 * 40 * 40 + 12 * 3
+        assert data.count(b"\nf ") >= 2 * 40 * 40 + 12 * 3 and b"\no terrain\n" in data
 
 
 def test_export_mjcf_uses_the_simulator_model_builder(tmp_path: Path) -> None:

@@ -50,3 +50,17 @@ def test_write_atomic_leaves_nothing_on_failure(tmp_path: Path) -> None:
     with pytest.raises(TypeError):
         _files.write_atomic(tmp_path / "f", 42)  # type: ignore[arg-type]
     assert [p.name for p in tmp_path.iterdir()] == ["f"] and (tmp_path / "f").read_bytes() == b"old"
+
+
+@pytest.mark.parametrize("n,bad", [(2, 0), (2, 1), (3, 1), (3, 2), (4, 3)])
+def test_write_atomic_group_writes_all_or_none(tmp_path: Path, n: int, bad: int) -> None:
+    (tmp_path / "f0").write_bytes(b"old")  # an earlier export of the same name stays as it was
+    files: dict[Path, bytes | str] = {tmp_path / f"f{i}": f"new {i}" for i in range(n)}
+    files[tmp_path / f"f{bad}"] = 42  # type: ignore[assignment]  # fails while being written
+    with pytest.raises(TypeError):
+        _files.write_atomic_group(files)
+    assert [p.name for p in tmp_path.iterdir()] == ["f0"] and (tmp_path / "f0").read_bytes() == b"old"
+    files[tmp_path / f"f{bad}"] = b"fixed"
+    _files.write_atomic_group(files)
+    assert sorted(p.name for p in tmp_path.iterdir()) == [f"f{i}" for i in range(n)]
+    assert (tmp_path / "f0").read_bytes() == (b"fixed" if bad == 0 else b"new 0")

@@ -163,35 +163,46 @@ def world_show(
 def world_export(
     world_dir: Annotated[Path, typer.Argument(metavar="DIR", help="A world directory.")],
     fmt: Annotated[str, typer.Option("--format", "-f", metavar="|".join(EXPORT_FORMATS), help=(
-        "mjcf: standalone MuJoCo model (heightfield + boxes, no robot); sdf: Gazebo SDF world "
-        "(writes FILE and FILE-stem_heightmap.png beside it, resampled to a 2^n+1 square); "
-        "gltf/glb: mesh scene (y-up); obj: mesh (z-up world coordinates); png: 16-bit heightmap "
-        "(height range in its text chunks)."))],
+        "mjcf: standalone MuJoCo model (heightfield + boxes, no robot); sdf: Gazebo SDF world with "
+        "start and goal markers (writes FILE and FILE-stem_heightmap.png beside it, resampled to a 2^n+1 "
+        "square, 8 bits: read by every Gazebo version); gltf/glb: mesh scene (y-up, normals, materials, "
+        "the terrain textured by height); obj: the same as Wavefront OBJ, y-up, with FILE-stem.mtl and "
+        "FILE-stem_terrain.png beside it; png: 16-bit heightmap (height range in its text chunks)."))],
     output: Annotated[Path, typer.Option("--output", "-o", metavar="FILE", help="File to write.")],
+    heightmap_bits: Annotated[str | None, typer.Option("--heightmap-bits", metavar="8|16", help=(
+        "Bits per pixel of the heightmap PNG (sdf and png only). sdf: default 8, the one Gazebo "
+        "Fortress reads (16 bits are read by Garden and later only); png: default 16."))] = None,
 ) -> None:
     """Export a world to another tool's format."""
     f = fmt.lower()
     if f not in EXPORT_FORMATS:
         raise SpecError("--format", fmt, f"one of {', '.join(EXPORT_FORMATS)}")
+    bits = None
+    if heightmap_bits is not None:
+        if f not in ("sdf", "png"):
+            raise SpecError("--heightmap-bits", heightmap_bits, f"given only with --format sdf or png (not {f})")
+        if heightmap_bits.strip() not in ("8", "16"):
+            raise SpecError("--heightmap-bits", heightmap_bits, "8 or 16")
+        bits = int(heightmap_bits)
     check_file_out(output)
     world = World.load(world_dir)
     if f == "mjcf":
         write_atomic(output, world_to_mjcf(world).encode("utf-8"))
         written = [output]
     elif f == "sdf":
-        r = write_sdf(world, output)
+        r = write_sdf(world, output, heightmap_bits=bits or 8)
         written = [r.sdf_path, r.heightmap_path]
         rows, cols = world.terrain.heights.shape
         if (rows, cols) != (r.heightmap_side, r.heightmap_side):
             click.echo(f"note: heightmap resampled from {cols}x{rows} to {r.heightmap_side}x{r.heightmap_side} "
                        "(Gazebo needs a square 2^n+1 image)")
     elif f == "png":
-        info = write_heightmap_png(world.terrain, output)
+        info = write_heightmap_png(world.terrain, output, bits=bits or 16)
         written = [output]
-        click.echo(f"heightmap {info.width}x{info.height}, 0..65535 = {info.z_min:.4g}..{info.z_max:.4g} m")
+        top = (1 << (bits or 16)) - 1
+        click.echo(f"heightmap {info.width}x{info.height}, 0..{top} = {info.z_min:.4g}..{info.z_max:.4g} m")
     else:
-        write_mesh(world, output, "glb" if f == "gltf" and output.suffix.lower() == ".glb" else f)
-        written = [output]
+        written = write_mesh(world, output, "glb" if f == "gltf" and output.suffix.lower() == ".glb" else f)
     click.echo(literal("wrote " + ", ".join(str(p) for p in written)))
 
 

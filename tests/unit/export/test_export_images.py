@@ -19,13 +19,15 @@ from navstress.world.export.images import (draw_world, heightmap_png_bytes, read
 
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(arrays(np.float32, st.tuples(st.integers(2, 9), st.integers(2, 9)),
-              elements=st.floats(-30, 30, width=32)))
-def test_heightmap_round_trip_within_quantisation(tmp_path: Path, h: np.ndarray) -> None:
-    info = write_heightmap_png(Terrain(h, 0.5), tmp_path / "h.png")
+              elements=st.floats(-30, 30, width=32)), st.sampled_from([8, 16]))
+def test_heightmap_round_trip_within_quantisation(tmp_path: Path, h: np.ndarray, bits: int) -> None:
+    info = write_heightmap_png(Terrain(h, 0.5), tmp_path / "h.png", bits=bits)
     back, z_min, z_max = read_heightmap_png(info.path)
     assert (z_min, z_max) == (float(h.min()), float(h.max())) == (info.z_min, info.z_max)
     assert back.shape == h.shape
-    step = (z_max - z_min) / 65535
+    with Image.open(info.path) as img:
+        assert img.mode == ("L" if bits == 8 else "I;16")
+    step = (z_max - z_min) / ((1 << bits) - 1)
     assert np.max(np.abs(back - h)) <= step / 2 + 1e-9 * max(1.0, abs(z_max))
 
 
@@ -41,6 +43,12 @@ def test_heightmap_is_16_bit_north_up_and_uses_full_range(tmp_path: Path) -> Non
         assert img.text["navstress:z_min"] == "-2.5" and img.text["navstress:z_max"] == "7.5"
     assert px[0, 0] == 65535 and px[2, 3] == 0  # image row 0 = north edge
     assert px[1, 1] == round(2.5 / 10 * 65535)
+
+
+@pytest.mark.parametrize("bits", [0, 1, 12, 32, "8"])
+def test_heightmap_bits_other_than_8_or_16_are_refused(bits: object) -> None:
+    with pytest.raises(ValueError, match="bits"):
+        heightmap_png_bytes(np.zeros((2, 2)), 0.5, bits=bits)  # type: ignore[arg-type]
 
 
 def test_flat_heightmap_is_zero_with_degenerate_range() -> None:

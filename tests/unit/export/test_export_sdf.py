@@ -41,26 +41,28 @@ def test_sdf_models_and_poses_match_the_world(tmp_path: Path) -> None:
         assert _floats(m.findtext("link/collision/geometry/box/size")) == pytest.approx(list(o.size))
 
 
-def test_sdf_heightmap_is_square_2n_plus_1_and_matches_the_terrain(tmp_path: Path) -> None:
+@pytest.mark.parametrize("bits,mode", [(8, "L"), (16, "I;16")])
+def test_sdf_heightmap_is_square_2n_plus_1_and_matches_the_terrain(tmp_path: Path, bits: int, mode: str) -> None:
     w = small_world(5)  # 41 x 41 vertices -> resampled to 65 x 65
-    r = write_sdf(w, tmp_path / "w.sdf")
+    r = write_sdf(w, tmp_path / "w.sdf", **({} if bits == 8 else {"heightmap_bits": bits}))  # 8: the default
     hm = ET.parse(r.sdf_path).getroot().find("world/model[@name='ground']/link/collision/geometry/heightmap")
     assert hm is not None
     assert hm.findtext("uri") == "w_heightmap.png" and (tmp_path / "w_heightmap.png").is_file()
     with Image.open(r.heightmap_path) as img:
-        assert img.size == (65, 65) == (r.heightmap_side, r.heightmap_side)
+        assert img.size == (65, 65) == (r.heightmap_side, r.heightmap_side) and img.mode == mode
     sx, sy, sz = _floats(hm.findtext("size"))
     px, py, pz = _floats(hm.findtext("pos"))
     assert (sx, sy) == w.terrain.size_m and (px, py) == (sx / 2, sy / 2)
     grid, z_min, z_max = read_heightmap_png(r.heightmap_path)
     assert pz == pytest.approx(z_min) and sz == pytest.approx(z_max - z_min)
-    # every resampled vertex lies on the simulator's triangulated surface (within 16-bit quantisation)
+    # every resampled vertex lies on the simulator's triangulated surface (within half a quantisation step)
     xs = np.linspace(0, sx, 65)
     ys = np.linspace(0, sy, 65)
     expected = surface_heights(w.terrain, xs[None, :], ys[:, None])
-    assert np.max(np.abs(grid - expected)) <= (z_max - z_min) / 65535
+    step = (z_max - z_min) / ((1 << bits) - 1)
+    assert np.max(np.abs(grid - expected)) <= step / 2 + 1e-9
     # spot-check against the scalar reference
-    assert grid[64, 0] == pytest.approx(w.terrain.height_at(0.0, sy), abs=(z_max - z_min) / 65535)
+    assert grid[64, 0] == pytest.approx(w.terrain.height_at(0.0, sy), abs=step / 2 + 1e-6)
 
 
 @pytest.mark.parametrize("n,expected", [(2, 3), (3, 3), (4, 5), (41, 65), (251, 257), (257, 257), (258, 513)])

@@ -52,6 +52,18 @@ def next_pow2_plus1(n: int) -> int:
     return (1 << k) + 1
 
 
+#: The mission markers of the SDF and mesh exports (meters): the start is a disc with an arrow
+#: along the start heading, the goal a disc with a pole.
+MARKER = {"radius": 0.5, "thickness": 0.04, "arrow_length": 1.2, "arrow_width": 0.15, "pole_height": 2.5}
+#: Their colours (RGBA, 0-255).
+MARKER_RGBA = {"start": (26, 191, 51, 255), "goal": (217, 26, 26, 255)}
+
+
 def write_atomic(path: Path, data: bytes) -> None:
     """Write ``data`` to ``path`` atomically, with the mode the umask gives (see ``navstress._files``)."""
     _files.write_atomic(path, data)
+
+
+def write_atomic_group(files: dict[Path, bytes]) -> None:
+    """Write files that belong together: all of them or, on failure, none (``navstress._files``)."""
+    _files.write_atomic_group(dict(files))

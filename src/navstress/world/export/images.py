@@ -1,9 +1,11 @@
-"""Pictures of a world: a 16-bit heightmap PNG and a top-down preview.
+"""Pictures of a world: a heightmap PNG and a top-down preview.
 
-Heightmap: a 16-bit grayscale PNG, north up (image row 0 is the map's top edge, y = max),
-heights mapped linearly from [z_min, z_max] to [0, 65535]; the range in meters is written
-as PNG text chunks (``navstress:z_min``, ``navstress:z_max``, ``navstress:cell_m``) and
-returned. Round trip error is at most half a quantisation step, (z_max - z_min) / 131070.
+Heightmap: a grayscale PNG of 16 bits (the default of ``world export -f png``) or 8 bits
+(what every Gazebo version reads: the SDF export's default), north up (image row 0 is the
+map's top edge, y = max), heights mapped linearly from [z_min, z_max] to [0, 2**bits - 1];
+the range in meters is written as PNG text chunks (``navstress:z_min``, ``navstress:z_max``,
+``navstress:cell_m``) and returned. Round trip error is at most half a quantisation step,
+(z_max - z_min) / (2 * (2**bits - 1)): 1/131070 of the range at 16 bits, 1/510 at 8.
 
 Preview: a hillshaded, colour-coded terrain with a colour bar in meters, obstacles as
 rotated rectangles coloured per kind, start (with heading arrow) and goal, the free
@@ -41,7 +43,7 @@ _Z_MIN, _Z_MAX, _CELL = "navstress:z_min", "navstress:z_max", "navstress:cell_m"
 
 @dataclass(frozen=True)
 class HeightmapInfo:
-    """What :func:`write_heightmap_png` wrote: pixel 0 is ``z_min`` m, 65535 is ``z_max`` m."""
+    """What :func:`write_heightmap_png` wrote: pixel 0 is ``z_min`` m, 2**bits - 1 is ``z_max`` m."""
 
     path: Path
     z_min: float
@@ -54,17 +56,24 @@ class HeightmapInfo:
         return self.z_max - self.z_min
 
 
-def heightmap_png_bytes(heights: np.ndarray, cell_m: float) -> tuple[bytes, float, float]:
-    """Encode a height grid (rows along +y) as a 16-bit north-up PNG; returns (png, z_min, z_max).
+HEIGHTMAP_BITS = (8, 16)
+
+
+def heightmap_png_bytes(heights: np.ndarray, cell_m: float, *, bits: int = 16) -> tuple[bytes, float, float]:
+    """Encode a height grid (rows along +y) as a ``bits``-bit north-up PNG; returns (png, z_min, z_max).
 
     A flat grid (z_min == z_max) encodes as all zeros.
     """
+    if bits not in HEIGHTMAP_BITS:
+        raise ValueError(f"bits={bits!r}: expected one of {HEIGHTMAP_BITS}")
     h = np.asarray(heights, dtype=np.float64)
     if h.ndim != 2 or h.size == 0 or not np.all(np.isfinite(h)):
         raise ValueError("heights must be a non-empty 2-D array of finite values")
     z_min, z_max = float(h.min()), float(h.max())
     span = z_max - z_min
-    q = np.zeros(h.shape, np.uint16) if span <= 0 else np.rint((h - z_min) / span * 65535.0).astype(np.uint16)
+    top = float((1 << bits) - 1)
+    dtype = np.uint16 if bits == 16 else np.uint8
+    q = np.zeros(h.shape, dtype) if span <= 0 else np.rint((h - z_min) / span * top).astype(dtype)
     img = Image.fromarray(np.ascontiguousarray(q[::-1]))  # row 0 of the image = north edge
     info = PngInfo()
     info.add_text(_Z_MIN, repr(z_min))
@@ -75,24 +84,25 @@ def heightmap_png_bytes(heights: np.ndarray, cell_m: float) -> tuple[bytes, floa
     return buf.getvalue(), z_min, z_max
 
 
-def write_heightmap_png(terrain: Terrain, path: str | Path) -> HeightmapInfo:
-    """Write the terrain as a 16-bit grayscale PNG (one pixel per vertex), atomically."""
+def write_heightmap_png(terrain: Terrain, path: str | Path, *, bits: int = 16) -> HeightmapInfo:
+    """Write the terrain as a ``bits``-bit grayscale PNG (one pixel per vertex), atomically."""
     p = Path(path)
-    data, z_min, z_max = heightmap_png_bytes(terrain.heights, terrain.cell_m)
+    data, z_min, z_max = heightmap_png_bytes(terrain.heights, terrain.cell_m, bits=bits)
     write_atomic(p, data)
     rows, cols = terrain.heights.shape
     return HeightmapInfo(path=p, z_min=z_min, z_max=z_max, width=cols, height=rows)
 
 
 def read_heightmap_png(path: str | Path) -> tuple[np.ndarray, float, float]:
-    """Read a PNG written by :func:`write_heightmap_png`: (heights rows along +y, z_min, z_max)."""
+    """Read a heightmap PNG navstress wrote (8 or 16 bits): (heights rows along +y, z_min, z_max)."""
     with Image.open(path) as img:
         text: dict[str, Any] = dict(getattr(img, "text", {}))
+        top = 255.0 if img.mode == "L" else 65535.0
         q = np.array(img, dtype=np.float64)
     if _Z_MIN not in text or _Z_MAX not in text:
         raise ValueError(f"{path}: not a navstress heightmap (no {_Z_MIN}/{_Z_MAX} text chunks)")
     z_min, z_max = float(text[_Z_MIN]), float(text[_Z_MAX])
-    return (z_min + q[::-1] / 65535.0 * (z_max - z_min)), z_min, z_max
+    return (z_min + q[::-1] / top * (z_max - z_min)), z_min, z_max
 
 
 # ---- preview ------------------------------------------------------------------------------
