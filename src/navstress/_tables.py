@@ -1,15 +1,18 @@
 """Tables written for other tools and read back: CSV or Parquet, typed columns, atomic.
 
 One writer and one reader for every table navstress exports (the runs table of a campaign, the
-verdicts). A column is ``int``, ``float`` or ``str``; in CSV a missing value (``None``, or a
-float NaN) is an empty cell, read back as ``None`` for numbers and for the ``str`` columns named
-``nullable``. pyarrow is imported only when Parquet is written or read (it costs ~0.35 s, and
+verdicts). A column is ``int``, ``float``, ``bool``, ``str`` or ``strlist`` (a list of strings:
+a Parquet list column, a JSON array in CSV); in CSV a missing value (``None``, or a float NaN)
+is an empty cell, read back as ``None`` for numbers and booleans and for the ``str`` columns
+named ``nullable``; booleans are ``true``/``false``. Parquet files carry ``metadata`` (string
+keys and values) in their schema. pyarrow is imported only when Parquet is written or read (it costs ~0.35 s, and
 the modules that export are imported by every campaign worker).
 """
 
 from __future__ import annotations
 
 import csv
+import json
 import math
 import os
 from collections.abc import Collection, Iterable, Mapping
@@ -18,17 +21,32 @@ from typing import Any, Literal
 
 from navstress.errors import SpecError
 
-Kind = Literal["int", "float", "str"]
+Kind = Literal["int", "float", "bool", "str", "strlist"]
 FORMATS = ("csv", "parquet")
 
 
-def _cell(x: Any) -> Any:
-    return "" if x is None or (isinstance(x, float) and math.isnan(x)) else x
+def _cell(x: Any, kind: Kind) -> Any:
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return ""
+    if kind == "bool":
+        return "true" if x else "false"
+    if kind == "strlist" and not isinstance(x, str):
+        return json.dumps(list(x), ensure_ascii=False)
+    return x
 
 
-def write_table(rows: Iterable[Mapping[str, Any]], columns: Mapping[str, Kind], fmt: str, dest: Path) -> Path:
+def _arrow(kind: Kind, x: Any) -> Any:
+    """A value as pyarrow takes it for a column of ``kind`` (a strlist given as JSON text is parsed)."""
+    if kind == "strlist" and isinstance(x, str):
+        return json.loads(x)
+    return x
+
+
+def write_table(rows: Iterable[Mapping[str, Any]], columns: Mapping[str, Kind], fmt: str, dest: Path,
+                metadata: Mapping[str, str] | None = None) -> Path:
     """Write ``rows`` (the ``columns``, in their order) to ``dest`` as CSV or Parquet, under a
-    temporary name renamed into place; returns ``dest``."""
+    temporary name renamed into place; returns ``dest``. ``metadata`` goes into a Parquet file's
+    schema (CSV has no place for it)."""
     if fmt not in FORMATS:
         raise SpecError("format", fmt, "csv or parquet")
     rows = list(rows)
@@ -39,22 +57,39 @@ def write_table(rows: Iterable[Mapping[str, Any]], columns: Mapping[str, Kind], 
             with open(tmp, "w", newline="", encoding="utf-8") as f:
                 w = csv.DictWriter(f, fieldnames=list(columns))
                 w.writeheader()
-                w.writerows([{c: _cell(r[c]) for c in columns} for r in rows])
+                w.writerows([{c: _cell(r[c], k) for c, k in columns.items()} for r in rows])
         else:
             import pyarrow as pa  # local: see the module's doc
             import pyarrow.parquet as pq
 
-            types = {"int": pa.int64, "float": pa.float64, "str": pa.string}
-            schema = pa.schema([(c, types[k]()) for c, k in columns.items()])
-            pq.write_table(pa.Table.from_pylist(rows, schema=schema), tmp)
+            types = {"int": pa.int64(), "float": pa.float64(), "bool": pa.bool_(), "str": pa.string(),
+                     "strlist": pa.list_(pa.string())}
+            schema = pa.schema([(c, types[k]) for c, k in columns.items()], metadata=dict(metadata or {}))
+            data = [{c: _arrow(k, r[c]) for c, k in columns.items()} for r in rows]
+            pq.write_table(pa.Table.from_pylist(data, schema=schema), tmp)
         os.replace(tmp, dest)
     finally:
         tmp.unlink(missing_ok=True)
     return dest
 
 
+def _guess(v: str) -> Any:
+    """A CSV cell of a column not in ``columns``: None, a bool, an int, a float or the text."""
+    if v == "":
+        return None
+    if v in ("true", "false"):
+        return v == "true"
+    for kind in (int, float):
+        try:
+            return kind(v)
+        except ValueError:
+            pass
+    return v
+
+
 def read_table(path: str | Path, columns: Mapping[str, Kind], nullable: Collection[str] = ()) -> list[dict[str, Any]]:
-    """Read back a table :func:`write_table` wrote (by its suffix: ``.parquet`` or CSV) as typed rows."""
+    """Read back a table :func:`write_table` wrote (by its suffix: ``.parquet`` or CSV) as typed rows;
+    a CSV's columns beyond ``columns`` are typed by their text (:func:`_guess`)."""
     p = Path(path)
     if p.suffix == ".parquet":
         import pyarrow.parquet as pq  # local: see the module's doc
@@ -67,6 +102,8 @@ def read_table(path: str | Path, columns: Mapping[str, Kind], nullable: Collecti
             for c, kind in columns.items():
                 v = r[c]
                 d[c] = None if v == "" and (kind != "str" or c in nullable) else (
-                    int(v) if kind == "int" else float(v) if kind == "float" else v)
+                    int(v) if kind == "int" else float(v) if kind == "float" else v == "true" if kind == "bool"
+                    else json.loads(v) if kind == "strlist" else v)
+            d.update({c: _guess(v) for c, v in r.items() if c not in columns})
             out.append(d)
     return out

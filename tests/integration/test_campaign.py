@@ -135,6 +135,54 @@ def test_cli_status_and_export(resumed: Path, tmp_path: Path) -> None:
     assert res.exit_code == 0 and "experiments" in (tmp_path / "p.yaml").read_text()
 
 
+def test_exports_load_in_one_line_with_pandas_and_duckdb_typed_and_with_world_descriptors(
+        resumed: Path, tmp_path: Path) -> None:
+    """What docs/campaigns.md promises a pandas or DuckDB user, with the real readers."""
+    import duckdb
+    import pandas as pd
+    import pyarrow.parquet as pq
+
+    import navstress
+
+    runner = CliRunner()
+    for fmt in ("csv", "parquet"):
+        res = runner.invoke(campaign_app, ["export", str(resumed), "-f", fmt, "-o", str(tmp_path / f"runs.{fmt}")])
+        assert res.exit_code == 0, res.output
+    with Store.open(resumed) as s:
+        records = s.records()
+        spec_text = (resumed / "spec.yaml").read_text()
+    trees = [r.config["obstacles.obstruction.tree"] for r in records]
+    for df in (pd.read_parquet(tmp_path / "runs.parquet"), pd.read_csv(tmp_path / "runs.csv")):
+        assert df["run_id"].tolist() == [r.run_id for r in records]
+        col = df["param.obstacles.obstruction.tree"]
+        assert pd.api.types.is_integer_dtype(col) and col.tolist() == trees
+        world = [c for c in df.columns if c.startswith("world.")]
+        assert {"world.obstruction_total_pct", "world.path_ratio", "world.slope_mean_deg"} <= set(world)
+        assert all(pd.api.types.is_float_dtype(df[c]) for c in world)
+        assert df[["world.obstruction_total_pct", "world.slope_mean_deg"]].notna().all().all()
+        # a world's descriptors are the same in every run of that world, and differ with the trees
+        assert df.groupby("param.obstacles.obstruction.tree")["world.obstruction_total_pct"].nunique().eq(1).all()
+        assert df["world.obstruction_total_pct"].nunique() == len(set(trees)) == 2
+    first = pd.read_parquet(tmp_path / "runs.parquet")["errors"].iloc[0]
+    assert list(first) == records[0].errors  # a list column, not JSON text
+    con = duckdb.connect()
+    for fmt in ("csv", "parquet"):
+        got = con.sql(f"""SELECT "param.obstacles.obstruction.tree" AS tree, count(*) AS n,
+                                 avg("world.obstruction_total_pct") AS obstruction
+                          FROM '{tmp_path / f"runs.{fmt}"}' GROUP BY tree ORDER BY tree""").fetchall()
+        assert [(t, n) for t, n, _ in got] == [(t, trees.count(t)) for t in sorted(set(trees))]
+        assert got[0][2] < got[1][2]
+        types = {name: typ for name, typ, *_ in con.sql(f"""DESCRIBE SELECT * FROM '{tmp_path / f"runs.{fmt}"}'""")
+                 .fetchall()}
+        assert types["duration_s"] == "DOUBLE" and types["collisions"] == "BIGINT"
+    kv = {k.decode(): v.decode() for k, v in pq.read_schema(tmp_path / "runs.parquet").metadata.items()
+          if k.startswith(b"navstress.")}
+    assert kv == {"navstress.version": navstress.__version__, "navstress.table": "runs", "navstress.spec": spec_text}
+    meta = dict(con.sql(f"SELECT decode(key), decode(value) FROM parquet_kv_metadata('{tmp_path / 'runs.parquet'}')")
+                .fetchall())
+    assert meta["navstress.version"] == navstress.__version__ and meta["navstress.spec"] == spec_text
+
+
 MISBEHAVING = [
     {"name": "exits-v1", "target": "campaign_navs:Exits", "config": {"after_s": 0.5}},
     {"name": "segfaults-v1", "target": "campaign_navs:Segfaults", "config": {"after_s": 0.5}},

@@ -15,42 +15,15 @@ correlation. The ranking sorts by ``|rho|`` against the level (then against succ
 
 from __future__ import annotations
 
-import json
-import math
 from dataclasses import dataclass
-from pathlib import Path
-from typing import Any
 
 import numpy as np
 from scipy.stats import rankdata
 
-#: Bookkeeping entries of World.descriptors that say nothing about difficulty.
-SKIP_PREFIXES = ("placement_", "traversability.", "obstruction_target_pct", "infeasible_reason")
+from navstress.world.world import SKIP_PREFIXES, flatten, world_descriptors
 
-
-def flatten(d: dict[str, Any], prefix: str = "") -> dict[str, float]:
-    """Numeric leaves of a nested mapping as ``{"a.b": value}`` (bools as 0/1, others dropped)."""
-    out: dict[str, float] = {}
-    for k, v in d.items():
-        name = f"{prefix}{k}"
-        if isinstance(v, dict):
-            out.update(flatten(v, name + "."))
-        elif isinstance(v, bool):
-            out[name] = float(v)
-        elif isinstance(v, (int, float)) and math.isfinite(float(v)):
-            out[name] = float(v)
-    return out
-
-
-def world_descriptors(world_dir: str | Path) -> dict[str, float] | None:
-    """The flattened numeric descriptors of a saved world (reads only ``world.json``), None if absent."""
-    p = Path(world_dir) / "world.json"
-    try:
-        meta = json.loads(p.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return None
-    flat = flatten(dict(meta.get("descriptors", {})))
-    return {k: v for k, v in flat.items() if not k.startswith(SKIP_PREFIXES)}
+__all__ = ["SKIP_PREFIXES", "flatten", "world_descriptors", "mean_descriptors", "spearman", "correlations",
+           "Correlation"]
 
 
 def mean_descriptors(maps: list[dict[str, float]]) -> dict[str, float]:

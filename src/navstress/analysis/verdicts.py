@@ -238,9 +238,10 @@ def verdicts(records: Iterable[RunRecord], rule: VerdictRule | None = None,
     return Verdicts(rule, worlds, configs, rules)
 
 
-def write_verdicts(v: Verdicts, fmt: str, dest: Path) -> Path:
-    """Write the verdicts table (:data:`VERDICT_COLUMNS`) as CSV or Parquet, atomically."""
-    return write_table(v.rows(), _KINDS, fmt, dest)
+def write_verdicts(v: Verdicts, fmt: str, dest: Path, metadata: dict[str, str] | None = None) -> Path:
+    """Write the verdicts table (:data:`VERDICT_COLUMNS`) as CSV or Parquet, atomically
+    (``metadata``: a Parquet file's schema metadata)."""
+    return write_table(v.rows(), _KINDS, fmt, dest, metadata=metadata)
 
 
 def read_verdicts(path: str | Path) -> list[dict[str, Any]]:

@@ -45,13 +45,14 @@ from pathlib import Path
 from types import TracebackType
 from typing import IO, Any, Literal
 
-from navstress import _files, _json
+from navstress import __version__, _files, _json
 from navstress._tables import FORMATS, Kind, read_table, write_table
 from navstress.campaign.plan import NOMINAL, Plan, plan
 from navstress.campaign.spec import CampaignSpec, parse_campaign_text
 from navstress.errors import SpecError, StoreError
 from navstress.run.outcome import Outcome
 from navstress.run.record import RunRecord, RunTask
+from navstress.world.world import world_descriptors
 
 DB_NAME = "campaign.sqlite"
 SPEC_NAME = "spec.yaml"
@@ -67,6 +68,8 @@ _TYPES = {"map_index": "INTEGER", "run_index": "INTEGER", "map_seed": "INTEGER",
 #: The runs table's column kinds in exports (navstress._tables).
 _KIND_OF: dict[str, Kind] = {"INTEGER": "int", "REAL": "float", "TEXT": "str"}
 _KINDS: dict[str, Kind] = {c: _KIND_OF[_TYPES.get(c, "TEXT")] for c in COLUMNS}
+#: The record's columns in a runs export: errors as a list of strings.
+_EXPORT_KINDS: dict[str, Kind] = {**_KINDS, "errors": "strlist"}
 _FLOATS = ("duration_s", "wall_s", "goal_distance_m", "path_length_m", "tortuousness")
 _TMP_DB = f".{DB_NAME}.tmp"
 #: The ``meta`` key of the spec text an extension gave (what ``spec.yaml`` must hold).
@@ -563,12 +566,76 @@ class Store:
 
     # ---- export ----------------------------------------------------------------------
     def export(self, fmt: Literal["csv", "parquet"], out: str | Path | None = None) -> Path:
-        """Write the runs table (plan order) as CSV or Parquet; returns the path written (atomically)."""
+        """Write the runs table (plan order) as CSV or Parquet; returns the path written (atomically).
+
+        Columns: the run record's (``config`` the swept parameters as one JSON object, ``errors``
+        a list of strings: a Parquet list, a JSON array in CSV), then one typed column per swept
+        parameter (``param.<path>``: int, float, bool or text), then the numeric descriptors of
+        each run's world (``world.<name>``, floats, empty where the world is not generated). A
+        Parquet file's schema metadata holds ``navstress.version``, ``navstress.table`` and
+        ``navstress.spec`` (the campaign spec's text)."""
         if fmt not in FORMATS:
             raise SpecError("format", fmt, "csv or parquet")
         dest = Path(out) if out is not None else self.root / f"runs.{fmt}"
-        q = f"SELECT {', '.join('r.' + c for c in COLUMNS)} FROM runs r LEFT JOIN planned p USING (run_id) ORDER BY p.seq"
-        return write_table([dict(r) for r in self.con.execute(q)], _KINDS, fmt, dest)
+        q = (f"SELECT {', '.join('r.' + c for c in COLUMNS)}, p.task AS task FROM runs r "
+             "LEFT JOIN planned p USING (run_id) ORDER BY p.seq")
+        rows = [dict(r) for r in self.con.execute(q)]
+        params: dict[str, list[Any]] = {}
+        for r in rows:
+            for k in json.loads(r["config"]):
+                params.setdefault(k, [])
+        for r in rows:
+            cfg = json.loads(r["config"])
+            for k, vals in params.items():
+                vals.append(cfg.get(k))
+        kinds = dict(_EXPORT_KINDS)
+        for k, vals in params.items():
+            kind = _param_kind(vals)
+            kinds[f"param.{k}"] = kind
+            for r, v in zip(rows, vals):
+                r[f"param.{k}"] = v if kind != "str" or v is None or isinstance(v, str) else _json.dumps(v)
+        worlds = _world_descriptors(self.root, [json.loads(r["task"])["world_dir"] if r["task"] else None
+                                                for r in rows])
+        names = sorted({n for d in worlds.values() for n in d})
+        for r in rows:
+            d = worlds.get(json.loads(r["task"])["world_dir"] if r["task"] else None, {})
+            r.update({f"world.{n}": d.get(n) for n in names})
+        kinds.update({f"world.{n}": "float" for n in names})
+        meta = {"navstress.version": __version__, "navstress.table": "runs", "navstress.spec": self.spec_text()}
+        return write_table(rows, kinds, fmt, dest, metadata=meta)
+
+    def spec_text(self) -> str:
+        """The campaign spec's text as the user wrote it (the last extension's, if extended)."""
+        row = self.con.execute("SELECT value FROM meta WHERE key = ?", (_SPEC_TEXT,)).fetchone()
+        if row is not None:
+            return str(row[0])
+        try:
+            return (self.root / SPEC_NAME).read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError):  # the copy is gone: the database's canonical form
+            return self.spec.canonical_json()
+
+
+def _param_kind(values: list[Any]) -> Kind:
+    """The column kind of a swept parameter's values (None where a run's configuration lacks it)."""
+    present = [v for v in values if v is not None]
+    if present and all(isinstance(v, bool) for v in present):
+        return "bool"
+    if present and all(isinstance(v, int) and not isinstance(v, bool) for v in present):
+        return "int"
+    if present and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in present):
+        return "float"
+    return "str"
+
+
+def _world_descriptors(root: Path, world_dirs: list[str | None]) -> dict[str | None, dict[str, float]]:
+    """The numeric descriptors of each (generated) world among ``world_dirs`` (relative to ``root``)."""
+    out: dict[str | None, dict[str, float]] = {}
+    for wd in dict.fromkeys(world_dirs):
+        if wd is not None:
+            d = world_descriptors(root / wd)
+            if d is not None:
+                out[wd] = d
+    return out
 
 
 def extension_error(stored: CampaignSpec, given: CampaignSpec) -> str | None:
@@ -602,7 +669,7 @@ def _short(v: Any) -> str:
 
 def read_export(path: str | Path) -> list[dict[str, Any]]:
     """Read back an exported runs table (CSV or Parquet) as rows with typed values."""
-    return read_table(path, _KINDS, nullable=("fault", "trace"))
+    return read_table(path, _EXPORT_KINDS, nullable=("fault", "trace"))
 
 
 def _record(row: dict[str, Any], root: Path) -> RunRecord:

@@ -21,7 +21,7 @@ from typing import Annotated, Any
 import typer
 from rich.table import Table
 
-from navstress import _json
+from navstress import __version__, _json
 from navstress._console import console, literal
 from navstress._percent import percent
 from navstress.analysis.report import build_report
@@ -189,7 +189,9 @@ def export(
         raise SpecError("--output", str(out), f"a {fmt} file path, not a directory")
     if table == "verdicts":
         v = campaign_verdicts(directory)
-        path = write_verdicts(v, fmt, out if out is not None else Path(directory) / f"verdicts.{fmt}")
+        with Store.open(directory) as store:
+            meta = {"navstress.version": __version__, "navstress.table": "verdicts", "navstress.spec": store.spec_text()}
+        path = write_verdicts(v, fmt, out if out is not None else Path(directory) / f"verdicts.{fmt}", meta)
         typer.echo(literal(f"wrote {path} ({len(v.worlds)} worlds, {len(v.configurations)} configurations)"))
         return
     with Store.open(directory) as store:

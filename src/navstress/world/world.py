@@ -304,3 +304,34 @@ class World:
 def is_world_dir(path: str | os.PathLike[str]) -> bool:
     p = Path(path)
     return p.is_dir() and (p / WORLD_JSON).is_file() and (p / TERRAIN_NPZ).is_file()
+
+
+# ---- descriptors of a saved world (read by analyses and exports) ------------------------------
+
+#: Bookkeeping entries of World.descriptors that say nothing about difficulty.
+SKIP_PREFIXES = ("placement_", "traversability.", "obstruction_target_pct", "infeasible_reason")
+
+
+def flatten(d: dict[str, Any], prefix: str = "") -> dict[str, float]:
+    """Numeric leaves of a nested mapping as ``{"a.b": value}`` (bools as 0/1, others dropped)."""
+    out: dict[str, float] = {}
+    for k, v in d.items():
+        name = f"{prefix}{k}"
+        if isinstance(v, dict):
+            out.update(flatten(v, name + "."))
+        elif isinstance(v, bool):
+            out[name] = float(v)
+        elif isinstance(v, (int, float)) and math.isfinite(float(v)):
+            out[name] = float(v)
+    return out
+
+
+def world_descriptors(world_dir: str | Path) -> dict[str, float] | None:
+    """The flattened numeric descriptors of a saved world (reads only ``world.json``), None if absent."""
+    p = Path(world_dir) / "world.json"
+    try:
+        meta = json.loads(p.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    flat = flatten(dict(meta.get("descriptors", {})))
+    return {k: v for k, v in flat.items() if not k.startswith(SKIP_PREFIXES)}

@@ -93,6 +93,14 @@ def test_export_verdicts_table(camp: Path, tmp_path: Path, fmt: str) -> None:
         + [("configuration", c.config_key, None, c.fault, c.runs, c.successes, c.verdict)
            for c in a.verdicts.configurations])
     assert rows[0]["ci_low"] == pytest.approx(a.verdicts.worlds[0].ci[0])
+    if fmt == "parquet":  # the spec and version travel with the table
+        import pyarrow.parquet as pq
+
+        import navstress
+
+        meta = pq.read_schema(out).metadata
+        assert meta[b"navstress.table"] == b"verdicts" and meta[b"navstress.version"] == navstress.__version__.encode()
+        assert meta[b"navstress.spec"].decode() == (camp / "spec.yaml").read_text()
     # the runs export is what it was
     r2 = CliRunner().invoke(app, ["campaign", "export", str(camp), "-o", str(tmp_path / "runs.csv")])
     assert r2.exit_code == 0 and (tmp_path / "runs.csv").read_text().startswith("run_id,")

@@ -141,10 +141,14 @@ def test_export_roundtrip(tmp_path: Path, fmt: str) -> None:
             s.add(r)
         out = s.export(fmt, tmp_path / f"runs.{fmt}")  # type: ignore[arg-type]
     rows = read_export(out)
-    assert [list(r) for r in rows] == [list(COLUMNS)] * 5
+    params = list(dict.fromkeys(k for r in recs for k in r.config))
+    # the record's columns, then one typed column per swept parameter (no world is generated here)
+    assert [list(r) for r in rows] == [list(COLUMNS) + [f"param.{k}" for k in params]] * 5
     back = [RunRecord.from_row(r) for r in rows]
-    for a, b in zip(back, recs):
+    for a, b, row in zip(back, recs, rows):
         assert a == replace(b, trace=(os.path.relpath(b.trace, tmp_path / "c") if b.trace else None))
+        assert {k: row[f"param.{k}"] for k in b.config} == b.config
+        assert row["errors"] == b.errors  # a list of strings, in both formats
 
 
 def test_export_bad_format(tmp_path: Path) -> None:
