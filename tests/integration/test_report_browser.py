@@ -24,17 +24,10 @@ from navstress._percent import percent  # noqa: E402
 from navstress.analysis.report import build_report  # noqa: E402
 from navstress.analysis.stats import wilson  # noqa: E402
 from navstress.campaign.store import Store  # noqa: E402
+from required import need as _need  # noqa: E402
 from search_dirs import SearchDirs  # noqa: E402
 
 CHROMIUM = os.environ.get("NAVSTRESS_CHROMIUM") or shutil.which("chromium") or "/usr/bin/chromium"
-
-
-def _need(ok: bool, why: str) -> None:
-    if ok:
-        return
-    if os.environ.get("CI", "").lower() in ("true", "1", "yes"):
-        pytest.fail(f"{why} (required under CI; `make test` installs chromium)")
-    pytest.skip(why)
 
 
 @pytest.fixture

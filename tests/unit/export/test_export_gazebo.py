@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import shutil
 import subprocess
 from pathlib import Path
@@ -19,6 +18,7 @@ import numpy as np
 import pytest
 
 from built_once import built_once
+from required import need as _need
 from world_fixtures import small_world
 from navstress.world import World
 from navstress.world.export._grid import MARKER, surface_heights
@@ -26,14 +26,6 @@ from navstress.world.export.sdf import write_sdf
 
 SOURCE = Path(__file__).resolve().parents[2] / "oracles" / "sdf_load.cc"
 PACKAGES = ("sdformat12", "ignition-common4-graphics")
-
-
-def _need(ok: bool, why: str) -> None:
-    if ok:
-        return
-    if os.environ.get("CI", "").lower() in ("true", "1", "yes"):
-        pytest.fail(f"{why} (required under CI; `make test` installs it)")
-    pytest.skip(why)
 
 
 def _build(d: Path) -> str:
