@@ -1,5 +1,6 @@
-"""Checks every MCAP trace the tests write: messages in log-time order in the file and a valid,
-consistent summary (what ``mcap doctor --strict-message-order`` and Foxglove rely on).
+"""Checks every MCAP trace the tests write: messages in log-time order in the file, each
+channel's sequence numbers 1, 2, 3, ... in that order, and a valid, consistent summary (what
+``mcap doctor --strict-message-order`` and Foxglove rely on).
 
 Used by the autouse fixtures in ``tests/conftest.py``; a uniquely named module (several
 ``conftest`` modules exist in this tree). When the official ``mcap`` CLI is on PATH (or
@@ -29,6 +30,9 @@ def trace_problems(path: Path) -> list[str]:
                                 f"log_time {message.log_time} < previous {times[-1]}")
             times.append(message.log_time)
             per_channel[message.channel_id] += 1
+            if message.sequence != per_channel[message.channel_id] and len(problems) < 20:
+                problems.append(f"message {len(times) - 1} on {channel.topic} has sequence {message.sequence}, "
+                                f"expected {per_channel[message.channel_id]} (the channel's count so far)")
     with open(path, "rb") as f:
         reader = SeekingReader(f, validate_crcs=True)
         summary = reader.get_summary()

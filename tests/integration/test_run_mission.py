@@ -10,7 +10,8 @@ from navstress.nav.registry import make_navigator
 from navstress.robot import RobotSpec
 from navstress.run.mission import execute, run_mission
 from navstress.run.record import RunTask
-from navstress.run.trace import TOPIC_MAP, TOPIC_PERCEIVED, read_events, read_grid, read_metadata, read_poses
+from navstress.run.trace import (TOPIC_MAP, TOPIC_PERCEIVED, TOPIC_ROBOT, _messages, read_events, read_grid,
+                                 read_metadata, read_poses, read_transforms)
 from navstress.world import Obstacle, World, WorldSpec, generate, parse_spec
 
 pytestmark = pytest.mark.slow
@@ -50,6 +51,27 @@ def test_reference_reaches_the_goal_and_trace_holds_the_run(small_world: Path, t
     assert grid is not None and np.isnan(grid[0]).any() and np.isfinite(grid[0]).any()
     assert read_metadata(rec.trace)["run_seed"] == "5"
     assert "Success" in read_events(rec.trace)[-1].message
+    _check_frames(rec.trace, truth, perceived)
+
+
+def _check_frames(trace: str, truth: np.ndarray, perceived: np.ndarray) -> None:
+    """The frame tree a Foxglove user follows: map -> base_link -> lidar from the truth, and
+    map -> perceived/base_link -> perceived/lidar from the belief; the robot's body on both."""
+    tf = read_transforms(trace)
+    assert set(tf) == {("map", "base_link"), ("base_link", "lidar"), ("map", "perceived/base_link"),
+                       ("perceived/base_link", "perceived/lidar")}
+    np.testing.assert_allclose(tf[("map", "base_link")], truth, atol=1e-9)
+    np.testing.assert_allclose(tf[("map", "perceived/base_link")], perceived, atol=1e-9)
+    mount = RobotSpec().lidar
+    for parent in ("base_link", "perceived/base_link"):
+        (row,) = tf[(parent, parent.replace("base_link", "lidar"))]
+        assert row[1:4] == pytest.approx([mount.x_m, mount.y_m, mount.z_m]) and row[4:] == pytest.approx([0, 0, 0])
+    ((_t, _lt, update),) = list(_messages(trace, [TOPIC_ROBOT]))
+    robot = RobotSpec()
+    bodies = {e.frame_id: e for e in update.entities}
+    assert set(bodies) == {"base_link", "perceived/base_link"} and all(e.frame_locked for e in bodies.values())
+    size = bodies["base_link"].cubes[0].size
+    assert (size.x, size.y, size.z) == pytest.approx((robot.length_m, robot.width_m, robot.body_height_m))
 
 
 def test_same_task_same_trace_bytes(small_world: Path, tmp_path: Path) -> None:

@@ -13,7 +13,7 @@ from trace_check import trace_problems
 
 from navstress.errors import StoreError
 from navstress.run.trace import (TOPIC_MAP, TOPIC_PERCEIVED, TOPIC_TRUTH, TraceWriter, euler, quaternion, read_events,
-                                 read_grid, read_metadata, read_poses)
+                                 read_grid, read_metadata, read_poses, read_transforms)
 
 angle = st.floats(-math.pi + 1e-3, math.pi - 1e-3)
 
@@ -119,10 +119,15 @@ def test_trace_with_non_finite_or_negative_pose_times_is_still_valid(tmp_path: P
     negative time are left out, the rest is written."""
     rows = np.array([[0.0, 1, 1, 0, 0, 0, 0], [np.nan, 2, 2, 0, 0, 0, 0], [-1.0, 3, 3, 0, 0, 0, 0],
                      [np.inf, 4, 4, 0, 0, 0, 0], [0.5, 5, 5, 0, 0, 0, 0]])
+    rows_nan_pose = rows.copy()
+    rows_nan_pose[4, 5] = np.nan  # a NaN pitch: no transform can be drawn from it
     with TraceWriter(tmp_path / "p.mcap") as tw:
         tw.poses(TOPIC_PERCEIVED, rows)
+        tw.transforms("map", "perceived/base_link", rows_nan_pose)
     back = read_poses(tmp_path / "p.mcap", TOPIC_PERCEIVED)
     assert back[:, 0].tolist() == [0.0, 0.5] and back[:, 1].tolist() == [1.0, 5.0]
+    tf = read_transforms(tmp_path / "p.mcap")
+    assert list(tf) == [("map", "perceived/base_link")] and tf[("map", "perceived/base_link")][:, 1].tolist() == [1.0]
 
 
 @pytest.mark.not_traces
@@ -134,8 +139,26 @@ def test_the_trace_check_sees_messages_out_of_order(tmp_path: Path) -> None:
         w = RawWriter(f)
         w.start()
         ch = w.register_channel("/a", "json", w.register_schema("s", "jsonschema", b"{}"))
-        for t in (5, 6, 1, 2):
-            w.add_message(ch, log_time=t, data=b"{}", publish_time=t)
+        for q, t in enumerate((5, 6, 1, 2), start=1):
+            w.add_message(ch, log_time=t, data=b"{}", publish_time=t, sequence=q)
         w.finish()
     problems = trace_problems(tmp_path / "bad.mcap")
     assert problems and "goes back in time" in problems[0]
+
+
+@pytest.mark.not_traces
+def test_the_trace_check_sees_sequence_numbers_that_do_not_count(tmp_path: Path) -> None:
+    """Foxglove shows a message's sequence: every channel's must count 1, 2, 3, ... (they were
+    all 0)."""
+    from mcap.writer import Writer as RawWriter
+    for seqs, ok in (((1, 2, 3), True), ((0, 0, 0), False), ((1, 3, 4), False)):
+        with open(tmp_path / "s.mcap", "wb") as f:
+            w = RawWriter(f)
+            w.start()
+            ch = w.register_channel("/a", "json", w.register_schema("s", "jsonschema", b"{}"))
+            for t, q in enumerate(seqs):
+                w.add_message(ch, log_time=t, data=b"{}", publish_time=t, sequence=q)
+            w.finish()
+        problems = trace_problems(tmp_path / "s.mcap")
+        assert (problems == []) == ok, problems
+        assert ok or "sequence" in problems[0]

@@ -37,7 +37,8 @@ from navstress.robot import RobotSpec
 from navstress.run.metrics import drop_jitter, path_length, tortuousness
 from navstress.run.outcome import Classification, RunFacts, classify
 from navstress.run.record import RunRecord, RunTask
-from navstress.run.trace import TOPIC_MAP, TOPIC_PERCEIVED, TOPIC_TERRAIN, TOPIC_TRUTH, TraceWriter
+from navstress.run.trace import (BELIEF, FRAME, FRAME_ROBOT, TOPIC_MAP, TOPIC_PERCEIVED, TOPIC_TERRAIN, TOPIC_TRUTH,
+                                 TraceWriter)
 from navstress.seeding import derive_seed, rng
 from navstress.sim.config import SimConfig
 from navstress.sim.sensors import euler_from_mat
@@ -260,7 +261,7 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
                        path_length_m=path_length(xy), tortuousness=tortuousness(truth[:, 1:3]) if len(truth) else 0.0,
                        movers=sim.mover_track() if sim is not None and world.movers else None)
     if trace is not None:
-        _write_trace(trace, world, result)
+        _write_trace(trace, world, result, robot)
         for t, pts, mount in clouds:
             trace.points(t, _to_map_frame(pts, mount, truth, t))
     return result
@@ -284,7 +285,7 @@ def _to_map_frame(pts: np.ndarray, mount: tuple[float, float, float], truth: np.
     return out
 
 
-def _write_trace(tw: TraceWriter, world: World, r: RunResult) -> None:
+def _write_trace(tw: TraceWriter, world: World, r: RunResult, robot: RobotSpec) -> None:
     h = world.terrain.heights
     m = world.mission
     tw.scene([o.to_json() for o in world.obstacles], m.start, m.goal,
@@ -292,8 +293,13 @@ def _write_trace(tw: TraceWriter, world: World, r: RunResult) -> None:
     c = world.terrain.cell_m
     tw.grid(TOPIC_TERRAIN, 0.0, h, (-c / 2, -c / 2), c, field="height")
     tw.poses(TOPIC_TRUTH, r.truth)
-    if r.perceived is not None and len(r.perceived):
+    tw.transforms(FRAME, FRAME_ROBOT, r.truth)
+    belief = r.perceived is not None and len(r.perceived) > 0
+    if r.perceived is not None and belief:
         tw.poses(TOPIC_PERCEIVED, r.perceived)
+        tw.transforms(FRAME, BELIEF + FRAME_ROBOT, r.perceived)
+    mount = robot.lidar
+    tw.robot((robot.length_m, robot.width_m, robot.body_height_m), (mount.x_m, mount.y_m, mount.z_m), belief=belief)
     for t, level, msg in r.events:
         tw.event(t, level, msg)
     if r.final_map is not None:

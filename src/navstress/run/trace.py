@@ -1,6 +1,10 @@
 """Run traces: one MCAP file per run, with Foxglove schemas (protobuf encoding).
 
-Open a trace in Foxglove to see the run: ``/truth/pose`` and ``/perceived/pose``
+Open a trace in Foxglove to see the run: ``/tf`` (``foxglove.FrameTransform``: the frame tree
+``map -> base_link -> lidar`` from the true pose, and ``map -> perceived/base_link ->
+perceived/lidar`` from the navigator's belief, so a follow camera can ride ``base_link`` and the
+drift shows between the two), ``/robot/body`` (``foxglove.SceneUpdate``: the robot's box locked
+to each ``base_link``, the belief's translucent), ``/truth/pose`` and ``/perceived/pose``
 (``foxglove.PoseInFrame``), ``/events`` (``foxglove.Log``: collisions, errors, end of run),
 ``/world/scene`` (``foxglove.SceneUpdate``: obstacles as cubes, start and goal),
 ``/world/movers`` (``foxglove.SceneUpdate``, one per run of the movers' controller (10 Hz): every
@@ -13,7 +17,8 @@ shows (a pose's measurement time, a scan's time), and messages are written to th
 log-time order whatever order they were handed over in (``mcap doctor
 --strict-message-order`` is clean): the writer buffers them and writes them sorted (stable,
 by log time then order of submission) when the file is closed. The file is written under a
-temporary name and renamed into place when complete (DESIGN invariant 4).
+temporary name and renamed into place when complete (DESIGN invariant 4). Each channel's
+messages carry sequence numbers 1, 2, 3, ... in file order.
 
 The analysis reads trajectories back with :func:`read_poses`, the movers with :func:`read_movers`.
 """
@@ -31,6 +36,7 @@ import numpy as np
 from foxglove_schemas_protobuf.Color_pb2 import Color
 from foxglove_schemas_protobuf.CubePrimitive_pb2 import CubePrimitive
 from foxglove_schemas_protobuf.CylinderPrimitive_pb2 import CylinderPrimitive
+from foxglove_schemas_protobuf.FrameTransform_pb2 import FrameTransform
 from foxglove_schemas_protobuf.Grid_pb2 import Grid
 from foxglove_schemas_protobuf.KeyValuePair_pb2 import KeyValuePair
 from foxglove_schemas_protobuf.Log_pb2 import Log
@@ -62,6 +68,11 @@ TOPIC_TERRAIN = "/world/terrain"
 TOPIC_MAP = "/nav/map"
 TOPIC_LIDAR = "/lidar"
 TOPIC_MOVERS = "/world/movers"
+TOPIC_TF = "/tf"
+TOPIC_ROBOT = "/robot/body"
+#: The robot's frames: the true pose's, and the navigator's belief (``perceived/`` prefixed).
+FRAME_ROBOT, FRAME_LIDAR = "base_link", "lidar"
+BELIEF = "perceived/"
 MOVER_COLOUR = Color(r=0.2, g=0.35, b=0.85, a=1.0)
 
 LEVELS = {"debug": 1, "info": 2, "warning": 3, "error": 4, "fatal": 5}
@@ -125,6 +136,35 @@ class TraceWriter:
         """Many poses at once: ``rows`` (N, 7) = t, x, y, z, yaw, pitch, roll."""
         for r in np.asarray(rows, dtype=np.float64):
             self.pose(topic, *(float(v) for v in r))
+
+    def transforms(self, parent: str, child: str, rows: np.ndarray) -> None:
+        """``foxglove.FrameTransform`` ``parent -> child`` at each row (N, 7) = t, x, y, z, yaw,
+        pitch, roll (rows with a non-finite value are left out)."""
+        for r in np.asarray(rows, dtype=np.float64):
+            if not (np.all(np.isfinite(r)) and r[0] >= 0.0):
+                continue
+            t, x, y, z, yaw, pitch, roll = (float(v) for v in r)
+            msg = FrameTransform(timestamp=_stamp(t), parent_frame_id=parent, child_frame_id=child,
+                                 translation=Vector3(x=x, y=y, z=z), rotation=quaternion(yaw, pitch, roll))
+            self._put(TOPIC_TF, msg, _ns(t))
+
+    def robot(self, size: tuple[float, float, float], lidar: tuple[float, float, float], *, belief: bool) -> None:
+        """The robot's body (a box of ``size``, centred on its frame) and its lidar mount: a static
+        ``base_link -> lidar`` transform, and one ``/robot/body`` SceneUpdate whose entities are
+        locked to ``base_link`` (opaque) and, with ``belief``, to ``perceived/base_link``
+        (translucent), so that the drift between truth and belief shows as two bodies."""
+        frames = [FRAME_ROBOT] + ([BELIEF + FRAME_ROBOT] if belief else [])
+        ents = []
+        for frame in frames:
+            prefix = frame[: -len(FRAME_ROBOT)]
+            self.transforms(frame, prefix + FRAME_LIDAR, np.array([[0.0, *lidar, 0.0, 0.0, 0.0]]))
+            alpha = 1.0 if not prefix else 0.35
+            body = CubePrimitive(pose=Pose(position=Vector3(), orientation=Quaternion(w=1.0)),
+                                 size=Vector3(x=size[0], y=size[1], z=size[2]),
+                                 color=Color(r=0.95, g=0.6, b=0.1, a=alpha))
+            ents.append(SceneEntity(timestamp=_stamp(0.0), frame_id=frame, id=f"{prefix}robot", frame_locked=True,
+                                    cubes=[body]))
+        self._put(TOPIC_ROBOT, SceneUpdate(entities=ents), 0)
 
     def event(self, t: float, level: str, message: str, name: str = "navstress") -> None:
         msg = Log(timestamp=_stamp(t), level=LEVELS[level], message=cap_message(message), name=name)  # type: ignore[arg-type]
@@ -194,8 +234,10 @@ class TraceWriter:
         """Write the queued messages in log-time order, finish the file and move it into place
         atomically; returns the final path."""
         self._pending.sort(key=lambda m: (m[0], m[1]))
-        for log_time, _seq, topic, msg in self._pending:
-            self._w.write_message(topic, msg, log_time=log_time, publish_time=log_time)
+        sequence: dict[str, int] = {}
+        for log_time, _order, topic, msg in self._pending:
+            sequence[topic] = sequence.get(topic, 0) + 1  # per channel, from 1, in file order
+            self._w.write_message(topic, msg, log_time=log_time, publish_time=log_time, sequence=sequence[topic])
         self._pending.clear()
         self._w.finish()  # type: ignore[no-untyped-call]
         self._f.flush()
@@ -252,6 +294,15 @@ def read_poses(path: str | os.PathLike[str], topic: str = TOPIC_TRUTH) -> np.nda
         p = m.pose.position
         rows.append((log_time / 1e9, p.x, p.y, p.z, *euler(m.pose.orientation)))
     return np.array(rows, dtype=np.float64).reshape(-1, 7)
+
+
+def read_transforms(path: str | os.PathLike[str]) -> dict[tuple[str, str], np.ndarray]:
+    """The ``/tf`` frame transforms per (parent, child): (N, 7) rows t, x, y, z, yaw, pitch, roll."""
+    out: dict[tuple[str, str], list[list[float]]] = {}
+    for _t, lt, m in _messages(path, [TOPIC_TF]):
+        p = m.translation
+        out.setdefault((m.parent_frame_id, m.child_frame_id), []).append([lt / 1e9, p.x, p.y, p.z, *euler(m.rotation)])
+    return {k: np.array(v, dtype=np.float64) for k, v in out.items()}
 
 
 def read_events(path: str | os.PathLike[str]) -> list[TraceEvent]:
