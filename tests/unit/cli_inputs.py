@@ -8,6 +8,7 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 import yaml
 from typer.testing import CliRunner
 
@@ -16,6 +17,7 @@ from navstress.campaign.spec import parse_campaign
 from navstress.campaign.store import Store
 from navstress.cli import app
 from navstress.run.record import RunRecord
+from navstress.run.trace import TOPIC_TRUTH, TraceWriter
 
 CAMPAIGN = {"name": "tiny", "seed": 1, "world": {"size_m": [20.0, 20.0], "cell_m": 0.5},
             "experiments": [{"name": "flat", "sweep": {"obstacles.obstruction.tree": {"values": [0]}}}],
@@ -30,9 +32,14 @@ TRACEBACK = re.compile(r"Traceback|^\s+File \"", re.M)
 
 def prepare(root: Path) -> None:
     """``root/w`` a world, ``root/c`` a campaign store holding one record, ``root/spec.yaml``,
-    ``root/search.yaml`` (a search spec)."""
+    ``root/search.yaml`` (a search spec), ``root/t.mcap`` (a run's trace)."""
     root.mkdir(parents=True, exist_ok=True)
     small_world().save(root / "w")
+    with TraceWriter(root / "t.mcap") as tw:
+        tw.poses(TOPIC_TRUTH, np.array([[0.0, 1, 1, 0, 0, 0, 0], [0.1, 1.1, 1, 0, 0, 0, 0]]))
+        tw.transforms("map", "base_link", np.array([[0.0, 1, 1, 0, 0, 0, 0], [0.1, 1.1, 1, 0, 0, 0, 0]]))
+        tw.robot((1.0, 0.6, 0.4), (0.3, 0.0, 0.7), belief=False)
+        tw.event(0.1, "info", "end")
     (root / "spec.yaml").write_text(yaml.safe_dump(CAMPAIGN), encoding="utf-8")
     (root / "search.yaml").write_text(yaml.safe_dump(SEARCH), encoding="utf-8")
     with Store.create(root / "c", parse_campaign(CAMPAIGN), yaml.safe_dump(CAMPAIGN)) as s:
@@ -75,6 +82,7 @@ OUTPUT_COMMANDS = [
     OutputCommand("report", ("report", "{root}/c", "-o", "{out}"), "file"),
     OutputCommand("analyze --json", ("analyze", "{root}/c", "--json", "{out}"), "file"),
     OutputCommand("gate --junit", ("gate", "{root}/c", "--min-success", "0", "--junit", "{out}"), "file"),
+    OutputCommand("trace export ros2", ("trace", "export", "{root}/t.mcap", "-o", "{out}"), "dir"),
 ]
 
 

@@ -58,6 +58,7 @@ BASE: dict[str, dict[str, str]] = {
     "nav check": {"name": "no-such-nav-v1"},
     "replay": {"run_id": "no/such/run"},
     "gate": {"min_success": "0.5"},
+    "trace export": {"trace": "{root}/t.mcap", "output": "{root}/adir"},
 }
 # defaults by parameter name for required parameters
 DEFAULTS = {"world_dir": "{root}/w", "directory": "{root}/c", "spec": "{root}/spec.yaml", "name": "no-such-nav-v1",

@@ -54,6 +54,7 @@ MOUNTS: dict[str, tuple[str, str]] = {
     "report": ("navstress.cli.analysis", "Write one self-contained HTML report (figures embedded) of a campaign or a search."),
     "compare": ("navstress.cli.compare", "Compare two navigators, faults or stack versions run by run on the same worlds and seeds."),
     "world": ("navstress.cli.world", "Generate, inspect and export worlds (terrain, obstacles, mission)."),
+    "trace": ("navstress.cli.trace", "Export a run's trace to other tools (a ROS 2 bag for RViz)."),
     "nav": ("navstress.cli.nav", "Navigators under test: list them, list faults, check conformance."),
     "campaign": ("navstress.cli.campaign", "Plan, run, follow and export campaigns of many runs."),
     "search": ("navstress.cli.search", "Search for the worlds where a stack fails (a ready spec: `navstress search init`)."),

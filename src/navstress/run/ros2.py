@@ -1,0 +1,205 @@
+"""A run's trace as a ROS 2 bag (rosbag2, MCAP storage, CDR messages of ROS 2 Humble's standard
+types), written with ``rosbags``, so that ``ros2 bag play`` feeds RViz and a team's own nodes.
+
+    navstress trace export RUN.mcap --format ros2 -o RUN_bag/
+
+What the bag holds (every stamp and bag time is the run's *simulated* time, as in the trace):
+
+| topic | type | from the trace |
+|---|---|---|
+| ``/tf`` | ``tf2_msgs/msg/TFMessage`` | ``/tf`` (``map -> base_link``, ``map -> perceived/base_link``) |
+| ``/tf_static`` | ``tf2_msgs/msg/TFMessage`` (transient local) | the lidar mounts (``base_link -> lidar``, ...) |
+| ``/truth/odom``, ``/perceived/odom`` | ``nav_msgs/msg/Odometry`` | the poses (twist left zero: the trace has no velocities) |
+| ``/rosout`` | ``rcl_interfaces/msg/Log`` | ``/events`` |
+| ``/world/markers`` | ``visualization_msgs/msg/MarkerArray`` (transient local) | ``/world/scene``: obstacles, start, goal |
+| ``/robot/markers`` | ``visualization_msgs/msg/MarkerArray`` (transient local) | ``/robot/body`` |
+| ``/world/movers`` | ``visualization_msgs/msg/MarkerArray`` | ``/world/movers`` |
+| ``/world/terrain`` | ``sensor_msgs/msg/PointCloud2`` (transient local) | ``/world/terrain``: one point (x, y, z) per height sample |
+| ``/nav/map`` | ``nav_msgs/msg/OccupancyGrid`` | ``/nav/map``, the perceived elevation: -1 unknown, else 0..100 over the grid's lowest..highest known cell (the metres are in ``/nav/map_points``) |
+| ``/nav/map_points`` | ``sensor_msgs/msg/PointCloud2`` | ``/nav/map``: one point per known cell, z its height |
+| ``/lidar`` | ``sensor_msgs/msg/PointCloud2`` | ``/lidar`` (frame ``map``) |
+
+The bag directory is written beside its destination under a temporary name and renamed into
+place when complete.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from navstress import _files
+from navstress.errors import SpecError
+from navstress.run.trace import (FRAME, TOPIC_EVENTS, TOPIC_LIDAR, TOPIC_MAP, TOPIC_MOVERS, TOPIC_PERCEIVED,
+                                 TOPIC_ROBOT, TOPIC_SCENE, TOPIC_TERRAIN, TOPIC_TF, TOPIC_TRUTH, _messages)
+
+
+
+def _latched() -> Any:
+    """The QoS of the latched topics (reliable, transient local, keep last 1: what ``ros2 bag
+    play`` offers late subscribers such as RViz, as a static transform publisher does)."""
+    from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
+
+    never = QosTime(sec=2147483647, nsec=4294967295)
+    return Qos(history=QosHistory.KEEP_LAST, depth=1, reliability=QosReliability.RELIABLE,
+               durability=QosDurability.TRANSIENT_LOCAL, deadline=never, lifespan=never,
+               liveliness=QosLiveliness.AUTOMATIC, liveliness_lease_duration=never,
+               avoid_ros_namespace_conventions=False)
+
+_ODOM = {TOPIC_TRUTH: ("/truth/odom", "base_link"), TOPIC_PERCEIVED: ("/perceived/odom", "perceived/base_link")}
+_LEVEL = {1: 10, 2: 20, 3: 30, 4: 40, 5: 50}  # foxglove.Log level -> rcl_interfaces/Log level
+
+
+class _Bag:
+    """The typestore and the bag's connections, one per (topic, type)."""
+
+    def __init__(self, writer: Any, ts: Any) -> None:
+        self.w, self.ts, self.t = writer, ts, ts.types
+        self.conns: dict[str, Any] = {}
+        self.counts: dict[str, int] = {}
+
+    def put(self, topic: str, msg: Any, t_ns: int, latched: bool = False) -> None:
+        if topic not in self.conns:
+            self.conns[topic] = self.w.add_connection(topic, msg.__msgtype__, typestore=self.ts,
+                                                      offered_qos_profiles=[_latched()] if latched else [])
+        self.w.write(self.conns[topic], t_ns, self.ts.serialize_cdr(msg, msg.__msgtype__))
+        self.counts[topic] = self.counts.get(topic, 0) + 1
+
+    # -- builders --------------------------------------------------------------------------
+    def stamp(self, t_ns: int) -> Any:
+        return self.t["builtin_interfaces/msg/Time"](sec=t_ns // 1_000_000_000, nanosec=t_ns % 1_000_000_000)
+
+    def header(self, t_ns: int, frame: str) -> Any:
+        return self.t["std_msgs/msg/Header"](stamp=self.stamp(t_ns), frame_id=frame)
+
+    def vec(self, v: Any) -> Any:
+        return self.t["geometry_msgs/msg/Vector3"](x=v.x, y=v.y, z=v.z)
+
+    def point(self, v: Any) -> Any:
+        return self.t["geometry_msgs/msg/Point"](x=v.x, y=v.y, z=v.z)
+
+    def quat(self, q: Any) -> Any:
+        return self.t["geometry_msgs/msg/Quaternion"](x=q.x, y=q.y, z=q.z, w=q.w)
+
+    def pose(self, p: Any) -> Any:
+        return self.t["geometry_msgs/msg/Pose"](position=self.point(p.position), orientation=self.quat(p.orientation))
+
+    def cloud(self, t_ns: int, frame: str, xyz: np.ndarray) -> Any:
+        pts = np.ascontiguousarray(xyz, dtype="<f4").reshape(-1, 3)
+        field = self.t["sensor_msgs/msg/PointField"]
+        return self.t["sensor_msgs/msg/PointCloud2"](
+            header=self.header(t_ns, frame), height=1, width=len(pts),
+            fields=[field(name=n, offset=4 * i, datatype=field.FLOAT32, count=1) for i, n in enumerate("xyz")],
+            is_bigendian=False, point_step=12, row_step=12 * len(pts), data=np.frombuffer(pts.tobytes(), np.uint8),
+            is_dense=True)
+
+    def markers(self, update: Any, t_ns: int) -> Any:
+        m = self.t["visualization_msgs/msg/Marker"]
+        out = []
+        for ent in update.entities:
+            shapes = [(m.CUBE, c) for c in ent.cubes] + [(m.SPHERE, s) for s in ent.spheres] + \
+                     [(m.CYLINDER, c) for c in ent.cylinders]
+            for k, (kind, prim) in enumerate(shapes):
+                c = prim.color
+                out.append(m(
+                    header=self.header(t_ns, ent.frame_id), ns=ent.id, id=k, type=kind, action=m.ADD,
+                    pose=self.pose(prim.pose), scale=self.vec(prim.size),
+                    color=self.t["std_msgs/msg/ColorRGBA"](r=c.r, g=c.g, b=c.b, a=c.a),
+                    lifetime=self.t["builtin_interfaces/msg/Duration"](sec=0, nanosec=0),
+                    frame_locked=ent.frame_locked, points=[], colors=[], texture_resource="",
+                    texture=self.t["sensor_msgs/msg/CompressedImage"](header=self.header(0, ""), format="",
+                                                                      data=np.zeros(0, np.uint8)),
+                    uv_coordinates=[], text="", mesh_resource="",
+                    mesh_file=self.t["visualization_msgs/msg/MeshFile"](filename="", data=np.zeros(0, np.uint8)),
+                    mesh_use_embedded_materials=False))
+        return self.t["visualization_msgs/msg/MarkerArray"](markers=out)
+
+
+def _grid(m: Any) -> tuple[np.ndarray, float, float, float]:
+    vals = np.frombuffer(m.data, dtype="<f4").reshape(-1, m.column_count)
+    return vals, m.pose.position.x, m.pose.position.y, m.cell_size.x
+
+
+def _cells(vals: np.ndarray, x0: float, y0: float, cell: float) -> np.ndarray:
+    """(x, y, value) of every finite cell, at the cell's centre."""
+    i, j = np.nonzero(np.isfinite(vals))
+    return np.column_stack([x0 + (j + 0.5) * cell, y0 + (i + 0.5) * cell, vals[i, j]])
+
+
+def _convert(bag: _Bag, topic: str, t_ns: int, m: Any) -> None:
+    T = bag.t
+    if topic == TOPIC_TF:
+        tf = T["geometry_msgs/msg/TransformStamped"](
+            header=bag.header(t_ns, m.parent_frame_id), child_frame_id=m.child_frame_id,
+            transform=T["geometry_msgs/msg/Transform"](translation=bag.vec(m.translation), rotation=bag.quat(m.rotation)))
+        static = m.child_frame_id.endswith("lidar")
+        bag.put("/tf_static" if static else "/tf", T["tf2_msgs/msg/TFMessage"](transforms=[tf]), t_ns, latched=static)
+    elif topic in _ODOM:
+        name, child = _ODOM[topic]
+        zero = T["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.0)
+        bag.put(name, T["nav_msgs/msg/Odometry"](
+            header=bag.header(t_ns, m.frame_id), child_frame_id=child,
+            pose=T["geometry_msgs/msg/PoseWithCovariance"](pose=bag.pose(m.pose), covariance=np.zeros(36)),
+            twist=T["geometry_msgs/msg/TwistWithCovariance"](twist=T["geometry_msgs/msg/Twist"](linear=zero, angular=zero),
+                                                             covariance=np.zeros(36))), t_ns)
+    elif topic == TOPIC_EVENTS:
+        bag.put("/rosout", T["rcl_interfaces/msg/Log"](stamp=bag.stamp(t_ns), level=_LEVEL.get(m.level, 20), name=m.name,
+                                                        msg=m.message, file="", function="", line=0), t_ns)
+    elif topic in (TOPIC_SCENE, TOPIC_ROBOT, TOPIC_MOVERS):
+        name = {TOPIC_SCENE: "/world/markers", TOPIC_ROBOT: "/robot/markers", TOPIC_MOVERS: "/world/movers"}[topic]
+        bag.put(name, bag.markers(m, t_ns), t_ns, latched=topic != TOPIC_MOVERS)
+    elif topic == TOPIC_TERRAIN:
+        vals, x0, y0, cell = _grid(m)
+        rows, cols = vals.shape  # one point per height sample: the grid's cells are centred on the samples
+        j, i = np.meshgrid(np.arange(cols), np.arange(rows))
+        xyz = np.column_stack([x0 + (j.ravel() + 0.5) * cell, y0 + (i.ravel() + 0.5) * cell, vals.ravel()])
+        bag.put("/world/terrain", bag.cloud(t_ns, m.frame_id, xyz), t_ns, latched=True)
+    elif topic == TOPIC_MAP:
+        vals, x0, y0, cell = _grid(m)
+        known = np.isfinite(vals)
+        occ = np.full(vals.shape, -1, np.int8)
+        if known.any():
+            lo, hi = float(vals[known].min()), float(vals[known].max())
+            occ[known] = np.rint((vals[known] - lo) / (hi - lo) * 100 if hi > lo else 0).astype(np.int8)
+        origin = T["geometry_msgs/msg/Pose"](position=T["geometry_msgs/msg/Point"](x=x0, y=y0, z=0.0),
+                                             orientation=T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0))
+        info = T["nav_msgs/msg/MapMetaData"](map_load_time=bag.stamp(t_ns), resolution=cell, width=vals.shape[1],
+                                             height=vals.shape[0], origin=origin)
+        bag.put("/nav/map", T["nav_msgs/msg/OccupancyGrid"](header=bag.header(t_ns, m.frame_id), info=info,
+                                                            data=occ.ravel()), t_ns)
+        bag.put("/nav/map_points", bag.cloud(t_ns, m.frame_id, _cells(vals, x0, y0, cell)), t_ns)
+    elif topic == TOPIC_LIDAR:
+        pts = np.frombuffer(m.data, dtype="<f4").reshape(-1, 3)
+        bag.put("/lidar", bag.cloud(t_ns, m.frame_id or FRAME, pts), t_ns)
+
+
+_TOPICS = [TOPIC_TF, TOPIC_TRUTH, TOPIC_PERCEIVED, TOPIC_EVENTS, TOPIC_SCENE, TOPIC_ROBOT, TOPIC_MOVERS, TOPIC_TERRAIN,
+           TOPIC_MAP, TOPIC_LIDAR]
+
+
+def export_ros2(trace: str | os.PathLike[str], out: str | os.PathLike[str]) -> dict[str, int]:
+    """Write the run at ``trace`` (a navstress MCAP trace) as a ROS 2 bag directory ``out`` (which
+    must not exist); returns the message count per bag topic."""
+    from rosbags.rosbag2 import StoragePlugin, Writer  # local: only this command needs rosbags
+    from rosbags.typesys import Stores, get_typestore
+
+    src, dest = Path(trace), Path(out)
+    if dest.exists():
+        raise SpecError("--output", str(dest), "a path that does not exist yet (a ROS 2 bag is a new directory)")
+    messages = list(_messages(src, _TOPICS))  # reads (and checks) the whole trace before anything is written
+    tmp = _files.temp_dir_beside(dest)
+    try:
+        bag_dir = tmp / dest.name
+        with Writer(bag_dir, version=8, storage_plugin=StoragePlugin.MCAP) as w:
+            bag = _Bag(w, get_typestore(Stores.ROS2_HUMBLE))
+            for topic, t_ns, m in messages:
+                _convert(bag, topic, t_ns, m)
+        os.replace(bag_dir, dest)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return dict(sorted(bag.counts.items()))
+
