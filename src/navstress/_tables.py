@@ -19,6 +19,7 @@ from collections.abc import Collection, Iterable, Mapping
 from pathlib import Path
 from typing import Any, Literal
 
+from navstress import _json
 from navstress.errors import SpecError
 
 Kind = Literal["int", "float", "bool", "str", "strlist"]
@@ -31,7 +32,7 @@ def _cell(x: Any, kind: Kind) -> Any:
     if kind == "bool":
         return "true" if x else "false"
     if kind == "strlist" and not isinstance(x, str):
-        return json.dumps(list(x), ensure_ascii=False)
+        return _json.dumps(list(x), ensure_ascii=False)
     return x
 
 

@@ -251,6 +251,7 @@ def test_ray_executor_on_local_cluster(tmp_path: Path) -> None:
         local_plan = [t.run_id for t in s.plan().tasks]
     assert [r.run_id for r in recs] == local_plan
     crashed = [r for r in recs if r.navigator == "exits-v1"]
-    assert all(r.outcome == "fail-other" and "Ray worker" in r.reason for r in crashed)
+    assert all(r.outcome == "fail-other" and "Ray worker" in r.reason for r in crashed), \
+        [(r.outcome, r.reason) for r in crashed]
     good = [r for r in recs if r.navigator == "reference-v1"]
     assert all(r.trace and (tmp_path / "out" / r.trace).is_file() for r in good)
