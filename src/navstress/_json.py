@@ -18,7 +18,7 @@ import json
 import math
 from typing import Any
 
-__all__ = ["dumps", "finite"]
+__all__ = ["dumps", "finite", "pretty"]
 
 
 def finite(obj: Any) -> Any:
@@ -36,3 +36,14 @@ def finite(obj: Any) -> Any:
 def dumps(obj: Any, **kw: Any) -> str:
     """``json.dumps(obj, **kw)`` with non-finite floats written as ``null`` (strict JSON)."""
     return json.dumps(finite(obj), allow_nan=False, **kw)
+
+
+def pretty(obj: Any) -> str:
+    """Indented strict JSON (NaN/inf written as null; keys as text): what commands print."""
+    def keys(x: Any) -> Any:
+        if isinstance(x, dict):
+            return {str(k): keys(v) for k, v in x.items()}
+        if isinstance(x, (list, tuple)):
+            return [keys(v) for v in x]
+        return x
+    return dumps(keys(obj), indent=2, sort_keys=False)

@@ -28,9 +28,6 @@ import math
 from dataclasses import dataclass
 from typing import Literal
 
-from scipy.optimize import brentq
-from scipy.special import betaln
-
 from navstress.errors import SpecError
 
 Verdict = Literal["passes", "fails", "flaky", "undecided"]
@@ -83,6 +80,8 @@ def check_rule(min_runs: int, max_runs: int, threshold: float, confidence: float
 
 def _log_martingale_gap(p: float, successes: int, n: int, log_bound: float) -> float:
     """log M_n(p) - log(1/alpha): M_n is the Beta(a, a) mixture of likelihood ratios against p."""
+    from scipy.special import betaln  # local, as brentq below
+
     a = PRIOR_A
     f = n - successes
     loglik = (successes * math.log(p) if successes else 0.0) + (f * math.log1p(-p) if f else 0.0)
@@ -109,6 +108,8 @@ def confidence_sequence(successes: int, n: int, confidence: float) -> tuple[floa
 
     if g(centre) >= 0.0:  # (cannot happen for alpha < 1: M_n(mle) <= 1 < 1/alpha; kept as a guard)
         return centre, centre
+    from scipy.optimize import brentq  # local: 0.8 s to import, and every worker imports this module
+
     lo = 0.0 if successes == 0 or g(eps) < 0.0 else float(brentq(g, eps, centre, xtol=1e-12))
     hi = 1.0 if successes == n or g(1.0 - eps) < 0.0 else float(brentq(g, centre, 1.0 - eps, xtol=1e-12))
     return lo, hi

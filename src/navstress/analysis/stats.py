@@ -206,11 +206,5 @@ def params_text(params: dict[str, Any]) -> str:
 
 
 def dumps(obj: Any) -> str:
-    """Indented strict JSON (NaN/inf written as null; keys as text)."""
-    def keys(x: Any) -> Any:
-        if isinstance(x, dict):
-            return {str(k): keys(v) for k, v in x.items()}
-        if isinstance(x, (list, tuple)):
-            return [keys(v) for v in x]
-        return x
-    return _json.dumps(keys(obj), indent=2, sort_keys=False)
+    """Indented strict JSON (NaN/inf written as null; keys as text): :func:`navstress._json.pretty`."""
+    return _json.pretty(obj)

@@ -24,8 +24,6 @@ from rich.table import Table
 from navstress import __version__, _json
 from navstress._console import console, literal
 from navstress._percent import percent
-from navstress.analysis.report import build_report
-from navstress.analysis.verdicts import campaign_verdicts, write_verdicts
 from navstress.campaign.executors import run_campaign
 from navstress.campaign.presets import PRESETS, preset_yaml
 from navstress.campaign.progress import CampaignProgress, format_counts
@@ -188,6 +186,8 @@ def export(
     if out is not None and out.is_dir():
         raise SpecError("--output", str(out), f"a {fmt} file path, not a directory")
     if table == "verdicts":
+        from navstress.analysis.verdicts import campaign_verdicts, write_verdicts  # local: scipy
+
         v = campaign_verdicts(directory)
         with Store.open(directory) as store:
             meta = {"navstress.version": __version__, "navstress.table": "verdicts", "navstress.spec": store.spec_text()}
@@ -257,5 +257,7 @@ def demo(
     con.print(f"{res.already_done + res.recorded}/{res.planned} runs recorded in {res.wall_s:.0f} s with "
               f"{res.workers} workers: " + format_counts(res.counts, markup=False))
     con.print("writing the report ...")
+    from navstress.analysis.report import build_report  # local: 2.8 s of imports, for the demo only
+
     report = build_report(output / "campaign", output / "report.html")
     con.print(f"report: {report.resolve()}")

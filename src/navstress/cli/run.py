@@ -12,7 +12,8 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 from rich.table import Table
 
 from navstress._console import console
-from navstress.analysis.stats import OUTCOMES, dumps
+from navstress._json import pretty as dumps
+from navstress.campaign.store import OUTCOMES
 from navstress.cli._common import (MAX_RUNS, MAX_SEED, MAX_TIMEOUT_S, MAX_WALL_S, NAV_CONFIG_HELP, bounded_int,
                                    load_navigator_config, number)
 from navstress.errors import SpecError, WorldFileError

@@ -26,7 +26,6 @@ import numpy as np
 from navstress import _json
 from navstress.errors import NavstressError
 from navstress.isolate import Worker
-from navstress.run.figures import RunTrack, trajectories_png
 from navstress.run.mission import execute
 from navstress.run.record import RunRecord, RunTask
 from navstress.run.trace import TOPIC_PERCEIVED, read_movers, read_poses
@@ -151,6 +150,8 @@ def run_batch(tasks: list[RunTask], out: Path, on_done: Callable[[RunRecord], No
 
 
 def batch_picture(world_dir: Path, records: list[RunRecord], path: Path, title: str) -> Path:
+    from navstress.run.figures import RunTrack, trajectories_png  # local: matplotlib, 0.7 s, not for workers
+
     world = World.load(world_dir)
     tracks = []
     for r in records:
