@@ -3,8 +3,11 @@
     python benchmarks/bench_import.py [--n 15]
 
 Prints the median wall time of ``python -c "import M"`` over N fresh interpreters for
-``navstress``, ``navstress.nav.api`` and ``navstress.cli``, and the time of ``navstress --help``,
-beside ``python -c pass`` (the interpreter's own start-up). Target: ``import navstress`` < 0.2 s.
+``navstress``, ``navstress.nav.api`` and ``navstress.cli``, the time of ``navstress --help``, and
+what every worker process and command pays before it works: the modules a campaign or ``run``
+worker imports before it answers "ready", and the modules of the ``run`` and ``campaign``
+commands, beside ``python -c pass`` (the interpreter's own start-up). Target: ``import
+navstress`` < 0.2 s. Run it in two checkouts to compare revisions.
 """
 
 from __future__ import annotations
@@ -19,7 +22,11 @@ CASES = [("python -c pass", ["-c", "pass"]),
          ("import navstress", ["-c", "import navstress"]),
          ("import navstress.nav.api", ["-c", "import navstress.nav.api"]),
          ("import navstress.cli", ["-c", "import navstress.cli"]),
-         ("navstress --help", ["-m", "navstress.cli", "--help"])]
+         ("navstress --help", ["-m", "navstress.cli", "--help"]),
+         ("a worker's imports", ["-c", "import navstress.campaign.work, navstress.run.mission, "
+                                 "navstress.sim.simulation, navstress.nav.reference"]),
+         ("navstress run's modules", ["-c", "import navstress.cli.run"]),
+         ("navstress campaign's modules", ["-c", "import navstress.cli.campaign"])]
 
 
 def median_s(args: list[str], n: int) -> float:
