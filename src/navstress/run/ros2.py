@@ -38,7 +38,6 @@ from navstress.run.trace import (FRAME, TOPIC_EVENTS, TOPIC_LIDAR, TOPIC_MAP, TO
                                  TOPIC_ROBOT, TOPIC_SCENE, TOPIC_TERRAIN, TOPIC_TF, TOPIC_TRUTH, _messages)
 
 
-
 def _latched() -> Any:
     """The QoS of the latched topics (reliable, transient local, keep last 1: what ``ros2 bag
     play`` offers late subscribers such as RViz, as a static transform publisher does)."""
@@ -49,6 +48,7 @@ def _latched() -> Any:
                durability=QosDurability.TRANSIENT_LOCAL, deadline=never, lifespan=never,
                liveliness=QosLiveliness.AUTOMATIC, liveliness_lease_duration=never,
                avoid_ros_namespace_conventions=False)
+
 
 _ODOM = {TOPIC_TRUTH: ("/truth/odom", "base_link"), TOPIC_PERCEIVED: ("/perceived/odom", "perceived/base_link")}
 _LEVEL = {1: 10, 2: 20, 3: 30, 4: 40, 5: 50}  # foxglove.Log level -> rcl_interfaces/Log level
