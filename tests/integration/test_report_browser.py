@@ -144,3 +144,61 @@ def test_a_search_report_renders_its_search_section(page, tiny_searches: SearchD
     assert page.locator("#search-elites tr[data-key]").count() == len(d["elites"])
     assert str(tiny_searches.search / "suite" / "suite.yaml") in page.inner_text("#search-suite")
     assert errors == [] and outside == []
+
+
+def test_report_tables_sort_filter_and_link_runs_to_their_traces(page, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    root = _campaign(tmp_path / "camp")
+    out = build_report(root, tmp_path / "out" / "report.html")
+    errors: list[str] = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+    page.set_viewport_size({"width": 1280, "height": 900})
+    page.goto(out.resolve().as_uri())
+    # readable at 1,280 px: the page itself never scrolls sideways (a wide table scrolls in its box)
+    assert page.evaluate("document.documentElement.scrollWidth") <= 1280
+    # every table of the analysis that a reader ranks by is sortable
+    from navstress.analysis.report import SORTABLE
+    present = page.evaluate("ids => ids.filter(i => document.getElementById(i))", list(SORTABLE))
+    assert "difficulty-table" in present and "verdicts-configurations" in present
+    assert all(page.locator(f"table#{i}.sortable").count() == 1 for i in present)
+    # sorting the difficulty table by its success-rate column, both ways
+    table = page.locator("#difficulty-table")
+    col = page.evaluate("Array.from(document.querySelectorAll('#difficulty-table tr:first-child th'))"
+                        ".map(th => th.textContent.trim())").index("success")
+
+    def rates() -> list[float]:
+        return [float(v) for v in table.locator("td[data-field='success-rate']").evaluate_all(
+            "tds => tds.map(td => td.getAttribute('data-value'))") if v not in (None, "")]
+
+    header = table.locator("tr").first.locator("th").nth(col)
+    header.click()
+    assert header.get_attribute("aria-sort") == "ascending"
+    assert rates() == sorted(rates()) and len(rates()) >= 2
+    header.click()
+    assert header.get_attribute("aria-sort") == "descending"
+    assert rates() == sorted(rates(), reverse=True)
+    # the runs of a configuration: one row each, its outcome and a trace link that resolves
+    with Store.open(root) as s:
+        mine = [r for r in s.records() if r.run_id.startswith("trees/tree=4/")]
+    section = page.locator("section#cfg-trees--tree-4")
+    section.locator("details.runs summary").click()
+    assert section.locator("table#runs-trees--tree-4").count() == 1
+    runs = section.locator("table.runs tr[data-run]")
+    assert runs.count() == len(mine)
+    for r in mine:
+        row = section.locator(f"table.runs tr[data-run='{r.run_id}']")
+        assert row.is_visible()
+        assert row.get_attribute("data-outcome") == r.outcome
+        href = row.locator("a[data-trace]").get_attribute("href") if r.trace else None
+        if href is not None:
+            assert not href.startswith("file:")  # relative: the report moves with its campaign
+            assert (out.parent / href).resolve() == (root / r.trace).resolve()
+            assert (out.parent / href).is_file()
+    # filtering: typing an outcome hides the other rows
+    box = section.locator("input.filter")
+    box.fill("timeout")
+    visible = runs.evaluate_all("rs => rs.filter(r => r.offsetParent !== null).map(r => r.dataset.outcome)")
+    assert visible == ["fail-timeout"]
+    box.fill("")
+    assert runs.evaluate_all("rs => rs.filter(r => r.offsetParent !== null).length") == len(mine)
+    assert errors == []

@@ -63,6 +63,69 @@ img.figure{max-width:100%;border:1px solid #eee;margin:.3em 0}
 .maps{display:flex;flex-wrap:wrap;gap:.6em}.maps figure{margin:0;flex:0 0 auto}
 .maps img{width:420px}figcaption{font-size:.85em;color:#444}
 nav a{margin-right:1em}
+.scroll{overflow-x:auto;max-width:100%}
+table.sortable th{cursor:pointer;user-select:none}
+table.sortable th[aria-sort=ascending]::after{content:" \\25B2";font-size:.7em}
+table.sortable th[aria-sort=descending]::after{content:" \\25BC";font-size:.7em}
+input.filter{margin:.3em 0;padding:.2em .4em;width:20em;font:inherit}
+details.runs summary{cursor:pointer;margin:.4em 0}
+"""
+
+#: Tables a reader sorts by clicking a column's header (then again for the other direction).
+SORTABLE = ("difficulty-table", "verdicts-configurations", "verdicts-worlds", "indeterminism-table",
+            "fault-power-table", "descriptor-correlations")
+#: Sorting and filtering, embedded (the report needs no network). A cell sorts by its
+#: ``data-value`` when it has a number there, else by its text (as a number when it reads as one);
+#: empty cells last. A ``table.filterable`` gets a text box that hides the rows not containing it.
+_SCRIPT = r"""
+(function(){
+function key(td){
+  if(!td) return null;
+  var v=td.getAttribute('data-value');
+  if(v!==null&&v!==''&&!isNaN(+v)) return +v;
+  var t=td.textContent.trim();
+  if(t===''||t==='\u2013') return null;
+  var n=t.replace(/[%,\s]/g,'');
+  return (/^[-+]?\d*\.?\d+(e[-+]?\d+)?$/i.test(n))?+n:t.toLowerCase();
+}
+function cmp(a,b){
+  if(a===null) return b===null?0:1; if(b===null) return -1;
+  if(typeof a===typeof b) return a<b?-1:a>b?1:0;
+  return typeof a==='number'?-1:1;
+}
+document.querySelectorAll('table.sortable').forEach(function(t){
+  var head=t.rows[0]; if(!head) return;
+  Array.prototype.forEach.call(head.cells,function(th,i){
+    th.title='sort by '+th.textContent.trim();
+    th.addEventListener('click',function(){
+      var dir=th.getAttribute('aria-sort')==='ascending'?-1:1;
+      Array.prototype.forEach.call(head.cells,function(h){h.removeAttribute('aria-sort');});
+      var rows=Array.prototype.slice.call(t.rows,1);
+      rows.sort(function(a,b){
+        var ka=key(a.cells[i]),kb=key(b.cells[i]);
+        if(ka===null||kb===null) return cmp(ka,kb);
+        return dir*cmp(ka,kb);
+      });
+      var body=rows.length?rows[0].parentNode:t;
+      rows.forEach(function(r){body.appendChild(r);});
+      th.setAttribute('aria-sort',dir===1?'ascending':'descending');
+    });
+  });
+});
+document.querySelectorAll('table.filterable').forEach(function(t){
+  var box=document.createElement('input');
+  box.type='search'; box.className='filter'; box.placeholder='filter rows (any text: an outcome, a reason, a seed)';
+  box.setAttribute('data-filter-for',t.id||'');
+  var host=t.parentNode.classList.contains('scroll')?t.parentNode:t;
+  host.parentNode.insertBefore(box,host);
+  box.addEventListener('input',function(){
+    var q=box.value.toLowerCase();
+    Array.prototype.slice.call(t.rows,1).forEach(function(r){
+      r.style.display=(!q||r.textContent.toLowerCase().indexOf(q)>=0)?'':'none';
+    });
+  });
+});
+})();
 """
 
 
@@ -467,7 +530,7 @@ def _groups(recs: list[RunRecord], navigators: list[str]) -> list[tuple[str, str
     return sorted(pairs, key=lambda p: (order.get(p[0], len(order)), p[1] != NOMINAL, p[1], p[0]))
 
 
-def _configs(a: Analysis, cache: TrajectoryCache, max_points: int) -> str:
+def _configs(a: Analysis, cache: TrajectoryCache, max_points: int, link_base: Path | None = None) -> str:
     shown = ", ".join(a.shown_navigators)
     out = ['<h2 id="configurations">Configurations</h2>',
            f'<p class="note">Every map with its runs, one picture per navigator and fault (runs of {_e(shown)}), '
@@ -541,18 +604,56 @@ def _configs(a: Analysis, cache: TrajectoryCache, max_points: int) -> str:
                             f'{_img(png, f"navmap-{e}-{k}-{nav}", f"final perceived map of {name}", nav, fault)}'
                             f'<figcaption>{_e(name)}: the navigator\'s map at the end (pink: never seen)'
                             '</figcaption></figure>')
-        out.append('<div class="maps">' + "".join(figs) + "</div></section>")
+        out.append('<div class="maps">' + "".join(figs) + "</div>" + _runs_table(e, k, recs, a.root, link_base)
+                   + "</section>")
     return "\n".join(out)
 
 
+def _trace_href(root: Path, rec: RunRecord, link_base: Path | None) -> str | None:
+    """The link to a run's trace: relative to the report's folder when it is known, so that the
+    report and the campaign can move together; None when the run has no trace file."""
+    tp = trace_path(root, rec)
+    if tp is None or not tp.exists():
+        return None
+    if link_base is not None:
+        try:
+            return Path(os.path.relpath(tp.resolve(), link_base.resolve())).as_posix()
+        except ValueError:  # another drive
+            pass
+    return tp.resolve().as_uri()
+
+
+def _runs_table(e: str, k: str, recs: list[RunRecord], root: Path, link_base: Path | None) -> str:
+    """Every run of a configuration, one row each (sortable, filterable): map, run, navigator,
+    fault, outcome, reason, seeds, duration and a link to its trace (open it in Foxglove)."""
+    rows = []
+    for r in sorted(recs, key=lambda r: (r.map_index, r.run_index, r.navigator, fault_name(r.fault))):
+        href = _trace_href(root, r, link_base)
+        link = f'<a href="{_e(href)}" data-trace>trace</a>' if href else "\u2013"
+        rows.append(
+            f'<tr data-run="{_e(r.run_id)}" data-outcome="{_e(r.outcome)}">'
+            f'{_cell("map", r.map_index, f"m{r.map_index}")}{_cell("run", r.run_index, f"r{r.run_index}")}'
+            f'<td class="l">{_e(r.navigator)}</td><td class="l">{_e(fault_name(r.fault))}</td>'
+            f'<td class="l" data-field="outcome">{_e(OUTCOME_LABELS.get(r.outcome, r.outcome))}</td>'
+            f'<td class="l" data-field="reason">{_e(r.reason)}</td>'
+            f'{_cell("duration", r.duration_s, _fmt(r.duration_s, 1))}'
+            f'{_cell("map-seed", r.map_seed, str(r.map_seed))}{_cell("run-seed", r.run_seed, str(r.run_seed))}'
+            f'<td class="l">{link}</td></tr>')
+    head = ('<tr><th>map</th><th>run</th><th class="l">navigator</th><th class="l">fault</th><th class="l">outcome</th>'
+            '<th class="l">reason</th><th>duration s</th><th>map seed</th><th>run seed</th><th class="l">trace</th></tr>')
+    return (f'<details class="runs"><summary>{len(recs)} runs: outcome, reason, seeds and trace of each</summary>'
+            f'<table id="runs-{_slug(e, k)[4:]}" class="sortable filterable runs">{head}{"".join(rows)}</table></details>')
+
+
 def render_report(a: Analysis, *, cache: TrajectoryCache | None = None, max_points: int = 600,
-                  sections: Sequence[Section] = ()) -> str:
-    """The report's HTML text for an :class:`Analysis`; ``sections`` come after the summary."""
+                  sections: Sequence[Section] = (), link_base: Path | None = None) -> str:
+    """The report's HTML text for an :class:`Analysis`; ``sections`` come after the summary;
+    ``link_base``: the folder the report will be in (its links to traces are relative to it)."""
     cache = cache or TrajectoryCache()
     body = [_summary(a)] + [s.html for s in sections]
     if a.done:
         body += [_difficulty(a), _class_figures(a), _verdicts(a), _indeterminism(a), _fault_power(a), _correlations(a),
-                 _configs(a, cache, max_points)]
+                 _configs(a, cache, max_points, link_base)]
     links = [("summary", "Summary"), *((s.id, s.title) for s in sections)]
     if a.done:
         links += [("difficulty", "Difficulty"), ("classes", "Classes"), ("verdicts", "Verdicts"),
@@ -560,9 +661,15 @@ def render_report(a: Analysis, *, cache: TrajectoryCache | None = None, max_poin
                   ("configurations", "Configurations")]
     nav = ("<nav>" + "".join(f'<a href="#{_e(i)}">{_e(t)}</a>' for i, t in links) + "</nav>") \
         if a.done or sections else ""
+    text = "\n".join(body)
+    for tid in SORTABLE:
+        text = text.replace(f'<table id="{tid}">', f'<table id="{tid}" class="sortable">')
+    # every table in a box of its own width: a wide table scrolls inside it, never the page
+    text = text.replace("<table", '<div class="scroll"><table').replace("</table>", "</table></div>")
     return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+            "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">"
             f"<title>navstress report: {_e(a.name)}</title><style>{_CSS}</style></head>"
-            f"<body data-campaign=\"{_e(a.name)}\">{nav}\n" + "\n".join(body) + "\n</body></html>\n")
+            f"<body data-campaign=\"{_e(a.name)}\">{nav}\n" + text + f"\n<script>{_SCRIPT}</script>\n</body></html>\n")
 
 
 def build_report(directory: str | Path, out: str | Path, *, params: DifficultyParams | None = None,
@@ -572,8 +679,8 @@ def build_report(directory: str | Path, out: str | Path, *, params: DifficultyPa
     ``sections`` after the summary); returns ``out``."""
     cache = TrajectoryCache()
     a = analyze(directory, params=params, navigator=navigator, dt=dt, cache=cache)
-    text = render_report(a, cache=cache, max_points=max_points, sections=sections)
     dest = Path(out)
+    text = render_report(a, cache=cache, max_points=max_points, sections=sections, link_base=dest.parent)
     dest.parent.mkdir(parents=True, exist_ok=True)
     tmp = dest.with_name(f".{dest.name}.partial")
     try:
