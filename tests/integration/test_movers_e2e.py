@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 import yaml
 
-from navstress.analysis.figures import world_runs_png_bytes
+from navstress.analysis import svgmap
 from navstress.analysis.report import build_report
 from navstress.campaign.executors import run_campaign
 from navstress.campaign.store import Store
@@ -110,7 +110,9 @@ def test_a_small_campaign_sweeping_the_mover_count(tmp_path: Path) -> None:
     bare = RunTrack("r", rec.outcome, truth)
     moving = RunTrack("r", rec.outcome, truth, movers=read_movers(tmp_path / "out" / rec.trace),
                       collision_t=rec.first_collision_s)
-    assert world_runs_png_bytes(world, [moving]) != world_runs_png_bytes(world, [bare])
+    assert svgmap.runs_svg(world, "w", [("r", moving, "r")]) != svgmap.runs_svg(world, "w", [("r", bare, "r")])
+    assert 'class="mvpath"' in svgmap.runs_svg(world, "w", [("r", moving, "r")])  # a one-run picture: their paths
+    assert 'class="mvpath"' in crowd and 'class="mvpath"' not in empty
 
 
 def test_navstress_run_on_a_world_with_intercepting_movers(tmp_path: Path) -> None:

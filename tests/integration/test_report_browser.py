@@ -68,7 +68,12 @@ def test_report_renders_in_chromium(page, tmp_path: Path) -> None:  # type: igno
     assert page.title() == "navstress report: synth"
     # figures: every <img> decoded with a real size
     n_img = page.evaluate("document.images.length")
-    assert n_img >= 6
+    assert n_img >= 3
+    # the maps' embedded rasters (terrain, perceived maps) decode too
+    sizes = page.evaluate("""Promise.all(Array.from(document.querySelectorAll('svg image')).map(e => {
+        const i = new Image(); i.src = e.getAttribute('href');
+        return i.decode().then(() => i.naturalWidth, () => 0); }))""")
+    assert len(sizes) >= 3 and min(sizes) > 10, sizes
     broken = page.evaluate("Array.from(document.images).filter(i => !(i.complete && i.naturalWidth > 50)).length")
     assert broken == 0
     assert page.locator("img[data-figure='class-trees']").bounding_box()["width"] > 300  # laid out, visible
@@ -94,7 +99,10 @@ def test_report_renders_in_chromium(page, tmp_path: Path) -> None:  # type: igno
     assert page.locator("#difficulty-table tr[data-config='tree=0'][data-fault='nominal'] "
                         "td[data-field='level']").inner_text() == "easy"
     # the per-configuration sections link from the table and hold map pictures
-    assert page.locator("section#cfg-trees--tree-4 img").count() >= 3
+    # map pictures (SVG: the world once per map, the runs as vectors over it): one per map and
+    # (navigator, fault), the detailed run and its perceived map
+    assert page.locator("section#cfg-trees--tree-4 svg.map").count() >= 3
+    assert page.locator("section#cfg-trees--tree-4 svg.map").first.bounding_box()["width"] > 300
     assert page.locator("#partial-campaign").is_visible()
     # verdicts: a row per configuration whose counts are the store's, and the strip of worlds drawn
     from navstress.analysis.verdicts import verdicts
@@ -194,6 +202,25 @@ def test_report_tables_sort_filter_and_link_runs_to_their_traces(page, tmp_path:
             assert not href.startswith("file:")  # relative: the report moves with its campaign
             assert (out.parent / href).resolve() == (root / r.trace).resolve()
             assert (out.parent / href).is_file()
+    # the per-run view: clicking a run's line finds its row; clicking a row marks its line
+    failing = next(r for r in mine if r.outcome == "fail-timeout")
+    line = section.locator(f"svg.map g[data-run='{failing.run_id}']").first
+    assert line.locator("polyline").count() == 1
+    assert f"m{failing.map_index} r{failing.run_index} " in (line.locator("title").text_content() or "")
+    line.locator("polyline").dispatch_event("click")
+    assert section.locator(f"table.runs tr.hl[data-run='{failing.run_id}']").count() == 1
+    other = next(r for r in mine if r.outcome == "success")
+    section.locator(f"table.runs tr[data-run='{other.run_id}'] td").first.click()
+    marked = page.evaluate("Array.from(document.querySelectorAll('svg.map g.hl')).map(g => g.dataset.run)")
+    assert marked and set(marked) == {other.run_id}
+    assert section.locator(f"table.runs tr.hl").count() == 1
+    # a click on a picture enlarges it, another shrinks it back
+    pic = section.locator("svg.map").first
+    w0 = pic.bounding_box()["width"]
+    pic.locator("use").dispatch_event("click")
+    assert pic.bounding_box()["width"] > 1.5 * w0
+    pic.locator("use").dispatch_event("click")
+    assert pic.bounding_box()["width"] == pytest.approx(w0)
     # filtering: typing an outcome hides the other rows
     box = section.locator("input.filter")
     box.fill("timeout")

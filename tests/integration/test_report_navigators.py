@@ -67,6 +67,7 @@ class _Page(HTMLParser):
         self._table: str | None = None
         self._fig: dict[str, Any] | None = None
         self._caption = False
+        self._svg: dict[str, str] | None = None
 
     def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
         a = {k: v or "" for k, v in attrs}
@@ -77,10 +78,16 @@ class _Page(HTMLParser):
         elif tag == "figure":
             self._fig = {"attrs": a, "img": None, "caption": ""}
             self.figures.append(self._fig)
-        elif tag == "img":
+        elif tag == "img" or (tag == "svg" and "map" in a.get("class", "").split()):
+            # a picture: a PNG, or an SVG map whose identity ("src") is the runs drawn in it
+            if tag == "svg":
+                a["src"] = ""
+                self._svg = a
             self.images.append(a)
             if self._fig is not None:
                 self._fig["img"] = a
+        elif tag == "g" and self._svg is not None and "data-run" in a:
+            self._svg["src"] += a["data-run"] + ";"
         elif tag == "figcaption":
             self._caption = True
 
@@ -91,6 +98,8 @@ class _Page(HTMLParser):
             self._fig = None
         elif tag == "figcaption":
             self._caption = False
+        elif tag == "svg":
+            self._svg = None
 
     def handle_data(self, data: str) -> None:
         if self._caption and self._fig is not None:

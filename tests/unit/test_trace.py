@@ -162,3 +162,71 @@ def test_the_trace_check_sees_sequence_numbers_that_do_not_count(tmp_path: Path)
         problems = trace_problems(tmp_path / "s.mcap")
         assert (problems == []) == ok, problems
         assert ok or "sequence" in problems[0]
+
+
+def _poses_by_library(path: Path, topic: str) -> np.ndarray:
+    """read_poses as the MCAP library reads it (every record of each chunk parsed and ordered)."""
+    from navstress.run.trace import _messages
+    rows = [(lt / 1e9, m.pose.position.x, m.pose.position.y, m.pose.position.z, *euler(m.pose.orientation))
+            for _t, lt, m in _messages(path, [topic])]
+    return np.array(rows, dtype=np.float64).reshape(-1, 7)
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(n=st.integers(0, 400), big=st.booleans(), seed=st.integers(0, 2**32 - 1))
+def test_indexed_pose_reading_matches_the_library_byte_for_byte(tmp_path: Path, n: int, big: bool, seed: int) -> None:
+    """read_poses goes through the message indexes and parses only the topic's records; on any
+    trace (poses submitted out of order, equal times, other topics between them, several chunks)
+    it returns exactly what the MCAP library's reader yields."""
+    rng = np.random.default_rng(seed)
+    t = np.sort(rng.choice(np.arange(0, 50, 0.05), size=n))  # equal times possible
+    rows = np.column_stack([t, rng.normal(size=(n, 3)) * 50, rng.uniform(-3, 3, n),
+                            rng.uniform(-0.5, 0.5, n), rng.uniform(-0.5, 0.5, n)])
+    path = tmp_path / f"t{seed}-{n}-{big}.mcap"
+    with TraceWriter(path) as tw:
+        order = rng.permutation(n)
+        tw.poses(TOPIC_PERCEIVED, rows[order] + 0.25)
+        for i in order:  # out of submission order; the writer sorts by log time
+            tw.pose(TOPIC_TRUTH, *rows[i])
+        if big:  # point clouds between the poses: the file spans several chunks
+            for k in range(12):
+                tw.points(k * 4.0, rng.normal(size=(12_000, 3)))
+    from mcap.reader import make_reader
+
+    from navstress.run.trace import _indexed
+    if n:  # the indexed path is the one taken (a file with no message at all has no chunk)
+        assert _indexed(path, TOPIC_TRUTH, "foxglove.PoseInFrame") is not None
+    if big:
+        with open(path, "rb") as f:
+            assert len(make_reader(f).get_summary().chunk_indexes) > 1  # type: ignore[union-attr]
+    for topic in (TOPIC_TRUTH, TOPIC_PERCEIVED, "/no/such/topic"):
+        fast, slow = read_poses(path, topic), _poses_by_library(path, topic)
+        assert fast.shape == slow.shape and fast.tobytes() == slow.tobytes()
+    assert len(read_poses(path)) == n
+
+
+@pytest.mark.not_traces
+def test_indexed_reading_falls_back_on_a_file_without_index(tmp_path: Path) -> None:
+    """A valid MCAP file written without chunks (so without message indexes): read_poses reads
+    it through the library's reader instead."""
+    from foxglove_schemas_protobuf.PoseInFrame_pb2 import PoseInFrame
+    from mcap.writer import Writer
+    from mcap_protobuf.schema import build_file_descriptor_set
+
+    from navstress.run.trace import _indexed, quaternion
+    path = tmp_path / "plain.mcap"
+    with open(path, "wb") as f:
+        w = Writer(f, use_chunking=False)
+        w.start()
+        sid = w.register_schema("foxglove.PoseInFrame", "protobuf",
+                                build_file_descriptor_set(PoseInFrame).SerializeToString())
+        cid = w.register_channel(TOPIC_TRUTH, "protobuf", sid)
+        for i in range(5):
+            m = PoseInFrame(frame_id="map")
+            m.pose.position.x = float(i)
+            m.pose.orientation.CopyFrom(quaternion(0.1 * i, 0.0, 0.0))
+            w.add_message(cid, log_time=i * 10**9, data=m.SerializeToString(), publish_time=i * 10**9, sequence=i + 1)
+        w.finish()
+    assert _indexed(path, TOPIC_TRUTH, "foxglove.PoseInFrame") is None
+    got = read_poses(path)
+    assert got[:, 1].tolist() == [0.0, 1.0, 2.0, 3.0, 4.0] and got[:, 4] == pytest.approx(np.arange(5) * 0.1)

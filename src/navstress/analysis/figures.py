@@ -1,6 +1,6 @@
-"""The report's pictures (PNG bytes): difficulty per class, verdicts per world, indeterminism, fault power, runs over
-their world and a navigator's perceived map. Runs are drawn with :mod:`navstress.run.figures`
-(its outcome colours everywhere in navstress).
+"""The report's charts (PNG bytes): difficulty per class, verdicts per world, indeterminism, fault
+power. The maps with their runs and a navigator's perceived map are SVG (:mod:`navstress.analysis.svgmap`),
+in the outcome colours of :mod:`navstress.run.figures` used everywhere in navstress.
 """
 
 from __future__ import annotations
@@ -8,15 +8,9 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from matplotlib.collections import PolyCollection
-from matplotlib.colors import ListedColormap
-from matplotlib.patches import Patch
 
-from navstress._percent import percent
-from navstress.run.figures import RunTrack, draw_tracks, legend, png_bytes
+from navstress.run.figures import legend, png_bytes
 from navstress.run.figures import new_figure as _figure
-from navstress.world.export.images import draw_world
-from navstress.world.world import World
 
 # ---- analysis pictures (PNG bytes, for the HTML report) --------------------------------------
 
@@ -167,61 +161,4 @@ def verdict_figure(title: str, configs: list[Any], worlds: list[Any], threshold:
     if seen:
         legend(ax, fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     ax.set_title(title, fontsize=10)
-    return png_bytes(fig)
-
-
-def world_runs_png_bytes(world: World, tracks: list[RunTrack], *, title: str | None = None, perceived: bool = False,
-                         dpi: int = 80) -> bytes:
-    """``world`` (hillshaded terrain, obstacles, start, goal) with ``tracks`` overlaid."""
-    fig = _figure(6.0, 5.6, dpi)
-    ax = fig.subplots()
-    draw_world(ax, world, legend=False)
-    draw_tracks(ax, tracks, perceived=perceived, world=world)
-    if tracks:
-        legend(ax, loc="upper left", fontsize=7, framealpha=0.85)
-    if title:
-        ax.set_title(title, fontsize=9, loc="left")
-    return png_bytes(fig)
-
-
-def perceived_map_png_bytes(world: World, grid: np.ndarray, origin_xy: tuple[float, float], cell_m: float,
-                            track: RunTrack | None = None, *, title: str | None = None, dpi: int = 80) -> bytes:
-    """The navigator's final perceived elevation map: known cells coloured by height, unknown
-    (NaN) cells in a flat pink so that a person can see why no arc was elected; the real
-    obstacles outlined and the run's real trajectory on top."""
-    fig = _figure(6.0, 5.6, dpi)
-    ax = fig.subplots()
-    g = np.asarray(grid, dtype=np.float64)
-    rows, cols = g.shape
-    extent = (origin_xy[0], origin_xy[0] + cols * cell_m, origin_xy[1], origin_xy[1] + rows * cell_m)
-    unknown = ~np.isfinite(g)
-    sx, sy = world.size_m
-    cx = origin_xy[0] + (np.arange(cols) + 0.5) * cell_m
-    cy = origin_xy[1] + (np.arange(rows) + 0.5) * cell_m
-    inside = ((cy >= 0) & (cy <= sy))[:, None] & ((cx >= 0) & (cx <= sx))[None, :]
-    share = float(unknown[inside].mean()) if inside.any() else 1.0
-    ax.imshow(np.where(unknown, 1.0, np.nan), origin="lower", extent=extent, cmap=ListedColormap(["#f4c2d7"]),
-              vmin=0, vmax=1, interpolation="nearest", zorder=0)
-    if (~unknown).any():
-        im = ax.imshow(np.where(unknown, np.nan, g), origin="lower", extent=extent, cmap="viridis",
-                       interpolation="nearest", zorder=1)
-        fig.colorbar(im, ax=ax, shrink=0.7, label="perceived height [m]")
-    if world.obstacles:
-        ax.add_collection(PolyCollection([o.corners() for o in world.obstacles], facecolors="none",
-                                         edgecolors="black", linewidths=0.6, zorder=3))
-    if track is not None:
-        draw_tracks(ax, [track], perceived=True, world=world)
-    m = world.mission
-    ax.plot([m.start[0]], [m.start[1]], "o", color="#1565c0", mec="white", ms=8, zorder=7)
-    ax.plot([m.goal[0]], [m.goal[1]], "*", color="#d62828", mec="white", ms=14, zorder=7)
-    ax.set_xlim(0, sx)
-    ax.set_ylim(0, sy)
-    ax.set_aspect("equal")
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")
-    handles, _ = ax.get_legend_handles_labels()
-    handles.append(Patch(facecolor="#f4c2d7", label=f"unknown ({percent(share)} of the map)"))
-    ax.legend(handles=handles, loc="upper left", fontsize=7, framealpha=0.85)
-    if title:
-        ax.set_title(title, fontsize=9, loc="left")
     return png_bytes(fig)

@@ -38,9 +38,9 @@ from typing import Any
 from navstress._percent import percent, setting
 from navstress.analysis.analyze import Analysis, TrajectoryCache, analyze, trace_path
 from navstress.analysis.difficulty import NO_DATA, DifficultyParams
+from navstress.analysis import svgmap
 from navstress.analysis.figures import (LEVEL_STYLE, VERDICT_COLOURS, class_figure, fault_power_figure,
-                                        indeterminism_figure, perceived_map_png_bytes, verdict_figure,
-                                        world_runs_png_bytes)
+                                        indeterminism_figure, verdict_figure)
 from navstress.analysis.stats import NOMINAL, ConfigStats, config_key, fault_name, params_text
 from navstress.analysis.verdicts import WorldVerdict
 from navstress.run.figures import OUTCOME_COLOURS, OUTCOME_LABELS, RunTrack
@@ -61,7 +61,7 @@ td.l,th.l{text-align:left}
 .note{color:#555;font-size:.9em}.warn{background:#fff4d6;border:1px solid #e8c46b;padding:.5em 1em;border-radius:4px}
 img.figure{max-width:100%;border:1px solid #eee;margin:.3em 0}
 .maps{display:flex;flex-wrap:wrap;gap:.6em}.maps figure{margin:0;flex:0 0 auto}
-.maps img{width:420px}figcaption{font-size:.85em;color:#444}
+figcaption{font-size:.85em;color:#444}
 nav a{margin-right:1em}
 .scroll{overflow-x:auto;max-width:100%}
 table.sortable th{cursor:pointer;user-select:none}
@@ -111,6 +111,27 @@ document.querySelectorAll('table.sortable').forEach(function(t){
       th.setAttribute('aria-sort',dir===1?'ascending':'descending');
     });
   });
+});
+function select(id,toRow){
+  var q='[data-run="'+CSS.escape(id)+'"]';
+  document.querySelectorAll('.hl').forEach(function(e){e.classList.remove('hl');});
+  document.querySelectorAll('svg.map.dim').forEach(function(e){e.classList.remove('dim');});
+  var gs=document.querySelectorAll('svg.map g'+q);
+  gs.forEach(function(g){g.classList.add('hl');g.ownerSVGElement.classList.add('dim');});
+  var row=document.querySelector('table.runs tr'+q);
+  if(row) row.classList.add('hl');
+  if(toRow&&row){var d=row.closest('details');if(d) d.open=true;row.scrollIntoView({block:'center'});}
+  else if(!toRow&&gs.length) gs[0].ownerSVGElement.scrollIntoView({block:'center'});
+}
+document.querySelectorAll('svg.map').forEach(function(svg){
+  svg.addEventListener('click',function(ev){
+    var g=ev.target.closest('g[data-run]');
+    if(g){select(g.getAttribute('data-run'),true);return;}
+    svg.classList.toggle('big');
+  });
+});
+document.querySelectorAll('table.runs tr[data-run]').forEach(function(tr){
+  tr.addEventListener('click',function(){select(tr.getAttribute('data-run'),false);});
 });
 document.querySelectorAll('table.filterable').forEach(function(t){
   var box=document.createElement('input');
@@ -534,7 +555,9 @@ def _configs(a: Analysis, cache: TrajectoryCache, max_points: int, link_base: Pa
     shown = ", ".join(a.shown_navigators)
     out = ['<h2 id="configurations">Configurations</h2>',
            f'<p class="note">Every map with its runs, one picture per navigator and fault (runs of {_e(shown)}), '
-           'colour-coded by outcome; then, per navigator, one run in detail.</p>']
+           'colour-coded by outcome; then, per navigator, one run in detail. Hover a run to name it, click it '
+           'to find its row in the runs table (and a row to find its run); click a picture to enlarge it.</p>',
+           svgmap.legend_html(OUTCOME_LABELS)]
     by_cfg: dict[tuple[str, str], list[RunRecord]] = {}
     for r in a.records:
         if a.shows(r.navigator):
@@ -550,6 +573,8 @@ def _configs(a: Analysis, cache: TrajectoryCache, max_points: int, link_base: Pa
             out.append('<p class="note">No run recorded yet.</p></section>')
             continue
         worlds: dict[int, World] = {}
+        gids: dict[int, str] = {}
+        defs: list[str] = []
         figs = []
         groups = _groups(recs, a.navigators)
         for m, wdir in a.world_dirs.get(key, []):
@@ -560,20 +585,21 @@ def _configs(a: Analysis, cache: TrajectoryCache, max_points: int, link_base: Pa
             except Exception as err:  # a world still being written, or removed
                 figs.append(f'<p class="note">map m{m}: world not readable ({_e(type(err).__name__)})</p>')
                 continue
+            gids[m] = f"w-{_slug(e, k)[4:]}-m{m}"
+            defs.append(svgmap.world_defs(worlds[m], gids[m]))
             for nav, fault in groups:
                 mrecs = [r for r in recs if r.map_index == m and r.navigator == nav and fault_name(r.fault) == fault]
                 if not mrecs:
                     continue
-                tracks = [t for t in (_track(r, a.root, cache, max_points, world=worlds[m]) for r in mrecs)
-                          if t is not None]
+                tracks = [(_e(r.run_id), t, _e(_tip(r))) for r in mrecs
+                          if (t := _track(r, a.root, cache, max_points, world=worlds[m])) is not None]
                 counts = ", ".join(f"{sum(r.outcome == o for r in mrecs)} {OUTCOME_LABELS[o]}"
                                    for o in OUTCOME_LABELS if any(r.outcome == o for r in mrecs))
                 who = f"{nav}, {fault}"
-                png = world_runs_png_bytes(worlds[m], tracks,
-                                           title=f"{e} / {k} / map m{m}: {who}: {len(mrecs)} runs")
-                figs.append(f'<figure data-navigator="{_e(nav)}" data-fault="{_e(fault)}" data-map="{m}">'
-                            f'{_img(png, f"map-{e}-{k}-m{m}-{nav}-{fault}", f"runs of {who} on map m{m}", nav, fault)}'
-                            f'<figcaption>map m{m} (seed {mrecs[0].map_seed}){_e(movers_note(worlds[m]))}, '
+                svg = svgmap.runs_svg(worlds[m], gids[m], tracks, label=_e(f"runs of {who} on map m{m}"),
+                                      attrs=_fig_attrs(f"map-{e}-{k}-m{m}-{nav}-{fault}", nav, fault))
+                figs.append(f'<figure data-navigator="{_e(nav)}" data-fault="{_e(fault)}" data-map="{m}">{svg}'
+                            f'<figcaption>map m{m} (seed {mrecs[0].map_seed}, {_e(_size(worlds[m]))}){_e(movers_note(worlds[m]))}, '
                             f'<b>{_e(nav)}</b> ({_e(fault)}): {_e(counts)}</figcaption></figure>')
         # per navigator, one run in detail: its first nominal failure if any, else its first run with a trace
         for nav in dict.fromkeys(n for n, _f in groups):
@@ -587,26 +613,45 @@ def _configs(a: Analysis, cache: TrajectoryCache, max_points: int, link_base: Pa
             w = worlds[pick.map_index]
             tr = _track(pick, a.root, cache, max_points, perceived=True, world=w)
             name = _run_name(pick)
-            if tr is not None:
-                png = world_runs_png_bytes(w, [tr], perceived=True, title=f"real vs perceived: {name}")
+            one = (_e(pick.run_id), tr, _e(_tip(pick))) if tr is not None else None
+            if one is not None:
+                svg = svgmap.runs_svg(w, gids[pick.map_index], [one], perceived=True,
+                                      label=_e(f"real vs perceived trajectory of {name}"),
+                                      attrs=_fig_attrs(f"perceived-{e}-{k}-{nav}", nav, fault))
                 figs.append(f'<figure data-navigator="{_e(nav)}" data-fault="{_e(fault)}" data-map="{pick.map_index}">'
-                            f'{_img(png, f"perceived-{e}-{k}-{nav}", f"real vs perceived trajectory of {name}", nav, fault)}'
-                            f'<figcaption>{_e(name)}: {_e(OUTCOME_LABELS.get(pick.outcome, pick.outcome))} '
-                            f'\u2013 {_e(pick.reason)}</figcaption></figure>')
+                            f'{svg}<figcaption>{_e(name)}: {_e(OUTCOME_LABELS.get(pick.outcome, pick.outcome))} '
+                            f'\u2013 {_e(pick.reason)}; real (solid) and perceived (dashed)</figcaption></figure>')
             tp = trace_path(a.root, pick)
             try:
                 grid = read_grid(tp, TOPIC_MAP) if tp is not None and tp.exists() else None
             except Exception:
                 grid = None
             if grid is not None:
-                png = perceived_map_png_bytes(w, grid[0], grid[1], grid[2], tr, title=f"final perceived map: {name}")
+                svg, share = svgmap.perceived_svg(w, grid[0], grid[1], grid[2], one,
+                                                  label=_e(f"final perceived map of {name}"),
+                                                  attrs=_fig_attrs(f"navmap-{e}-{k}-{nav}", nav, fault))
                 figs.append(f'<figure data-navigator="{_e(nav)}" data-fault="{_e(fault)}" data-map="{pick.map_index}">'
-                            f'{_img(png, f"navmap-{e}-{k}-{nav}", f"final perceived map of {name}", nav, fault)}'
-                            f'<figcaption>{_e(name)}: the navigator\'s map at the end (pink: never seen)'
-                            '</figcaption></figure>')
-        out.append('<div class="maps">' + "".join(figs) + "</div>" + _runs_table(e, k, recs, a.root, link_base)
+                            f'{svg}<figcaption>{_e(name)}: the navigator\'s map at the end, height from low '
+                            f'(purple) to high (yellow); pink: never seen ({_e(percent(share))} of the map); '
+                            'black outlines: the real obstacles</figcaption></figure>')
+        out.append('<svg width="0" height="0" style="position:absolute" aria-hidden="true"><defs>'
+                   + "".join(defs) + "</defs></svg>"
+                   + '<div class="maps">' + "".join(figs) + "</div>" + _runs_table(e, k, recs, a.root, link_base)
                    + "</section>")
     return "\n".join(out)
+
+
+def _size(w: World) -> str:
+    return f"{w.size_m[0]:g} \u00d7 {w.size_m[1]:g} m"
+
+
+def _tip(r: RunRecord) -> str:
+    """A run's tooltip: its name, outcome and reason."""
+    return f"{_run_name(r)}: {OUTCOME_LABELS.get(r.outcome, r.outcome)} \u2013 {r.reason}"
+
+
+def _fig_attrs(name: str, navigator: str, fault: str) -> str:
+    return f'data-figure="{_e(name)}" data-navigator="{_e(navigator)}" data-fault="{_e(fault)}"'
 
 
 def _trace_href(root: Path, rec: RunRecord, link_base: Path | None) -> str | None:
@@ -668,7 +713,7 @@ def render_report(a: Analysis, *, cache: TrajectoryCache | None = None, max_poin
     text = text.replace("<table", '<div class="scroll"><table').replace("</table>", "</table></div>")
     return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
             "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">"
-            f"<title>navstress report: {_e(a.name)}</title><style>{_CSS}</style></head>"
+            f"<title>navstress report: {_e(a.name)}</title><style>{_CSS}{svgmap.CSS}</style></head>"
             f"<body data-campaign=\"{_e(a.name)}\">{nav}\n" + text + f"\n<script>{_SCRIPT}</script>\n</body></html>\n")
 
 

@@ -287,9 +287,76 @@ def _messages(path: str | os.PathLike[str], topics: list[str]) -> Iterator[tuple
         raise StoreError(f"trace={str(path)!r} is unreadable: {type(err).__name__}: {err}") from None
 
 
+def _indexed(path: str | os.PathLike[str], topic: str, schema: str) -> list[tuple[int, bytes]] | None:
+    """(log time, payload) of every message on ``topic``, in log-time order, found through the
+    file's MCAP message indexes: each chunk that holds the topic is decompressed once and only the
+    topic's message records are parsed (the library's reader parses every record of the chunk,
+    and for a pose trajectory that is most of the time a report spends). None when the file has
+    no summary or index, or the topic's schema is not ``schema`` (the caller reads it the general
+    way then); errors as :func:`_messages`."""
+    import struct
+
+    import zstandard
+    from mcap.data_stream import ReadDataStream
+    from mcap.records import Chunk
+
+    try:
+        with open(path, "rb") as f:
+            summary = make_reader(f).get_summary()
+            if summary is None or not summary.chunk_indexes:
+                return None
+            ids = {cid for cid, ch in summary.channels.items() if ch.topic == topic}
+            if any(summary.schemas[summary.channels[c].schema_id].name != schema for c in ids
+                   if summary.channels[c].schema_id in summary.schemas):
+                return None
+            found: list[tuple[int, int, int, bytes]] = []
+            for ci in summary.chunk_indexes:
+                mine = [ci.message_index_offsets[c] for c in ids if c in ci.message_index_offsets]
+                if not mine:
+                    continue
+                f.seek(ci.chunk_start_offset + 1 + 8)
+                chunk = Chunk.read(ReadDataStream(f))
+                if chunk.compression == "zstd":
+                    data = zstandard.ZstdDecompressor().decompress(chunk.data, max_output_size=chunk.uncompressed_size)
+                elif chunk.compression == "":
+                    data = chunk.data
+                else:
+                    return None
+                for off in mine:
+                    # a MessageIndex record: opcode (1), length (8), channel (2), byte length of
+                    # the entries (4), then (log time, offset in the chunk) pairs, u64 each
+                    f.seek(off)
+                    opcode, length = struct.unpack("<BQ", f.read(9))
+                    body = f.read(length)
+                    if opcode != 0x07 or len(body) != length:
+                        return None
+                    (n,) = struct.unpack_from("<I", body, 2)
+                    entries = np.frombuffer(body, dtype="<u8", count=n // 8, offset=6).reshape(-1, 2)
+                    for log_time, at in entries.tolist():
+                        # a Message record: opcode (1), length (8), channel (2), sequence (4),
+                        # log time (8), publish time (8), then the payload
+                        opcode, length = struct.unpack_from("<BQ", data, at)
+                        if opcode != 0x05:
+                            return None
+                        found.append((log_time, ci.chunk_start_offset, at, data[at + 31:at + 9 + length]))
+    except FileNotFoundError:
+        raise StoreError(f"trace={str(path)!r} does not exist") from None
+    except Exception as err:  # mcap raises several unrelated types on corrupt input
+        raise StoreError(f"trace={str(path)!r} is unreadable: {type(err).__name__}: {err}") from None
+    found.sort(key=lambda m: m[:3])
+    return [(m[0], m[3]) for m in found]
+
+
 def read_poses(path: str | os.PathLike[str], topic: str = TOPIC_TRUTH) -> np.ndarray:
     """(N, 7) float64: t, x, y, z, yaw, pitch, roll, in time order."""
     rows = []
+    fast = _indexed(path, topic, "foxglove.PoseInFrame")
+    if fast is not None:
+        for log_time, data in fast:
+            m = PoseInFrame.FromString(data)
+            p = m.pose.position
+            rows.append((log_time / 1e9, p.x, p.y, p.z, *euler(m.pose.orientation)))
+        return np.array(rows, dtype=np.float64).reshape(-1, 7)
     for _topic, log_time, m in _messages(path, [topic]):
         p = m.pose.position
         rows.append((log_time / 1e9, p.x, p.y, p.z, *euler(m.pose.orientation)))

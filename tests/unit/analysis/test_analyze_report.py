@@ -160,3 +160,23 @@ def test_report_shows_infeasible_maps_per_configuration(campaign: Path, tmp_path
     html = build_report(campaign, tmp_path / "r.html").read_text()
     assert "maps infeasible a priori" in html
     assert html.count('data-field="infeasible-maps"') >= 1
+
+
+@pytest.mark.not_traces
+def test_trajectory_prefetch_in_worker_processes_reads_what_get_reads(tmp_path: Path) -> None:
+    """Many traces are read in worker processes; the cache then holds, byte for byte, what a
+    sequential get() reads; a missing trace and an unreadable one are None, as with get()."""
+    from navstress.analysis.analyze import TrajectoryCache
+    paths: list[Path | None] = []
+    for i in range(6):
+        paths.append(Path(write_trace(tmp_path / f"{i}.mcap", line(10 + i, 0, i, 20, 5 + i))))
+    (tmp_path / "junk.mcap").write_bytes(b"not an mcap file")
+    paths += [tmp_path / "missing.mcap", tmp_path / "junk.mcap", None, paths[0]]
+    par, seq = TrajectoryCache(), TrajectoryCache()
+    par.prefetch(paths, workers=2)
+    for p in paths:
+        a, b = par.get(p), seq.get(p)
+        assert (a is None) == (b is None)
+        if a is not None and b is not None:
+            assert a.tobytes() == b.tobytes() and len(a) > 10
+    assert par.get(tmp_path / "junk.mcap") is None and par.get(tmp_path / "missing.mcap") is None

@@ -1,0 +1,286 @@
+"""The report's map pictures as inline SVG: a world drawn once, its runs drawn over it as vectors.
+
+A campaign's report shows every map with the runs of each navigator and fault over it (the
+paper preset: 345 maps, about 500 pictures, 2,475 runs). Drawn with matplotlib and embedded as
+PNGs, those pictures weighed about 115 kB and took about half a second each. Here a world is
+drawn once per map, as an SVG ``<g>`` in a hidden ``<defs>`` block: its terrain as one small
+hillshaded PNG (one pixel per terrain cell, the same colours and light as ``draw_world``), its
+obstacles, start and goal as vector shapes; each picture ``<use>``\\ s it and adds its runs as
+polylines (simplified with Ramer-Douglas-Peucker to a tenth of a percent of the map's size, well
+under a pixel at the size they are shown), coloured by outcome, each carrying ``data-run`` so
+the report's script links it with its row in the runs table, and a ``<title>`` (hovering a run
+names it). Vectors stay sharp when the picture is enlarged (a click on a picture does that).
+
+Coordinates are metres with the y axis flipped (SVG's y grows downwards): a world point (x, y)
+is drawn at (x, sy - y), rounded to 5 cm.
+"""
+
+from __future__ import annotations
+
+import base64
+import io
+import math
+from typing import Any
+
+import numpy as np
+
+from navstress.run.figures import MOVER_COLOUR, OUTCOME_COLOURS, RunTrack
+from navstress.world.world import World
+
+_START, _GOAL = "#1565c0", "#d62828"
+KIND_COLOURS = {"tree": "#1f6f3a", "building": "#3b4a63"}
+_EXTRA = ("#4b4f9c", "#b5651d", "#6a3d9a", "#2b8cbe", "#444444")
+
+#: Styles of the pictures (the report embeds them once): outcome colours as classes, so that a
+#: polyline carries a short class name rather than its colour.
+CSS = "".join(
+    [".map{width:100%;height:auto;border:1px solid #ddd;background:#fff;cursor:zoom-in;display:block}",
+     ".maps figure{width:380px}.maps figure:has(.big){width:100%;max-width:1100px}.map.big{cursor:zoom-out}",
+     ".map polyline{fill:none;stroke-width:1.6px;stroke-linejoin:round;vector-effect:non-scaling-stroke;"
+     "opacity:.9}",
+     ".map polyline.perceived{stroke:#2b83ba;stroke-dasharray:4 3}",
+     ".map .obs{stroke:#000;stroke-width:.5px;vector-effect:non-scaling-stroke}",
+     ".map .outline{fill:none;stroke:#000;stroke-width:.6px;vector-effect:non-scaling-stroke}",
+     ".map .mv{fill:%s;stroke:#000;stroke-width:.5px;vector-effect:non-scaling-stroke;opacity:.8}" % MOVER_COLOUR,
+     ".map .mvpath{fill:none;stroke:%s;stroke-width:.8px;vector-effect:non-scaling-stroke;opacity:.55}"
+     % MOVER_COLOUR,
+     ".map g.hl polyline{stroke-width:4px;opacity:1}",
+     ".map.dim g[data-run]:not(.hl){opacity:.15}",
+     "tr.hl td{background:#fff3b0}",
+     ".legend span{display:inline-block;margin-right:1em;font-size:.85em}",
+     ".legend i{display:inline-block;width:1.6em;height:.3em;vertical-align:middle;margin-right:.3em}"]
+    + [".o-%s{stroke:%s}.o-%s circle,circle.o-%s{fill:%s;stroke:#fff}" % (o, c, o, o, c)
+       for o, c in OUTCOME_COLOURS.items()])
+
+
+def _kind_colour(kind: str, kinds: list[str]) -> str:
+    if kind in KIND_COLOURS:
+        return KIND_COLOURS[kind]
+    others = [k for k in kinds if k not in KIND_COLOURS]
+    return _EXTRA[others.index(kind) % len(_EXTRA)] if kind in others else _EXTRA[0]
+
+
+def _png(rgb: np.ndarray) -> str:
+    """An (rows, cols, 3|4) uint8 image, row 0 at the top, as a PNG data URI."""
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.fromarray(rgb).save(buf, format="PNG", compress_level=6)
+    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+def terrain_rgb(world: World) -> np.ndarray:
+    """The hillshaded terrain, one pixel per cell, row 0 at the top (largest y), uint8 RGB:
+    the colours and light of ``draw_world`` (flat ground in one light tone)."""
+    from matplotlib.colors import LightSource, Normalize
+
+    from navstress.world.export.images import _terrain_cmap
+
+    h = world.terrain.heights.astype(np.float64)
+    z_min, z_max = float(h.min()), float(h.max())
+    cmap = _terrain_cmap()
+    if z_max - z_min < 1e-6:
+        norm = Normalize(vmin=z_min - 0.25, vmax=z_max + 0.75)
+        rgb = cmap(norm(h))[..., :3]
+    else:
+        ls = LightSource(azdeg=315, altdeg=40)
+        c = world.terrain.cell_m
+        rgb = ls.shade(h[::-1], cmap=cmap, norm=Normalize(vmin=z_min, vmax=z_max), blend_mode="soft",
+                       vert_exag=1.0, dx=c, dy=c)[..., :3]
+        return np.asarray(np.clip(rgb * 255 + 0.5, 0, 255), dtype=np.uint8)
+    return np.asarray(np.clip(rgb[::-1] * 255 + 0.5, 0, 255), dtype=np.uint8)
+
+
+def _n(v: float) -> str:
+    """A coordinate rounded to 5 cm, without a trailing ``.0``."""
+    r = round(v * 20) / 20
+    return str(int(r)) if r == int(r) else f"{r:.2f}".rstrip("0")
+
+
+def _path(corners: np.ndarray, sy: float) -> str:
+    return "M" + "L".join(f"{_n(x)} {_n(sy - y)}" for x, y in corners) + "Z"
+
+
+def simplify(xy: np.ndarray, tol: float) -> np.ndarray:
+    """Ramer-Douglas-Peucker: the points of the polyline ``xy`` (N, 2) to keep so that no dropped
+    point is farther than ``tol`` from the simplified line; first and last always kept."""
+    n = len(xy)
+    if n <= 2:
+        return xy
+    keep = np.zeros(n, dtype=bool)
+    keep[0] = keep[-1] = True
+    stack = [(0, n - 1)]
+    while stack:
+        i, j = stack.pop()
+        if j - i < 2:
+            continue
+        a, b = xy[i], xy[j]
+        seg = b - a
+        pts = xy[i + 1:j] - a
+        length = math.hypot(seg[0], seg[1])
+        if length < 1e-12:
+            d = np.hypot(pts[:, 0], pts[:, 1])
+        else:
+            d = np.abs(seg[0] * pts[:, 1] - seg[1] * pts[:, 0]) / length
+        k = int(np.argmax(d))
+        if d[k] > tol:
+            m = i + 1 + k
+            keep[m] = True
+            stack.append((i, m))
+            stack.append((m, j))
+    return xy[keep]
+
+
+def _points(xy: np.ndarray, sy: float, tol: float) -> str:
+    s = simplify(np.asarray(xy, dtype=np.float64), tol)
+    return " ".join(f"{_n(x)},{_n(sy - y)}" for x, y in s)
+
+
+def world_defs(world: World, gid: str) -> str:
+    """The world as an SVG ``<g id=gid>`` (for a hidden ``<defs>``): terrain image, obstacles by
+    kind, the start and goal free areas, the start's heading and the goal."""
+    sx, sy = world.size_m
+    c = world.terrain.cell_m
+    rows, cols = world.terrain.heights.shape
+    # pixel centres on the grid's nodes: the image spans half a cell past every edge
+    parts = [f'<g id="{gid}"><image href="{_png(terrain_rgb(world))}" x="{_n(-c / 2)}" y="{_n(sy - (rows - 0.5) * c)}" '
+             f'width="{_n(cols * c)}" height="{_n(rows * c)}" preserveAspectRatio="none" '
+             'style="image-rendering:auto"/>']
+    kinds = sorted({o.kind for o in world.obstacles})
+    for kind in kinds:
+        d = "".join(_path(o.corners(), sy) for o in world.obstacles if o.kind == kind)
+        parts.append(f'<path class="obs" fill="{_kind_colour(kind, kinds)}" d="{d}"><title>{kind}</title></path>')
+    m = world.mission
+    r = m.free_radius_m
+    if r > 0:
+        for (px, py), col in (((m.start[0], m.start[1]), _START), (m.goal, _GOAL)):
+            parts.append(f'<circle cx="{_n(px)}" cy="{_n(sy - py)}" r="{_n(r)}" fill="{col}" fill-opacity=".1" '
+                         f'stroke="{col}" stroke-dasharray="4 3" vector-effect="non-scaling-stroke"/>')
+    x0, y0, yaw = m.start
+    ln = max(3.0, 0.06 * max(sx, sy))
+    parts.append(f'<line x1="{_n(x0)}" y1="{_n(sy - y0)}" x2="{_n(x0 + ln * math.cos(yaw))}" '
+                 f'y2="{_n(sy - y0 - ln * math.sin(yaw))}" stroke="{_START}" stroke-width="3px" '
+                 'vector-effect="non-scaling-stroke"/>')
+    k = max(sx, sy) / 100.0  # marker sizes: about 1 % of the map
+    parts.append(f'<circle cx="{_n(x0)}" cy="{_n(sy - y0)}" r="{_n(1.2 * k)}" fill="{_START}" stroke="#fff" '
+                 'vector-effect="non-scaling-stroke"><title>start</title></circle>')
+    gx, gy = m.goal
+    star = []
+    for i in range(10):
+        rad = (2.2 if i % 2 == 0 else 0.9) * k
+        a = math.pi / 2 + i * math.pi / 5
+        star.append(f"{_n(gx + rad * math.cos(a))},{_n(sy - gy - rad * math.sin(a))}")
+    parts.append(f'<polygon points="{" ".join(star)}" fill="{_GOAL}" stroke="#fff" '
+                 'vector-effect="non-scaling-stroke"><title>goal</title></polygon></g>')
+    return "".join(parts)
+
+
+def obstacle_outlines(world: World) -> str:
+    """Every obstacle's footprint as one outline path (over a perceived map)."""
+    sy = world.size_m[1]
+    d = "".join(_path(o.corners(), sy) for o in world.obstacles)
+    return f'<path class="outline" d="{d}"/>' if d else ""
+
+
+def _movers_at(world: World, movers: tuple[np.ndarray, np.ndarray], at: float, sy: float) -> str:
+    times, poses = movers
+    if not len(times):
+        return ""
+    out = []
+    for i, mv in enumerate(world.movers[: poses.shape[1]]):
+        x = float(np.interp(at, times, poses[:, i, 0]))
+        y = float(np.interp(at, times, poses[:, i, 1]))
+        if mv.shape == "disc":
+            out.append(f'<circle class="mv" cx="{_n(x)}" cy="{_n(sy - y)}" r="{_n(mv.size[0] / 2)}"/>')
+        else:
+            yaw = float(poses[min(int(np.searchsorted(times, at)), len(times) - 1), i, 3])
+            c, s = math.cos(yaw), math.sin(yaw)
+            hl, hw = mv.size[0] / 2, mv.size[1] / 2
+            pts = np.array([(x + c * a - s * b, y + s * a + c * b) for a, b in ((hl, hw), (-hl, hw), (-hl, -hw),
+                                                                                 (hl, -hw))])
+            out.append(f'<path class="mv" d="{_path(pts, sy)}"/>')
+    return "".join(out)
+
+
+def runs_svg(world: World, gid: str, tracks: list[tuple[str, RunTrack, str]], *, perceived: bool = False,
+             label: str = "", attrs: str = "") -> str:
+    """A picture: the world ``gid`` (from :func:`world_defs`) with ``tracks`` over it, each a
+    (run id, track, tooltip); ``perceived``: the navigator's belief too, dashed; a track with
+    movers shows where they were at its first collision (and their paths, in a one-run picture)."""
+    sx, sy = world.size_m
+    tol = 1e-3 * max(sx, sy)
+    k = max(sx, sy) / 100.0
+    body = []
+    for run_id, tr, tip in tracks:
+        cls = f"o-{tr.outcome}"
+        g = [f'<g class="{cls}" data-run="{run_id}"><title>{tip}</title>']
+        if tr.movers is not None and len(world.movers):
+            if len(tracks) == 1:
+                times, poses = tr.movers
+                for i in range(poses.shape[1]):
+                    g.append(f'<polyline class="mvpath" points="{_points(poses[:, i, :2], sy, tol)}"/>')
+            if tr.collision_t is not None:
+                g.append(_movers_at(world, tr.movers, tr.collision_t, sy))
+        if len(tr.truth):
+            g.append(f'<polyline points="{_points(tr.truth[:, 1:3], sy, tol)}"/>')
+            x, y = tr.truth[-1, 1], tr.truth[-1, 2]
+            g.append(f'<circle cx="{_n(x)}" cy="{_n(sy - y)}" r="{_n(0.7 * k)}" '
+                     'vector-effect="non-scaling-stroke"/>')
+        if perceived and tr.perceived is not None and len(tr.perceived):
+            g.append(f'<polyline class="perceived" points="{_points(tr.perceived[:, 1:3], sy, tol)}"/>')
+        body.append("".join(g) + "</g>")
+    return (f'<svg class="map" viewBox="0 0 {_n(sx)} {_n(sy)}" role="img" aria-label="{label}" {attrs}>'
+            f'<use href="#{gid}"/>{"".join(body)}</svg>')
+
+
+def perceived_svg(world: World, grid: np.ndarray, origin_xy: tuple[float, float], cell_m: float,
+                  track: tuple[str, RunTrack, str] | None, *, label: str = "", attrs: str = "") -> tuple[str, float]:
+    """The navigator's final perceived elevation map (viridis, unknown cells pink) under the real
+    obstacles' outlines and the run's real trajectory; returns the SVG and the unknown share of
+    the map (cells inside it that were never seen)."""
+    from matplotlib import colormaps
+
+    sx, sy = world.size_m
+    g = np.asarray(grid, dtype=np.float64)
+    rows, cols = g.shape
+    unknown = ~np.isfinite(g)
+    cx = origin_xy[0] + (np.arange(cols) + 0.5) * cell_m
+    cy = origin_xy[1] + (np.arange(rows) + 0.5) * cell_m
+    inside = ((cy >= 0) & (cy <= sy))[:, None] & ((cx >= 0) & (cx <= sx))[None, :]
+    share = float(unknown[inside].mean()) if inside.any() else 1.0
+    rgba = np.empty((rows, cols, 4), dtype=np.uint8)
+    rgba[...] = (0xF4, 0xC2, 0xD7, 255)
+    if (~unknown).any():
+        lo, hi = float(np.min(g[~unknown])), float(np.max(g[~unknown]))
+        t = (np.where(unknown, lo, g) - lo) / max(hi - lo, 1e-9)
+        col = colormaps["viridis"](t, bytes=True)
+        rgba[~unknown] = col[~unknown]
+    img = _png(rgba[::-1])
+    top = sy - (origin_xy[1] + rows * cell_m)
+    body = [f'<rect width="{_n(sx)}" height="{_n(sy)}" fill="#fff"/>',
+            f'<image href="{img}" x="{_n(origin_xy[0])}" y="{_n(top)}" width="{_n(cols * cell_m)}" '
+            f'height="{_n(rows * cell_m)}" preserveAspectRatio="none" style="image-rendering:pixelated"/>',
+            obstacle_outlines(world)]
+    if track is not None:
+        run_id, tr, tip = track
+        tol = 1e-3 * max(sx, sy)
+        body.append(f'<g class="o-{tr.outcome}" data-run="{run_id}"><title>{tip}</title>'
+                    f'<polyline points="{_points(tr.truth[:, 1:3], sy, tol)}"/></g>')
+    return (f'<svg class="map" viewBox="0 0 {_n(sx)} {_n(sy)}" role="img" aria-label="{label}" {attrs}>'
+            + "".join(body) + "</svg>", share)
+
+
+def legend_html(labels: dict[str, str]) -> str:
+    """The outcome colours, the start, the goal, the movers and the perceived line, once."""
+    items = [f'<span><i style="background:{OUTCOME_COLOURS[o]}"></i>{lab}</span>' for o, lab in labels.items()]
+    items += [f'<span><b style="color:{_START}">\u25cf</b> start</span>',
+              f'<span><b style="color:{_GOAL}">\u2605</b> goal</span>',
+              '<span><i style="background:repeating-linear-gradient(90deg,#2b83ba 0 4px,transparent 4px 7px)">'
+              "</i>perceived (the navigator's belief)</span>",
+              f'<span><b style="color:{MOVER_COLOUR}">\u25cf</b> movers at a collision</span>']
+    return '<p class="legend">' + "".join(items) + "</p>"
+
+
+def attrs_of(**kv: Any) -> str:
+    """``data-*`` attributes (already escaped values)."""
+    return " ".join(f'data-{k.replace("_", "-")}="{v}"' for k, v in kv.items())
