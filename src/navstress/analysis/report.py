@@ -1,14 +1,16 @@
 """``navstress report DIR -o report.html``: one self-contained HTML file for a person.
 
-Figures are embedded as base64 PNG data URIs; the page has no script and loads nothing from
-outside. Sections: summary (campaign, runs done/planned, outcome counts, what is missing),
+Charts are embedded as base64 PNG data URIs and the maps as inline SVG
+(:mod:`navstress.analysis.svgmap`); one small embedded script sorts and filters tables and links
+runs with their lines; the page loads nothing from outside. Sections: summary (campaign, runs done/planned, outcome counts, what is missing),
 difficulty table (per configuration: parameters, runs, success % with its 95 % interval,
 median duration and tortuousness of successes, mean end distance to goal, level), level
 ranges per class (fuzzy thresholds), per-class figures, verdicts (per configuration a table row and
 per experiment, navigator and fault a strip of its worlds: pass probability, exact interval,
 class; the worlds that do not pass listed), indeterminism, fault power,
 descriptor correlations, and one section per configuration (every map with all its runs
-colour-coded by outcome, one real-vs-perceived picture and the final perceived map).
+colour-coded by outcome, one real-vs-perceived picture, the final perceived map, and a table of
+its runs with seeds, reason and a link to each trace).
 
 Every figure and table says which navigator (and fault) it shows: per-configuration pictures
 are drawn per map and per (navigator, fault), never mixing runs of two navigators, and their

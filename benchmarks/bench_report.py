@@ -1,0 +1,85 @@
+"""The report of a campaign: time to write it, its size, peak memory; and pose reading, side by side.
+
+    python benchmarks/bench_report.py DIR [--sample 200]
+
+DIR is a campaign directory (for the issue's figure, the paper preset:
+``navstress campaign init --preset paper -o paper.yaml && navstress campaign run paper.yaml -o DIR``;
+without DIR the benchmark runs the demo campaign into a temporary folder first). Prints:
+
+- ``navstress report DIR -o OUT`` as a user runs it, in a fresh process: wall time, the file's
+  size, the process's peak resident memory. Targets for the paper preset (2,475 runs): under a
+  minute and under 20 MB.
+- reading a trajectory from a trace (``read_poses``: through the MCAP message indexes) against
+  the MCAP library's own reader, on the same ``--sample`` traces of DIR in this one process: the
+  median time per trace and the ratio (a ratio is stable on a noisy machine), and that both give
+  the same bytes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import glob
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+
+def library_poses(path: str, topic: str) -> np.ndarray:
+    from navstress.run.trace import _messages, euler
+    rows = [(lt / 1e9, m.pose.position.x, m.pose.position.y, m.pose.position.z, *euler(m.pose.orientation))
+            for _t, lt, m in _messages(path, [topic])]
+    return np.array(rows, dtype=np.float64).reshape(-1, 7)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("directory", nargs="?", help="a campaign directory (default: run the demo first)")
+    ap.add_argument("--sample", type=int, default=200, help="traces timed for the pose-reading comparison")
+    a = ap.parse_args()
+    exe = str(Path(sys.executable).with_name("navstress"))
+    with tempfile.TemporaryDirectory() as tmp:
+        root = a.directory
+        if root is None:
+            subprocess.run([exe, "demo", "-o", tmp + "/demo"], check=True, stdout=subprocess.DEVNULL)
+            root = tmp + "/demo/campaign"
+        from navstress.campaign.store import Store
+        with Store.open(root) as s:
+            done, planned = s.progress()
+        out = Path(tmp) / "report.html"
+        t = time.perf_counter()
+        subprocess.run([exe, "report", root, "-o", str(out)], check=True, stdout=subprocess.DEVNULL)
+        wall = time.perf_counter() - t
+        peak_mb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
+        size_mb = out.stat().st_size / 1e6
+        print(f"campaign {root}: {done}/{planned} runs; cores {os.cpu_count()}")
+        print(f"navstress report: {wall:.1f} s, {size_mb:.1f} MB, peak memory {peak_mb:.0f} MB "
+              f"(targets for 2,475 runs: < 60 s, < 20 MB)")
+
+    from navstress.run.trace import TOPIC_TRUTH, read_poses
+    traces = sorted(glob.glob(os.path.join(root, "traces", "**", "*.mcap"), recursive=True))[: a.sample]
+    fast, slow, same = [], [], True
+    for p in traces:
+        t = time.perf_counter()
+        x = read_poses(p, TOPIC_TRUTH)
+        fast.append(time.perf_counter() - t)
+        t = time.perf_counter()
+        y = library_poses(p, TOPIC_TRUTH)
+        slow.append(time.perf_counter() - t)
+        same = same and x.tobytes() == y.tobytes()
+    if traces:
+        f, s = statistics.median(fast), statistics.median(slow)
+        print(f"pose reading, {len(traces)} traces: indexed {1e3 * f:.1f} ms, library {1e3 * s:.1f} ms per trace, "
+              f"{s / f:.1f}x; identical: {same}")
+        if not same:
+            sys.exit("the two readers disagree")
+
+
+if __name__ == "__main__":
+    main()
