@@ -131,8 +131,14 @@ def simplify(xy: np.ndarray, tol: float) -> np.ndarray:
     return xy[keep]
 
 
+def _finite(xy: np.ndarray) -> np.ndarray:
+    """The rows of (N, 2) ``xy`` that are finite (a diverged simulation may leave NaN poses)."""
+    a = np.asarray(xy, dtype=np.float64)
+    return a[np.isfinite(a).all(axis=1)]
+
+
 def _points(xy: np.ndarray, sy: float, tol: float) -> str:
-    s = simplify(np.asarray(xy, dtype=np.float64), tol)
+    s = simplify(_finite(xy), tol)
     return " ".join(f"{_n(x)},{_n(sy - y)}" for x, y in s)
 
 
@@ -221,9 +227,10 @@ def runs_svg(world: World, gid: str, tracks: list[tuple[str, RunTrack, str]], *,
                     g.append(f'<polyline class="mvpath" points="{_points(poses[:, i, :2], sy, tol)}"/>')
             if tr.collision_t is not None:
                 g.append(_movers_at(world, tr.movers, tr.collision_t, sy))
-        if len(tr.truth):
-            g.append(f'<polyline points="{_points(tr.truth[:, 1:3], sy, tol)}"/>')
-            x, y = tr.truth[-1, 1], tr.truth[-1, 2]
+        xy = _finite(tr.truth[:, 1:3]) if len(tr.truth) else np.zeros((0, 2))
+        if len(xy):
+            g.append(f'<polyline points="{_points(xy, sy, tol)}"/>')
+            x, y = xy[-1]
             g.append(f'<circle cx="{_n(x)}" cy="{_n(sy - y)}" r="{_n(0.7 * k)}" '
                      'vector-effect="non-scaling-stroke"/>')
         if perceived and tr.perceived is not None and len(tr.perceived):
@@ -261,7 +268,7 @@ def perceived_svg(world: World, grid: np.ndarray, origin_xy: tuple[float, float]
             f'<image href="{img}" x="{_n(origin_xy[0])}" y="{_n(top)}" width="{_n(cols * cell_m)}" '
             f'height="{_n(rows * cell_m)}" preserveAspectRatio="none" style="image-rendering:pixelated"/>',
             obstacle_outlines(world)]
-    if track is not None:
+    if track is not None and len(_finite(track[1].truth[:, 1:3])):
         run_id, tr, tip = track
         tol = 1e-3 * max(sx, sy)
         body.append(f'<g class="o-{tr.outcome}" data-run="{run_id}"><title>{tip}</title>'
