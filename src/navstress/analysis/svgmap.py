@@ -28,6 +28,8 @@ from navstress.run.figures import MOVER_COLOUR, OUTCOME_COLOURS, RunTrack
 from navstress.world.world import World
 
 _START, _GOAL = "#1565c0", "#d62828"
+#: Colour steps of a perceived map's height.
+PERCEIVED_LEVELS = 48
 KIND_COLOURS = {"tree": "#1f6f3a", "building": "#3b4a63"}
 _EXTRA = ("#4b4f9c", "#b5651d", "#6a3d9a", "#2b8cbe", "#444444")
 
@@ -60,13 +62,26 @@ def _kind_colour(kind: str, kinds: list[str]) -> str:
     return _EXTRA[others.index(kind) % len(_EXTRA)] if kind in others else _EXTRA[0]
 
 
-def _png(rgb: np.ndarray) -> str:
-    """An (rows, cols, 3|4) uint8 image, row 0 at the top, as a PNG data URI."""
+def _png(img: Any) -> str:
+    """A PIL image (or an (rows, cols, 3|4) uint8 array, row 0 at the top) as a PNG data URI."""
     from PIL import Image
 
     buf = io.BytesIO()
-    Image.fromarray(rgb).save(buf, format="PNG", compress_level=6)
+    (img if isinstance(img, Image.Image) else Image.fromarray(img)).save(buf, format="PNG", compress_level=6)
     return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+def _terrain_uri(rgb: np.ndarray) -> str:
+    """The terrain picture as a data URI: JPEG (quality 85) for a shaded surface, a smooth picture
+    JPEG keeps within a few levels of 255 at a sixth of the PNG's size; PNG when it is one colour
+    (flat ground), which PNG stores in a few hundred bytes."""
+    from PIL import Image
+
+    if (rgb == rgb[0, 0]).all():
+        return _png(rgb)
+    buf = io.BytesIO()
+    Image.fromarray(rgb).save(buf, format="JPEG", quality=85)
+    return "data:image/jpeg;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
 
 
 def terrain_rgb(world: World) -> np.ndarray:
@@ -98,7 +113,13 @@ def _n(v: float) -> str:
 
 
 def _path(corners: np.ndarray, sy: float) -> str:
-    return "M" + "L".join(f"{_n(x)} {_n(sy - y)}" for x, y in corners) + "Z"
+    """A closed polygon: the first corner absolute, the others relative to the one before (the
+    5 cm grid of :func:`_n`: each corner rounded, then differenced, so no error accumulates)."""
+    q = [(round(float(x) * 20), round(float(sy - y) * 20)) for x, y in corners]
+    out = [f"M{_n(q[0][0] / 20)} {_n(q[0][1] / 20)}"]
+    for (ax, ay), (bx, by) in zip(q, q[1:]):
+        out.append(f"l{_n((bx - ax) / 20)} {_n((by - ay) / 20)}")
+    return "".join(out) + "z"
 
 
 def simplify(xy: np.ndarray, tol: float) -> np.ndarray:
@@ -149,7 +170,7 @@ def world_defs(world: World, gid: str) -> str:
     c = world.terrain.cell_m
     rows, cols = world.terrain.heights.shape
     # pixel centres on the grid's nodes: the image spans half a cell past every edge
-    parts = [f'<g id="{gid}"><image href="{_png(terrain_rgb(world))}" x="{_n(-c / 2)}" y="{_n(sy - (rows - 0.5) * c)}" '
+    parts = [f'<g id="{gid}"><image href="{_terrain_uri(terrain_rgb(world))}" x="{_n(-c / 2)}" y="{_n(sy - (rows - 0.5) * c)}" '
              f'width="{_n(cols * c)}" height="{_n(rows * c)}" preserveAspectRatio="none" '
              'style="image-rendering:auto"/>']
     kinds = sorted({o.kind for o in world.obstacles})
@@ -255,14 +276,21 @@ def perceived_svg(world: World, grid: np.ndarray, origin_xy: tuple[float, float]
     cy = origin_xy[1] + (np.arange(rows) + 0.5) * cell_m
     inside = ((cy >= 0) & (cy <= sy))[:, None] & ((cx >= 0) & (cx <= sx))[None, :]
     share = float(unknown[inside].mean()) if inside.any() else 1.0
-    rgba = np.empty((rows, cols, 4), dtype=np.uint8)
-    rgba[...] = (0xF4, 0xC2, 0xD7, 255)
+    from PIL import Image
+
+    # a palette picture: index 0 the unknown pink, 1..LEVELS the viridis colours of the height
+    # in LEVELS equal steps between the lowest and the highest known cell (a picture: the exact
+    # heights are in the trace)
+    idx = np.zeros((rows, cols), dtype=np.uint8)
     if (~unknown).any():
         lo, hi = float(np.min(g[~unknown])), float(np.max(g[~unknown]))
         t = (np.where(unknown, lo, g) - lo) / max(hi - lo, 1e-9)
-        col = colormaps["viridis"](t, bytes=True)
-        rgba[~unknown] = col[~unknown]
-    img = _png(rgba[::-1])
+        idx[~unknown] = 1 + np.minimum((t[~unknown] * PERCEIVED_LEVELS).astype(np.int64), PERCEIVED_LEVELS - 1)
+    palette = [0xF4, 0xC2, 0xD7] + list(colormaps["viridis"](np.linspace(0, 1, PERCEIVED_LEVELS), bytes=True)[:, :3]
+                                         .reshape(-1).tolist())
+    pic = Image.frombytes("P", (cols, rows), np.ascontiguousarray(idx[::-1]).tobytes())
+    pic.putpalette(palette)
+    img = _png(pic)
     top = sy - (origin_xy[1] + rows * cell_m)
     body = [f'<rect width="{_n(sx)}" height="{_n(sy)}" fill="#fff"/>',
             f'<image href="{img}" x="{_n(origin_xy[0])}" y="{_n(top)}" width="{_n(cols * cell_m)}" '
