@@ -50,6 +50,10 @@ def _poses_or_none(path: str, topic: str) -> np.ndarray | None:
     return arr if len(arr) else None
 
 
+def _poses_many(paths: list[str], topic: str) -> list[np.ndarray | None]:
+    return [_poses_or_none(p, topic) for p in paths]
+
+
 class TrajectoryCache:
     """Decoded trajectories by (trace path, topic), read once per process (keyed by mtime too).
 
@@ -78,7 +82,8 @@ class TrajectoryCache:
 
     def prefetch(self, paths: list[Path | None], topic: str = TOPIC_TRUTH, workers: int | None = None) -> None:
         """Read the trajectories of many traces into the cache at once: in worker processes
-        (``spawn``; ``workers``, or by default one per core when there are at least :data:`PARALLEL_FROM`),
+        (:class:`navstress.isolate.Worker`; ``workers``, or by default one per core when there are
+        at least :data:`PARALLEL_FROM`),
         since decoding a trace's poses is Python work (about 10 ms for a 400 s run) and a paper-sized
         campaign has thousands. The arrays are the ones :meth:`get` would read, byte for byte."""
         todo: list[tuple[str, float]] = []
@@ -102,13 +107,31 @@ class TrajectoryCache:
             for p, _mt in todo:
                 self.get(p, topic)
             return
-        import multiprocessing as mp
-        from concurrent.futures import ProcessPoolExecutor
+        # navstress's one worker loop (navstress.isolate: spawned, dies with this process); one
+        # thread per worker waits on its pipe while the worker decodes
+        import threading
 
-        with ProcessPoolExecutor(n, mp_context=mp.get_context("spawn")) as ex:
-            for (p, mt), arr in zip(todo, ex.map(_poses_or_none, [p for p, _ in todo], [topic] * len(todo),
-                                                 chunksize=max(1, len(todo) // (8 * n)))):
-                self._c[(p, topic, mt)] = arr
+        from navstress.isolate import Worker
+
+        chunks = [todo[i::4 * n] for i in range(4 * n)]
+
+        def drive(mine: list[list[tuple[str, float]]]) -> None:
+            w = Worker(600.0, preload=("navstress.analysis.analyze",))
+            try:
+                for chunk in mine:
+                    status, arrays = w.call(_poses_many, [p for p, _ in chunk], topic)
+                    if status != "ok":  # the worker could not read them: read them here
+                        arrays = [_poses_or_none(p, topic) for p, _ in chunk]
+                    for (p, mt), arr in zip(chunk, arrays):
+                        self._c[(p, topic, mt)] = arr
+            finally:
+                w.close()
+
+        threads = [threading.Thread(target=drive, args=(chunks[i::n],), daemon=True) for i in range(n)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
 
     @staticmethod
     def thin(arr: np.ndarray, max_points: int) -> np.ndarray:
