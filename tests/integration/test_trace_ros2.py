@@ -15,7 +15,7 @@ from navstress.cli import app
 from navstress.nav.registry import make_navigator
 from navstress.run.mission import run_mission
 from navstress.run.trace import (TOPIC_LIDAR, TOPIC_PERCEIVED, TraceWriter, _messages, read_events, read_grid,
-                                 read_movers, read_poses, read_transforms)
+                                 read_movers, read_poses, read_terrain_mesh, read_transforms)
 from navstress.world import World, generate, parse_spec
 
 pytestmark = pytest.mark.slow
@@ -24,7 +24,8 @@ TYPES = {"/tf": "tf2_msgs/msg/TFMessage", "/tf_static": "tf2_msgs/msg/TFMessage"
          "/rosout": "rcl_interfaces/msg/Log", "/world/markers": "visualization_msgs/msg/MarkerArray",
          "/robot/markers": "visualization_msgs/msg/MarkerArray", "/world/movers": "visualization_msgs/msg/MarkerArray",
          "/world/terrain": "sensor_msgs/msg/PointCloud2", "/nav/map": "nav_msgs/msg/OccupancyGrid",
-         "/nav/map_points": "sensor_msgs/msg/PointCloud2", "/lidar": "sensor_msgs/msg/PointCloud2"}
+         "/nav/map_points": "sensor_msgs/msg/PointCloud2", "/lidar": "sensor_msgs/msg/PointCloud2",
+         "/world/terrain_mesh": "visualization_msgs/msg/MarkerArray"}
 
 
 @pytest.fixture(scope="module")
@@ -33,6 +34,7 @@ def run(tmp_path_factory: pytest.TempPathFactory) -> tuple[World, Path, Path]:
     crossing pedestrians; its trace exported with the CLI."""
     d = tmp_path_factory.mktemp("ros2")
     world = generate(parse_spec({"size_m": [30, 30], "obstacles": {"obstruction": {"tree": 2}},
+                                 "ground": {"subdivisions": 3, "deformation": 0.4},
                                  "movers": {"count": {"pedestrian": 2}}}), 11)
     with TraceWriter(d / "run.mcap") as tw:
         run_mission(world, make_navigator("reference-v1"), run_seed=5, timeout_s=20.0, trace=tw, record_lidar=True)
@@ -66,7 +68,7 @@ def test_every_topic_has_its_standard_type_and_the_latched_ones_are_transient_lo
     assert set(msgs) == set(TYPES)
     latched = {t for t, c in conns.items() if any(q.durability.name == "TRANSIENT_LOCAL"
                                                    for q in c.ext.offered_qos_profiles)}
-    assert latched == {"/tf_static", "/world/markers", "/robot/markers", "/world/terrain"}
+    assert latched == {"/tf_static", "/world/markers", "/robot/markers", "/world/terrain", "/world/terrain_mesh"}
 
 
 def test_frames_odometry_and_events_are_the_traces(run: Any) -> None:
@@ -135,6 +137,16 @@ def test_clouds_and_maps_hold_the_traces_points_and_heights(run: Any) -> None:
     data = np.asarray(occ.data).reshape(vals.shape)
     assert ((data == -1) == np.isnan(vals)).all() and data[~np.isnan(vals)].min() == 0
     assert data[~np.isnan(vals)].max() == 100
+    # the ground surface: one TRIANGLE_LIST whose every three points are a triangle of the trace's mesh
+    mesh = read_terrain_mesh(trace)
+    assert mesh is not None
+    verts, tris = mesh
+    ((_, surface),) = msgs["/world/terrain_mesh"]
+    (tri,) = surface.markers
+    assert tri.type == 11 and tri.header.frame_id == "map" and len(tri.points) == 3 * len(tris) > 2
+    got = np.array([(p.x, p.y, p.z) for p in tri.points])
+    np.testing.assert_array_equal(got, verts[tris.ravel()])
+    assert len(tri.colors) == len(tri.points)
     ((_, pts),) = msgs["/nav/map_points"]
     xyz = np.frombuffer(bytes(pts.data), "<f4").reshape(-1, 3)
     assert len(xyz) == int(np.isfinite(vals).sum())

@@ -230,3 +230,43 @@ def test_indexed_reading_falls_back_on_a_file_without_index(tmp_path: Path) -> N
     assert _indexed(path, TOPIC_TRUTH, "foxglove.PoseInFrame") is None
     got = read_poses(path)
     assert got[:, 1].tolist() == [0.0, 1.0, 2.0, 3.0, 4.0] and got[:, 4] == pytest.approx(np.arange(5) * 0.1)
+
+
+@settings(max_examples=60, deadline=None)
+@given(rows=st.integers(2, 260), cols=st.integers(2, 260), cell=st.sampled_from([0.1, 0.4, 1.0]),
+       flat=st.booleans(), seed=st.integers(0, 2**32 - 1))
+def test_the_terrain_mesh_covers_the_map_on_the_grid_heights(rows: int, cols: int, cell: float, flat: bool,
+                                                             seed: int) -> None:
+    """Every vertex is a grid node at its exact height; the triangles are counter-clockwise seen
+    from above and tile the map exactly; at most MESH_MAX_CELLS cells per side (+ the last);
+    flat ground is two triangles."""
+    from navstress.run.trace import MESH_MAX_CELLS, terrain_mesh
+    h = np.zeros((rows, cols)) if flat else np.random.default_rng(seed).normal(size=(rows, cols))
+    verts, tris = terrain_mesh(h, cell)
+    i = np.rint(verts[:, 1] / cell).astype(int)
+    j = np.rint(verts[:, 0] / cell).astype(int)
+    assert (verts[:, 2] == h[i, j]).all()
+    a, b, c = verts[tris[:, 0], :2], verts[tris[:, 1], :2], verts[tris[:, 2], :2]
+    area = 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
+    assert (area > 0).all()
+    assert area.sum() == pytest.approx((rows - 1) * (cols - 1) * cell * cell, rel=1e-9)
+    assert len(np.unique(i)) <= MESH_MAX_CELLS + 2 and len(np.unique(j)) <= MESH_MAX_CELLS + 2
+    assert {0, rows - 1} <= set(i.tolist()) and {0, cols - 1} <= set(j.tolist())
+    if flat:
+        assert len(tris) == 2
+    elif max(rows, cols) - 1 <= MESH_MAX_CELLS:
+        assert len(verts) == rows * cols  # small grids are kept whole
+
+
+def test_the_terrain_surface_round_trips_through_a_trace(tmp_path: Path) -> None:
+    from navstress.run.trace import read_terrain_mesh, terrain_mesh
+    h = np.random.default_rng(1).normal(size=(30, 40))
+    with TraceWriter(tmp_path / "t.mcap") as tw:
+        tw.terrain(h, 0.5)
+    got = read_terrain_mesh(tmp_path / "t.mcap")
+    assert got is not None
+    verts, tris = terrain_mesh(h, 0.5)
+    assert got[0].tobytes() == verts.tobytes() and (got[1] == tris).all()
+    with TraceWriter(tmp_path / "none.mcap") as tw:
+        tw.event(0.0, "info", "x")
+    assert read_terrain_mesh(tmp_path / "none.mcap") is None

@@ -292,6 +292,7 @@ def _write_trace(tw: TraceWriter, world: World, r: RunResult, robot: RobotSpec) 
              (world.terrain.height_at(m.start[0], m.start[1]), world.terrain.height_at(m.goal[0], m.goal[1])))
     c = world.terrain.cell_m
     tw.grid(TOPIC_TERRAIN, 0.0, h, (-c / 2, -c / 2), c, field="height")
+    tw.terrain(h, c)
     tw.poses(TOPIC_TRUTH, r.truth)
     tw.transforms(FRAME, FRAME_ROBOT, r.truth)
     belief = r.perceived is not None and len(r.perceived) > 0

@@ -35,7 +35,8 @@ import numpy as np
 from navstress import _files
 from navstress.errors import SpecError
 from navstress.run.trace import (FRAME, TOPIC_EVENTS, TOPIC_LIDAR, TOPIC_MAP, TOPIC_MOVERS, TOPIC_PERCEIVED,
-                                 TOPIC_ROBOT, TOPIC_SCENE, TOPIC_TERRAIN, TOPIC_TF, TOPIC_TRUTH, _messages)
+                                 TOPIC_ROBOT, TOPIC_SCENE, TOPIC_TERRAIN, TOPIC_TERRAIN_MESH, TOPIC_TF,
+                                 TOPIC_TRUTH, _messages)
 
 
 def _latched() -> Any:
@@ -116,6 +117,25 @@ class _Bag:
                     uv_coordinates=[], text="", mesh_resource="",
                     mesh_file=self.t["visualization_msgs/msg/MeshFile"](filename="", data=np.zeros(0, np.uint8)),
                     mesh_use_embedded_materials=False))
+            for k, tri in enumerate(ent.triangles, start=len(shapes)):
+                # a TRIANGLE_LIST marker has no indices: every three points are one triangle
+                pts = [tri.points[i] for i in tri.indices] if len(tri.indices) else list(tri.points)
+                cols = [tri.colors[i] for i in tri.indices] if len(tri.indices) and len(tri.colors) else \
+                    list(tri.colors)
+                rgba = self.t["std_msgs/msg/ColorRGBA"]
+                c = tri.color
+                out.append(m(
+                    header=self.header(t_ns, ent.frame_id), ns=ent.id, id=k, type=m.TRIANGLE_LIST, action=m.ADD,
+                    pose=self.pose(tri.pose), scale=self.t["geometry_msgs/msg/Vector3"](x=1.0, y=1.0, z=1.0),
+                    color=rgba(r=c.r, g=c.g, b=c.b, a=c.a if len(cols) == 0 else 1.0),
+                    lifetime=self.t["builtin_interfaces/msg/Duration"](sec=0, nanosec=0),
+                    frame_locked=ent.frame_locked, points=[self.point(p) for p in pts],
+                    colors=[rgba(r=q.r, g=q.g, b=q.b, a=q.a) for q in cols], texture_resource="",
+                    texture=self.t["sensor_msgs/msg/CompressedImage"](header=self.header(0, ""), format="",
+                                                                      data=np.zeros(0, np.uint8)),
+                    uv_coordinates=[], text="", mesh_resource="",
+                    mesh_file=self.t["visualization_msgs/msg/MeshFile"](filename="", data=np.zeros(0, np.uint8)),
+                    mesh_use_embedded_materials=False))
         return self.t["visualization_msgs/msg/MarkerArray"](markers=out)
 
 
@@ -149,8 +169,9 @@ def _convert(bag: _Bag, topic: str, t_ns: int, m: Any) -> None:
     elif topic == TOPIC_EVENTS:
         bag.put("/rosout", T["rcl_interfaces/msg/Log"](stamp=bag.stamp(t_ns), level=_LEVEL.get(m.level, 20), name=m.name,
                                                         msg=m.message, file="", function="", line=0), t_ns)
-    elif topic in (TOPIC_SCENE, TOPIC_ROBOT, TOPIC_MOVERS):
-        name = {TOPIC_SCENE: "/world/markers", TOPIC_ROBOT: "/robot/markers", TOPIC_MOVERS: "/world/movers"}[topic]
+    elif topic in (TOPIC_SCENE, TOPIC_ROBOT, TOPIC_MOVERS, TOPIC_TERRAIN_MESH):
+        name = {TOPIC_SCENE: "/world/markers", TOPIC_ROBOT: "/robot/markers", TOPIC_MOVERS: "/world/movers",
+                TOPIC_TERRAIN_MESH: "/world/terrain_mesh"}[topic]
         bag.put(name, bag.markers(m, t_ns), t_ns, latched=topic != TOPIC_MOVERS)
     elif topic == TOPIC_TERRAIN:
         vals, x0, y0, cell = _grid(m)
@@ -178,6 +199,7 @@ def _convert(bag: _Bag, topic: str, t_ns: int, m: Any) -> None:
 
 
 _TOPICS = [TOPIC_TF, TOPIC_TRUTH, TOPIC_PERCEIVED, TOPIC_EVENTS, TOPIC_SCENE, TOPIC_ROBOT, TOPIC_MOVERS, TOPIC_TERRAIN,
+           TOPIC_TERRAIN_MESH,
            TOPIC_MAP, TOPIC_LIDAR]
 
 

@@ -9,7 +9,8 @@ to each ``base_link``, the belief's translucent), ``/truth/pose`` and ``/perceiv
 ``/world/scene`` (``foxglove.SceneUpdate``: obstacles as cubes, start and goal),
 ``/world/movers`` (``foxglove.SceneUpdate``, one per run of the movers' controller (10 Hz): every
 mover an entity ``mover/<id>``, a cylinder or a cube where it is; worlds with movers only),
-``/world/terrain`` (``foxglove.Grid``: ground heights), ``/nav/map`` (``foxglove.Grid``: the
+``/world/terrain_mesh`` (``foxglove.SceneUpdate``: the ground as a 3D surface, see
+:func:`terrain_mesh`), ``/world/terrain`` (``foxglove.Grid``: ground heights), ``/nav/map`` (``foxglove.Grid``: the
 navigator's final perceived elevation map, NaN = unknown), optionally ``/lidar``
 (``foxglove.PointCloud``, world frame). All timestamps are *simulated* time, so the same
 seeds give a byte-identical file. Each message's log time is the simulated time of what it
@@ -47,7 +48,9 @@ from foxglove_schemas_protobuf.PoseInFrame_pb2 import PoseInFrame
 from foxglove_schemas_protobuf.Quaternion_pb2 import Quaternion
 from foxglove_schemas_protobuf.SceneEntity_pb2 import SceneEntity
 from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
+from foxglove_schemas_protobuf.Point3_pb2 import Point3
 from foxglove_schemas_protobuf.SpherePrimitive_pb2 import SpherePrimitive
+from foxglove_schemas_protobuf.TriangleListPrimitive_pb2 import TriangleListPrimitive
 from foxglove_schemas_protobuf.Vector2_pb2 import Vector2
 from foxglove_schemas_protobuf.Vector3_pb2 import Vector3
 from google.protobuf.timestamp_pb2 import Timestamp
@@ -70,6 +73,9 @@ TOPIC_LIDAR = "/lidar"
 TOPIC_MOVERS = "/world/movers"
 TOPIC_TF = "/tf"
 TOPIC_ROBOT = "/robot/body"
+TOPIC_TERRAIN_MESH = "/world/terrain_mesh"
+#: The ground surface in a trace spans at most this many triangle pairs along the map's longer side.
+MESH_MAX_CELLS = 80
 #: The robot's frames: the true pose's, and the navigator's belief (``perceived/`` prefixed).
 FRAME_ROBOT, FRAME_LIDAR = "base_link", "lidar"
 BELIEF = "perceived/"
@@ -106,6 +112,33 @@ def euler(q: Any) -> tuple[float, float, float]:
 
 
 _KIND_COLORS = {"tree": Color(r=0.13, g=0.55, b=0.13, a=1.0), "building": Color(r=0.55, g=0.45, b=0.4, a=1.0)}
+
+
+def terrain_mesh(heights: np.ndarray, cell_m: float, max_cells: int = MESH_MAX_CELLS) -> tuple[np.ndarray, np.ndarray]:
+    """The ground as a triangle surface: vertices (n, 3) and counter-clockwise triangles (m, 3) of
+    vertex indices. The vertices are nodes of the height grid (node (i, j) at x = j * cell_m,
+    y = i * cell_m, its exact height), every k-th row and column with k the smallest step that
+    keeps at most ``max_cells`` cells along the longer side (the last row and column always kept);
+    between them the surface is linear, so with k > 1 it is the terrain seen at k * cell_m (a
+    picture, not the simulated surface). Flat ground is its four corners."""
+    h = np.asarray(heights, dtype=np.float64)
+    rows, cols = h.shape
+    if float(h.max() - h.min()) < 1e-12:
+        ri, ci = np.array([0, rows - 1]), np.array([0, cols - 1])
+    else:
+        k = max(1, math.ceil((max(rows, cols) - 1) / max_cells))
+        ri = np.unique(np.append(np.arange(0, rows, k), rows - 1))
+        ci = np.unique(np.append(np.arange(0, cols, k), cols - 1))
+    ri, ci = np.unique(ri), np.unique(ci)
+    yy, xx = np.meshgrid(ri * cell_m, ci * cell_m, indexing="ij")
+    verts = np.column_stack([xx.ravel(), yy.ravel(), h[np.ix_(ri, ci)].ravel()])
+    nc = len(ci)
+    r, c = np.meshgrid(np.arange(len(ri) - 1), np.arange(nc - 1), indexing="ij")
+    v00 = (r * nc + c).ravel()
+    v01, v10 = v00 + 1, v00 + nc
+    v11 = v10 + 1
+    tris = np.concatenate([np.column_stack([v00, v01, v11]), np.column_stack([v00, v11, v10])])
+    return verts, tris.astype(np.int64)
 
 
 class TraceWriter:
@@ -208,6 +241,24 @@ class TraceWriter:
         ent = SceneEntity(timestamp=_stamp(0.0), frame_id=FRAME, id="world", frame_locked=True,
                           cubes=cubes, spheres=marks)
         self._put(TOPIC_SCENE, SceneUpdate(entities=[ent]), 0)
+
+    def terrain(self, heights: np.ndarray, cell_m: float) -> None:
+        """The ground as a 3D surface (:func:`terrain_mesh`), coloured by height, on
+        :data:`TOPIC_TERRAIN_MESH` (one ``foxglove.SceneUpdate``, entity ``terrain``), so that
+        the robot and the obstacles stand on it in a 3D view."""
+        from navstress.world.colours import terrain_colours
+
+        verts, tris = terrain_mesh(heights, cell_m)
+        z = verts[:, 2]
+        span = float(z.max() - z.min()) if len(z) else 0.0
+        rgb = terrain_colours((z - z.min()) / span if span > 1e-12 else np.full(len(z), 0.25))
+        prim = TriangleListPrimitive(
+            pose=Pose(orientation=Quaternion(w=1.0)),
+            points=[Point3(x=float(x), y=float(y), z=float(zz)) for x, y, zz in verts.tolist()],
+            colors=[Color(r=float(r), g=float(g), b=float(b), a=1.0) for r, g, b in rgb.tolist()],
+            indices=tris.ravel().tolist())
+        ent = SceneEntity(timestamp=_stamp(0.0), frame_id=FRAME, id="terrain", frame_locked=True, triangles=[prim])
+        self._put(TOPIC_TERRAIN_MESH, SceneUpdate(entities=[ent]), 0)
 
     def movers(self, times: np.ndarray, poses: np.ndarray,
                movers: list[tuple[int, str, str, tuple[float, float, float]]]) -> None:
@@ -370,6 +421,15 @@ def read_transforms(path: str | os.PathLike[str]) -> dict[tuple[str, str], np.nd
         p = m.translation
         out.setdefault((m.parent_frame_id, m.child_frame_id), []).append([lt / 1e9, p.x, p.y, p.z, *euler(m.rotation)])
     return {k: np.array(v, dtype=np.float64) for k, v in out.items()}
+
+
+def read_terrain_mesh(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray] | None:
+    """The ground surface of a trace: vertices (n, 3) and triangles (m, 3), or None."""
+    for _t, _lt, m in _messages(path, [TOPIC_TERRAIN_MESH]):
+        tri = m.entities[0].triangles[0]
+        verts = np.array([(p.x, p.y, p.z) for p in tri.points], dtype=np.float64).reshape(-1, 3)
+        return verts, np.array(tri.indices, dtype=np.int64).reshape(-1, 3)
+    return None
 
 
 def read_events(path: str | os.PathLike[str]) -> list[TraceEvent]:

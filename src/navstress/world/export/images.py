@@ -36,6 +36,7 @@ from PIL import Image
 from PIL.PngImagePlugin import PngInfo
 
 from navstress.world.export._grid import write_atomic
+from navstress.world.colours import TERRAIN_STOPS
 from navstress.world.world import Terrain, World
 
 _Z_MIN, _Z_MAX, _CELL = "navstress:z_min", "navstress:z_max", "navstress:cell_m"
@@ -122,8 +123,7 @@ def _kind_colour(kind: str, kinds: list[str]) -> str:
 
 def _terrain_cmap() -> Any:
     # light sand (low) -> olive -> brown (high): quiet enough for the obstacles to stand out
-    return LinearSegmentedColormap.from_list(
-        "navstress_ground", ["#eef0e2", "#d9d3a8", "#c2a878", "#9b7a55", "#6e5440"])
+    return LinearSegmentedColormap.from_list("navstress_ground", list(TERRAIN_STOPS))
 
 
 def obstruction_pct(world: World) -> float:
