@@ -52,6 +52,16 @@ def test_reference_reaches_the_goal_and_trace_holds_the_run(small_world: Path, t
     assert read_metadata(rec.trace)["run_seed"] == "5"
     assert "Success" in read_events(rec.trace)[-1].message
     _check_frames(rec.trace, truth, perceived)
+    # the navigator's commands, one per control cycle on simulated time, within the robot's limits;
+    # the robot moved the way it was told (forward on average, as commanded)
+    from navstress.run.trace import read_commands
+    cmds = read_commands(rec.trace)
+    rate = 10.0  # reference-v1's control rate
+    assert abs(len(cmds) - rec.duration_s * rate) <= 0.1 * rec.duration_s * rate + 2
+    assert (np.diff(cmds[:, 0]) > 0).all() and 0.0 <= cmds[0, 0] and cmds[-1, 0] <= rec.duration_s
+    robot = RobotSpec()
+    assert (np.abs(cmds[:, 1]) <= robot.max_speed_mps + 1e-9).all() and cmds[:, 1].mean() > 0.1
+    assert float(np.mean(cmds[:, 1])) == pytest.approx(rec.path_length_m / rec.duration_s, rel=0.35)
 
 
 def _check_frames(trace: str, truth: np.ndarray, perceived: np.ndarray) -> None:

@@ -15,7 +15,8 @@ from navstress.cli import app
 from navstress.nav.registry import make_navigator
 from navstress.run.mission import run_mission
 from navstress.run.trace import (TOPIC_LIDAR, TOPIC_PERCEIVED, TraceWriter, _messages, read_events, read_grid,
-                                 read_movers, read_poses, read_terrain_mesh, read_transforms)
+                                 read_commands, read_movers, read_poses, read_terrain_mesh,
+                                 read_transforms)
 from navstress.world import World, generate, parse_spec
 
 pytestmark = pytest.mark.slow
@@ -25,7 +26,7 @@ TYPES = {"/tf": "tf2_msgs/msg/TFMessage", "/tf_static": "tf2_msgs/msg/TFMessage"
          "/robot/markers": "visualization_msgs/msg/MarkerArray", "/world/movers": "visualization_msgs/msg/MarkerArray",
          "/world/terrain": "sensor_msgs/msg/PointCloud2", "/nav/map": "nav_msgs/msg/OccupancyGrid",
          "/nav/map_points": "sensor_msgs/msg/PointCloud2", "/lidar": "sensor_msgs/msg/PointCloud2",
-         "/world/terrain_mesh": "visualization_msgs/msg/MarkerArray"}
+         "/world/terrain_mesh": "visualization_msgs/msg/MarkerArray", "/cmd_vel": "geometry_msgs/msg/TwistStamped"}
 
 
 @pytest.fixture(scope="module")
@@ -92,6 +93,12 @@ def test_frames_odometry_and_events_are_the_traces(run: Any) -> None:
                  _euler_yaw(m.pose.pose.orientation)] for t, m in msgs[topic]]
         np.testing.assert_allclose(np.array(rows), ref[:, :5], atol=1e-9)
         assert {m.child_frame_id for _, m in msgs[topic]} == {child} and {m.header.frame_id for _, m in msgs[topic]} == {"map"}
+    cmds = read_commands(trace)
+    assert len(cmds) > 10 and len(msgs["/cmd_vel"]) == len(cmds)
+    got = np.array([[t / 1e9, m.twist.linear.x, m.twist.angular.z] for t, m in msgs["/cmd_vel"]])
+    np.testing.assert_array_equal(got[:, 1:], cmds[:, 1:])
+    np.testing.assert_allclose(got[:, 0], cmds[:, 0], atol=1e-9)
+    assert {m.header.frame_id for _, m in msgs["/cmd_vel"]} == {"base_link"}
     events = read_events(trace)
     assert [(t / 1e9, m.msg) for t, m in msgs["/rosout"]] == [(e.t, e.message) for e in events]
     assert {m.level for _, m in msgs["/rosout"]} <= {10, 20, 30, 40, 50}

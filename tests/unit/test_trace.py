@@ -8,7 +8,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from mcap.reader import NonSeekingReader
+from mcap.reader import NonSeekingReader, make_reader
 from trace_check import trace_problems
 
 from navstress.errors import StoreError
@@ -270,3 +270,19 @@ def test_the_terrain_surface_round_trips_through_a_trace(tmp_path: Path) -> None
     with TraceWriter(tmp_path / "none.mcap") as tw:
         tw.event(0.0, "info", "x")
     assert read_terrain_mesh(tmp_path / "none.mcap") is None
+
+
+def test_commands_round_trip_through_a_trace(tmp_path: Path) -> None:
+    """The navigator's commands: written with their own schema (navstress.VelocityCommand, kept
+    in the file), read back by the MCAP protobuf decoder; non-finite or negative times left out."""
+    from navstress.run.trace import TOPIC_CMD, read_commands
+    rows = np.array([[0.0, 0.5, 0.1], [0.1, 0.6, -0.2], [float("nan"), 9.0, 9.0], [-1.0, 9.0, 9.0], [0.2, -0.3, 0.0]])
+    with TraceWriter(tmp_path / "c.mcap") as tw:
+        tw.commands(rows)
+    got = read_commands(tmp_path / "c.mcap")
+    assert got.tolist() == [[0.0, 0.5, 0.1], [0.1, 0.6, -0.2], [0.2, -0.3, 0.0]]
+    with open(tmp_path / "c.mcap", "rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None
+    (ch,) = [c for c in summary.channels.values() if c.topic == TOPIC_CMD]
+    assert summary.schemas[ch.schema_id].name == "navstress.VelocityCommand"

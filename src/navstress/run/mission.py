@@ -67,6 +67,8 @@ class RunResult:
     #: the movers' poses (``Simulation.mover_track``): times (m,), poses (m, n, 4) x, y, z, yaw;
     #: None in a world without movers
     movers: tuple[np.ndarray, np.ndarray] | None = None
+    #: the navigator's velocity commands: (N, 3) t (when given), linear m/s, angular rad/s
+    commands: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
 
 
 def _attr_through_wrappers(nav: Any, name: str) -> Any:
@@ -129,6 +131,7 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
     nav_failure = False
     arrived = timed_out = False
     other: list[str] = []
+    commands: list[tuple[float, float, float]] = []  # (t, v, omega) as given to the robot
     left_area: str | None = None
     sim = None
     try:
@@ -173,6 +176,7 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
                 break
             try:
                 sim.command(out)
+                commands.append((sim.t, float(out.v), float(out.omega)))
             except NavstressError as err:
                 error, nav_failure = f"navigator sent an invalid command: {err}", True
                 events.append((sim.t, "error", error))
@@ -259,7 +263,8 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
     result = RunResult(classification=cls, facts=facts, duration_s=duration, wall_s=time.perf_counter() - wall0,
                        truth=truth, perceived=perceived_arr, final_map=fmap, events=events,
                        path_length_m=path_length(xy), tortuousness=tortuousness(truth[:, 1:3]) if len(truth) else 0.0,
-                       movers=sim.mover_track() if sim is not None and world.movers else None)
+                       movers=sim.mover_track() if sim is not None and world.movers else None,
+                       commands=np.array(commands, dtype=np.float64).reshape(-1, 3))
     if trace is not None:
         _write_trace(trace, world, result, robot)
         for t, pts, mount in clouds:
@@ -293,6 +298,7 @@ def _write_trace(tw: TraceWriter, world: World, r: RunResult, robot: RobotSpec) 
     c = world.terrain.cell_m
     tw.grid(TOPIC_TERRAIN, 0.0, h, (-c / 2, -c / 2), c, field="height")
     tw.terrain(h, c)
+    tw.commands(r.commands)
     tw.poses(TOPIC_TRUTH, r.truth)
     tw.transforms(FRAME, FRAME_ROBOT, r.truth)
     belief = r.perceived is not None and len(r.perceived) > 0

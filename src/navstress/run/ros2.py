@@ -34,7 +34,7 @@ import numpy as np
 
 from navstress import _files
 from navstress.errors import SpecError
-from navstress.run.trace import (FRAME, TOPIC_EVENTS, TOPIC_LIDAR, TOPIC_MAP, TOPIC_MOVERS, TOPIC_PERCEIVED,
+from navstress.run.trace import (FRAME, TOPIC_CMD, TOPIC_EVENTS, TOPIC_LIDAR, TOPIC_MAP, TOPIC_MOVERS, TOPIC_PERCEIVED,
                                  TOPIC_ROBOT, TOPIC_SCENE, TOPIC_TERRAIN, TOPIC_TERRAIN_MESH, TOPIC_TF,
                                  TOPIC_TRUTH, _messages)
 
@@ -173,6 +173,11 @@ def _convert(bag: _Bag, topic: str, t_ns: int, m: Any) -> None:
         name = {TOPIC_SCENE: "/world/markers", TOPIC_ROBOT: "/robot/markers", TOPIC_MOVERS: "/world/movers",
                 TOPIC_TERRAIN_MESH: "/world/terrain_mesh"}[topic]
         bag.put(name, bag.markers(m, t_ns), t_ns, latched=topic != TOPIC_MOVERS)
+    elif topic == TOPIC_CMD:
+        vec = bag.t["geometry_msgs/msg/Vector3"]
+        twist = bag.t["geometry_msgs/msg/Twist"](linear=vec(x=m.linear, y=0.0, z=0.0),
+                                                 angular=vec(x=0.0, y=0.0, z=m.angular))
+        bag.put("/cmd_vel", bag.t["geometry_msgs/msg/TwistStamped"](header=bag.header(t_ns, m.frame_id), twist=twist), t_ns)
     elif topic == TOPIC_TERRAIN:
         vals, x0, y0, cell = _grid(m)
         rows, cols = vals.shape  # one point per height sample: the grid's cells are centred on the samples
@@ -199,7 +204,7 @@ def _convert(bag: _Bag, topic: str, t_ns: int, m: Any) -> None:
 
 
 _TOPICS = [TOPIC_TF, TOPIC_TRUTH, TOPIC_PERCEIVED, TOPIC_EVENTS, TOPIC_SCENE, TOPIC_ROBOT, TOPIC_MOVERS, TOPIC_TERRAIN,
-           TOPIC_TERRAIN_MESH,
+           TOPIC_TERRAIN_MESH, TOPIC_CMD,
            TOPIC_MAP, TOPIC_LIDAR]
 
 

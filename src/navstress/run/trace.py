@@ -9,6 +9,7 @@ to each ``base_link``, the belief's translucent), ``/truth/pose`` and ``/perceiv
 ``/world/scene`` (``foxglove.SceneUpdate``: obstacles as cubes, start and goal),
 ``/world/movers`` (``foxglove.SceneUpdate``, one per run of the movers' controller (10 Hz): every
 mover an entity ``mover/<id>``, a cylinder or a cube where it is; worlds with movers only),
+``/nav/cmd`` (``navstress.VelocityCommand``, :func:`command_class`: the navigator's commands),
 ``/world/terrain_mesh`` (``foxglove.SceneUpdate``: the ground as a 3D surface, see
 :func:`terrain_mesh`), ``/world/terrain`` (``foxglove.Grid``: ground heights), ``/nav/map`` (``foxglove.Grid``: the
 navigator's final perceived elevation map, NaN = unknown), optionally ``/lidar``
@@ -74,6 +75,7 @@ TOPIC_MOVERS = "/world/movers"
 TOPIC_TF = "/tf"
 TOPIC_ROBOT = "/robot/body"
 TOPIC_TERRAIN_MESH = "/world/terrain_mesh"
+TOPIC_CMD = "/nav/cmd"
 #: The ground surface in a trace spans at most this many triangle pairs along the map's longer side.
 MESH_MAX_CELLS = 80
 #: The robot's frames: the true pose's, and the navigator's belief (``perceived/`` prefixed).
@@ -139,6 +141,40 @@ def terrain_mesh(heights: np.ndarray, cell_m: float, max_cells: int = MESH_MAX_C
     v11 = v10 + 1
     tris = np.concatenate([np.column_stack([v00, v01, v11]), np.column_stack([v00, v11, v10])])
     return verts, tris.astype(np.int64)
+
+
+_COMMAND_CLASS: Any = None
+
+
+def command_class() -> Any:
+    """The protobuf message class of ``/nav/cmd``: ``navstress.VelocityCommand`` with
+    ``timestamp`` (``google.protobuf.Timestamp``), ``frame_id`` (the robot's body frame),
+    ``linear`` (m/s, forward positive) and ``angular`` (rad/s, counter-clockwise): what the
+    navigator commanded. Foxglove has no velocity-command schema, so navstress defines this one;
+    it is stored in the trace like every schema, so any MCAP protobuf reader (and Foxglove's Plot
+    panel) decodes it."""
+    global _COMMAND_CLASS
+    if _COMMAND_CLASS is None:
+        from google.protobuf import descriptor_pb2, descriptor_pool, message_factory, timestamp_pb2
+
+        pool = descriptor_pool.Default()
+        try:
+            desc = pool.FindMessageTypeByName("navstress.VelocityCommand")
+        except KeyError:
+            f = descriptor_pb2.FileDescriptorProto(name="navstress/VelocityCommand.proto", package="navstress",
+                                                   syntax="proto3",
+                                                   dependency=[timestamp_pb2.DESCRIPTOR.name])
+            m = f.message_type.add(name="VelocityCommand")
+            fd = descriptor_pb2.FieldDescriptorProto
+            m.field.add(name="timestamp", number=1, type=fd.TYPE_MESSAGE, label=fd.LABEL_OPTIONAL,
+                        type_name=".google.protobuf.Timestamp")
+            m.field.add(name="frame_id", number=2, type=fd.TYPE_STRING, label=fd.LABEL_OPTIONAL)
+            m.field.add(name="linear", number=3, type=fd.TYPE_DOUBLE, label=fd.LABEL_OPTIONAL)
+            m.field.add(name="angular", number=4, type=fd.TYPE_DOUBLE, label=fd.LABEL_OPTIONAL)
+            pool.Add(f)
+            desc = pool.FindMessageTypeByName("navstress.VelocityCommand")
+        _COMMAND_CLASS = message_factory.GetMessageClass(desc)
+    return _COMMAND_CLASS
 
 
 class TraceWriter:
@@ -241,6 +277,14 @@ class TraceWriter:
         ent = SceneEntity(timestamp=_stamp(0.0), frame_id=FRAME, id="world", frame_locked=True,
                           cubes=cubes, spheres=marks)
         self._put(TOPIC_SCENE, SceneUpdate(entities=[ent]), 0)
+
+    def commands(self, rows: np.ndarray) -> None:
+        """The navigator's velocity commands on :data:`TOPIC_CMD`: ``rows`` (N, 3) = t (the
+        simulated time it was given), linear m/s, angular rad/s."""
+        cls = command_class()
+        for t, v, w in np.asarray(rows, dtype=np.float64).reshape(-1, 3).tolist():
+            if math.isfinite(t) and t >= 0.0:
+                self._put(TOPIC_CMD, cls(timestamp=_stamp(t), frame_id=FRAME_ROBOT, linear=v, angular=w), _ns(t))
 
     def terrain(self, heights: np.ndarray, cell_m: float) -> None:
         """The ground as a 3D surface (:func:`terrain_mesh`), coloured by height, on
@@ -430,6 +474,12 @@ def read_terrain_mesh(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndar
         verts = np.array([(p.x, p.y, p.z) for p in tri.points], dtype=np.float64).reshape(-1, 3)
         return verts, np.array(tri.indices, dtype=np.int64).reshape(-1, 3)
     return None
+
+
+def read_commands(path: str | os.PathLike[str]) -> np.ndarray:
+    """(N, 3) float64: t, linear, angular of the navigator's commands, in time order."""
+    rows = [(lt / 1e9, m.linear, m.angular) for _t, lt, m in _messages(path, [TOPIC_CMD])]
+    return np.array(rows, dtype=np.float64).reshape(-1, 3)
 
 
 def read_events(path: str | os.PathLike[str]) -> list[TraceEvent]:
