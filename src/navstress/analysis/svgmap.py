@@ -25,13 +25,13 @@ from typing import Any
 import numpy as np
 
 from navstress.run.figures import MOVER_COLOUR, OUTCOME_COLOURS, RunTrack
+from navstress.world.colours import GOAL_COLOUR as _GOAL
+from navstress.world.colours import START_COLOUR as _START
+from navstress.world.colours import kind_colour
 from navstress.world.world import World
 
-_START, _GOAL = "#1565c0", "#d62828"
 #: Colour steps of a perceived map's height.
 PERCEIVED_LEVELS = 48
-KIND_COLOURS = {"tree": "#1f6f3a", "building": "#3b4a63"}
-_EXTRA = ("#4b4f9c", "#b5651d", "#6a3d9a", "#2b8cbe", "#444444")
 
 #: Styles of the pictures (the report embeds them once): outcome colours as classes, so that a
 #: polyline carries a short class name rather than its colour.
@@ -53,13 +53,6 @@ CSS = "".join(
      ".legend i{display:inline-block;width:1.6em;height:.3em;vertical-align:middle;margin-right:.3em}"]
     + [".o-%s{stroke:%s}.o-%s circle,circle.o-%s{fill:%s;stroke:#fff}" % (o, c, o, o, c)
        for o, c in OUTCOME_COLOURS.items()])
-
-
-def _kind_colour(kind: str, kinds: list[str]) -> str:
-    if kind in KIND_COLOURS:
-        return KIND_COLOURS[kind]
-    others = [k for k in kinds if k not in KIND_COLOURS]
-    return _EXTRA[others.index(kind) % len(_EXTRA)] if kind in others else _EXTRA[0]
 
 
 def _png(img: Any) -> str:
@@ -88,23 +81,13 @@ def _terrain_uri(rgb: np.ndarray) -> str:
 def terrain_rgb(world: World) -> np.ndarray:
     """The hillshaded terrain, one pixel per cell, row 0 at the top (largest y), uint8 RGB:
     the colours and light of ``draw_world`` (flat ground in one light tone)."""
-    from matplotlib.colors import LightSource, Normalize
+    from navstress.world.export.images import _terrain_cmap, ground_norm, shaded_ground
 
-    from navstress.world.export.images import _terrain_cmap
-
-    h = world.terrain.heights.astype(np.float64)
-    z_min, z_max = float(h.min()), float(h.max())
-    cmap = _terrain_cmap()
-    if z_max - z_min < 1e-6:
-        norm = Normalize(vmin=z_min - 0.25, vmax=z_max + 0.75)
-        rgb = cmap(norm(h))[..., :3]
-    else:
-        ls = LightSource(azdeg=315, altdeg=40)
-        c = world.terrain.cell_m
-        rgb = ls.shade(h[::-1], cmap=cmap, norm=Normalize(vmin=z_min, vmax=z_max), blend_mode="soft",
-                       vert_exag=1.0, dx=c, dy=c)[..., :3]
-        return np.asarray(np.clip(rgb * 255 + 0.5, 0, 255), dtype=np.uint8)
-    return np.asarray(np.clip(rgb[::-1] * 255 + 0.5, 0, 255), dtype=np.uint8)
+    rgb = shaded_ground(world.terrain)
+    if rgb is None:
+        h = world.terrain.heights.astype(np.float64)
+        rgb = _terrain_cmap()(ground_norm(h)(h))
+    return np.asarray(np.clip(rgb[::-1, :, :3] * 255 + 0.5, 0, 255), dtype=np.uint8)
 
 
 def _n(v: float) -> str:
@@ -177,7 +160,7 @@ def world_defs(world: World, gid: str) -> str:
     kinds = sorted({o.kind for o in world.obstacles})
     for kind in kinds:
         d = "".join(_path(o.corners(), sy) for o in world.obstacles if o.kind == kind)
-        parts.append(f'<path class="obs" fill="{_kind_colour(kind, kinds)}" d="{d}"><title>{kind}</title></path>')
+        parts.append(f'<path class="obs" fill="{kind_colour(kind, kinds)}" d="{d}"><title>{kind}</title></path>')
     m = world.mission
     r = m.free_radius_m
     if r > 0:

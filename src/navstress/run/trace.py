@@ -62,6 +62,7 @@ from mcap_protobuf.writer import Writer
 
 from navstress.errors import StoreError
 from navstress.run.record import cap_message
+from navstress.world.export._grid import terrain_faces
 
 FRAME = "map"
 TOPIC_TRUTH = "/truth/pose"
@@ -131,16 +132,9 @@ def terrain_mesh(heights: np.ndarray, cell_m: float, max_cells: int = MESH_MAX_C
         k = max(1, math.ceil((max(rows, cols) - 1) / max_cells))
         ri = np.unique(np.append(np.arange(0, rows, k), rows - 1))
         ci = np.unique(np.append(np.arange(0, cols, k), cols - 1))
-    ri, ci = np.unique(ri), np.unique(ci)
     yy, xx = np.meshgrid(ri * cell_m, ci * cell_m, indexing="ij")
     verts = np.column_stack([xx.ravel(), yy.ravel(), h[np.ix_(ri, ci)].ravel()])
-    nc = len(ci)
-    r, c = np.meshgrid(np.arange(len(ri) - 1), np.arange(nc - 1), indexing="ij")
-    v00 = (r * nc + c).ravel()
-    v01, v10 = v00 + 1, v00 + nc
-    v11 = v10 + 1
-    tris = np.concatenate([np.column_stack([v00, v01, v11]), np.column_stack([v00, v11, v10])])
-    return verts, tris.astype(np.int64)
+    return verts, terrain_faces(len(ri), len(ci))  # the triangulation exported meshes have
 
 
 _COMMAND_CLASS: Any = None

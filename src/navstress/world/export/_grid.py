@@ -11,6 +11,18 @@ from navstress import _files
 from navstress.world.world import Terrain
 
 
+def terrain_faces(rows: int, cols: int) -> np.ndarray:
+    """Faces (2*(rows-1)*(cols-1), 3) of the grid; vertex index of (i, j) is i*cols + j."""
+    i, j = np.meshgrid(np.arange(rows - 1), np.arange(cols - 1), indexing="ij")
+    v00 = (i * cols + j).ravel()
+    v01 = v00 + 1          # (i, j+1): +x
+    v10 = v00 + cols       # (i+1, j): +y
+    v11 = v10 + 1          # (i+1, j+1)
+    lower = np.stack([v00, v01, v11], axis=1)  # u >= v half of the cell
+    upper = np.stack([v00, v11, v10], axis=1)
+    return np.concatenate([lower, upper]).astype(np.int64)
+
+
 def surface_heights(terrain: Terrain, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """Heights of the triangulated surface at points (x, y), clamped to the map.
 

@@ -36,7 +36,9 @@ from PIL import Image
 from PIL.PngImagePlugin import PngInfo
 
 from navstress.world.export._grid import write_atomic
-from navstress.world.colours import TERRAIN_STOPS
+from navstress.world.colours import GOAL_COLOUR as _GOAL
+from navstress.world.colours import START_COLOUR as _START
+from navstress.world.colours import TERRAIN_STOPS, kind_colour
 from navstress.world.world import Terrain, World
 
 _Z_MIN, _Z_MAX, _CELL = "navstress:z_min", "navstress:z_max", "navstress:cell_m"
@@ -108,19 +110,6 @@ def read_heightmap_png(path: str | Path) -> tuple[np.ndarray, float, float]:
 
 # ---- preview ------------------------------------------------------------------------------
 
-#: Fill colours per obstacle kind (unknown kinds cycle through _EXTRA).
-KIND_COLOURS: dict[str, str] = {"tree": "#1f6f3a", "building": "#3b4a63"}
-_EXTRA = ("#4b4f9c", "#b5651d", "#6a3d9a", "#2b8cbe", "#444444")
-_START, _GOAL = "#1565c0", "#d62828"
-
-
-def _kind_colour(kind: str, kinds: list[str]) -> str:
-    if kind in KIND_COLOURS:
-        return KIND_COLOURS[kind]
-    others = [k for k in kinds if k not in KIND_COLOURS]
-    return _EXTRA[others.index(kind) % len(_EXTRA)] if kind in others else _EXTRA[0]
-
-
 def _terrain_cmap() -> Any:
     # light sand (low) -> olive -> brown (high): quiet enough for the obstacles to stand out
     return LinearSegmentedColormap.from_list("navstress_ground", list(TERRAIN_STOPS))
@@ -150,25 +139,41 @@ def world_title(world: World) -> str:
             f"{sx:g} m \u00d7 {sy:g} m, {parts}")
 
 
+def ground_norm(h: np.ndarray) -> Normalize:
+    """The ground colour scale over heights ``h``; flat ground is centred on its height, in a
+    light tone rather than mid-brown."""
+    z_min, z_max = float(h.min()), float(h.max())
+    if z_max - z_min < 1e-6:
+        z_min, z_max = z_min - 0.25, z_max + 0.75
+    return Normalize(vmin=z_min, vmax=z_max)
+
+
+def shaded_ground(terrain: Terrain) -> np.ndarray | None:
+    """The hillshaded ground, float RGBA in [0, 1], (rows, cols, 4) with row 0 at y = 0 (light
+    from the north-west); None when the ground is flat (nothing to shade)."""
+    h = terrain.heights.astype(np.float64)
+    if float(h.max() - h.min()) <= 1e-6:
+        return None
+    ls = LightSource(azdeg=315, altdeg=40)
+    # LightSource assumes row 0 at the top; our row 0 is y = 0 (origin="lower"), so the light
+    # would come from the south-east: shade the flipped grid and flip back instead.
+    rgb: np.ndarray = ls.shade(h[::-1], cmap=_terrain_cmap(), norm=ground_norm(h), blend_mode="soft", vert_exag=1.0,
+                               dx=terrain.cell_m, dy=terrain.cell_m)[::-1]
+    return rgb
+
+
 def draw_world(ax: Axes, world: World, *, legend: bool = True, hillshade: bool = True) -> ScalarMappable:
     """Draw ``world`` top-down on ``ax`` (x right, y up, meters); returns the terrain mappable
     (for a colour bar). Later code can plot trajectories on the same ``ax``."""
     terrain = world.terrain
     h = terrain.heights.astype(np.float64)
     sx, sy = terrain.size_m
-    z_min, z_max = float(h.min()), float(h.max())
-    if z_max - z_min < 1e-6:  # flat: centre the colour scale on the height
-        z_min, z_max = z_min - 0.25, z_max + 0.75  # a light tone, not mid-brown
-    norm = Normalize(vmin=z_min, vmax=z_max)
+    norm = ground_norm(h)
     cmap = _terrain_cmap()
     half = terrain.cell_m / 2
     extent = (-half, sx + half, -half, sy + half)
-    if hillshade and float(h.max() - h.min()) > 1e-6:
-        ls = LightSource(azdeg=315, altdeg=40)
-        # LightSource assumes row 0 at the top; our row 0 is y = 0 (origin="lower"), so the
-        # light would come from the south-east: shade the flipped grid and flip back instead.
-        rgb = ls.shade(h[::-1], cmap=cmap, norm=norm, blend_mode="soft", vert_exag=1.0,
-                       dx=terrain.cell_m, dy=terrain.cell_m)[::-1]
+    rgb = shaded_ground(terrain) if hillshade else None
+    if rgb is not None:
         ax.imshow(rgb, origin="lower", extent=extent, interpolation="bilinear", zorder=0)
     else:
         ax.imshow(h, origin="lower", extent=extent, cmap=cmap, norm=norm, interpolation="nearest", zorder=0)
@@ -177,7 +182,7 @@ def draw_world(ax: Axes, world: World, *, legend: bool = True, hillshade: bool =
     handles: list[Any] = []
     for kind in kinds:
         obs = [o for o in world.obstacles if o.kind == kind]
-        colour = _kind_colour(kind, kinds)
+        colour = kind_colour(kind, kinds)
         polys = [o.corners() for o in obs]
         lw = 0.3 if len(obs) > 400 else 0.6
         ax.add_collection(PolyCollection(polys, facecolors=colour, edgecolors="black", linewidths=lw,

@@ -38,6 +38,7 @@ from trimesh.visual import TextureVisuals
 from trimesh.visual.material import SimpleMaterial
 
 from navstress.world.export._grid import MARKER, MARKER_RGBA, write_atomic_group
+from navstress.world.export._grid import terrain_faces as terrain_faces  # the triangulation, shared with traces
 from navstress.world.export.images import _terrain_cmap
 from navstress.world.world import Obstacle, Terrain, World
 
@@ -47,18 +48,6 @@ Z_UP_TO_Y_UP: np.ndarray = np.array(
 
 MESH_FORMATS = ("glb", "gltf", "obj")
 _KIND_RGBA = {"tree": (31, 111, 58, 255), "building": (59, 74, 99, 255)}
-
-
-def terrain_faces(rows: int, cols: int) -> np.ndarray:
-    """Faces (2*(rows-1)*(cols-1), 3) of the grid; vertex index of (i, j) is i*cols + j."""
-    i, j = np.meshgrid(np.arange(rows - 1), np.arange(cols - 1), indexing="ij")
-    v00 = (i * cols + j).ravel()
-    v01 = v00 + 1          # (i, j+1): +x
-    v10 = v00 + cols       # (i+1, j): +y
-    v11 = v10 + 1          # (i+1, j+1)
-    lower = np.stack([v00, v01, v11], axis=1)  # u >= v half of the cell
-    upper = np.stack([v00, v11, v10], axis=1)
-    return np.concatenate([lower, upper]).astype(np.int64)
 
 
 def _material(name: str, rgba: tuple[int, int, int, int], image: Any = None) -> Any:
