@@ -28,15 +28,6 @@ import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
-
-
-def library_poses(path: str, topic: str) -> np.ndarray:
-    from navstress.run.trace import _messages, euler
-    rows = [(lt / 1e9, m.pose.position.x, m.pose.position.y, m.pose.position.z, *euler(m.pose.orientation))
-            for _t, lt, m in _messages(path, [topic])]
-    return np.array(rows, dtype=np.float64).reshape(-1, 7)
-
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -70,13 +61,13 @@ def main() -> None:
         x = read_poses(p, TOPIC_TRUTH)
         fast.append(time.perf_counter() - t)
         t = time.perf_counter()
-        y = library_poses(p, TOPIC_TRUTH)
+        y = read_poses(p, TOPIC_TRUTH, indexed=False)
         slow.append(time.perf_counter() - t)
         same = same and x.tobytes() == y.tobytes()
     if traces:
-        f, s = statistics.median(fast), statistics.median(slow)
-        print(f"pose reading, {len(traces)} traces: indexed {1e3 * f:.1f} ms, library {1e3 * s:.1f} ms per trace, "
-              f"{s / f:.1f}x; identical: {same}")
+        mf, ms = statistics.median(fast), statistics.median(slow)
+        print(f"pose reading, {len(traces)} traces: indexed {1e3 * mf:.1f} ms, library {1e3 * ms:.1f} ms per trace, "
+              f"{ms / mf:.1f}x; identical: {same}")
         if not same:
             sys.exit("the two readers disagree")
 

@@ -164,14 +164,6 @@ def test_the_trace_check_sees_sequence_numbers_that_do_not_count(tmp_path: Path)
         assert ok or "sequence" in problems[0]
 
 
-def _poses_by_library(path: Path, topic: str) -> np.ndarray:
-    """read_poses as the MCAP library reads it (every record of each chunk parsed and ordered)."""
-    from navstress.run.trace import _messages
-    rows = [(lt / 1e9, m.pose.position.x, m.pose.position.y, m.pose.position.z, *euler(m.pose.orientation))
-            for _t, lt, m in _messages(path, [topic])]
-    return np.array(rows, dtype=np.float64).reshape(-1, 7)
-
-
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(n=st.integers(0, 400), big=st.booleans(), seed=st.integers(0, 2**32 - 1))
 def test_indexed_pose_reading_matches_the_library_byte_for_byte(tmp_path: Path, n: int, big: bool, seed: int) -> None:
@@ -200,7 +192,7 @@ def test_indexed_pose_reading_matches_the_library_byte_for_byte(tmp_path: Path, 
         with open(path, "rb") as f:
             assert len(make_reader(f).get_summary().chunk_indexes) > 1  # type: ignore[union-attr]
     for topic in (TOPIC_TRUTH, TOPIC_PERCEIVED, "/no/such/topic"):
-        fast, slow = read_poses(path, topic), _poses_by_library(path, topic)
+        fast, slow = read_poses(path, topic), read_poses(path, topic, indexed=False)
         assert fast.shape == slow.shape and fast.tobytes() == slow.tobytes()
     assert len(read_poses(path)) == n
 

@@ -73,11 +73,7 @@ class TrajectoryCache:
             return None
         k = (p, topic, mt)
         if k not in self._c:
-            try:
-                arr = read_poses(p, topic)
-                self._c[k] = arr if len(arr) else None
-            except NavstressError:
-                self._c[k] = None
+            self._c[k] = _poses_or_none(p, topic)
         return self._c[k]
 
     def prefetch(self, paths: list[Path | None], topic: str = TOPIC_TRUTH, workers: int | None = None) -> None:

@@ -436,17 +436,15 @@ def _indexed(path: str | os.PathLike[str], topic: str, schema: str) -> list[tupl
     return [(m[0], m[3]) for m in found]
 
 
-def read_poses(path: str | os.PathLike[str], topic: str = TOPIC_TRUTH) -> np.ndarray:
-    """(N, 7) float64: t, x, y, z, yaw, pitch, roll, in time order."""
+def read_poses(path: str | os.PathLike[str], topic: str = TOPIC_TRUTH, *, indexed: bool = True) -> np.ndarray:
+    """(N, 7) float64: t, x, y, z, yaw, pitch, roll, in time order. Read through the file's
+    message indexes (:func:`_indexed`), else (no index, or ``indexed=False``) with the MCAP
+    library's reader; both give the same bytes."""
+    fast = _indexed(path, topic, "foxglove.PoseInFrame") if indexed else None
+    msgs: Iterator[tuple[int, Any]] = ((lt, PoseInFrame.FromString(data)) for lt, data in fast) if fast is not None \
+        else ((lt, m) for _t, lt, m in _messages(path, [topic]))
     rows = []
-    fast = _indexed(path, topic, "foxglove.PoseInFrame")
-    if fast is not None:
-        for log_time, data in fast:
-            m = PoseInFrame.FromString(data)
-            p = m.pose.position
-            rows.append((log_time / 1e9, p.x, p.y, p.z, *euler(m.pose.orientation)))
-        return np.array(rows, dtype=np.float64).reshape(-1, 7)
-    for _topic, log_time, m in _messages(path, [topic]):
+    for log_time, m in msgs:
         p = m.pose.position
         rows.append((log_time / 1e9, p.x, p.y, p.z, *euler(m.pose.orientation)))
     return np.array(rows, dtype=np.float64).reshape(-1, 7)
