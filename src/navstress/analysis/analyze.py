@@ -276,8 +276,8 @@ def analyze(directory: str | Path, *, params: DifficultyParams | None = None, na
     explicit = frozenset(e.name for e in spec.experiments if e.explicit)
     ranges, overlaps = level_ranges(nominal, diff, explicit)
 
-    # every run's trajectory, read once (the report draws them all), in parallel when there are many
-    cache.prefetch([trace_path(root, r) for r in records if navigator is None or r.navigator == navigator])
+    # the trajectories Q2 reads, in parallel when there are many
+    cache.prefetch([trace_path(root, r) for r in records if r.navigator == nav and fault_name(r.fault) == NOMINAL])
     # Q2: nominal runs of the navigator, grouped per configuration and map
     by_cfg: dict[tuple[str, str], dict[int, list[tuple[bool, np.ndarray]]]] = {}
     for r in records:

@@ -564,6 +564,8 @@ def _configs(a: Analysis, cache: TrajectoryCache, max_points: int, link_base: Pa
     for r in a.records:
         if a.shows(r.navigator):
             by_cfg.setdefault((r.experiment, config_key(r)), []).append(r)
+    # every shown run is drawn: read the trajectories the analysis did not (faults, other navigators) at once
+    cache.prefetch([trace_path(a.root, r) for recs in by_cfg.values() for r in recs])
     keys = list(dict.fromkeys([s.key for s in a.stats]))
     for key in keys:
         e, k = key

@@ -98,6 +98,23 @@ class _Bag:
             is_bigendian=False, point_step=12, row_step=12 * len(pts), data=np.frombuffer(pts.tobytes(), np.uint8),
             is_dense=True)
 
+    def rgba(self, c: Any, alpha: float | None = None) -> Any:
+        return self.t["std_msgs/msg/ColorRGBA"](r=c.r, g=c.g, b=c.b, a=c.a if alpha is None else alpha)
+
+    def marker(self, ent: Any, t_ns: int, k: int, kind: int, pose: Any, scale: Any, color: Any,
+               points: list[Any] | None = None, colors: list[Any] | None = None) -> Any:
+        """One ``visualization_msgs/Marker`` of entity ``ent`` (every field set: CDR needs them)."""
+        m = self.t["visualization_msgs/msg/Marker"]
+        return m(header=self.header(t_ns, ent.frame_id), ns=ent.id, id=k, type=kind, action=m.ADD,
+                 pose=self.pose(pose), scale=scale, color=color,
+                 lifetime=self.t["builtin_interfaces/msg/Duration"](sec=0, nanosec=0),
+                 frame_locked=ent.frame_locked, points=points or [], colors=colors or [], texture_resource="",
+                 texture=self.t["sensor_msgs/msg/CompressedImage"](header=self.header(0, ""), format="",
+                                                                   data=np.zeros(0, np.uint8)),
+                 uv_coordinates=[], text="", mesh_resource="",
+                 mesh_file=self.t["visualization_msgs/msg/MeshFile"](filename="", data=np.zeros(0, np.uint8)),
+                 mesh_use_embedded_materials=False)
+
     def markers(self, update: Any, t_ns: int) -> Any:
         m = self.t["visualization_msgs/msg/Marker"]
         out = []
@@ -105,37 +122,15 @@ class _Bag:
             shapes = [(m.CUBE, c) for c in ent.cubes] + [(m.SPHERE, s) for s in ent.spheres] + \
                      [(m.CYLINDER, c) for c in ent.cylinders]
             for k, (kind, prim) in enumerate(shapes):
-                c = prim.color
-                out.append(m(
-                    header=self.header(t_ns, ent.frame_id), ns=ent.id, id=k, type=kind, action=m.ADD,
-                    pose=self.pose(prim.pose), scale=self.vec(prim.size),
-                    color=self.t["std_msgs/msg/ColorRGBA"](r=c.r, g=c.g, b=c.b, a=c.a),
-                    lifetime=self.t["builtin_interfaces/msg/Duration"](sec=0, nanosec=0),
-                    frame_locked=ent.frame_locked, points=[], colors=[], texture_resource="",
-                    texture=self.t["sensor_msgs/msg/CompressedImage"](header=self.header(0, ""), format="",
-                                                                      data=np.zeros(0, np.uint8)),
-                    uv_coordinates=[], text="", mesh_resource="",
-                    mesh_file=self.t["visualization_msgs/msg/MeshFile"](filename="", data=np.zeros(0, np.uint8)),
-                    mesh_use_embedded_materials=False))
+                out.append(self.marker(ent, t_ns, k, kind, prim.pose, self.vec(prim.size), self.rgba(prim.color)))
             for k, tri in enumerate(ent.triangles, start=len(shapes)):
                 # a TRIANGLE_LIST marker has no indices: every three points are one triangle
-                pts = [tri.points[i] for i in tri.indices] if len(tri.indices) else list(tri.points)
-                cols = [tri.colors[i] for i in tri.indices] if len(tri.indices) and len(tri.colors) else \
-                    list(tri.colors)
-                rgba = self.t["std_msgs/msg/ColorRGBA"]
-                c = tri.color
-                out.append(m(
-                    header=self.header(t_ns, ent.frame_id), ns=ent.id, id=k, type=m.TRIANGLE_LIST, action=m.ADD,
-                    pose=self.pose(tri.pose), scale=self.t["geometry_msgs/msg/Vector3"](x=1.0, y=1.0, z=1.0),
-                    color=rgba(r=c.r, g=c.g, b=c.b, a=c.a if len(cols) == 0 else 1.0),
-                    lifetime=self.t["builtin_interfaces/msg/Duration"](sec=0, nanosec=0),
-                    frame_locked=ent.frame_locked, points=[self.point(p) for p in pts],
-                    colors=[rgba(r=q.r, g=q.g, b=q.b, a=q.a) for q in cols], texture_resource="",
-                    texture=self.t["sensor_msgs/msg/CompressedImage"](header=self.header(0, ""), format="",
-                                                                      data=np.zeros(0, np.uint8)),
-                    uv_coordinates=[], text="", mesh_resource="",
-                    mesh_file=self.t["visualization_msgs/msg/MeshFile"](filename="", data=np.zeros(0, np.uint8)),
-                    mesh_use_embedded_materials=False))
+                idx = list(tri.indices) if len(tri.indices) else list(range(len(tri.points)))
+                cols = [self.rgba(tri.colors[i]) for i in idx] if len(tri.colors) else []
+                out.append(self.marker(ent, t_ns, k, m.TRIANGLE_LIST, tri.pose,
+                                       self.t["geometry_msgs/msg/Vector3"](x=1.0, y=1.0, z=1.0),
+                                       self.rgba(tri.color, None if not cols else 1.0),
+                                       [self.point(tri.points[i]) for i in idx], cols))
         return self.t["visualization_msgs/msg/MarkerArray"](markers=out)
 
 
