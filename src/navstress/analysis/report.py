@@ -73,7 +73,8 @@ input.filter{margin:.3em 0;padding:.2em .4em;width:20em;font:inherit}
 details.runs summary{cursor:pointer;margin:.4em 0}
 """
 
-#: Tables a reader sorts by clicking a column's header (then again for the other direction).
+#: Tables a reader sorts by clicking a column's header (then again for the other direction):
+#: they are written with ``class="sortable"`` (as is every runs table).
 SORTABLE = ("difficulty-table", "verdicts-configurations", "verdicts-worlds", "indeterminism-table",
             "fault-power-table", "descriptor-correlations")
 #: Sorting and filtering, embedded (the report needs no network). A cell sorts by its
@@ -307,7 +308,7 @@ def _difficulty(a: Analysis) -> str:
             + f'<td class="l" data-field="level" data-value="{_e(lev)}">{_level_badge(lev)}</td>'
             + f'<td class="l"><a href="#{_slug(s.experiment, s.config_key)}">maps</a></td></tr>')
     heads = "".join(f"<th>{_e(OUTCOME_LABELS.get(o, o))}</th>" for o in (a.stats[0].outcomes if a.stats else {}))
-    out.append('<table id="difficulty-table"><tr><th class="l">class</th><th class="l">parameters</th>'
+    out.append('<table id="difficulty-table" class="sortable"><tr><th class="l">class</th><th class="l">parameters</th>'
                '<th class="l">navigator</th><th class="l">fault</th><th>runs</th><th>successes</th>'
                '<th>success</th><th>CI low</th><th>CI high</th><th>median duration [s]</th>'
                f'<th>median tortuousness</th><th>mean end distance [m]</th><th>maps infeasible a priori</th>'
@@ -407,7 +408,7 @@ def _verdicts(a: Analysis, max_worlds: int = 2000) -> str:
         + "".join(_cell(f"worlds_{k}", n) for k, n in c.world_verdicts) + _verdict_cells(c) + "</tr>"
         for c in cfgs)
     wheads = "".join(f"<th>worlds {k}</th>" for k, _ in cfgs[0].world_verdicts)
-    out.append(f'<table id="verdicts-configurations"><tr><th class="l">experiment</th><th class="l">configuration</th>'
+    out.append(f'<table id="verdicts-configurations" class="sortable"><tr><th class="l">experiment</th><th class="l">configuration</th>'
                f'<th class="l">navigator</th><th class="l">fault</th><th>worlds</th>{wheads}{heads}</tr>{rows}</table>')
     groups = list(dict.fromkeys((c.experiment, c.navigator, c.fault) for c in cfgs))
     for e, n, f in groups:
@@ -427,7 +428,7 @@ def _verdicts(a: Analysis, max_worlds: int = 2000) -> str:
             if len([w for w in worlds if w.verdict != "passes"]) > max_worlds else "")
     out.append(f'<h3>Worlds that do not pass</h3><p class="note">{n_pass} of {len(worlds)} worlds pass; '
                'the others:</p>'
-               f'<table id="verdicts-worlds"><tr><th class="l">experiment</th><th class="l">configuration</th>'
+               f'<table id="verdicts-worlds" class="sortable"><tr><th class="l">experiment</th><th class="l">configuration</th>'
                f'<th>map</th><th class="l">navigator</th><th class="l">fault</th>{heads}</tr>{wrows}</table>{more}')
     return "\n".join(out)
 
@@ -450,7 +451,7 @@ def _indeterminism(a: Analysis) -> str:
                         + _cell("n-maps", c.n_maps) + _cell("n-runs", c.n_runs)
                         + _cell("peak", c.peak_m, _fmt(c.peak_m, 2)) + _cell("mean", c.mean_m, _fmt(c.mean_m, 2))
                         + _cell("final", c.final_m, _fmt(c.final_m, 2)) + "</tr>")
-    out.append('<table id="indeterminism-table"><tr><th class="l">class</th><th class="l">configuration</th>'
+    out.append('<table id="indeterminism-table" class="sortable"><tr><th class="l">class</th><th class="l">configuration</th>'
                '<th class="l">navigator</th><th class="l">runs</th><th>maps</th><th>runs</th><th>peak [m]</th><th>time mean [m]</th>'
                '<th>final [m]</th></tr>' + "".join(rows) + "</table>")
     for e in dict.fromkeys(k[0] for k in a.indeterminism):
@@ -476,7 +477,7 @@ def _fault_power(a: Analysis) -> str:
         + _cell("collision-share", p.collision_share, _pc(p.collision_share))
         + _cell("new-failures", p.new_failures) + _cell("nominal-runs", p.nominal_runs)
         + _cell("nominal-collisions", p.nominal_collisions) + "</tr>" for p in a.power)
-    out.append('<table id="fault-power-table"><tr><th class="l">class</th><th class="l">configuration</th>'
+    out.append('<table id="fault-power-table" class="sortable"><tr><th class="l">class</th><th class="l">configuration</th>'
                '<th class="l">navigator</th><th class="l">fault</th><th class="l">level</th><th>runs</th><th>with collision</th><th>share</th>'
                '<th>new failures</th><th>nominal runs</th><th>nominal with collision</th></tr>' + rows + "</table>")
     lrows = "".join(
@@ -506,7 +507,7 @@ def _correlations(a: Analysis, top: int = 15) -> str:
     rows = "".join(f'<tr data-descriptor="{_e(c.descriptor)}"><td class="l">{_e(c.descriptor)}</td>'
                    + _cell("n", c.n) + _cell("rho-level", c.rho_level, _fmt(c.rho_level, 2))
                    + _cell("rho-failure", c.rho_failure, _fmt(c.rho_failure, 2)) + "</tr>" for c in cs)
-    out.append('<table id="descriptor-correlations"><tr><th class="l">descriptor</th><th>configs</th>'
+    out.append('<table id="descriptor-correlations" class="sortable"><tr><th class="l">descriptor</th><th>configs</th>'
                '<th>&rho; with level</th><th>&rho; with failure rate</th></tr>' + rows + "</table>")
     return "\n".join(out)
 
@@ -711,8 +712,6 @@ def render_report(a: Analysis, *, cache: TrajectoryCache | None = None, max_poin
     nav = ("<nav>" + "".join(f'<a href="#{_e(i)}">{_e(t)}</a>' for i, t in links) + "</nav>") \
         if a.done or sections else ""
     text = "\n".join(body)
-    for tid in SORTABLE:
-        text = text.replace(f'<table id="{tid}">', f'<table id="{tid}" class="sortable">')
     # every table in a box of its own width: a wide table scrolls inside it, never the page
     text = text.replace("<table", '<div class="scroll"><table').replace("</table>", "</table></div>")
     return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
