@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from navstress.run.figures import MOVER_COLOUR, OUTCOME_COLOURS, RunTrack
+from navstress.run.figures import MOVER_COLOUR, OUTCOME_COLOURS, RunTrack, movers_at
 from navstress.world.colours import GOAL_COLOUR as _GOAL
 from navstress.world.colours import START_COLOUR as _START
 from navstress.world.colours import kind_colour
@@ -194,22 +194,12 @@ def obstacle_outlines(world: World) -> str:
 
 
 def _movers_at(world: World, movers: tuple[np.ndarray, np.ndarray], at: float, sy: float) -> str:
-    times, poses = movers
-    if not len(times):
-        return ""
     out = []
-    for i, mv in enumerate(world.movers[: poses.shape[1]]):
-        x = float(np.interp(at, times, poses[:, i, 0]))
-        y = float(np.interp(at, times, poses[:, i, 1]))
-        if mv.shape == "disc":
+    for mv, x, y, corners in movers_at(world, movers[0], movers[1], at):
+        if corners is None:
             out.append(f'<circle class="mv" cx="{_n(x)}" cy="{_n(sy - y)}" r="{_n(mv.size[0] / 2)}"/>')
         else:
-            yaw = float(poses[min(int(np.searchsorted(times, at)), len(times) - 1), i, 3])
-            c, s = math.cos(yaw), math.sin(yaw)
-            hl, hw = mv.size[0] / 2, mv.size[1] / 2
-            pts = np.array([(x + c * a - s * b, y + s * a + c * b) for a, b in ((hl, hw), (-hl, hw), (-hl, -hw),
-                                                                                 (hl, -hw))])
-            out.append(f'<path class="mv" d="{_path(pts, sy)}"/>')
+            out.append(f'<path class="mv" d="{_path(corners, sy)}"/>')
     return "".join(out)
 
 
@@ -298,8 +288,3 @@ def legend_html(labels: dict[str, str]) -> str:
               "</i>perceived (the navigator's belief)</span>",
               f'<span><b style="color:{MOVER_COLOUR}">\u25cf</b> movers at a collision</span>']
     return '<p class="legend">' + "".join(items) + "</p>"
-
-
-def attrs_of(**kv: Any) -> str:
-    """``data-*`` attributes (already escaped values)."""
-    return " ".join(f'data-{k.replace("_", "-")}="{v}"' for k, v in kv.items())

@@ -20,7 +20,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from navstress.world.export.images import draw_world
-from navstress.world.world import World
+from navstress.world.world import Mover, World
 
 OUTCOME_COLOURS = {
     "success": "#1a9641",
@@ -50,6 +50,28 @@ class RunTrack:
 MOVER_COLOUR = "#2c5fd6"
 
 
+def movers_at(world: World, times: np.ndarray, poses: np.ndarray,
+              at: float) -> list[tuple[Mover, float, float, np.ndarray | None]]:
+    """Where each mover of a run's track (times (m,), poses (m, n, 4)) was at time ``at``: its
+    centre interpolated between samples, and for a box its footprint's corners (4, 2) at the
+    heading of the next sample (None for a disc)."""
+    out: list[tuple[Mover, float, float, np.ndarray | None]] = []
+    if not len(times):
+        return out
+    for i, mv in enumerate(world.movers[: poses.shape[1]]):
+        x = float(np.interp(at, times, poses[:, i, 0]))
+        y = float(np.interp(at, times, poses[:, i, 1]))
+        corners = None
+        if mv.shape != "disc":
+            yaw = float(poses[min(int(np.searchsorted(times, at)), len(times) - 1), i, 3])
+            c, s = np.cos(yaw), np.sin(yaw)
+            hl, hw = mv.size[0] / 2, mv.size[1] / 2
+            corners = np.array([(x + c * a - s * b, y + s * a + c * b)
+                                for a, b in ((hl, hw), (-hl, hw), (-hl, -hw), (hl, -hw))])
+        out.append((mv, x, y, corners))
+    return out
+
+
 def draw_movers(ax: Any, world: World, times: np.ndarray, poses: np.ndarray, at: float | None,
                 seen: set[str], *, paths: bool = True) -> None:
     """The movers' paths (``paths``: thin lines, a dot where each ended) and, at time ``at`` (a
@@ -65,20 +87,14 @@ def draw_movers(ax: Any, world: World, times: np.ndarray, poses: np.ndarray, at:
         ax.plot(poses[-1, i, 0], poses[-1, i, 1], ".", color=MOVER_COLOUR, ms=4, zorder=5)
     if at is None:
         return
-    for i, mv in enumerate(world.movers[: poses.shape[1]]):
-        x = float(np.interp(at, times, poses[:, i, 0]))
-        y = float(np.interp(at, times, poses[:, i, 1]))
-        yaw = float(poses[min(int(np.searchsorted(times, at)), len(times) - 1), i, 3])
+    for mv, x, y, corners in movers_at(world, times, poses, at):
         lab = None if "mover_at" in seen else "movers at the collision"
         seen.add("mover_at")
-        if mv.shape == "disc":
+        if corners is None:
             ax.add_patch(Circle((x, y), mv.size[0] / 2, fc=MOVER_COLOUR, ec="black", lw=0.6, alpha=0.8, zorder=9,
                                 label=lab))
         else:
-            c, s = np.cos(yaw), np.sin(yaw)
-            hl, hw = mv.size[0] / 2, mv.size[1] / 2
-            pts = [(x + c * a - s * b, y + s * a + c * b) for a, b in ((hl, hw), (-hl, hw), (-hl, -hw), (hl, -hw))]
-            ax.add_patch(Polygon(pts, closed=True, fc=MOVER_COLOUR, ec="black", lw=0.6, alpha=0.8, zorder=9,
+            ax.add_patch(Polygon(corners, closed=True, fc=MOVER_COLOUR, ec="black", lw=0.6, alpha=0.8, zorder=9,
                                  label=lab))
 
 
