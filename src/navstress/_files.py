@@ -11,6 +11,7 @@ from __future__ import annotations
 import os
 import tempfile
 import threading
+from collections.abc import Mapping
 from pathlib import Path
 
 _LOCK = threading.Lock()
@@ -76,7 +77,7 @@ def write_atomic(path: str | os.PathLike[str], data: bytes | str) -> None:
     write_atomic_group({Path(path): data})
 
 
-def write_atomic_group(files: dict[Path, bytes | str]) -> None:
+def write_atomic_group(files: Mapping[Path, bytes | str]) -> None:
     """Write several files that belong together (an SDF and its heightmap, an OBJ, its MTL and
     texture): every one to a temporary file first, then all renamed into place, so that a failure
     while writing (a full disk) leaves none of them, new or half-written, behind."""

@@ -74,8 +74,3 @@ MARKER_RGBA = {"start": (26, 191, 51, 255), "goal": (217, 26, 26, 255)}
 def write_atomic(path: Path, data: bytes) -> None:
     """Write ``data`` to ``path`` atomically, with the mode the umask gives (see ``navstress._files``)."""
     _files.write_atomic(path, data)
-
-
-def write_atomic_group(files: dict[Path, bytes]) -> None:
-    """Write files that belong together: all of them or, on failure, none (``navstress._files``)."""
-    _files.write_atomic_group(dict(files))

@@ -37,7 +37,8 @@ from trimesh.exchange.obj import export_obj
 from trimesh.visual import TextureVisuals
 from trimesh.visual.material import SimpleMaterial
 
-from navstress.world.export._grid import MARKER, MARKER_RGBA, write_atomic_group
+from navstress._files import write_atomic_group
+from navstress.world.export._grid import MARKER, MARKER_RGBA
 from navstress.world.export._grid import terrain_faces as terrain_faces  # the triangulation, shared with traces
 from navstress.world.export.images import _terrain_cmap
 from navstress.world.world import Obstacle, Terrain, World

@@ -33,7 +33,8 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
 
-from navstress.world.export._grid import MARKER, MARKER_RGBA, next_pow2_plus1, resample_square, write_atomic_group
+from navstress._files import write_atomic_group
+from navstress.world.export._grid import MARKER, MARKER_RGBA, next_pow2_plus1, resample_square
 from navstress.world.export.images import heightmap_png_bytes
 from navstress.world.world import World
 
