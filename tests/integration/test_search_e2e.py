@@ -151,8 +151,13 @@ def _files(out: Path) -> dict[str, bytes]:
 def _stop_at(proc: subprocess.Popen[str], out: Path, count: int, delay_s: float, sig: signal.Signals,
              bound_s: float = 300.0) -> tuple[int, str]:
     """Once ``out``'s store holds ``count`` records, wait ``delay_s`` more, send ``sig`` and
-    wait for the process and its workers to end: (records then, stderr)."""
+    wait for the process and its workers to end: (records then, stderr). On a resumed store the
+    process must have recorded one run itself first: a store that already holds ``count`` records
+    would have it signalled while Python still starts, before the command installs its handlers."""
     db = out / "campaign.sqlite"
+    before = recorded(db)  # the process just started: nothing of it recorded yet
+    if before:
+        count = max(count, before + 1)
     deadline = time.monotonic() + bound_s
     while proc.poll() is None and ((n := recorded(db)) is None or n < count):  # None: no store yet
         assert time.monotonic() < deadline, f"{count} records were not in {db} within {bound_s:g} s"
