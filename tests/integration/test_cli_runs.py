@@ -68,6 +68,15 @@ def test_run_writes_traces_records_and_picture(box_ahead: Path, tmp_path: Path) 
     assert recs[0]["run_seed"] != recs[1]["run_seed"]
     assert all(Path(x["trace"]).exists() for x in recs)
     assert (out / "trajectories.png").stat().st_size > 10_000
+    from navstress.run.trace import read_debug, read_grids
+    assert read_debug(recs[0]["trace"]) == [] and len(read_grids(recs[0]["trace"])) == 1
+    # --navigator-view: the same run, with what the navigator drew and its map each second
+    r = cli("run", str(box_ahead), "--timeout", "15", "--seed", "3", "--navigator-view", "-o", str(tmp_path / "v"))
+    assert r.returncode == 0, r.stderr
+    (rec,) = [json.loads(x) for x in (tmp_path / "v" / "runs.jsonl").read_text().splitlines()]
+    assert {k: rec[k] for k in ("outcome", "duration_s", "run_seed")} == \
+        {k: recs[0][k] for k in ("outcome", "duration_s", "run_seed")}
+    assert len(read_debug(rec["trace"])) > 100 and len(read_grids(rec["trace"])) >= 14
 
 
 @pytest.mark.parametrize("args,needle", [

@@ -14,7 +14,8 @@ from typer.testing import CliRunner
 from navstress.cli import app
 from navstress.nav.registry import make_navigator
 from navstress.run.mission import run_mission
-from navstress.run.trace import (TOPIC_LIDAR, TOPIC_PERCEIVED, TraceWriter, _messages, read_events, read_grid,
+from navstress.run.trace import (TOPIC_LIDAR, TOPIC_PERCEIVED, TraceWriter, _messages, read_debug, read_events,
+                                 read_grid, read_grids,
                                  read_commands, read_movers, read_poses, read_terrain_mesh,
                                  read_transforms)
 from navstress.world import World, generate, parse_spec
@@ -26,19 +27,21 @@ TYPES = {"/tf": "tf2_msgs/msg/TFMessage", "/tf_static": "tf2_msgs/msg/TFMessage"
          "/robot/markers": "visualization_msgs/msg/MarkerArray", "/world/movers": "visualization_msgs/msg/MarkerArray",
          "/world/terrain": "sensor_msgs/msg/PointCloud2", "/nav/map": "nav_msgs/msg/OccupancyGrid",
          "/nav/map_points": "sensor_msgs/msg/PointCloud2", "/lidar": "sensor_msgs/msg/PointCloud2",
-         "/world/terrain_mesh": "visualization_msgs/msg/MarkerArray", "/cmd_vel": "geometry_msgs/msg/TwistStamped"}
+         "/world/terrain_mesh": "visualization_msgs/msg/MarkerArray", "/cmd_vel": "geometry_msgs/msg/TwistStamped",
+         "/nav/debug": "visualization_msgs/msg/MarkerArray"}
 
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory: pytest.TempPathFactory) -> tuple[World, Path, Path]:
-    """A 20 s run of reference-v1 with the lidar recorded, on a 30 m world with trees and two
+    """A 20 s run of reference-v1 with the lidar and the navigator's view recorded, on a 30 m world with trees and two
     crossing pedestrians; its trace exported with the CLI."""
     d = tmp_path_factory.mktemp("ros2")
     world = generate(parse_spec({"size_m": [30, 30], "obstacles": {"obstruction": {"tree": 2}},
                                  "ground": {"subdivisions": 3, "deformation": 0.4},
                                  "movers": {"count": {"pedestrian": 2}}}), 11)
     with TraceWriter(d / "run.mcap") as tw:
-        run_mission(world, make_navigator("reference-v1"), run_seed=5, timeout_s=20.0, trace=tw, record_lidar=True)
+        run_mission(world, make_navigator("reference-v1"), run_seed=5, timeout_s=20.0, trace=tw, record_lidar=True,
+                    record_navigator=True)
     r = CliRunner().invoke(app, ["trace", "export", str(d / "run.mcap"), "-o", str(d / "bag")])
     assert r.exit_code == 0, r.output
     assert r.stdout.startswith(f"wrote {d / 'bag'} (")
@@ -138,7 +141,9 @@ def test_clouds_and_maps_hold_the_traces_points_and_heights(run: Any) -> None:
     grid = read_grid(trace)
     assert grid is not None
     vals, (x0, y0), cell = grid
-    ((_, occ),) = msgs["/nav/map"]
+    # the map once per simulated second, then the final one
+    assert len(msgs["/nav/map"]) == len(read_grids(trace)) > 10
+    _, occ = msgs["/nav/map"][-1]
     assert (occ.info.width, occ.info.height, occ.info.resolution) == (vals.shape[1], vals.shape[0], pytest.approx(cell))
     assert (occ.info.origin.position.x, occ.info.origin.position.y) == pytest.approx((x0, y0))
     data = np.asarray(occ.data).reshape(vals.shape)
@@ -154,10 +159,30 @@ def test_clouds_and_maps_hold_the_traces_points_and_heights(run: Any) -> None:
     got = np.array([(p.x, p.y, p.z) for p in tri.points])
     np.testing.assert_array_equal(got, verts[tris.ravel()])
     assert len(tri.colors) == len(tri.points)
-    ((_, pts),) = msgs["/nav/map_points"]
+    _, pts = msgs["/nav/map_points"][-1]
     xyz = np.frombuffer(bytes(pts.data), "<f4").reshape(-1, 3)
     assert len(xyz) == int(np.isfinite(vals).sum())
     np.testing.assert_allclose(xyz[:, 2], vals[np.isfinite(vals)], atol=1e-6)
+
+
+def test_the_navigators_drawings_are_marker_arrays_that_replace_the_last(run: Any) -> None:
+    _world, trace, bag = run
+    msgs, _ = _read(bag)
+    draws = read_debug(trace)
+    assert len(msgs["/nav/debug"]) == len(draws) > 100 and any(d.lines for _, d in draws)
+    for (t, arr), (td, d) in zip(msgs["/nav/debug"], draws):
+        assert t / 1e9 == pytest.approx(td, abs=1e-9)
+        first, rest = arr.markers[0], arr.markers[1:]
+        assert first.action == 3  # DELETEALL: this drawing replaces the last one whole
+        strips = [m for m in rest if m.type == 4]
+        texts = [m for m in rest if m.type == 9]
+        assert len(strips) == len(d.lines) and len(texts) == len(d.texts) and len(rest) == len(strips) + len(texts)
+        for m, ln in zip(strips, d.lines):
+            assert m.header.frame_id == "map" and m.scale.x == ln.width_m
+            np.testing.assert_array_equal(np.array([(p.x, p.y, p.z) for p in m.points]), ln.points)
+        for m, tx in zip(texts, d.texts):
+            assert m.text == tx.text and m.header.frame_id == "perceived/base_link" and m.frame_locked
+            assert m.scale.z == tx.size_m
 
 
 @pytest.mark.not_traces  # it writes a junk .mcap on purpose

@@ -170,7 +170,8 @@ def plan(spec: CampaignSpec, root: str | Path) -> Plan:
                                 run_id=rid, world_dir=str(wdir), run_seed=rs, trace_path=str(trace),
                                 navigator=nav.name, navigator_config=dict(nav.config), fault=fault,
                                 timeout_s=spec.timeout_s, goal_tolerance_m=spec.goal_tolerance_m,
-                                record_lidar=spec.record_lidar, experiment=exp.name, config=dict(cfg.values),
+                                record_lidar=spec.record_lidar, record_navigator=spec.record_navigator,
+                                experiment=exp.name, config=dict(cfg.values),
                                 map_index=m, run_index=r, map_seed=ms, sim_overrides=dict(spec.sim)))
                 streams.extend(Stream(tuple(v), rule) for v in ids.values())
     return Plan(maps=tuple(maps), tasks=tuple(tasks), streams=tuple(streams))

@@ -304,6 +304,7 @@ class CampaignSpec(BaseModel):
     timeout_s: float = Field(400.0, gt=0.0, le=86_400.0)
     goal_tolerance_m: float = Field(2.0, gt=0.0, allow_inf_nan=False)
     record_lidar: bool = False
+    record_navigator: bool = False
     sim: dict[str, Any] = Field(default_factory=dict, description="simulation overrides passed to every run")
 
     @field_validator("name")
@@ -318,9 +319,12 @@ class CampaignSpec(BaseModel):
 
     def canonical_json(self) -> str:
         """A stable text of the validated spec (used to refuse resuming with another spec; an
-        experiment without its own ``runs_per_map``, and an adaptive rule without indifference, have
-        the same text as before those keys existed)."""
+        experiment without its own ``runs_per_map``, an adaptive rule without indifference, and a
+        spec that does not record the navigator's view, have the same text as before those keys
+        existed)."""
         data = self.model_dump(mode="json")
+        if not data["record_navigator"]:
+            del data["record_navigator"]
         for exp in data["experiments"]:
             if exp.get("runs_per_map") is None:
                 exp.pop("runs_per_map", None)

@@ -40,6 +40,10 @@ def run_cmd(
     goal_tolerance: Annotated[str, typer.Option(metavar="M", help="Success radius around the goal in meters, > 0. Default 2.")] = "2",
     lidar: Annotated[bool, typer.Option("--lidar", help=(
         "Also record lidar point clouds in the traces (one full scan per simulated second, map frame).")) ] = False,
+    navigator_view: Annotated[bool, typer.Option("--navigator-view", help=(
+        "Also record the navigator's own view in the traces: what it draws after each step (reference-v1: "
+        "its arcs, the elected one, its choice) on /nav/debug, and its map once per simulated second on "
+        "/nav/map.")) ] = False,
     wall_limit: Annotated[str | None, typer.Option(metavar="S", help=(
         "Wall-clock limit of one run in real seconds, > 0 (a navigator that hangs is killed and its run "
         "recorded as Fail-Other). Default: timeout * 2 + 120.")) ] = None,
@@ -78,7 +82,7 @@ def run_cmd(
     try:
         tasks = plan_batch(world_dir, output, navigator=navigator, navigator_config=cfg, fault=fault, runs=n,
                            seed=seed_v, timeout_s=timeout_v, goal_tolerance_m=tol, record_lidar=lidar,
-                           map_seed=world_seed)
+                           record_navigator=navigator_view, map_seed=world_seed)
         with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
                       TimeRemainingColumn(), TextColumn("{task.fields[counts]}"), console=con) as prog:
             bar = prog.add_task("runs", total=n, counts="")

@@ -27,8 +27,9 @@ import numpy as np
 from navstress.robot import RobotSpec
 
 __all__ = [
-    "Command", "Imu", "InvalidAnswer", "LidarScan", "NavMission", "Navigator", "Observation",
-    "Odometry", "PoseReading", "Status", "check_answer", "raised_by_navigator",
+    "Command", "DebugDraw", "DebugLine", "DebugPoints", "DebugText", "Imu", "InvalidAnswer", "LidarScan",
+    "NavMission", "Navigator", "Observation", "Odometry", "PoseReading", "Status", "check_answer", "check_debug",
+    "raised_by_navigator",
 ]
 
 
@@ -134,6 +135,12 @@ class Navigator(Protocol):
     ``reset`` is called once per run before the first ``step``; all randomness inside the
     navigator must come from ``seed``. ``step`` is called at the navigator's control rate on
     simulated time. ``close`` releases resources; it is always called, even after an error.
+
+    Optional hooks the run loop uses when present (docs/plugins.md): ``control_rate_hz``,
+    ``perceived_trajectory()``, ``final_map()`` (also read once per simulated second when the run
+    records the navigator's view), ``debug()`` (a :class:`DebugDraw` of the last step, or None;
+    read after every step when the run records the navigator's view) and ``want_debug(on)``
+    (told before ``reset`` whether ``debug()`` will be read, so its work can be skipped).
     """
 
     def reset(self, mission: NavMission, robot: RobotSpec, *, seed: int) -> None: ...
@@ -198,3 +205,144 @@ def raised_by_navigator(err: BaseException) -> bool:
     if isinstance(err, KeyboardInterrupt):
         return signal.getsignal(signal.SIGINT) is signal.SIG_IGN
     return False
+
+
+# ----------------------------------------------------------------------------- debug drawing
+#: The frames a navigator draws in: ``"map"`` (the map frame, where its own pose estimate puts
+#: things) and ``"robot"`` (its believed body frame: drawn on the belief's ``perceived/base_link``).
+DEBUG_FRAMES = ("map", "robot")
+#: Most points (over all lines and point sets) and texts one drawing may hold.
+MAX_DEBUG_POINTS = 20_000
+MAX_DEBUG_TEXTS = 50
+#: Most characters of one debug text.
+MAX_DEBUG_TEXT_CHARS = 200
+
+Rgba = tuple[float, float, float, float]
+
+
+@dataclass(frozen=True, eq=False)
+class DebugLine:
+    """A polyline: ``points`` (N >= 2, 3) in ``frame`` (:data:`DEBUG_FRAMES`), ``colour`` RGBA in
+    [0, 1], ``width_m`` its width in meters."""
+
+    points: np.ndarray
+    frame: str = "map"
+    colour: Rgba = (1.0, 1.0, 1.0, 1.0)
+    width_m: float = 0.05
+
+
+@dataclass(frozen=True, eq=False)
+class DebugPoints:
+    """Points (N >= 1, 3) in ``frame``, drawn as dots of ``size_m``."""
+
+    points: np.ndarray
+    frame: str = "map"
+    colour: Rgba = (1.0, 1.0, 1.0, 1.0)
+    size_m: float = 0.15
+
+
+@dataclass(frozen=True)
+class DebugText:
+    """A label at ``position`` (x, y, z) in ``frame``, ``size_m`` high."""
+
+    position: tuple[float, float, float]
+    text: str
+    frame: str = "robot"
+    colour: Rgba = (1.0, 1.0, 1.0, 1.0)
+    size_m: float = 0.4
+
+
+@dataclass(frozen=True, eq=False)
+class DebugDraw:
+    """What a navigator shows of its reasoning at one step (optional hook ``debug()``, see
+    :class:`Navigator`): lines, points and texts. Recorded in the trace when the run records the
+    navigator's view, never read by the simulation: it cannot change a run."""
+
+    lines: tuple[DebugLine, ...] = ()
+    points: tuple[DebugPoints, ...] = ()
+    texts: tuple[DebugText, ...] = ()
+
+
+def _frame(obj: str, value: object) -> str:
+    if not isinstance(value, str) or value not in DEBUG_FRAMES:
+        raise InvalidAnswer(f"{obj}.frame={value!r:.80} is not one of {', '.join(map(repr, DEBUG_FRAMES))}")
+    return value
+
+
+def _colour(obj: str, value: object) -> Rgba:
+    if not isinstance(value, (tuple, list, np.ndarray)):
+        raise InvalidAnswer(f"{obj}.colour={value!r:.80} is not 4 numbers (r, g, b, a)")
+    c = tuple(_real(obj, "colour", v) for v in value)
+    if len(c) != 4 or not all(0.0 <= v <= 1.0 for v in c):
+        raise InvalidAnswer(f"{obj}.colour={value!r:.80} is not 4 numbers (r, g, b, a) in [0, 1]")
+    return (c[0], c[1], c[2], c[3])
+
+
+def _positive(obj: str, name: str, value: object) -> float:
+    f = _real(obj, name, value)
+    if not 0.0 < f <= 100.0:
+        raise InvalidAnswer(f"{obj}.{name}={value!r:.80} is not in (0, 100] meters")
+    return f
+
+
+def _points(obj: str, value: object, least: int) -> np.ndarray:
+    try:
+        p = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InvalidAnswer(f"{obj}.points is not an array of numbers") from None
+    if p.ndim != 2 or p.shape[1] != 3 or len(p) < least:
+        raise InvalidAnswer(f"{obj}.points has shape {p.shape}, not (N, 3) with N >= {least}")
+    if not np.isfinite(p).all():
+        raise InvalidAnswer(f"{obj}.points holds a value that is not finite")
+    return p
+
+
+def check_debug(draw: object) -> DebugDraw:
+    """``draw`` checked as a navigator's debug drawing, copied (a navigator may reuse its arrays):
+    lines of (N >= 2, 3) finite points, point sets of (N >= 1, 3), texts of at most
+    :data:`MAX_DEBUG_TEXT_CHARS` characters, frames from :data:`DEBUG_FRAMES`, RGBA colours in
+    [0, 1], sizes in (0, 100] m, at most :data:`MAX_DEBUG_POINTS` points and
+    :data:`MAX_DEBUG_TEXTS` texts in all. :class:`InvalidAnswer` says what is wrong.
+
+        >>> check_debug(DebugDraw(lines=(DebugLine(np.zeros((1, 3))),)))  # doctest: +ELLIPSIS
+        Traceback (most recent call last):
+        navstress.nav.api.InvalidAnswer: lines[0].points has shape (1, 3), not (N, 3) with N >= 2
+    """
+    if not isinstance(draw, DebugDraw):
+        raise InvalidAnswer(f"debug returned {type(draw).__name__} ({draw!r:.80}), not a DebugDraw or None")
+    out_l, out_p, out_t = [], [], []
+    for kind, items in (("lines", draw.lines), ("points", draw.points), ("texts", draw.texts)):
+        if not isinstance(items, (tuple, list)):
+            raise InvalidAnswer(f"DebugDraw.{kind} is a {type(items).__name__}, not a tuple")
+        for i, item in enumerate(items):
+            obj = f"{kind}[{i}]"
+            if kind == "lines" and isinstance(item, DebugLine):
+                out_l.append(DebugLine(_points(obj, item.points, 2), _frame(obj, item.frame),
+                                       _colour(obj, item.colour), _positive(obj, "width_m", item.width_m)))
+            elif kind == "points" and isinstance(item, DebugPoints):
+                out_p.append(DebugPoints(_points(obj, item.points, 1), _frame(obj, item.frame),
+                                         _colour(obj, item.colour), _positive(obj, "size_m", item.size_m)))
+            elif kind == "texts" and isinstance(item, DebugText):
+                if not isinstance(item.text, str):
+                    raise InvalidAnswer(f"{obj}.text is a {type(item.text).__name__}, not a string")
+                if len(item.text) > MAX_DEBUG_TEXT_CHARS:
+                    raise InvalidAnswer(f"{obj}.text has {len(item.text):,} characters, more than "
+                                        f"{MAX_DEBUG_TEXT_CHARS}")
+                try:
+                    pos = np.array(item.position, dtype=np.float64)
+                except (TypeError, ValueError):
+                    pos = np.zeros(0)
+                if pos.shape != (3,) or not np.isfinite(pos).all():
+                    raise InvalidAnswer(f"{obj}.position={item.position!r:.80} is not 3 finite numbers (x, y, z)")
+                out_t.append(DebugText((float(pos[0]), float(pos[1]), float(pos[2])), item.text,
+                                       _frame(obj, item.frame), _colour(obj, item.colour),
+                                       _positive(obj, "size_m", item.size_m)))
+            else:
+                want = {"lines": "DebugLine", "points": "DebugPoints", "texts": "DebugText"}[kind]
+                raise InvalidAnswer(f"{obj} is a {type(item).__name__}, not a {want}")
+    n = sum(len(x.points) for x in out_l) + sum(len(x.points) for x in out_p)
+    if n > MAX_DEBUG_POINTS:
+        raise InvalidAnswer(f"the drawing has {n:,} points, more than {MAX_DEBUG_POINTS:,}")
+    if len(out_t) > MAX_DEBUG_TEXTS:
+        raise InvalidAnswer(f"the drawing has {len(out_t)} texts, more than {MAX_DEBUG_TEXTS}")
+    return DebugDraw(tuple(out_l), tuple(out_p), tuple(out_t))

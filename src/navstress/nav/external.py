@@ -41,7 +41,7 @@ from typing import IO, Any, Literal
 from navstress import _json
 from navstress.errors import NavigatorError, SpecError
 from navstress.nav import wire
-from navstress.nav.api import Command, NavMission, Navigator, Observation, Status
+from navstress.nav.api import Command, DebugDraw, NavMission, Navigator, Observation, Status, check_debug
 from navstress.nav.registry import make_navigator
 from navstress.robot import RobotSpec
 
@@ -148,6 +148,8 @@ class ExternalNavigator:
         self._stderr_thread: threading.Thread | None = None
         self._buf = bytearray()
         self._finalizer: weakref.finalize | None = None  # type: ignore[type-arg]
+        self._want_debug = False
+        self._debug: object = None  # the last step reply's "debug" field, decoded when asked
 
     # ------------------------------------------------------------ Navigator
 
@@ -190,15 +192,27 @@ class ExternalNavigator:
             self._fail("protocol", "was stepped before reset")
             return self._error()
         t0 = time.monotonic()
-        reply = self._request(wire.step_message(obs), self.step_budget_s, "step")
+        self._debug = None
+        reply = self._request(wire.step_message(obs, debug=self._want_debug), self.step_budget_s, "step")
         self.step_times_s.append(time.monotonic() - t0)
         if reply is None:
             return self._error()
+        self._debug = reply.get("debug")
         try:
             return wire.decode_command_or_status(reply)
         except wire.WireError as e:
             self._fail("protocol", f"sent an invalid message in reply to step: {e}")
             return self._error()
+
+    def want_debug(self, on: bool) -> None:
+        """Whether the host records the drawings: step requests then carry ``"debug": true``."""
+        self._want_debug = bool(on)
+
+    def debug(self) -> DebugDraw | None:
+        """The drawing that came with the last step reply (its ``"debug"`` field), or None;
+        :class:`~navstress.nav.api.InvalidAnswer` when it is malformed (the run records a warning
+        and stops asking: a bad drawing never ends a run)."""
+        return None if self._debug is None else wire.decode_debug(self._debug)
 
     def close(self) -> None:
         """Ask the process to exit, then kill its process group and reap it. Idempotent."""
@@ -529,7 +543,11 @@ def serve(navigator: Navigator, inp: IO[bytes], out: IO[bytes], *, name: str = "
                 obs = wire.decode_observation(msg["obs"])
                 with contextlib.redirect_stdout(sys.stderr):
                     answer = navigator.step(obs)  # an exception ends the process (docstring)
-                send(wire.encode_command_or_status(answer))
+                    reply = wire.encode_command_or_status(answer)
+                    draw = _drawing(navigator) if msg.get("debug") is True else None
+                if draw is not None:
+                    reply["debug"] = draw
+                send(reply)
             elif kind == "close":
                 break
             else:
@@ -538,6 +556,20 @@ def serve(navigator: Navigator, inp: IO[bytes], out: IO[bytes], *, name: str = "
         with contextlib.redirect_stdout(sys.stderr):
             navigator.close()
     return 0
+
+
+def _drawing(navigator: Navigator) -> dict[str, Any] | None:
+    """The served navigator's ``debug()`` (if it has one) for a step reply; a drawing that raises
+    or is malformed is left out, with a line on stderr (a drawing never ends a run)."""
+    hook = getattr(navigator, "debug", None)
+    if not callable(hook):
+        return None
+    try:
+        draw = hook()
+        return None if draw is None else wire.encode_debug(check_debug(draw))
+    except Exception as e:
+        print(f"navstress.nav.external: debug() left out: {type(e).__name__}: {e}", file=sys.stderr)
+        return None
 
 
 def main(argv: Sequence[str] | None = None) -> int:

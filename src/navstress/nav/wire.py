@@ -11,9 +11,10 @@ host -> navigator                                      navigator -> host
 ``{"type":"reset","mission":{..},"robot":{..},         ``{"type":"ok"}``  (or a ``status`` error)
 "seed":N}`` (mission: start, goal, goal_tolerance_m,
 bounds: the geofence [xmin, ymin, xmax, ymax] or null)
-``{"type":"step","obs":{..}}``                         ``{"type":"command","v":..,"omega":..}`` or
-                                                       ``{"type":"status","kind":"arrived"|"error",
-                                                       "message":".."}``
+``{"type":"step","obs":{..}}`` (``"debug":true``       ``{"type":"command","v":..,"omega":..}`` or
+when the host records the navigator's drawings)        ``{"type":"status","kind":"arrived"|"error",
+                                                       "message":".."}``, either with an optional
+                                                       ``"debug":{..}`` (:func:`encode_debug`)
 ``{"type":"close"}``                                   (no reply; the process exits)
 ====================================================  =====================================================
 
@@ -35,6 +36,10 @@ import numpy as np
 
 from navstress.nav.api import (
     Command,
+    DebugDraw,
+    DebugLine,
+    DebugPoints,
+    DebugText,
     Imu,
     InvalidAnswer,
     LidarScan,
@@ -44,12 +49,13 @@ from navstress.nav.api import (
     PoseReading,
     Status,
     check_answer,
+    check_debug,
 )
 from navstress.robot import RobotSpec
 
 __all__ = [
     "PROTOCOL_VERSION", "WireError", "decode_command_or_status", "decode_mission",
-    "decode_observation", "decode_points", "dumps", "encode_command_or_status",
+    "decode_debug", "decode_observation", "decode_points", "dumps", "encode_command_or_status", "encode_debug",
     "encode_mission", "encode_observation", "encode_points", "loads", "step_message",
     "reset_message", "hello_message", "close_message",
 ]
@@ -190,8 +196,53 @@ def encode_observation(obs: Observation) -> dict[str, Any]:
     return out
 
 
-def step_message(obs: Observation) -> dict[str, Any]:
-    return {"type": "step", "obs": encode_observation(obs)}
+def step_message(obs: Observation, *, debug: bool = False) -> dict[str, Any]:
+    """A ``step`` request; ``debug``: the host records the navigator's drawing (``"debug": true``),
+    which the navigator may then add to its reply (:func:`encode_debug`)."""
+    msg: dict[str, Any] = {"type": "step", "obs": encode_observation(obs)}
+    if debug:
+        msg["debug"] = True
+    return msg
+
+
+def encode_debug(draw: DebugDraw) -> dict[str, Any]:
+    """A :class:`~navstress.nav.api.DebugDraw` as the optional ``"debug"`` field of a step reply
+    (points as lists of [x, y, z]; docs/plugins.md)."""
+    return {"lines": [{"points": ln.points.tolist(), "frame": ln.frame, "colour": list(ln.colour),
+                       "width_m": ln.width_m} for ln in draw.lines],
+            "points": [{"points": p.points.tolist(), "frame": p.frame, "colour": list(p.colour),
+                        "size_m": p.size_m} for p in draw.points],
+            "texts": [{"position": list(t.position), "text": t.text, "frame": t.frame, "colour": list(t.colour),
+                       "size_m": t.size_m} for t in draw.texts]}
+
+
+def decode_debug(d: object) -> DebugDraw:
+    """Inverse of :func:`encode_debug`, checked by :func:`~navstress.nav.api.check_debug`; missing
+    fields take the :class:`~navstress.nav.api.DebugDraw` defaults. :class:`InvalidAnswer` says
+    what is wrong."""
+    if not isinstance(d, dict):
+        raise InvalidAnswer(f"debug is a {type(d).__name__}, not an object")
+    unknown = sorted(set(d) - {"lines", "points", "texts"})
+    if unknown:
+        raise InvalidAnswer(f"debug has unknown field(s) {', '.join(map(repr, unknown))}")
+    keys = {"lines": ("points", "frame", "colour", "width_m"), "points": ("points", "frame", "colour", "size_m"),
+            "texts": ("position", "text", "frame", "colour", "size_m")}
+    cls = {"lines": DebugLine, "points": DebugPoints, "texts": DebugText}
+    parts: dict[str, list[Any]] = {}
+    for kind in ("lines", "points", "texts"):
+        items = d.get(kind, [])
+        if not isinstance(items, list):
+            raise InvalidAnswer(f"debug.{kind} is a {type(items).__name__}, not a list")
+        parts[kind] = []
+        for i, item in enumerate(items):
+            if not isinstance(item, dict) or set(item) - set(keys[kind]):
+                raise InvalidAnswer(f"debug.{kind}[{i}] is not an object with fields {', '.join(keys[kind])}")
+            if keys[kind][0] not in item:
+                raise InvalidAnswer(f"debug.{kind}[{i}] has no {keys[kind][0]!r}")
+            args = {k: (tuple(v) if k in ("colour", "position") and isinstance(v, list) else v)
+                    for k, v in item.items()}
+            parts[kind].append(cls[kind](**args))
+    return check_debug(DebugDraw(tuple(parts["lines"]), tuple(parts["points"]), tuple(parts["texts"])))
 
 
 def decode_observation(d: dict[str, Any]) -> Observation:

@@ -44,7 +44,8 @@ def default_wall_limit_s(timeout_s: float) -> float:
 
 def plan_batch(world_dir: Path, out: Path, *, navigator: str, navigator_config: dict[str, Any], fault: str | None,
                runs: int, seed: int, timeout_s: float, goal_tolerance_m: float,
-               record_lidar: bool = False, map_seed: int | None = None) -> list[RunTask]:
+               record_lidar: bool = False, record_navigator: bool = False,
+               map_seed: int | None = None) -> list[RunTask]:
     """The tasks of ``runs`` runs on ``world_dir``; ``map_seed``: the world's seed (read from
     the world when not given)."""
     if map_seed is None:
@@ -53,7 +54,7 @@ def plan_batch(world_dir: Path, out: Path, *, navigator: str, navigator_config: 
                     trace_path=str(out / f"run-{i:03d}.mcap"), navigator=navigator,
                     navigator_config=navigator_config, fault=fault, timeout_s=timeout_s,
                     goal_tolerance_m=goal_tolerance_m, run_index=i, experiment="single",
-                    record_lidar=record_lidar, map_seed=int(map_seed))
+                    record_lidar=record_lidar, record_navigator=record_navigator, map_seed=int(map_seed))
             for i in range(runs)]
 
 

@@ -31,7 +31,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
 from navstress.errors import NavstressError, SimulationError
-from navstress.nav.api import InvalidAnswer, NavMission, Navigator, Status, check_answer, raised_by_navigator
+from navstress.nav.api import (DebugDraw, InvalidAnswer, NavMission, Navigator, Status, check_answer, check_debug,
+                               raised_by_navigator)
 from navstress.nav.registry import make_navigator
 from navstress.robot import RobotSpec
 from navstress.run.metrics import drop_jitter, path_length, tortuousness
@@ -48,6 +49,8 @@ from navstress.world.world import World
 DEFAULT_CONTROL_RATE_HZ = 10.0
 CONTROL_JITTER = 0.05
 LIDAR_TRACE_PERIOD_S = 1.0  # with record_lidar, one full scan per simulated second goes into the trace  # each control period is scaled by 1 + U(-j, j), drawn from the run seed
+#: With ``record_navigator``, the navigator's map goes into the trace once per this many simulated seconds.
+MAP_TRACE_PERIOD_S = 1.0
 
 
 @dataclass
@@ -69,6 +72,11 @@ class RunResult:
     movers: tuple[np.ndarray, np.ndarray] | None = None
     #: the navigator's velocity commands: (N, 3) t (when given), linear m/s, angular rad/s
     commands: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    #: with ``record_navigator``: its debug drawing after each step, (t, drawing)
+    drawings: list[tuple[float, DebugDraw]] = field(default_factory=list)
+    #: with ``record_navigator``: its map once per simulated second, cropped to its known cells:
+    #: (t, grid, origin xy, cell_m)
+    maps: list[tuple[float, np.ndarray, tuple[float, float], float]] = field(default_factory=list)
 
 
 def _attr_through_wrappers(nav: Any, name: str) -> Any:
@@ -80,6 +88,84 @@ def _attr_through_wrappers(nav: Any, name: str) -> Any:
         nav = getattr(nav, "inner", None)
         seen += 1
     return None
+
+
+def check_map(answer: object) -> tuple[np.ndarray, tuple[float, float], float]:
+    """A navigator's map (``final_map()``'s ``answer``) as (float32 grid, (x, y), cell_m);
+    :class:`InvalidAnswer` when it is not a 2-D grid with a finite origin and a cell size > 0."""
+    try:
+        parts: Any = answer
+        grid, origin, cell = parts
+        g = np.asarray(grid, dtype=np.float32)
+        ox, oy = (float(v) for v in origin)
+        c = float(cell)
+    except (TypeError, ValueError) as err:
+        raise InvalidAnswer(f"final_map returned something that is not (grid, (x, y), cell_m): {err}") from None
+    if g.ndim != 2 or not (math.isfinite(ox) and math.isfinite(oy) and math.isfinite(c) and c > 0):
+        raise InvalidAnswer(f"final_map returned a grid of shape {g.shape}, origin ({ox}, {oy}), cell {c}: "
+                            "expected a 2-D grid, a finite origin and a cell size > 0")
+    return g, (ox, oy), c
+
+
+def crop_known(answer: object) -> tuple[np.ndarray, tuple[float, float], float] | None:
+    """A navigator's map (:func:`check_map`) cut to the rows and columns that hold a known
+    (finite) cell, its origin moved to match; None when no cell is known.
+
+        >>> g = np.full((4, 5), np.nan, dtype=np.float32); g[1, 2] = g[2, 3] = 1.0
+        >>> v, o, c = crop_known((g, (10.0, 20.0), 0.5))
+        >>> v.shape, o, c
+        ((2, 2), (11.0, 20.5), 0.5)
+    """
+    g, (ox, oy), c = check_map(answer)
+    known = np.isfinite(g)
+    rows, cols = np.flatnonzero(known.any(axis=1)), np.flatnonzero(known.any(axis=0))
+    if not len(rows):
+        return None
+    r0, r1, c0, c1 = int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
+    return np.ascontiguousarray(g[r0:r1, c0:c1]), (ox + c0 * c, oy + r0 * c), c
+
+
+class NavigatorView:
+    """What a run records of the navigator's own view when asked (``record_navigator``): its
+    debug drawing after every step (hook ``debug()``, checked by
+    :func:`~navstress.nav.api.check_debug`) and its map once per :data:`MAP_TRACE_PERIOD_S` of
+    simulated time (hook ``final_map()``, cut by :func:`crop_known`). A hook that raises or
+    answers garbage gets one warning event and is not asked again; the run goes on unchanged
+    (nothing recorded here feeds back into the simulation or the navigator)."""
+
+    def __init__(self, navigator: Navigator, events: list[tuple[float, str, str]]) -> None:
+        self._events = events
+        self._debug = _attr_through_wrappers(navigator, "debug")
+        self._map = _attr_through_wrappers(navigator, "final_map")
+        self._next_map = 0.0
+        self.map_dropped = False
+        self.drawings: list[tuple[float, DebugDraw]] = []
+        self.maps: list[tuple[float, np.ndarray, tuple[float, float], float]] = []
+
+    def _drop(self, t: float, hook: str, err: BaseException) -> None:
+        if not isinstance(err, InvalidAnswer) and not raised_by_navigator(err):
+            raise err
+        what = str(err) if isinstance(err, InvalidAnswer) else f"raised {type(err).__name__}: {err}"
+        self._events.append((t, "warning", f"navigator {hook}: {what}; not recorded from here on"))
+
+    def after_step(self, t: float) -> None:
+        if callable(self._debug):
+            try:
+                draw = self._debug()
+                if draw is not None:
+                    self.drawings.append((t, check_debug(draw)))
+            except BaseException as err:
+                self._debug = None
+                self._drop(t, "debug()", err)
+        if callable(self._map) and t >= self._next_map - 1e-9:
+            self._next_map = t + MAP_TRACE_PERIOD_S
+            try:
+                snap = crop_known(self._map())
+                if snap is not None:
+                    self.maps.append((t, *snap))
+            except BaseException as err:
+                self._map, self.map_dropped = None, True
+                self._drop(t, "final_map()", err)
 
 
 def control_rate_hz(nav: Navigator) -> float:
@@ -113,14 +199,15 @@ def _true_pose(sim: Any) -> tuple[float, float, float, float, float, float, floa
 
 def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: RobotSpec | None = None,
                 timeout_s: float = 400.0, goal_tolerance_m: float = 2.0, sim_config: Any = None,
-                trace: TraceWriter | None = None, record_lidar: bool = False,
+                trace: TraceWriter | None = None, record_lidar: bool = False, record_navigator: bool = False,
                 stop_on_collision: bool = True) -> RunResult:
     """Run ``navigator`` on ``world``'s mission in the simulation seeded by ``run_seed``.
 
     ``robot`` is the simulated truth (default RobotSpec()); the navigator is told the same
     robot (a fault wrapper may change what it believes). A collision ends the run by default
     (``stop_on_collision``: the operator's emergency stop), so Fail-Collision runs keep the
-    time and place of their first collision.
+    time and place of their first collision. ``record_navigator`` records the navigator's own
+    view (:class:`NavigatorView`) into the result and the trace.
     """
     robot = robot or RobotSpec()
     cfg = sim_config if sim_config is not None else SimConfig()
@@ -134,12 +221,22 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
     commands: list[tuple[float, float, float]] = []  # (t, v, omega) as given to the robot
     left_area: str | None = None
     sim = None
+    view: NavigatorView | None = None
     try:
         sim = Simulation(world, robot, cfg, seed=run_seed)
         mission = NavMission(start=world.mission.start, goal=world.mission.goal, goal_tolerance_m=goal_tolerance_m,
                              bounds=mission_bounds(world, cfg))
         period = 1.0 / control_rate_hz(navigator)
         jitter = rng(run_seed, "loop", "control")
+        view = NavigatorView(navigator, events) if record_navigator else None
+        want = _attr_through_wrappers(navigator, "want_debug")
+        try:
+            if callable(want):
+                want(bool(record_navigator))
+        except BaseException as err:  # an optional hook: a warning, not the run's failure
+            if not raised_by_navigator(err):
+                raise
+            events.append((0.0, "warning", f"navigator want_debug() raised {type(err).__name__}: {err}"))
         try:
             navigator.reset(mission, robot, seed=derive_seed(run_seed, "navigator"))
         except BaseException as err:  # the stack under test failed (sys.exit included); record, don't crash
@@ -166,6 +263,8 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
                 error, nav_failure = f"navigator raised {type(err).__name__}: {err}", True
                 events.append((sim.t, "error", error))
                 break
+            if view is not None:
+                view.after_step(sim.t)
             if isinstance(out, Status):
                 if out.kind == "arrived":
                     arrived = True
@@ -243,8 +342,6 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
                      collisions=collisions, collisions_hit=collisions_hit, first_collision_s=first_col, error=error,
                      navigator_failure=nav_failure, timed_out=timed_out, other=tuple(other), left_area=left_area)
     cls = classify(facts)
-    events.sort(key=lambda e: e[0])
-    events.append((duration, "info", f"end of run: {cls.outcome.label}: {cls.reason}"))
     perceived = _attr_through_wrappers(navigator, "perceived_trajectory")
     final_map = _attr_through_wrappers(navigator, "final_map")
     try:
@@ -254,17 +351,23 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
             raise
         perceived_arr = None
     try:
-        fmap = final_map() if callable(final_map) else None
+        fmap = check_map(final_map()) if callable(final_map) else None
     except BaseException as err:
-        if not raised_by_navigator(err):
+        if not isinstance(err, InvalidAnswer) and not raised_by_navigator(err):
             raise
         fmap = None
+        if view is None or not view.map_dropped:  # one warning per hook and run
+            what = str(err) if isinstance(err, InvalidAnswer) else f"raised {type(err).__name__}: {err}"
+            events.append((duration, "warning", f"navigator final_map(): {what}; the map is not recorded"))
+    events.sort(key=lambda e: e[0])
+    events.append((duration, "info", f"end of run: {cls.outcome.label}: {cls.reason}"))
     xy = drop_jitter(truth[:, 1:3], 0.02) if len(truth) else np.zeros((0, 2))
     result = RunResult(classification=cls, facts=facts, duration_s=duration, wall_s=time.perf_counter() - wall0,
                        truth=truth, perceived=perceived_arr, final_map=fmap, events=events,
                        path_length_m=path_length(xy), tortuousness=tortuousness(truth[:, 1:3]) if len(truth) else 0.0,
                        movers=sim.mover_track() if sim is not None and world.movers else None,
-                       commands=np.array(commands, dtype=np.float64).reshape(-1, 3))
+                       commands=np.array(commands, dtype=np.float64).reshape(-1, 3),
+                       drawings=view.drawings if view is not None else [], maps=view.maps if view is not None else [])
     if trace is not None:
         _write_trace(trace, world, result, robot)
         for t, pts, mount in clouds:
@@ -309,6 +412,10 @@ def _write_trace(tw: TraceWriter, world: World, r: RunResult, robot: RobotSpec) 
     tw.robot((robot.length_m, robot.width_m, robot.body_height_m), (mount.x_m, mount.y_m, mount.z_m), belief=belief)
     for t, level, msg in r.events:
         tw.event(t, level, msg)
+    for t, draw in r.drawings:
+        tw.debug(t, draw)
+    for t, grid, origin, cell in r.maps:
+        tw.grid(TOPIC_MAP, t, grid, origin, cell)
     if r.final_map is not None:
         grid, origin, cell = r.final_map
         tw.grid(TOPIC_MAP, r.duration_s, np.asarray(grid, dtype=np.float32), origin, float(cell))
@@ -338,7 +445,7 @@ def execute(task: RunTask) -> RunRecord:
     try:
         res = run_mission(world, nav, run_seed=task.run_seed, timeout_s=task.timeout_s,
                           goal_tolerance_m=task.goal_tolerance_m, sim_config=sim_cfg, trace=tw,
-                          record_lidar=task.record_lidar)
+                          record_lidar=task.record_lidar, record_navigator=task.record_navigator)
         tw.close()
     except BaseException:
         tw.abort()

@@ -40,6 +40,7 @@ class RunTask:
     timeout_s: float = 400.0
     goal_tolerance_m: float = 2.0
     record_lidar: bool = False
+    record_navigator: bool = False  # the navigator's debug drawings and its map at 1 Hz in the trace
     # campaign bookkeeping, carried through untouched
     experiment: str = ""
     config: dict[str, Any] = field(default_factory=dict)

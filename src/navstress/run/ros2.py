@@ -15,6 +15,8 @@ What the bag holds (every stamp and bag time is the run's *simulated* time, as i
 | ``/robot/markers`` | ``visualization_msgs/msg/MarkerArray`` (transient local) | ``/robot/body`` |
 | ``/world/movers`` | ``visualization_msgs/msg/MarkerArray`` | ``/world/movers`` |
 | ``/world/terrain`` | ``sensor_msgs/msg/PointCloud2`` (transient local) | ``/world/terrain``: one point (x, y, z) per height sample |
+| ``/cmd_vel`` | ``geometry_msgs/msg/TwistStamped`` | ``/nav/cmd`` |
+| ``/nav/debug`` | ``visualization_msgs/msg/MarkerArray`` | ``/nav/debug`` (runs that record the navigator's view): a DELETEALL, then a LINE_STRIP per line, a SPHERE per point, a TEXT_VIEW_FACING per text |
 | ``/nav/map`` | ``nav_msgs/msg/OccupancyGrid`` | ``/nav/map``, the perceived elevation: -1 unknown, else 0..100 over the grid's lowest..highest known cell (the metres are in ``/nav/map_points``) |
 | ``/nav/map_points`` | ``sensor_msgs/msg/PointCloud2`` | ``/nav/map``: one point per known cell, z its height |
 | ``/lidar`` | ``sensor_msgs/msg/PointCloud2`` | ``/lidar`` (frame ``map``) |
@@ -31,10 +33,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from foxglove_schemas_protobuf.Pose_pb2 import Pose
+from foxglove_schemas_protobuf.Quaternion_pb2 import Quaternion
 
 from navstress import _files
 from navstress.errors import SpecError
-from navstress.run.trace import (FRAME, TOPIC_CMD, TOPIC_EVENTS, TOPIC_LIDAR, TOPIC_MAP, TOPIC_MOVERS, TOPIC_PERCEIVED,
+from navstress.run.trace import (FRAME, TOPIC_CMD, TOPIC_DEBUG, TOPIC_EVENTS, TOPIC_LIDAR, TOPIC_MAP, TOPIC_MOVERS, TOPIC_PERCEIVED,
                                  TOPIC_ROBOT, TOPIC_SCENE, TOPIC_TERRAIN, TOPIC_TERRAIN_MESH, TOPIC_TF,
                                  TOPIC_TRUTH, _messages)
 
@@ -51,6 +55,7 @@ def _latched() -> Any:
                avoid_ros_namespace_conventions=False)
 
 
+_IDENTITY = Pose(orientation=Quaternion(w=1.0))
 _ODOM = {TOPIC_TRUTH: ("/truth/odom", "base_link"), TOPIC_PERCEIVED: ("/perceived/odom", "perceived/base_link")}
 _LEVEL = {1: 10, 2: 20, 3: 30, 4: 40, 5: 50}  # foxglove.Log level -> rcl_interfaces/Log level
 
@@ -102,22 +107,30 @@ class _Bag:
         return self.t["std_msgs/msg/ColorRGBA"](r=c.r, g=c.g, b=c.b, a=c.a if alpha is None else alpha)
 
     def marker(self, ent: Any, t_ns: int, k: int, kind: int, pose: Any, scale: Any, color: Any,
-               points: list[Any] | None = None, colors: list[Any] | None = None) -> Any:
+               points: list[Any] | None = None, colors: list[Any] | None = None, text: str = "",
+               action: int | None = None) -> Any:
         """One ``visualization_msgs/Marker`` of entity ``ent`` (every field set: CDR needs them)."""
         m = self.t["visualization_msgs/msg/Marker"]
-        return m(header=self.header(t_ns, ent.frame_id), ns=ent.id, id=k, type=kind, action=m.ADD,
+        return m(header=self.header(t_ns, ent.frame_id), ns=ent.id, id=k, type=kind,
+                 action=m.ADD if action is None else action,
                  pose=self.pose(pose), scale=scale, color=color,
                  lifetime=self.t["builtin_interfaces/msg/Duration"](sec=0, nanosec=0),
                  frame_locked=ent.frame_locked, points=points or [], colors=colors or [], texture_resource="",
                  texture=self.t["sensor_msgs/msg/CompressedImage"](header=self.header(0, ""), format="",
                                                                    data=np.zeros(0, np.uint8)),
-                 uv_coordinates=[], text="", mesh_resource="",
+                 uv_coordinates=[], text=text, mesh_resource="",
                  mesh_file=self.t["visualization_msgs/msg/MeshFile"](filename="", data=np.zeros(0, np.uint8)),
                  mesh_use_embedded_materials=False)
 
-    def markers(self, update: Any, t_ns: int) -> Any:
+    def markers(self, update: Any, t_ns: int, *, replace: bool = False) -> Any:
+        """A SceneUpdate as markers, one namespace per entity; ``replace``: a DELETEALL first, so
+        that the array replaces everything shown before (as each debug drawing does)."""
         m = self.t["visualization_msgs/msg/Marker"]
         out = []
+        if replace and update.entities:
+            out.append(self.marker(update.entities[0], t_ns, 0, m.CUBE, _IDENTITY, self.t["geometry_msgs/msg/Vector3"](
+                x=1.0, y=1.0, z=1.0), self.t["std_msgs/msg/ColorRGBA"](r=0.0, g=0.0, b=0.0, a=0.0),
+                action=m.DELETEALL))
         for ent in update.entities:
             shapes = [(m.CUBE, c) for c in ent.cubes] + [(m.SPHERE, s) for s in ent.spheres] + \
                      [(m.CYLINDER, c) for c in ent.cylinders]
@@ -131,6 +144,15 @@ class _Bag:
                                        self.t["geometry_msgs/msg/Vector3"](x=1.0, y=1.0, z=1.0),
                                        self.rgba(tri.color, None if not cols else 1.0),
                                        [self.point(tri.points[i]) for i in idx], cols))
+            k = len(shapes) + len(ent.triangles)
+            for ln in ent.lines:  # a line strip's scale.x is its width
+                out.append(self.marker(ent, t_ns, k, m.LINE_STRIP, ln.pose, self.t["geometry_msgs/msg/Vector3"](
+                    x=ln.thickness, y=0.0, z=0.0), self.rgba(ln.color), [self.point(p) for p in ln.points]))
+                k += 1
+            for tx in ent.texts:  # a text's scale.z is its height
+                out.append(self.marker(ent, t_ns, k, m.TEXT_VIEW_FACING, tx.pose, self.t["geometry_msgs/msg/Vector3"](
+                    x=0.0, y=0.0, z=tx.font_size), self.rgba(tx.color), text=tx.text))
+                k += 1
         return self.t["visualization_msgs/msg/MarkerArray"](markers=out)
 
 
@@ -164,6 +186,8 @@ def _convert(bag: _Bag, topic: str, t_ns: int, m: Any) -> None:
     elif topic == TOPIC_EVENTS:
         bag.put("/rosout", T["rcl_interfaces/msg/Log"](stamp=bag.stamp(t_ns), level=_LEVEL.get(m.level, 20), name=m.name,
                                                         msg=m.message, file="", function="", line=0), t_ns)
+    elif topic == TOPIC_DEBUG:
+        bag.put("/nav/debug", bag.markers(m, t_ns, replace=True), t_ns)
     elif topic in (TOPIC_SCENE, TOPIC_ROBOT, TOPIC_MOVERS, TOPIC_TERRAIN_MESH):
         name = {TOPIC_SCENE: "/world/markers", TOPIC_ROBOT: "/robot/markers", TOPIC_MOVERS: "/world/movers",
                 TOPIC_TERRAIN_MESH: "/world/terrain_mesh"}[topic]
@@ -199,8 +223,7 @@ def _convert(bag: _Bag, topic: str, t_ns: int, m: Any) -> None:
 
 
 _TOPICS = [TOPIC_TF, TOPIC_TRUTH, TOPIC_PERCEIVED, TOPIC_EVENTS, TOPIC_SCENE, TOPIC_ROBOT, TOPIC_MOVERS, TOPIC_TERRAIN,
-           TOPIC_TERRAIN_MESH, TOPIC_CMD,
-           TOPIC_MAP, TOPIC_LIDAR]
+           TOPIC_TERRAIN_MESH, TOPIC_CMD, TOPIC_DEBUG, TOPIC_MAP, TOPIC_LIDAR]
 
 
 def export_ros2(trace: str | os.PathLike[str], out: str | os.PathLike[str]) -> dict[str, int]:

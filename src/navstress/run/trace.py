@@ -10,9 +10,12 @@ to each ``base_link``, the belief's translucent), ``/truth/pose`` and ``/perceiv
 ``/world/movers`` (``foxglove.SceneUpdate``, one per run of the movers' controller (10 Hz): every
 mover an entity ``mover/<id>``, a cylinder or a cube where it is; worlds with movers only),
 ``/nav/cmd`` (``navstress.VelocityCommand``, :func:`command_class`: the navigator's commands),
+``/nav/debug`` (``foxglove.SceneUpdate``, runs that record the navigator's view: what it drew
+after each step, :meth:`TraceWriter.debug`),
 ``/world/terrain_mesh`` (``foxglove.SceneUpdate``: the ground as a 3D surface, see
 :func:`terrain_mesh`), ``/world/terrain`` (``foxglove.Grid``: ground heights), ``/nav/map`` (``foxglove.Grid``: the
-navigator's final perceived elevation map, NaN = unknown), optionally ``/lidar``
+navigator's final perceived elevation map, NaN = unknown; runs that record the navigator's view
+have it once per simulated second before, each cut to its known cells), optionally ``/lidar``
 (``foxglove.PointCloud``, world frame). All timestamps are *simulated* time, so the same
 seeds give a byte-identical file. Each message's log time is the simulated time of what it
 shows (a pose's measurement time, a scan's time), and messages are written to the file in
@@ -41,6 +44,7 @@ from foxglove_schemas_protobuf.CylinderPrimitive_pb2 import CylinderPrimitive
 from foxglove_schemas_protobuf.FrameTransform_pb2 import FrameTransform
 from foxglove_schemas_protobuf.Grid_pb2 import Grid
 from foxglove_schemas_protobuf.KeyValuePair_pb2 import KeyValuePair
+from foxglove_schemas_protobuf.LinePrimitive_pb2 import LinePrimitive
 from foxglove_schemas_protobuf.Log_pb2 import Log
 from foxglove_schemas_protobuf.PackedElementField_pb2 import PackedElementField
 from foxglove_schemas_protobuf.PointCloud_pb2 import PointCloud
@@ -51,6 +55,7 @@ from foxglove_schemas_protobuf.SceneEntity_pb2 import SceneEntity
 from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from foxglove_schemas_protobuf.Point3_pb2 import Point3
 from foxglove_schemas_protobuf.SpherePrimitive_pb2 import SpherePrimitive
+from foxglove_schemas_protobuf.TextPrimitive_pb2 import TextPrimitive
 from foxglove_schemas_protobuf.TriangleListPrimitive_pb2 import TriangleListPrimitive
 from foxglove_schemas_protobuf.Vector2_pb2 import Vector2
 from foxglove_schemas_protobuf.Vector3_pb2 import Vector3
@@ -61,6 +66,7 @@ from mcap_protobuf.decoder import DecoderFactory
 from mcap_protobuf.writer import Writer
 
 from navstress.errors import StoreError
+from navstress.nav.api import DebugDraw, DebugLine, DebugPoints, DebugText
 from navstress.run.record import cap_message
 from navstress.world.export._grid import terrain_faces
 
@@ -77,6 +83,9 @@ TOPIC_TF = "/tf"
 TOPIC_ROBOT = "/robot/body"
 TOPIC_TERRAIN_MESH = "/world/terrain_mesh"
 TOPIC_CMD = "/nav/cmd"
+TOPIC_DEBUG = "/nav/debug"
+#: The entities of :data:`TOPIC_DEBUG`, one per frame a navigator draws in.
+DEBUG_ENTITIES = {"map": "navigator/map", "robot": "navigator/robot"}
 #: The ground surface in a trace spans at most this many triangle pairs along the map's longer side.
 MESH_MAX_CELLS = 80
 #: The robot's frames: the true pose's, and the navigator's belief (``perceived/`` prefixed).
@@ -112,6 +121,10 @@ def euler(q: Any) -> tuple[float, float, float]:
     pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
     yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
     return yaw, pitch, roll
+
+
+def _rgba(c: tuple[float, float, float, float]) -> dict[str, float]:
+    return {"r": c[0], "g": c[1], "b": c[2], "a": c[3]}
 
 
 _KIND_COLORS = {"tree": Color(r=0.13, g=0.55, b=0.13, a=1.0), "building": Color(r=0.55, g=0.45, b=0.4, a=1.0)}
@@ -279,6 +292,32 @@ class TraceWriter:
         for t, v, w in np.asarray(rows, dtype=np.float64).reshape(-1, 3).tolist():
             if math.isfinite(t) and t >= 0.0:
                 self._put(TOPIC_CMD, cls(timestamp=_stamp(t), frame_id=FRAME_ROBOT, linear=v, angular=w), _ns(t))
+
+    def debug(self, t: float, draw: DebugDraw) -> None:
+        """A navigator's drawing (checked by :func:`navstress.nav.api.check_debug`) at ``t`` on
+        :data:`TOPIC_DEBUG`: one SceneUpdate with an entity per frame (:data:`DEBUG_ENTITIES`),
+        ``navigator/map`` in ``map``, ``navigator/robot`` locked to the belief's
+        ``perceived/base_link``; both always sent, so each drawing replaces the last one whole.
+        Lines are line strips, points spheres, texts billboards."""
+        ents = []
+        for frame, eid in DEBUG_ENTITIES.items():
+            fid = FRAME if frame == "map" else BELIEF + FRAME_ROBOT
+            lines = [LinePrimitive(type=LinePrimitive.LINE_STRIP, pose=Pose(orientation=Quaternion(w=1.0)),
+                                   thickness=ln.width_m, scale_invariant=False, color=Color(**_rgba(ln.colour)),
+                                   points=[Point3(x=x, y=y, z=z) for x, y, z in ln.points.tolist()])
+                     for ln in draw.lines if ln.frame == frame]
+            spheres = [SpherePrimitive(pose=Pose(position=Vector3(x=x, y=y, z=z), orientation=Quaternion(w=1.0)),
+                                       size=Vector3(x=p.size_m, y=p.size_m, z=p.size_m),
+                                       color=Color(**_rgba(p.colour)))
+                       for p in draw.points if p.frame == frame for x, y, z in p.points.tolist()]
+            texts = [TextPrimitive(pose=Pose(position=Vector3(x=tx.position[0], y=tx.position[1], z=tx.position[2]),
+                                             orientation=Quaternion(w=1.0)),
+                                   billboard=True, font_size=tx.size_m, scale_invariant=False,
+                                   color=Color(**_rgba(tx.colour)), text=tx.text)
+                     for tx in draw.texts if tx.frame == frame]
+            ents.append(SceneEntity(timestamp=_stamp(t), frame_id=fid, id=eid, frame_locked=frame == "robot",
+                                    lines=lines, spheres=spheres, texts=texts))
+        self._put(TOPIC_DEBUG, SceneUpdate(entities=ents), _ns(t))
 
     def terrain(self, heights: np.ndarray, cell_m: float) -> None:
         """The ground as a 3D surface (:func:`terrain_mesh`), coloured by height, on
@@ -474,6 +513,40 @@ def read_commands(path: str | os.PathLike[str]) -> np.ndarray:
     return np.array(rows, dtype=np.float64).reshape(-1, 3)
 
 
+def read_debug(path: str | os.PathLike[str]) -> list[tuple[float, DebugDraw]]:
+    """The navigator's drawings of a trace (:meth:`TraceWriter.debug`), in time order: points of
+    one :class:`~navstress.nav.api.DebugPoints` come back as one set per point."""
+    out = []
+    for _t, lt, m in _messages(path, [TOPIC_DEBUG]):
+        lines: list[DebugLine] = []
+        points: list[DebugPoints] = []
+        texts: list[DebugText] = []
+        for e in m.entities:
+            frame = next(f for f, eid in DEBUG_ENTITIES.items() if eid == e.id)
+            for ln in e.lines:
+                c = ln.color
+                lines.append(DebugLine(np.array([(p.x, p.y, p.z) for p in ln.points], dtype=np.float64).reshape(-1, 3),
+                                       frame, (c.r, c.g, c.b, c.a), ln.thickness))
+            for sp in e.spheres:
+                c, p = sp.color, sp.pose.position
+                points.append(DebugPoints(np.array([[p.x, p.y, p.z]]), frame, (c.r, c.g, c.b, c.a), sp.size.x))
+            for tx in e.texts:
+                c, p = tx.color, tx.pose.position
+                texts.append(DebugText((p.x, p.y, p.z), tx.text, frame, (c.r, c.g, c.b, c.a), tx.font_size))
+        out.append((lt / 1e9, DebugDraw(tuple(lines), tuple(points), tuple(texts))))
+    return out
+
+
+def read_grids(path: str | os.PathLike[str], topic: str = TOPIC_MAP) -> list[tuple[float, np.ndarray, tuple[float, float], float]]:
+    """Every grid on ``topic`` in time order: (t, values rows x cols float32, origin xy, cell_m)."""
+    return [(lt / 1e9, _grid_values(m), (m.pose.position.x, m.pose.position.y), m.cell_size.x)
+            for _t, lt, m in _messages(path, [topic])]
+
+
+def _grid_values(m: Any) -> np.ndarray:
+    return np.frombuffer(m.data, dtype="<f4").reshape(-1, m.column_count).copy()
+
+
 def read_events(path: str | os.PathLike[str]) -> list[TraceEvent]:
     return [TraceEvent(lt / 1e9, m.level, m.name, m.message) for _t, lt, m in _messages(path, [TOPIC_EVENTS])]
 
@@ -485,8 +558,7 @@ def read_grid(path: str | os.PathLike[str], topic: str = TOPIC_MAP) -> tuple[np.
         last = m
     if last is None:
         return None
-    vals = np.frombuffer(last.data, dtype="<f4").reshape(-1, last.column_count).copy()
-    return vals, (last.pose.position.x, last.pose.position.y), last.cell_size.x
+    return _grid_values(last), (last.pose.position.x, last.pose.position.y), last.cell_size.x
 
 
 def read_movers(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray]:

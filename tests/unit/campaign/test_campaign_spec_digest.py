@@ -49,6 +49,18 @@ def test_digest_of_existing_specs_is_unchanged(data: dict[str, Any], digest: str
     assert parse_campaign(data, max_runs=None).digest() == digest
 
 
+def test_recording_the_navigators_view_is_another_spec_and_reaches_every_run() -> None:
+    from navstress.campaign.plan import plan as build_plan
+
+    spec = parse_campaign({**FULL, "record_navigator": True})
+    assert spec.digest() != parse_campaign(FULL).digest()
+    assert json.loads(spec.canonical_json())["record_navigator"] is True
+    assert parse_campaign({**FULL, "record_navigator": False}).canonical_json() == FULL_JSON
+    tasks = build_plan(spec, Path("/nowhere")).tasks
+    assert tasks and all(t.record_navigator for t in tasks)
+    assert not any(t.record_navigator for t in build_plan(parse_campaign(FULL), Path("/nowhere")).tasks)
+
+
 def test_canonical_text_of_an_existing_spec_is_unchanged() -> None:
     spec = parse_campaign(FULL)
     assert spec.canonical_json() == FULL_JSON

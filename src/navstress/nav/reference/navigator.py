@@ -24,7 +24,7 @@ import math
 import numpy as np
 
 from navstress.errors import NavigatorError
-from navstress.nav.api import Command, NavMission, Observation, Status
+from navstress.nav.api import Command, DebugDraw, DebugLine, DebugText, NavMission, Observation, Status
 from navstress.nav.reference.config import ReferenceConfig
 from navstress.nav.reference.planner import _MAX_FP_CELLS, ArcEvaluation, ArcPlanner, _footprint_cells, node_cost
 from navstress.nav.reference.pose import Pose, PoseEstimator, wrap_angle
@@ -79,6 +79,8 @@ class ReferenceNavigator:
         self._latched: Status | None = None
         self.last_evaluation: ArcEvaluation | None = None
         self.last_elected: int = -1
+        self._last_pose: Pose | None = None
+        self._evaluated_at: Pose | None = None  # the pose the last arc fan was evaluated from
         self._spin_latch = 0
         self.messages: list[tuple[float, str]] = []
         self._fp_buf = (np.empty(_MAX_FP_CELLS, dtype=np.int64), np.empty(_MAX_FP_CELLS, dtype=np.int64))
@@ -91,6 +93,7 @@ class ReferenceNavigator:
         if self._latched is not None:
             return self._latched
         pose = self.pom.update(obs.t, obs.odom, obs.imu, obs.pose)
+        self._last_pose = pose
         for scan in obs.scans:
             self.terrain.integrate(scan.points, scan.mount, self.pom.pose_at(scan.t))
         self._mark_under_robot(pose)
@@ -121,7 +124,7 @@ class ReferenceNavigator:
                 idx = self.planner.elect(ev, np.where(ev.is_spin, np.inf, goal), jit)
             if idx < 0:
                 idx = self.planner.elect(ev, goal, jit)
-            self.last_evaluation, self.last_elected = ev, idx
+            self.last_evaluation, self.last_elected, self._evaluated_at = ev, idx, pose
             if idx < 0:
                 return self._latch(obs.t, Status("error", NO_ARC))
             self._spin_latch = ev.spin_dir if bool(ev.is_spin[idx]) else 0
@@ -141,6 +144,45 @@ class ReferenceNavigator:
         """(N, 7) float64: t, x, y, z, yaw, pitch, roll, one row per step since reset."""
         self._require_reset()
         return self.pom.trajectory()
+
+    def debug(self) -> DebugDraw | None:
+        """The last step's reasoning, drawn (read by the run when it records the navigator's view):
+        the arc fan in the map frame just above the ground under the robot (its believed height
+        less the base height): electable arcs green, refused ones red, the elected one thick
+        yellow; over the robot a text with the phase, or the elected arc and its cost (or
+        ``no arc elected``). None before the first step."""
+        pose = self._last_pose
+        if not self._ready or pose is None:
+            return None
+        texts: list[DebugText] = []
+        ev, idx = self.last_evaluation, self.last_elected
+        lines: list[DebugLine] = []
+        if ev is not None and self._evaluated_at is pose:  # a fan evaluated at this step
+            z = pose.z - self._base_height + 0.1
+            ok = np.isfinite(ev.terrain_cost) & (ev.terrain_cost <= self.config.election_threshold)
+            for a in range(len(ev.nodes)):
+                if bool(ev.is_spin[a]) or a == idx:
+                    continue  # a turn on the spot has no path to draw (the text says it); the elected arc last
+                pts = self._arc_points(ev, a, pose, z)
+                lines.append(DebugLine(pts, "map", (0.35, 0.8, 0.35, 0.7) if ok[a] else (0.9, 0.25, 0.2, 0.7), 0.04))
+            if idx >= 0 and not bool(ev.is_spin[idx]):
+                pts = self._arc_points(ev, idx, pose, z + 0.02)
+                lines.append(DebugLine(pts, "map", (1.0, 0.85, 0.1, 1.0), 0.12))
+            what = (NO_ARC if idx < 0 else f"turn in place, cost {float(ev.terrain_cost[idx]):.1f}" if ev.is_spin[idx]
+                    else f"arc {idx}, cost {float(ev.terrain_cost[idx]):.1f}")
+            texts.append(DebugText((0.0, 0.0, 1.2), f"{what} ({int(ok.sum())}/{len(ok)} electable)", "robot"))
+        else:
+            latched = self._latched
+            what = (latched.kind + (f": {latched.message}" if latched.message else "") if latched is not None
+                    else self.phase.replace("_", " "))
+            texts.append(DebugText((0.0, 0.0, 1.2), what, "robot"))
+        return DebugDraw(lines=tuple(lines), texts=tuple(texts))
+
+    @staticmethod
+    def _arc_points(ev: ArcEvaluation, a: int, pose: Pose, z: float) -> np.ndarray:
+        """Arc ``a`` as a polyline from the believed position through its nodes, at height ``z``."""
+        xy = np.vstack([[pose.x, pose.y], ev.nodes[a, :, :2]])
+        return np.column_stack([xy, np.full(len(xy), z)])
 
     # ----------------------------------------------------------------- hooks (the global navigator overrides)
     def _on_cycle(self, t: float, pose: Pose) -> None:
