@@ -44,6 +44,18 @@ def run_cmd(
         "Also record the navigator's own view in the traces: what it draws after each step (reference-v1: "
         "its arcs, the elected one, its choice) on /nav/debug, and its map once per simulated second on "
         "/nav/map.")) ] = False,
+    live: Annotated[bool, typer.Option("--live", help=(
+        "Watch each run in Foxglove as it happens: serve it on a Foxglove WebSocket (ws://HOST:PORT, "
+        "127.0.0.1:8765 by default), start when a client subscribes, and run at --speed; implies "
+        "--navigator-view (the trace is the same as without --live).")) ] = False,
+    live_host: Annotated[str, typer.Option(metavar="HOST", help=(
+        "Address the live view binds to. Default 127.0.0.1 (this machine only).")) ] = "127.0.0.1",
+    live_port: Annotated[str, typer.Option(metavar="PORT", help="Port of the live view, in [1, 65535]. Default 8765.")] = "8765",
+    live_wait: Annotated[str, typer.Option(metavar="S", help=(
+        "With --live: longest wait in seconds for a client before each run starts anyway, in [0, 3600]. "
+        "Default 30.")) ] = "30",
+    speed: Annotated[str, typer.Option(metavar="X", help=(
+        "With --live: simulated seconds per real second, in (0, 1000]. Default 1 (real time).")) ] = "1",
     wall_limit: Annotated[str | None, typer.Option(metavar="S", help=(
         "Wall-clock limit of one run in real seconds, > 0 (a navigator that hangs is killed and its run "
         "recorded as Fail-Other). Default: timeout * 2 + 120.")) ] = None,
@@ -68,6 +80,9 @@ def run_cmd(
         wall_v = number("--wall-limit", wall_limit, f"a duration in seconds in (0, {MAX_WALL_S:g}]")
         if not 0 < wall_v <= MAX_WALL_S:
             raise SpecError("--wall-limit", wall_limit, f"a duration in seconds in (0, {MAX_WALL_S:g}]")
+    settings = _live_settings(live_host, live_port, live_wait, speed) if live else None
+    if settings is not None and wall_v is None:  # paced to the wall clock, after waiting for a client
+        wall_v = default_wall_limit_s(timeout_v / settings.speed) + settings.wait_s
     world_seed = World.load(world_dir).seed  # a clear error for a non-world, before anything is written
     cfg = load_navigator_config(navigator_config)
     # built in a worker process: a navigator that exits, crashes or hangs there is the runs' to classify
@@ -82,7 +97,10 @@ def run_cmd(
     try:
         tasks = plan_batch(world_dir, output, navigator=navigator, navigator_config=cfg, fault=fault, runs=n,
                            seed=seed_v, timeout_s=timeout_v, goal_tolerance_m=tol, record_lidar=lidar,
-                           record_navigator=navigator_view, map_seed=world_seed)
+                           record_navigator=navigator_view or live, map_seed=world_seed)
+        if settings is not None:
+            con.print(f"live: in Foxglove, Open connection -> Foxglove WebSocket -> ws://{settings.host}:{settings.port}"
+                      f"; each run starts when a panel subscribes (or after {settings.wait_s:g} s)")
         with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
                       TimeRemainingColumn(), TextColumn("{task.fields[counts]}"), console=con) as prog:
             bar = prog.add_task("runs", total=n, counts="")
@@ -91,7 +109,7 @@ def run_cmd(
                 counts[rec.outcome] = counts.get(rec.outcome, 0) + 1
                 prog.update(bar, advance=1, counts="  ".join(f"{k}={v}" for k, v in sorted(counts.items())))
 
-            records = run_batch(tasks, output, done, wall_limit_s=wall_v)
+            records = run_batch(tasks, output, done, wall_limit_s=wall_v, live=settings)
     except BaseException:
         if created and not counts:  # nothing recorded: leave nothing behind
             shutil.rmtree(output, ignore_errors=True)
@@ -112,3 +130,29 @@ def run_cmd(
                       f"{r.path_length_m:.1f}", r.reason)
     con.print(table)
     con.print(f"traces and records in {output}/, picture: {pic}")
+
+
+def _live_settings(host: str, port: str, wait: str, speed: str) -> Any:
+    """The live view's settings, checked: a one-line error for a bad value or a port in use."""
+    import socket
+
+    from navstress.run.live import LiveSettings
+
+    port_v = bounded_int("--live-port", port, 1, 65535)
+    wait_v = number("--live-wait", wait, "a duration in seconds in [0, 3600]")
+    if not 0 <= wait_v <= 3600:
+        raise SpecError("--live-wait", wait, "a duration in seconds in [0, 3600]")
+    speed_v = number("--speed", speed, "simulated seconds per real second, in (0, 1000]")
+    if not 0 < speed_v <= 1000:
+        raise SpecError("--speed", speed, "simulated seconds per real second, in (0, 1000]")
+    try:
+        infos = socket.getaddrinfo(host, port_v, type=socket.SOCK_STREAM)
+    except (OSError, UnicodeError):
+        raise SpecError("--live-host", host, "an address of this machine, such as 127.0.0.1") from None
+    family, _type, _proto, _name, addr = infos[0]
+    with socket.socket(family, socket.SOCK_STREAM) as s:
+        try:
+            s.bind(addr)
+        except OSError as err:
+            raise SpecError("--live-port", port, f"a free port on {host} ({err.strerror or err})") from None
+    return LiveSettings(host=host, port=port_v, speed=speed_v, wait_s=wait_v)

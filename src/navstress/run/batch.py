@@ -84,13 +84,18 @@ def _first_line(text: str) -> str:
     return lines[0] if lines else ""
 
 
-def run_isolated(task: RunTask, worker: Worker) -> RunRecord:
-    """``execute(task)`` in ``worker``; whatever goes wrong with the navigator (its process
+def run_isolated(task: RunTask, worker: Worker, live: Any = None) -> RunRecord:
+    """``execute(task)`` in ``worker`` (``execute_live(task, live)`` with
+    :class:`~navstress.run.live.LiveSettings`); whatever goes wrong with the navigator (its process
     died, it hung, something raised out of the run) becomes a Fail-Other record. An OSError
     (full disk, permissions) or a NavstressError is navstress's own failure: raised here."""
     t0 = time.perf_counter()
     try:
-        status, value = worker.call(execute, task)
+        if live is None:
+            status, value = worker.call(execute, task)
+        else:
+            from navstress.run.live import execute_live
+            status, value = worker.call(execute_live, task, live)
     except BaseException:  # Ctrl-C: stop the worker, leave nothing partial
         worker.close()
         drop_partial_trace(task)
@@ -129,10 +134,11 @@ def record_line(rec: RunRecord) -> str:
 
 
 def run_batch(tasks: list[RunTask], out: Path, on_done: Callable[[RunRecord], None] | None = None, *,
-              wall_limit_s: float | None = None) -> list[RunRecord]:
+              wall_limit_s: float | None = None, live: Any = None) -> list[RunRecord]:
     """Run ``tasks`` one after the other in a worker process, appending each record to
     ``out/runs.jsonl``. ``wall_limit_s``: per-run wall-clock limit (default
-    :func:`default_wall_limit_s` of each task's timeout)."""
+    :func:`default_wall_limit_s` of each task's timeout). ``live``: a
+    :class:`~navstress.run.live.LiveSettings` to show each run in Foxglove as it goes."""
     out.mkdir(parents=True, exist_ok=True)
     records: list[RunRecord] = []
     limit = wall_limit_s if wall_limit_s is not None else max(
@@ -140,7 +146,7 @@ def run_batch(tasks: list[RunTask], out: Path, on_done: Callable[[RunRecord], No
     preload = ("navstress.run.mission", "navstress.sim.simulation", "navstress.nav.reference")
     with Worker(limit, preload=preload) as worker, open(out / "runs.jsonl", "a", encoding="utf-8") as f:
         for task in tasks:
-            rec = run_isolated(task, worker)
+            rec = run_isolated(task, worker, live)
             f.write(record_line(rec))
             f.flush()
             os.fsync(f.fileno())

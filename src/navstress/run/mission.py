@@ -24,7 +24,7 @@ import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import mujoco
 import numpy as np
@@ -168,6 +168,18 @@ class NavigatorView:
                 self._drop(t, "final_map()", err)
 
 
+class RunWatcher(Protocol):
+    """Something that follows a run as it goes (``run_mission(watch=...)``; the live view,
+    :class:`navstress.run.live.LivePublisher`). It reads the run, never changes it."""
+
+    def start(self, world: World, robot: RobotSpec, sim: Simulation) -> None: ...
+
+    def update(self, sim: Simulation, obs: Any, navigator: Any, commands: list[tuple[float, float, float]],
+               events: list[tuple[float, str, str]], view: NavigatorView | None) -> None: ...
+
+    def finish(self, result: RunResult, view: NavigatorView | None) -> None: ...
+
+
 def control_rate_hz(nav: Navigator) -> float:
     """The rate at which the framework calls ``step``: ``nav.control_rate_hz`` or
     ``nav.config.control_rate_hz`` if the navigator declares one, else 10 Hz."""
@@ -200,14 +212,15 @@ def _true_pose(sim: Any) -> tuple[float, float, float, float, float, float, floa
 def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: RobotSpec | None = None,
                 timeout_s: float = 400.0, goal_tolerance_m: float = 2.0, sim_config: Any = None,
                 trace: TraceWriter | None = None, record_lidar: bool = False, record_navigator: bool = False,
-                stop_on_collision: bool = True) -> RunResult:
+                stop_on_collision: bool = True, watch: RunWatcher | None = None) -> RunResult:
     """Run ``navigator`` on ``world``'s mission in the simulation seeded by ``run_seed``.
 
     ``robot`` is the simulated truth (default RobotSpec()); the navigator is told the same
     robot (a fault wrapper may change what it believes). A collision ends the run by default
     (``stop_on_collision``: the operator's emergency stop), so Fail-Collision runs keep the
     time and place of their first collision. ``record_navigator`` records the navigator's own
-    view (:class:`NavigatorView`) into the result and the trace.
+    view (:class:`NavigatorView`) into the result and the trace. ``watch`` follows the run as it
+    goes (:class:`RunWatcher`: the live view).
     """
     robot = robot or RobotSpec()
     cfg = sim_config if sim_config is not None else SimConfig()
@@ -243,6 +256,8 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
             if not raised_by_navigator(err):
                 raise
             error, nav_failure = f"navigator reset raised {type(err).__name__}: {err}", True
+        if watch is not None:
+            watch.start(world, robot, sim)
         next_cloud_t = 0.0
         while error is None:
             obs = sim.observe()
@@ -283,6 +298,8 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
             dt = period * (1.0 + CONTROL_JITTER * (2.0 * float(jitter.random()) - 1.0)) if cfg.jitter else period
             t_before = sim.t
             sim.advance(min(dt, timeout_s - sim.t))
+            if watch is not None:
+                watch.update(sim, obs, navigator, commands, events, view)
             if sim.observer.collisions and stop_on_collision:
                 break
             if sim.stopped is not None:
@@ -368,6 +385,8 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
                        movers=sim.mover_track() if sim is not None and world.movers else None,
                        commands=np.array(commands, dtype=np.float64).reshape(-1, 3),
                        drawings=view.drawings if view is not None else [], maps=view.maps if view is not None else [])
+    if watch is not None and sim is not None:
+        watch.finish(result, view)
     if trace is not None:
         _write_trace(trace, world, result, robot)
         for t, pts, mount in clouds:
@@ -423,7 +442,7 @@ def _write_trace(tw: TraceWriter, world: World, r: RunResult, robot: RobotSpec) 
         tw.movers(r.movers[0], r.movers[1], [(mv.id, mv.kind, mv.shape, mv.size) for mv in world.movers])
 
 
-def execute(task: RunTask) -> RunRecord:
+def execute(task: RunTask, watch: RunWatcher | None = None) -> RunRecord:
     """Run one planned run end to end and return its record; writes ``task.trace_path``.
 
     Never raises for a problem of the run itself; such problems are classified. Raises only
@@ -445,7 +464,7 @@ def execute(task: RunTask) -> RunRecord:
     try:
         res = run_mission(world, nav, run_seed=task.run_seed, timeout_s=task.timeout_s,
                           goal_tolerance_m=task.goal_tolerance_m, sim_config=sim_cfg, trace=tw,
-                          record_lidar=task.record_lidar, record_navigator=task.record_navigator)
+                          record_lidar=task.record_lidar, record_navigator=task.record_navigator, watch=watch)
         tw.close()
     except BaseException:
         tw.abort()

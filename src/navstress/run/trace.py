@@ -184,21 +184,13 @@ def command_class() -> Any:
     return _COMMAND_CLASS
 
 
-class TraceWriter:
-    """Writes one run's MCAP trace atomically (``path`` appears only when closed successfully)."""
-
-    def __init__(self, path: str | os.PathLike[str], metadata: dict[str, str] | None = None) -> None:
-        self.path = Path(path)
-        self._tmp = self.path.with_name(f".{self.path.name}.partial")
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._f: IO[bytes] = open(self._tmp, "wb")
-        self._w = Writer(self._f, compression=CompressionType.ZSTD)
-        self._w._writer.add_metadata("navstress.run", {k: str(v) for k, v in (metadata or {}).items()})
-        self._pending: list[tuple[int, int, str, Any]] = []  # (log_time, submission order, topic, message)
+class TraceMessages:
+    """The messages of a run's trace, built from the run's data (one method per kind) and handed
+    to :meth:`_put`: :class:`TraceWriter` files them, :class:`navstress.run.live.LivePublisher`
+    sends them to Foxglove as the run goes, so a live view and a trace show the same messages."""
 
     def _put(self, topic: str, msg: Any, log_time: int) -> None:
-        """Queue one message; :meth:`close` writes the queue in log-time order."""
-        self._pending.append((log_time, len(self._pending), topic, msg))
+        raise NotImplementedError
 
     # -- messages ----------------------------------------------------------------------
     def pose(self, topic: str, t: float, x: float, y: float, z: float, yaw: float, pitch: float, roll: float) -> None:
@@ -258,10 +250,10 @@ class TraceWriter:
                    data=v.tobytes())
         self._put(topic, msg, _ns(t))
 
-    def points(self, t: float, pts: np.ndarray) -> None:
-        """A lidar point cloud in the map frame, (N, 3)."""
+    def points(self, t: float, pts: np.ndarray, frame: str = FRAME) -> None:
+        """A lidar point cloud (N, 3) in ``frame`` (the map frame in traces)."""
         p = np.ascontiguousarray(pts, dtype="<f4")
-        msg = PointCloud(timestamp=_stamp(t), frame_id=FRAME,
+        msg = PointCloud(timestamp=_stamp(t), frame_id=frame,
                          pose=Pose(position=Vector3(), orientation=Quaternion(w=1.0)), point_stride=12,
                          fields=[PackedElementField(name=n, offset=4 * i, type=PackedElementField.FLOAT32)
                                  for i, n in enumerate("xyz")], data=p.tobytes())
@@ -356,6 +348,24 @@ class TraceWriter:
                 ents.append(SceneEntity(timestamp=_stamp(t), frame_id=FRAME, id=f"mover/{mid}", frame_locked=False,
                                         metadata=[KeyValuePair(key="kind", value=kind)], **prim))
             self._put(TOPIC_MOVERS, SceneUpdate(entities=ents), _ns(t))
+
+
+
+class TraceWriter(TraceMessages):
+    """Writes one run's MCAP trace atomically (``path`` appears only when closed successfully)."""
+
+    def __init__(self, path: str | os.PathLike[str], metadata: dict[str, str] | None = None) -> None:
+        self.path = Path(path)
+        self._tmp = self.path.with_name(f".{self.path.name}.partial")
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._f: IO[bytes] = open(self._tmp, "wb")
+        self._w = Writer(self._f, compression=CompressionType.ZSTD)
+        self._w._writer.add_metadata("navstress.run", {k: str(v) for k, v in (metadata or {}).items()})
+        self._pending: list[tuple[int, int, str, Any]] = []  # (log_time, submission order, topic, message)
+
+    def _put(self, topic: str, msg: Any, log_time: int) -> None:
+        """Queue one message; :meth:`close` writes the queue in log-time order."""
+        self._pending.append((log_time, len(self._pending), topic, msg))
 
     # -- lifecycle ---------------------------------------------------------------------
     def close(self) -> Path:

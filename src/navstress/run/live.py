@@ -1,0 +1,225 @@
+"""Watch a run in Foxglove as it happens: ``navstress run WORLD --live``.
+
+The run's process starts a Foxglove WebSocket server (``foxglove-sdk``) on ``127.0.0.1`` (port
+8765 by default), waits until a client subscribes (at most ``wait_s``), then runs the mission
+paced to the wall clock (``speed`` simulated seconds per real second) and sends, after every
+control step, the messages a trace holds (:class:`~navstress.run.trace.TraceMessages`, the same
+topics, schemas and protobuf encoding; log times are simulated time):
+
+- at the start, and again whenever a client subscribes (so a panel opened late still sees them):
+  ``/world/scene``, ``/world/terrain_mesh``, ``/world/terrain``, ``/robot/body`` and the lidar
+  mounts on ``/tf``;
+- every step: ``/tf`` and ``/truth/pose`` (the true pose now), ``/tf`` and ``/perceived/pose``
+  (the navigator's belief, its ``perceived_trajectory()``'s last row), ``/nav/cmd``,
+  ``/world/movers``, the new ``/events``, what the navigator drew (``/nav/debug``) and its map
+  (``/nav/map``, once per simulated second);
+- ``/lidar``: the step's last scan in the ``lidar`` frame, at most once per 0.5 simulated
+  seconds;
+- at the end: the last events (the outcome) and the final map.
+
+A live run is the same run: it records the navigator's view (``--live`` implies
+``--navigator-view``) and writes the same trace, byte for byte, as the run without ``--live``
+(tested); pacing only sleeps between steps, outside the simulation's clock.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from navstress.robot import RobotSpec
+from navstress.run.record import RunRecord, RunTask
+from navstress.run.trace import (BELIEF, FRAME, FRAME_LIDAR, FRAME_ROBOT, TOPIC_MAP, TOPIC_PERCEIVED, TOPIC_TERRAIN,
+                                 TOPIC_TRUTH, TraceMessages)
+
+if TYPE_CHECKING:
+    from navstress.run.mission import NavigatorView, RunResult
+    from navstress.sim.simulation import Simulation
+    from navstress.world.world import World
+
+DEFAULT_HOST = "127.0.0.1"
+DEFAULT_PORT = 8765
+#: Wall seconds a server stays up after the run's last message when a client is watching.
+LINGER_S = 1.0
+#: Most simulated seconds between two lidar clouds sent live.
+LIDAR_PERIOD_S = 0.5
+
+
+@dataclass(frozen=True)
+class LiveSettings:
+    """Where to serve and how fast to run (picklable: it travels to the run's worker process)."""
+
+    host: str = DEFAULT_HOST
+    port: int = DEFAULT_PORT
+    speed: float = 1.0  # simulated seconds per wall-clock second
+    wait_s: float = 30.0  # longest wait for a client before the run starts anyway
+
+
+class LivePublisher(TraceMessages):
+    """A Foxglove WebSocket server for one run (module doc); a :class:`~navstress.run.mission.RunWatcher`."""
+
+    def __init__(self, settings: LiveSettings) -> None:
+        import foxglove  # local: only live runs need the server
+
+        self.settings = settings
+        self._fg = foxglove
+        self._ctx = foxglove.Context()
+        self._channels: dict[str, Any] = {}
+        self._subscribed = threading.Event()
+        self._resend = threading.Event()
+        outer = self
+
+        class Listener(foxglove.ServerListener):  # type: ignore[misc,name-defined]
+            def on_subscribe(self, client: Any, channel: Any) -> None:
+                outer._subscribed.set()
+                outer._resend.set()
+
+        self._server = foxglove.start_server(name="navstress", host=settings.host, port=settings.port,
+                                             context=self._ctx, server_listener=Listener())
+        self._statics: list[tuple[str, Any, int]] | None = None
+        self._collecting = False
+        self._events_sent = 0
+        self._drawings_sent = 0
+        self._maps_sent = 0
+        self._next_lidar = 0.0
+        self._wall0 = 0.0
+
+    @property
+    def port(self) -> int:
+        return int(self._server.port)
+
+    def _channel(self, topic: str, cls: Any) -> Any:
+        ch = self._channels.get(topic)
+        if ch is None:
+            from mcap_protobuf.schema import build_file_descriptor_set
+
+            fds = build_file_descriptor_set(cls)
+            schema = self._fg.Schema(name=cls.DESCRIPTOR.full_name, encoding="protobuf", data=fds.SerializeToString())
+            ch = self._channels[topic] = self._fg.Channel(topic, schema=schema, message_encoding="protobuf",
+                                                          context=self._ctx)
+        return ch
+
+    def _put(self, topic: str, msg: Any, log_time: int) -> None:
+        if self._statics is not None and self._collecting:
+            self._statics.append((topic, msg, log_time))
+        self._channel(topic, type(msg)).log(msg.SerializeToString(), log_time=log_time)
+
+    # -- the run's hooks (navstress.run.mission.RunWatcher) --------------------------------------------
+    def start(self, world: World, robot: RobotSpec, sim: Simulation) -> None:
+        """Advertise every topic, send the world and the robot, wait for a client (at most
+        ``wait_s``), start the clock. (Every channel is advertised before the run: a client
+        subscribes when it learns of a channel, and a message sent before that is lost to it.)"""
+        for topic, cls in _topics().items():
+            self._channel(topic, cls)
+        self._statics, self._collecting = [], True
+        h, m, c = world.terrain.heights, world.mission, world.terrain.cell_m
+        self.scene([o.to_json() for o in world.obstacles], m.start, m.goal,
+                   (world.terrain.height_at(m.start[0], m.start[1]), world.terrain.height_at(m.goal[0], m.goal[1])))
+        self.terrain(h, c)
+        self.grid(TOPIC_TERRAIN, 0.0, h, (-c / 2, -c / 2), c, field="height")
+        mount = robot.lidar
+        self.robot((robot.length_m, robot.width_m, robot.body_height_m), (mount.x_m, mount.y_m, mount.z_m), belief=True)
+        self._collecting = False
+        self._subscribed.wait(max(0.0, self.settings.wait_s))
+        self._wall0 = time.monotonic() - sim.t / self.settings.speed
+
+    def _resend_statics(self) -> None:
+        if self._resend.is_set() and self._statics is not None:
+            self._resend.clear()
+            for topic, msg, log_time in self._statics:
+                self._put(topic, msg, log_time)
+
+    def update(self, sim: Simulation, obs: Any, navigator: Any, commands: list[tuple[float, float, float]],
+               events: list[tuple[float, str, str]], view: NavigatorView | None) -> None:
+        """After a control step: send what changed (module doc), then sleep until the wall clock
+        catches up with the simulated one."""
+        from navstress.run.mission import _attr_through_wrappers, _true_pose
+
+        self._resend_statics()
+        truth = np.array([_true_pose(sim)])
+        self.poses(TOPIC_TRUTH, truth)
+        self.transforms(FRAME, FRAME_ROBOT, truth)
+        perceived = _attr_through_wrappers(navigator, "perceived_trajectory")
+        if callable(perceived):
+            try:
+                rows = np.asarray(perceived(), dtype=np.float64).reshape(-1, 7)
+            except Exception:  # the trace's reader of the hook says what went wrong, at the end
+                rows = np.zeros((0, 7))
+            if len(rows):
+                self.poses(TOPIC_PERCEIVED, rows[-1:])
+                self.transforms(FRAME, BELIEF + FRAME_ROBOT, rows[-1:])
+        if commands:
+            self.commands(np.array(commands[-1:]))
+        movers = sim.world.movers
+        if movers:
+            self.movers(np.array([sim.t]), sim.mover_poses()[None], [(mv.id, mv.kind, mv.shape, mv.size) for mv in movers])
+        self._send_new(events, view)
+        scans = [s for s in obs.scans if len(s.points)]
+        if scans and scans[-1].t >= self._next_lidar - 1e-9:
+            self._next_lidar = scans[-1].t + LIDAR_PERIOD_S
+            self.points(scans[-1].t, scans[-1].points, frame=FRAME_LIDAR)
+        delay = self._wall0 + sim.t / self.settings.speed - time.monotonic()
+        if delay > 0:
+            time.sleep(delay)
+
+    def _send_new(self, events: list[tuple[float, str, str]], view: NavigatorView | None) -> None:
+        for t, level, msg in events[self._events_sent:]:
+            self.event(t, level, msg)
+        self._events_sent = len(events)
+        if view is not None:
+            for t, draw in view.drawings[self._drawings_sent:]:
+                self.debug(t, draw)
+            self._drawings_sent = len(view.drawings)
+            for t, grid, origin, cell in view.maps[self._maps_sent:]:
+                self.grid(TOPIC_MAP, t, grid, origin, cell)
+            self._maps_sent = len(view.maps)
+
+    def finish(self, result: RunResult, view: NavigatorView | None) -> None:
+        """The end: the last events (with the outcome) and the final map."""
+        self._send_new(result.events, view)
+        if result.final_map is not None:
+            grid, origin, cell = result.final_map
+            self.grid(TOPIC_MAP, result.duration_s, np.asarray(grid, dtype=np.float32), origin, float(cell))
+
+    def close(self) -> None:
+        """Stop the server; a watching client first gets :data:`LINGER_S` to receive the last
+        messages (the server sends from its own threads, and stopping drops what is queued)."""
+        if self._subscribed.is_set():
+            time.sleep(LINGER_S)
+        self._server.stop()
+
+
+def _topics() -> dict[str, Any]:
+    """Every topic a live run sends, with its protobuf message class."""
+    from foxglove_schemas_protobuf.FrameTransform_pb2 import FrameTransform
+    from foxglove_schemas_protobuf.Grid_pb2 import Grid
+    from foxglove_schemas_protobuf.Log_pb2 import Log
+    from foxglove_schemas_protobuf.PointCloud_pb2 import PointCloud
+    from foxglove_schemas_protobuf.PoseInFrame_pb2 import PoseInFrame
+    from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
+
+    from navstress.run import trace as tr
+
+    return {tr.TOPIC_TF: FrameTransform, tr.TOPIC_TRUTH: PoseInFrame, tr.TOPIC_PERCEIVED: PoseInFrame,
+            tr.TOPIC_EVENTS: Log, tr.TOPIC_SCENE: SceneUpdate, tr.TOPIC_ROBOT: SceneUpdate,
+            tr.TOPIC_TERRAIN_MESH: SceneUpdate, tr.TOPIC_MOVERS: SceneUpdate, tr.TOPIC_DEBUG: SceneUpdate,
+            tr.TOPIC_TERRAIN: Grid, tr.TOPIC_MAP: Grid, tr.TOPIC_LIDAR: PointCloud, tr.TOPIC_CMD: tr.command_class()}
+
+
+def execute_live(task: RunTask, settings: LiveSettings) -> RunRecord:
+    """:func:`navstress.run.mission.execute` with the run shown live (module doc); the server
+    stops when the run ends."""
+    from navstress.run.mission import execute
+
+    if not (math.isfinite(settings.speed) and settings.speed > 0):
+        raise ValueError(f"speed={settings.speed!r}: expected a number > 0")
+    pub = LivePublisher(settings)
+    try:
+        return execute(task, watch=pub)
+    finally:
+        pub.close()

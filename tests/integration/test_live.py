@@ -1,0 +1,189 @@
+"""``navstress run --live``: a real run served on a real Foxglove WebSocket server (foxglove-sdk)
+on 127.0.0.1, watched by a real WebSocket client speaking Foxglove's protocol
+(subprotocol ``foxglove.sdk.v1``, the one the SDK's server speaks): what it receives is the run, as it goes, and the run's trace is the
+same as without ``--live``."""
+
+from __future__ import annotations
+
+import json
+import socket
+import struct
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from navstress.run.trace import TOPIC_MAP, read_debug, read_events, read_grid, read_poses
+
+pytestmark = pytest.mark.slow
+NAVSTRESS = [sys.executable, "-m", "navstress.cli"]
+SPEED = 8.0
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def _classes() -> dict[str, Any]:
+    """Protobuf classes by schema name (what a client does with the advertised schemas)."""
+    import importlib
+    import pkgutil
+
+    import foxglove_schemas_protobuf as fsp
+
+    from navstress.run.trace import command_class
+
+    out: dict[str, Any] = {"navstress.VelocityCommand": command_class()}
+    for mod in pkgutil.iter_modules(fsp.__path__):
+        m = importlib.import_module(f"foxglove_schemas_protobuf.{mod.name}")
+        name = mod.name.removesuffix("_pb2")
+        if hasattr(m, name):
+            out[f"foxglove.{name}"] = getattr(m, name)
+    return out
+
+
+def _watch(url: str, proc: subprocess.Popen[str]) -> tuple[dict[str, list[tuple[int, Any]]], list[str], float]:
+    """Connect as Foxglove does, subscribe to every channel as it is advertised, and collect the
+    decoded messages per topic until the server goes away; also the listening addresses seen
+    and the wall time from the first subscription to the end."""
+    from websockets.exceptions import ConnectionClosed
+    from websockets.sync.client import connect
+
+    from loopback import listening_addresses
+
+    deadline = time.monotonic() + 120
+    while True:  # the server starts when the run's process is up
+        try:
+            ws = connect(url, subprotocols=["foxglove.sdk.v1"], open_timeout=10, max_size=None)
+            break
+        except OSError:
+            if time.monotonic() > deadline or proc.poll() is not None:
+                raise
+            time.sleep(0.2)
+    listening = listening_addresses()
+    classes = _classes()
+    channels: dict[int, tuple[str, str]] = {}
+    subs: dict[int, int] = {}
+    got: dict[str, list[tuple[int, Any]]] = {}
+    t0 = None
+    with ws:
+        while True:
+            try:
+                raw = ws.recv(timeout=120)
+            except (ConnectionClosed, TimeoutError):
+                break
+            if isinstance(raw, str):
+                msg = json.loads(raw)
+                if msg["op"] == "advertise":
+                    new = []
+                    for ch in msg["channels"]:
+                        assert ch["encoding"] == "protobuf"
+                        channels[ch["id"]] = (ch["topic"], ch["schemaName"])
+                        sid = len(subs) + 1
+                        subs[sid] = ch["id"]
+                        new.append({"id": sid, "channelId": ch["id"]})
+                    ws.send(json.dumps({"op": "subscribe", "subscriptions": new}))
+                    t0 = t0 or time.monotonic()
+                continue
+            assert raw[0] == 0x01  # MessageData: subscription id (u32), log time (u64), payload
+            sid, log_time = struct.unpack_from("<IQ", raw, 1)
+            topic, schema = channels[subs[sid]]
+            got.setdefault(topic, []).append((log_time, classes[schema].FromString(raw[13:])))
+    return got, listening, time.monotonic() - (t0 or time.monotonic())
+
+
+@pytest.fixture(scope="module")
+def world(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    from navstress.world import generate, parse_spec
+
+    w = generate(parse_spec({"size_m": [30, 30], "obstacles": {"obstruction": {"tree": 2}},
+                             "ground": {"subdivisions": 3, "deformation": 0.4},
+                             "movers": {"count": {"pedestrian": 1}}}), 11)
+    d = tmp_path_factory.mktemp("live") / "w"
+    w.save(d)
+    return d
+
+
+def test_a_live_run_is_watched_as_it_goes_and_is_the_same_run(world: Path, tmp_path: Path) -> None:
+    port = _free_port()
+    out = tmp_path / "live"
+    proc = subprocess.Popen([*NAVSTRESS, "run", str(world), "-o", str(out), "--timeout", "20", "--seed", "4",
+                             "--live", "--live-port", str(port), "--live-wait", "120", "--speed", str(SPEED)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        got, listening, wall = _watch(f"ws://127.0.0.1:{port}", proc)
+        stdout, stderr = proc.communicate(timeout=300)
+    finally:
+        proc.kill()
+    assert proc.returncode == 0, stderr
+    assert f"ws://127.0.0.1:{port}" in stdout
+    # the server listened on loopback only
+    mine = [a for a in listening if a.endswith(f":{port}")]
+    assert mine and all(a.startswith("127.0.0.1:") for a in mine), listening
+    (rec,) = [json.loads(x) for x in (out / "runs.jsonl").read_text().splitlines()]
+    trace = rec["trace"]
+    # the same run as without --live (which it records with --navigator-view): the same trace bytes
+    plain = tmp_path / "plain"
+    r = subprocess.run([*NAVSTRESS, "run", str(world), "-o", str(plain), "--timeout", "20", "--seed", "4",
+                        "--navigator-view"], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert Path(trace).read_bytes() == (plain / "run-000.mcap").read_bytes()
+    # paced: the run took at least its simulated time / speed on the wall clock
+    assert wall >= rec["duration_s"] / SPEED * 0.95, (wall, rec["duration_s"])
+    # the world and the robot came first, and the run step by step
+    for topic in ("/world/scene", "/world/terrain_mesh", "/world/terrain", "/robot/body", "/world/movers",
+                  "/nav/cmd", "/nav/debug", "/nav/map", "/lidar", "/events", "/truth/pose", "/perceived/pose"):
+        assert topic in got, (topic, sorted(got))
+    truth = read_poses(trace)
+    live = np.array([[lt / 1e9, m.pose.position.x, m.pose.position.y] for lt, m in got["/truth/pose"]])
+    assert len(live) >= 0.9 * rec["duration_s"] * 10 and (np.diff(live[:, 0]) > 0).all()
+    # each live pose lies on the recorded trajectory at its time
+    for t, x, y in live[:: max(1, len(live) // 20)]:
+        assert np.interp(t, truth[:, 0], truth[:, 1]) == pytest.approx(x, abs=0.05)
+        assert np.interp(t, truth[:, 0], truth[:, 2]) == pytest.approx(y, abs=0.05)
+    tf = [m for _, m in got["/tf"]]
+    assert {(m.parent_frame_id, m.child_frame_id) for m in tf} >= {
+        ("map", "base_link"), ("map", "perceived/base_link"), ("base_link", "lidar")}
+    # the navigator's drawings: the trace's, one by one
+    drawn = read_debug(trace)
+    assert [lt / 1e9 for lt, _ in got["/nav/debug"]] == pytest.approx([t for t, _ in drawn])
+    assert sum(len(e.lines) for _, m in got["/nav/debug"] for e in m.entities) == sum(len(d.lines) for _, d in drawn)
+    # the events, ending with the outcome; the final map last
+    assert [m.message for _, m in got["/events"]] == [e.message for e in read_events(trace)]
+    assert got["/events"][-1][1].message.startswith("end of run: ")
+    final = read_grid(trace, TOPIC_MAP)
+    assert final is not None
+    assert np.frombuffer(got["/nav/map"][-1][1].data, "<f4").tobytes() == final[0].astype("<f4").tobytes()
+    clouds = [m for _, m in got["/lidar"]]
+    assert all(c.frame_id == "lidar" and len(c.data) > 12 * 1000 for c in clouds)
+    assert 0.8 * rec["duration_s"] / 0.5 <= len(clouds) <= rec["duration_s"] / 0.5 + 2
+
+
+@pytest.mark.parametrize("args,needle", [
+    (("--speed", "0"), "--speed='0' is invalid"),
+    (("--speed", "nan"), "--speed='nan' is invalid"),
+    (("--live-port", "0"), "--live-port='0' is invalid"),
+    (("--live-port", "70000"), "--live-port='70000' is invalid"),
+    (("--live-port", "http"), "--live-port='http' is invalid"),
+    (("--live-wait", "-1"), "--live-wait='-1' is invalid"),
+    (("--live-host", "no such host.invalid"), "--live-host='no such host.invalid' is invalid"),
+    (("--live-port", "BUSY"), "is invalid: expected a free port on 127.0.0.1"),
+])
+def test_bad_live_input_is_one_line_and_writes_nothing(world: Path, tmp_path: Path, args: tuple[str, ...],
+                                                       needle: str) -> None:
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        argv = [a.replace("BUSY", str(busy.getsockname()[1])) for a in args]
+        needle = needle.replace("BUSY", str(busy.getsockname()[1]))
+        r = subprocess.run([*NAVSTRESS, "run", str(world), "--live", *argv, "-o", str(tmp_path / "out")],
+                           capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2, r.stderr
+    assert needle in r.stderr and r.stderr.strip().count("\n") == 0, r.stderr
+    assert not (tmp_path / "out").exists()
