@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from cli_run import cli
 from navstress.run.trace import TOPIC_MAP, read_debug, read_events, read_grid, read_poses
 
 pytestmark = pytest.mark.slow
@@ -182,8 +183,7 @@ def test_bad_live_input_is_one_line_and_writes_nothing(world: Path, tmp_path: Pa
         busy.listen()
         argv = [a.replace("BUSY", str(busy.getsockname()[1])) for a in args]
         needle = needle.replace("BUSY", str(busy.getsockname()[1]))
-        r = subprocess.run([*NAVSTRESS, "run", str(world), "--live", *argv, "-o", str(tmp_path / "out")],
-                           capture_output=True, text=True, timeout=120)
-    assert r.returncode == 2, r.stderr
-    assert needle in r.stderr and r.stderr.strip().count("\n") == 0, r.stderr
+        code, _out, err = cli("run", str(world), "--live", *argv, "-o", str(tmp_path / "out"))
+    assert code == 2, err
+    assert needle in err and err.strip().count("\n") == 0, err
     assert not (tmp_path / "out").exists()
