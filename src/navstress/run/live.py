@@ -34,8 +34,8 @@ import numpy as np
 
 from navstress.robot import RobotSpec
 from navstress.run.record import RunRecord, RunTask
-from navstress.run.trace import (BELIEF, FRAME, FRAME_LIDAR, FRAME_ROBOT, TOPIC_MAP, TOPIC_PERCEIVED, TOPIC_TERRAIN,
-                                 TOPIC_TRUTH, TraceMessages)
+from navstress.run.trace import (BELIEF, FRAME, FRAME_LIDAR, FRAME_ROBOT, TOPIC_MAP, TOPIC_PERCEIVED, TOPIC_TRUTH,
+                                 TraceMessages)
 
 if TYPE_CHECKING:
     from navstress.run.mission import NavigatorView, RunResult
@@ -116,12 +116,10 @@ class LivePublisher(TraceMessages):
         subscribes when it learns of a channel, and a message sent before that is lost to it.)"""
         for topic, cls in _topics().items():
             self._channel(topic, cls)
+        from navstress.run.mission import world_messages
+
         self._statics, self._collecting = [], True
-        h, m, c = world.terrain.heights, world.mission, world.terrain.cell_m
-        self.scene([o.to_json() for o in world.obstacles], m.start, m.goal,
-                   (world.terrain.height_at(m.start[0], m.start[1]), world.terrain.height_at(m.goal[0], m.goal[1])))
-        self.terrain(h, c)
-        self.grid(TOPIC_TERRAIN, 0.0, h, (-c / 2, -c / 2), c, field="height")
+        world_messages(self, world)
         mount = robot.lidar
         self.robot((robot.length_m, robot.width_m, robot.body_height_m), (mount.x_m, mount.y_m, mount.z_m), belief=True)
         self._collecting = False

@@ -39,7 +39,7 @@ from navstress.run.metrics import drop_jitter, path_length, tortuousness
 from navstress.run.outcome import Classification, RunFacts, classify
 from navstress.run.record import RunRecord, RunTask
 from navstress.run.trace import (BELIEF, FRAME, FRAME_ROBOT, TOPIC_MAP, TOPIC_PERCEIVED, TOPIC_TERRAIN, TOPIC_TRUTH,
-                                 TraceWriter)
+                                 TraceMessages, TraceWriter)
 from navstress.seeding import derive_seed, rng
 from navstress.sim.config import SimConfig
 from navstress.sim.sensors import euler_from_mat
@@ -412,14 +412,18 @@ def _to_map_frame(pts: np.ndarray, mount: tuple[float, float, float], truth: np.
     return out
 
 
-def _write_trace(tw: TraceWriter, world: World, r: RunResult, robot: RobotSpec) -> None:
-    h = world.terrain.heights
-    m = world.mission
-    tw.scene([o.to_json() for o in world.obstacles], m.start, m.goal,
+def world_messages(tm: TraceMessages, world: World) -> None:
+    """The world's messages (the trace's and the live view's): obstacles, start and goal; the
+    height grid; the ground surface."""
+    h, m, c = world.terrain.heights, world.mission, world.terrain.cell_m
+    tm.scene([o.to_json() for o in world.obstacles], m.start, m.goal,
              (world.terrain.height_at(m.start[0], m.start[1]), world.terrain.height_at(m.goal[0], m.goal[1])))
-    c = world.terrain.cell_m
-    tw.grid(TOPIC_TERRAIN, 0.0, h, (-c / 2, -c / 2), c, field="height")
-    tw.terrain(h, c)
+    tm.grid(TOPIC_TERRAIN, 0.0, h, (-c / 2, -c / 2), c, field="height")
+    tm.terrain(h, c)
+
+
+def _write_trace(tw: TraceWriter, world: World, r: RunResult, robot: RobotSpec) -> None:
+    world_messages(tw, world)
     tw.commands(r.commands)
     tw.poses(TOPIC_TRUTH, r.truth)
     tw.transforms(FRAME, FRAME_ROBOT, r.truth)

@@ -350,7 +350,6 @@ class TraceMessages:
             self._put(TOPIC_MOVERS, SceneUpdate(entities=ents), _ns(t))
 
 
-
 class TraceWriter(TraceMessages):
     """Writes one run's MCAP trace atomically (``path`` appears only when closed successfully)."""
 
