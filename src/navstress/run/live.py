@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 import threading
 import time
+from collections import Counter
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -83,7 +84,7 @@ class LivePublisher(TraceMessages):
                                              context=self._ctx, server_listener=Listener())
         self._statics: list[tuple[str, Any, int]] | None = None
         self._collecting = False
-        self._events_sent = 0
+        self._events_sent: Counter[tuple[float, str, str]] = Counter()
         self._drawings_sent = 0
         self._maps_sent = 0
         self._next_lidar = 0.0
@@ -166,9 +167,9 @@ class LivePublisher(TraceMessages):
             time.sleep(delay)
 
     def _send_new(self, events: list[tuple[float, str, str]], view: NavigatorView | None) -> None:
-        for t, level, msg in events[self._events_sent:]:
+        for t, level, msg in unsent(events, self._events_sent):
             self.event(t, level, msg)
-        self._events_sent = len(events)
+            self._events_sent[(t, level, msg)] += 1
         if view is not None:
             for t, draw in view.drawings[self._drawings_sent:]:
                 self.debug(t, draw)
@@ -190,6 +191,23 @@ class LivePublisher(TraceMessages):
         if self._subscribed.is_set():
             time.sleep(LINGER_S)
         self._server.stop()
+
+
+def unsent(events: list[tuple[float, str, str]], sent: Counter[tuple[float, str, str]]) -> list[tuple[float, str, str]]:
+    """``events`` less those already ``sent`` (counted, not by position: at its end a run adds the
+    events it found afterwards, collisions for one, and sorts them all by time).
+
+        >>> unsent([(1.0, "warning", "hit"), (2.0, "info", "a"), (3.0, "info", "end")], Counter([(2.0, "info", "a")]))
+        [(1.0, 'warning', 'hit'), (3.0, 'info', 'end')]
+    """
+    left = Counter(sent)
+    out = []
+    for e in events:
+        if left[e] > 0:
+            left[e] -= 1
+        else:
+            out.append(e)
+    return out
 
 
 def _topics() -> dict[str, Any]:
