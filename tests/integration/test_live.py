@@ -18,11 +18,13 @@ import numpy as np
 import pytest
 
 from cli_run import cli
+from navstress.run.live import _topics
 from navstress.run.trace import TOPIC_MAP, read_debug, read_events, read_grid, read_poses
 
 pytestmark = pytest.mark.slow
 NAVSTRESS = [sys.executable, "-m", "navstress.cli"]
-SPEED = 8.0
+SPEED = 4.0
+TOPICS = _topics()
 
 
 def _free_port() -> int:
@@ -82,15 +84,17 @@ def _watch(url: str, proc: subprocess.Popen[str]) -> tuple[dict[str, list[tuple[
             if isinstance(raw, str):
                 msg = json.loads(raw)
                 if msg["op"] == "advertise":
-                    new = []
                     for ch in msg["channels"]:
                         assert ch["encoding"] == "protobuf"
                         channels[ch["id"]] = (ch["topic"], ch["schemaName"])
-                        sid = len(subs) + 1
-                        subs[sid] = ch["id"]
-                        new.append({"id": sid, "channelId": ch["id"]})
-                    ws.send(json.dumps({"op": "subscribe", "subscriptions": new}))
-                    t0 = t0 or time.monotonic()
+                    if not subs and len(channels) == len(TOPICS):
+                        # every channel known (the run advertises them all before it starts): one
+                        # request for all, so that the run, which starts at the first
+                        # subscription, finds them all subscribed
+                        subs.update((i + 1, cid) for i, cid in enumerate(channels))
+                        ws.send(json.dumps({"op": "subscribe", "subscriptions": [
+                            {"id": sid, "channelId": cid} for sid, cid in subs.items()]}))
+                        t0 = time.monotonic()
                 continue
             assert raw[0] == 0x01  # MessageData: subscription id (u32), log time (u64), payload
             sid, log_time = struct.unpack_from("<IQ", raw, 1)

@@ -47,6 +47,9 @@ DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8765
 #: Wall seconds a server stays up after the run's last message when a client is watching.
 LINGER_S = 1.0
+#: Messages the server queues per client before it drops the oldest (the SDK's default is 1,024,
+#: a second of a run at 8x: a viewer on a loaded machine lost whole topics).
+BACKLOG = 32_768
 #: Most simulated seconds between two lidar clouds sent live.
 LIDAR_PERIOD_S = 0.5
 
@@ -81,7 +84,8 @@ class LivePublisher(TraceMessages):
                 outer._resend.set()
 
         self._server = foxglove.start_server(name="navstress", host=settings.host, port=settings.port,
-                                             context=self._ctx, server_listener=Listener())
+                                             context=self._ctx, server_listener=Listener(),
+                                             message_backlog_size=BACKLOG)
         self._statics: list[tuple[str, Any, int]] | None = None
         self._collecting = False
         self._events_sent: Counter[tuple[float, str, str]] = Counter()
