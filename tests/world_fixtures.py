@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -24,3 +25,13 @@ def small_world(seed: int = 0, *, bumpy: bool = True, size: float = 20.0, cell: 
     )
     return World(spec=spec, seed=seed, terrain=Terrain(heights.astype(np.float32), cell),
                  obstacles=obstacles, mission=Mission((2.0, 2.0, math.pi / 4), (18.0, 18.0), 1.5))
+
+
+def trees_world_dir(parent: Path) -> Path:
+    """A generated 30 m world with 2 % trees (map seed 11) saved under ``parent``: reference-v1
+    reaches its goal in about 30 s (run seed 5)."""
+    from navstress.world import generate, parse_spec
+
+    d = parent / "w"
+    generate(parse_spec({"size_m": [30, 30], "obstacles": {"obstruction": {"tree": 2}}}), 11).save(d)
+    return d

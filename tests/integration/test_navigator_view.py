@@ -16,7 +16,8 @@ from navstress.run.mission import MAP_TRACE_PERIOD_S, execute, run_mission
 from navstress.run.record import RunTask
 from navstress.run.trace import (TOPIC_MAP, TOPIC_PERCEIVED, TraceWriter, read_commands, read_debug, read_events,
                                  read_grid, read_grids, read_poses)
-from navstress.world import Mission, Obstacle, World, WorldSpec, generate, parse_spec
+from navstress.world import Mission, Obstacle, World, WorldSpec
+from world_fixtures import trees_world_dir
 
 pytestmark = pytest.mark.slow
 
@@ -25,10 +26,7 @@ ELECTED_WIDTH = 0.12  # reference-v1 draws the elected arc this wide, the others
 
 @pytest.fixture(scope="module")
 def world_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    w = generate(parse_spec({"size_m": [30, 30], "obstacles": {"obstruction": {"tree": 2}}}), 11)
-    d = tmp_path_factory.mktemp("worlds") / "w"
-    w.save(d)
-    return d
+    return trees_world_dir(tmp_path_factory.mktemp("worlds"))
 
 
 def _task(world_dir: Path, out: Path, **kw: object) -> RunTask:

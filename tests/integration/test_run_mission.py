@@ -12,17 +12,15 @@ from navstress.run.mission import execute, run_mission
 from navstress.run.record import RunTask
 from navstress.run.trace import (TOPIC_MAP, TOPIC_PERCEIVED, TOPIC_ROBOT, _messages, read_events, read_grid,
                                  read_metadata, read_poses, read_transforms)
-from navstress.world import Obstacle, World, WorldSpec, generate, parse_spec
+from navstress.world import Obstacle, World, WorldSpec
+from world_fixtures import trees_world_dir
 
 pytestmark = pytest.mark.slow
 
 
 @pytest.fixture(scope="module")
 def small_world(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    w = generate(parse_spec({"size_m": [30, 30], "obstacles": {"obstruction": {"tree": 2}}}), 11)
-    d = tmp_path_factory.mktemp("worlds") / "w"
-    w.save(d)
-    return d
+    return trees_world_dir(tmp_path_factory.mktemp("worlds"))
 
 
 def task(world_dir: Path, out: Path, **kw: object) -> RunTask:
