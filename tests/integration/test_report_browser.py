@@ -1,9 +1,10 @@
 """The HTML report in a real headless Chromium (Debian ``chromium`` driven by Playwright).
 
-Checks that the page renders, that every figure loads (decoded, non-zero size), that nothing
-is fetched from outside the file, and that the numbers shown match the store; a search
-directory's report (``navstress report DIR --baseline DIR2``) shows its Search section, figures
-loaded, without a script error. Fails (does not
+Checks that the page renders, that every picture loads (decoded, non-zero size) and every chart
+is drawn by the embedded Vega libraries, that a chart zooms with the wheel, pans by dragging and
+resets on a double click, that nothing is fetched from outside the file, and that the numbers
+shown match the store; a search directory's report (``navstress report DIR --baseline DIR2``)
+shows its Search section, charts drawn, without a script error. Fails (does not
 skip) when chromium or playwright is missing under CI (``CI=true``)."""
 
 from __future__ import annotations
@@ -59,6 +60,68 @@ def _campaign(root: Path) -> Path:
     return root
 
 
+def drawn(page) -> list[str]:  # type: ignore[no-untyped-def]
+    """Waits until every chart of the page is drawn (or failed); the names of those drawn, and none failed."""
+    page.wait_for_function("Array.from(document.querySelectorAll('div.chart'))"
+                           ".every(e => e.hasAttribute('data-rendered'))", timeout=60_000)
+    states = page.evaluate("Array.from(document.querySelectorAll('div.chart'))"
+                           ".map(e => [e.dataset.figure, e.dataset.rendered])")
+    assert states and all(r == "1" for _, r in states), states
+    return [n for n, _ in states]
+
+
+def _ticks(page, name: str) -> list[str]:  # type: ignore[no-untyped-def]
+    """The labels of the first horizontal axis of chart ``name``, as drawn, left to right (Vega
+    keeps the label elements it reuses, so their document order is not the axis order)."""
+    labels: list[str] = page.evaluate("""n => {
+        const svg = document.querySelector(`div.chart[data-figure='${n}'] svg.marks`);
+        const axes = Array.from(svg.querySelectorAll('.role-axis'))
+            .filter(a => (a.getAttribute('aria-label') || '').startsWith('X-axis'));
+        return Array.from(axes[0].querySelectorAll('.role-axis-label text'))
+            .map(t => [t.getBoundingClientRect().x, t.textContent]).sort((a, b) => a[0] - b[0]).map(p => p[1]);
+    }""", name)
+    return labels
+
+
+def test_charts_zoom_pan_and_reset(page, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    root = _campaign(tmp_path / "camp")
+    out = build_report(root, tmp_path / "report.html")
+    errors: list[str] = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+    page.goto(out.resolve().as_uri())
+    drawn(page)
+    name = "indeterminism-trees"
+    chart = page.locator(f"div.chart[data-figure='{name}']")
+    chart.scroll_into_view_if_needed()
+    before = _ticks(page, name)
+    plot = chart.locator("svg.marks .role-mark").first.bounding_box()
+    cx, cy = plot["x"] + plot["width"] / 2, plot["y"] + plot["height"] / 2
+    page.mouse.move(cx, cy)
+    page.mouse.wheel(0, -400)  # zoom in
+    page.wait_for_timeout(300)
+    zoomed = _ticks(page, name)
+    assert zoomed != before, (before, zoomed)
+    page.mouse.move(cx, cy)
+    page.mouse.down()
+    page.mouse.move(cx + 120, cy, steps=5)  # pan
+    page.mouse.up()
+    page.wait_for_timeout(300)
+    assert _ticks(page, name) != zoomed
+    page.mouse.dblclick(cx, cy)  # reset
+    page.wait_for_timeout(300)
+    assert _ticks(page, name) == before
+    # hovering a configuration's point shows its numbers
+    point = page.locator("div.chart[data-figure='class-trees'] svg.marks g.rate_points_0_marks path")
+    assert point.count() == 2
+    point.first.scroll_into_view_if_needed()
+    point.first.hover()
+    tip = page.locator("#vg-tooltip-element")
+    tip.wait_for(state="visible", timeout=5000)
+    assert "success %" in tip.inner_text() and "tree=" in tip.inner_text()
+    assert errors == []
+
+
 def test_report_renders_in_chromium(page, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
     root = _campaign(tmp_path / "camp")
     out = build_report(root, tmp_path / "report.html")
@@ -66,17 +129,16 @@ def test_report_renders_in_chromium(page, tmp_path: Path) -> None:  # type: igno
     page.on("request", lambda req: outside.append(req.url) if not req.url.startswith(("file:", "data:")) else None)
     page.goto(out.resolve().as_uri())
     assert page.title() == "navstress report: synth"
-    # figures: every <img> decoded with a real size
-    n_img = page.evaluate("document.images.length")
-    assert n_img >= 3
-    # the maps' embedded rasters (terrain, perceived maps) decode too
+    # charts: every one drawn by the embedded libraries, as SVG with its marks
+    names = drawn(page)
+    assert {"class-trees", "verdicts-trees-reference-v1-nominal", "indeterminism-trees", "fault-power"} <= set(names)
+    assert all(page.locator(f"div.chart[data-figure='{n}'] svg.marks .role-mark").count() >= 1 for n in names)
+    # the maps' embedded rasters (terrain, perceived maps) decode
     sizes = page.evaluate("""Promise.all(Array.from(document.querySelectorAll('svg image')).map(e => {
         const i = new Image(); i.src = e.getAttribute('href');
         return i.decode().then(() => i.naturalWidth, () => 0); }))""")
     assert len(sizes) >= 3 and min(sizes) > 10, sizes
-    broken = page.evaluate("Array.from(document.images).filter(i => !(i.complete && i.naturalWidth > 50)).length")
-    assert broken == 0
-    assert page.locator("img[data-figure='class-trees']").bounding_box()["width"] > 300  # laid out, visible
+    assert page.locator("div.chart[data-figure='class-trees'] svg.marks").bounding_box()["width"] > 300  # laid out, visible
     assert outside == []
     # numbers against the store
     with Store.open(root) as s:
@@ -111,7 +173,7 @@ def test_report_renders_in_chromium(page, tmp_path: Path) -> None:  # type: igno
         assert row.is_visible()
         assert row.locator("td[data-field='runs']").inner_text() == str(c.runs)
         assert row.locator("td[data-field='verdict']").inner_text() == c.verdict
-    assert page.locator("img[data-figure='verdicts-trees-reference-v1-nominal']").bounding_box()["width"] > 300
+    assert page.locator("div.chart[data-figure='verdicts-trees-reference-v1-nominal'] svg.marks").bounding_box()["width"] > 300
 
 
 def test_empty_campaign_renders(page, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
@@ -142,10 +204,12 @@ def test_a_search_report_renders_its_search_section(page, tiny_searches: SearchD
     assert page.evaluate("document.getElementById('search').compareDocumentPosition("
                          "document.getElementById('difficulty'))") & 4
     page.locator("nav a[href='#search']").click()
-    for fig in ("search-illumination", "search-found", "search-best-worlds"):
-        img = page.locator(f"section#search img[data-figure='{fig}']")
-        assert img.evaluate("i => i.complete && i.naturalWidth > 300"), fig
-        assert img.bounding_box()["width"] > 300, fig  # laid out, visible
+    assert {"search-illumination", "search-found"} <= set(drawn(page))
+    for fig in ("search-illumination", "search-found"):
+        assert page.locator(f"section#search div.chart[data-figure='{fig}'] svg.marks").bounding_box()["width"] > 300, fig
+    img = page.locator("section#search img[data-figure='search-best-worlds']")
+    assert img.evaluate("i => i.complete && i.naturalWidth > 300")
+    assert img.bounding_box()["width"] > 300  # laid out, visible
     d = json.loads((tiny_searches.search / "search.json").read_text(encoding="utf-8"))
     assert page.inner_text("#search-confirmed") == str(d["confirmed"])
     assert page.locator("#search-found tr[data-method]").count() == 2

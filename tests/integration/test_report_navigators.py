@@ -68,6 +68,7 @@ class _Page(HTMLParser):
         self._fig: dict[str, Any] | None = None
         self._caption = False
         self._svg: dict[str, str] | None = None
+        self._chart: dict[str, str] | None = None
 
     def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
         a = {k: v or "" for k, v in attrs}
@@ -78,11 +79,16 @@ class _Page(HTMLParser):
         elif tag == "figure":
             self._fig = {"attrs": a, "img": None, "caption": ""}
             self.figures.append(self._fig)
-        elif tag == "img" or (tag == "svg" and "map" in a.get("class", "").split()):
-            # a picture: a PNG, or an SVG map whose identity ("src") is the runs drawn in it
-            if tag == "svg":
+        elif tag == "img" or (tag == "svg" and "map" in a.get("class", "").split()) or \
+                (tag == "div" and a.get("class") == "chart"):
+            # a picture: a PNG, an SVG map whose identity ("src") is the runs drawn in it, or a chart
+            # whose identity is its specification (the JSON in it)
+            if tag in ("svg", "div"):
                 a["src"] = ""
+            if tag == "svg":
                 self._svg = a
+            if tag == "div":
+                self._chart = a
             self.images.append(a)
             if self._fig is not None:
                 self._fig["img"] = a
@@ -100,8 +106,12 @@ class _Page(HTMLParser):
             self._caption = False
         elif tag == "svg":
             self._svg = None
+        elif tag == "script":  # a chart's specification is its one script
+            self._chart = None
 
     def handle_data(self, data: str) -> None:
+        if self._chart is not None:
+            self._chart["src"] += data
         if self._caption and self._fig is not None:
             self._fig["caption"] += data
 

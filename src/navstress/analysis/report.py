@@ -1,8 +1,9 @@
 """``navstress report DIR -o report.html``: one self-contained HTML file for a person.
 
-Charts are embedded as base64 PNG data URIs and the maps as inline SVG
-(:mod:`navstress.analysis.svgmap`); one small embedded script sorts and filters tables and links
-runs with their lines; the page loads nothing from outside. Sections: summary (campaign, runs done/planned, outcome counts, what is missing),
+Charts are Vega-Lite specifications drawn by the Vega libraries embedded once in the page
+(:mod:`navstress.analysis.charts`: zoom, pan, the numbers of a mark on hovering it), the maps
+inline SVG (:mod:`navstress.analysis.svgmap`); one small embedded script sorts and filters tables
+and links runs with their lines; the page loads nothing from outside. Sections: summary (campaign, runs done/planned, outcome counts, what is missing),
 difficulty table (per configuration: parameters, runs, success % with its 95 % interval,
 median duration and tortuousness of successes, mean end distance to goal, level), level
 ranges per class (fuzzy thresholds), per-class figures, verdicts (per configuration a table row and
@@ -41,8 +42,9 @@ from navstress._percent import percent, setting
 from navstress.analysis.analyze import Analysis, TrajectoryCache, analyze, trace_path
 from navstress.analysis.difficulty import NO_DATA, DifficultyParams
 from navstress.analysis import svgmap
-from navstress.analysis.figures import (LEVEL_STYLE, VERDICT_COLOURS, class_figure, fault_power_figure,
-                                        indeterminism_figure, verdict_figure)
+from navstress.analysis import charts
+from navstress.analysis.charts import (LEVEL_STYLE, VERDICT_COLOURS, chart_html, class_chart, fault_power_chart,
+                                       indeterminism_chart, verdict_chart)
 from navstress.analysis.stats import NOMINAL, ConfigStats, config_key, fault_name, params_text
 from navstress.analysis.verdicts import WorldVerdict
 from navstress.run.figures import OUTCOME_COLOURS, OUTCOME_LABELS, RunTrack
@@ -344,10 +346,10 @@ def _class_figures(a: Analysis) -> str:
             out.append(f'<p class="note">{_e(e)}: no run recorded yet.</p>')
             continue
         out.append(f"<h3>{_e(e)}: nominal runs of {_e(a.navigator)}</h3>"
-                   + _img(class_figure(e, a.nominal, levels, navigator=a.navigator, by_key=e in a.explicit),
-                          f"class-{e}",
-                          f"success rate, duration and tortuousness of {e}, nominal runs of {a.navigator}",
-                          a.navigator, NOMINAL))
+                   + chart_html(class_chart(e, a.nominal, levels, navigator=a.navigator, by_key=e in a.explicit),
+                                f"class-{e}",
+                                f"success rate, duration and tortuousness of {e}, nominal runs of {a.navigator}",
+                                a.navigator, NOMINAL))
     return "\n".join(out)
 
 
@@ -415,8 +417,8 @@ def _verdicts(a: Analysis, max_worlds: int = 2000) -> str:
         cs = [c for c in cfgs if (c.experiment, c.navigator, c.fault) == (e, n, f)]
         ws = [w for w in worlds if (w.experiment, w.navigator, w.fault) == (e, n, f)]
         title = f"{e}: verdicts per world ({n}, {f} runs)"
-        out.append(_img(verdict_figure(title, cs, ws, v.rule_for(e).threshold), f"verdicts-{e}-{n}-{f}",
-                        f"pass probability and verdict of every world of {e}, {n}, {f}", n, f))
+        out.append(chart_html(verdict_chart(title, cs, ws, v.rule_for(e).threshold), f"verdicts-{e}-{n}-{f}",
+                              f"pass probability and verdict of every world of {e}, {n}, {f}", n, f))
     shown = [w for w in worlds if w.verdict != "passes"][:max_worlds]
     wrows = "".join(
         f'<tr {_verdict_attrs(w)}><td class="l">{_e(w.experiment)}</td><td class="l">{_e(w.config_key)}</td>'
@@ -456,8 +458,8 @@ def _indeterminism(a: Analysis) -> str:
                '<th>final [m]</th></tr>' + "".join(rows) + "</table>")
     for e in dict.fromkeys(k[0] for k in a.indeterminism):
         curves = {k: cs for (ee, k), cs in a.indeterminism.items() if ee == e}
-        out.append(_img(indeterminism_figure(f"{e} ({a.navigator}, nominal)", curves), f"indeterminism-{e}",
-                        f"indeterminism curves of {e}, nominal runs of {a.navigator}", a.navigator, NOMINAL))
+        out.append(chart_html(indeterminism_chart(f"{e} ({a.navigator}, nominal)", curves), f"indeterminism-{e}",
+                              f"indeterminism curves of {e}, nominal runs of {a.navigator}", a.navigator, NOMINAL))
     return "\n".join(out)
 
 
@@ -489,8 +491,8 @@ def _fault_power(a: Analysis) -> str:
     out.append('<table id="fault-power-levels"><tr><th class="l">level</th><th class="l">fault</th><th>configs</th>'
                '<th>runs</th><th>with collision</th><th>new failures</th><th>nominal runs</th>'
                '<th>nominal with collision</th></tr>' + lrows + "</table>")
-    out.append(_img(fault_power_figure(a.power_levels, navigator=a.navigator), "fault-power",
-                    f"collisions per difficulty level, faults of {a.navigator}", a.navigator))
+    out.append(chart_html(fault_power_chart(a.power_levels, navigator=a.navigator), "fault-power",
+                          f"collisions per difficulty level, faults of {a.navigator}", a.navigator))
     return "\n".join(out)
 
 
@@ -716,8 +718,9 @@ def render_report(a: Analysis, *, cache: TrajectoryCache | None = None, max_poin
     text = text.replace("<table", '<div class="scroll"><table').replace("</table>", "</table></div>")
     return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
             "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">"
-            f"<title>navstress report: {_e(a.name)}</title><style>{_CSS}{svgmap.CSS}</style></head>"
-            f"<body data-campaign=\"{_e(a.name)}\">{nav}\n" + text + f"\n<script>{_SCRIPT}</script>\n</body></html>\n")
+            f"<title>navstress report: {_e(a.name)}</title><style>{_CSS}{svgmap.CSS}{charts.CSS}</style></head>"
+            f"<body data-campaign=\"{_e(a.name)}\">{nav}\n" + text + f"\n<script>{_SCRIPT}</script>\n"
+            + (charts.page_script() + "\n" if '<div class="chart"' in text else "") + "</body></html>\n")
 
 
 def build_report(directory: str | Path, out: str | Path, *, params: DifficultyParams | None = None,

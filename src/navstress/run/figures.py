@@ -1,5 +1,6 @@
 """Pictures of runs drawn over their world (``navstress run``, ``navstress world drive``, and
-the report's maps, which :mod:`navstress.analysis.figures` draws with these pieces).
+the search report's best worlds; the HTML report's maps use its outcome colours in SVG,
+:mod:`navstress.analysis.svgmap`).
 
     trajectories_png(world, [RunTrack(...), ...], "runs.png")
 

@@ -1,6 +1,7 @@
-"""The search report's pictures (PNG bytes, for the HTML report or files): the illumination map,
-the worlds found against runs spent for the search and for random sampling, and the best worlds
-with their runs' trajectories over their height maps.
+"""The search report's pictures: the illumination map and the worlds found against runs spent for
+the search and for random sampling (charts: Vega-Lite specifications drawn in the report, see
+:mod:`navstress.analysis.charts`), and the best worlds with their runs' trajectories over their
+height maps (PNG bytes).
 
 Inputs are plain data a driver builds from its results (documented dataclasses, or dicts with the
 same keys):
@@ -11,7 +12,7 @@ same keys):
 - :class:`BestWorld`: a world (directory or loaded) with its runs' tracks
   (:class:`~navstress.run.figures.RunTrack`, see :func:`tracks_of`).
 
-Figures are drawn on an Agg canvas of their own (no pyplot, no global backend); runs are drawn
+The best worlds are drawn on an Agg canvas of their own (no pyplot, no global backend); runs are drawn
 with :mod:`navstress.run.figures` (its outcome colours everywhere in navstress) over
 :func:`~navstress.world.export.images.draw_world`.
 """
@@ -25,8 +26,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from matplotlib.colors import Normalize
 
+from navstress.analysis.charts import found_chart, illumination_chart
 from navstress.errors import NavstressError, SpecError
 from navstress.run.figures import RunTrack, draw_tracks, legend, png_bytes
 from navstress.run.figures import new_figure as _figure
@@ -35,13 +36,6 @@ from navstress.run.trace import read_movers, read_poses
 from navstress.search.objectives import DESCRIPTORS, get_descriptor
 from navstress.world.export.images import draw_world
 from navstress.world.world import World
-
-#: Where the illumination map's cells are drawn, in figure fractions (left, bottom, width, height);
-#: the colour bar sits to its right.
-MAP_AXES = (0.13, 0.13, 0.62, 0.75)
-MAP_CMAP = "plasma"
-#: Line colours of the methods in :func:`found_figure` (others get matplotlib's cycle).
-METHOD_COLOURS = {"search": "#d7191c", "random": "#2b83ba"}
 
 
 
@@ -120,42 +114,25 @@ def _axis(name: str, field: str, rng: tuple[float, float] | None, label: str | N
     return rng, label or name
 
 
-def illumination_figure(points: Iterable[MapPoint | Mapping[str, Any]], *, x: str, y: str,
-                        x_range: tuple[float, float] | None = None, y_range: tuple[float, float] | None = None,
-                        bins: tuple[int, int] = (10, 10), fitness_label: str = "failure probability",
-                        vmax: float = 1.0, title: str | None = None, dpi: int = 90,
-                        x_label: str | None = None, y_label: str | None = None) -> bytes:
-    """The illumination map: a heatmap over the descriptors ``x`` and ``y`` (names of
-    :data:`~navstress.search.objectives.DESCRIPTORS`, ranges defaulting to their natural ones, or
-    paths of the search space such as ``ground.deformation``, whose ranges must be given), each
-    cell coloured by its best world's fitness (0 to ``vmax``), empty cells blank; the axes say the
-    descriptors' units (``x_label``/``y_label`` replace them) and the title how many cells are filled."""
+def illumination_map(points: Iterable[MapPoint | Mapping[str, Any]], *, x: str, y: str,
+                     x_range: tuple[float, float] | None = None, y_range: tuple[float, float] | None = None,
+                     bins: tuple[int, int] = (10, 10), fitness_label: str = "failure probability",
+                     vmax: float = 1.0, title: str | None = None,
+                     x_label: str | None = None, y_label: str | None = None) -> dict[str, Any]:
+    """The illumination map's chart (a Vega-Lite specification,
+    :func:`navstress.analysis.charts.illumination_chart`): a heatmap over the descriptors ``x`` and
+    ``y`` (names of :data:`~navstress.search.objectives.DESCRIPTORS`, ranges defaulting to their
+    natural ones, or paths of the search space such as ``ground.deformation``, whose ranges must be
+    given), each cell coloured by its best world's fitness (0 to ``vmax``), empty cells blank; the
+    axes say the descriptors' units (``x_label``/``y_label`` replace them) and the title how many
+    cells are filled."""
     xr, xl = _axis(x, "x", x_range, x_label)
     yr, yl = _axis(y, "y", y_range, y_label)
-    if isinstance(vmax, bool) or not isinstance(vmax, (int, float)) or not (math.isfinite(vmax) and vmax > 0):
-        raise SpecError("vmax", vmax, "a number > 0 (the fitness of the brightest colour)")
-    fit, _ = illumination_grid(points, xr, yr, bins)
-    fig = _figure(6.4, 5.0, dpi, constrained=False)
-    ax = fig.add_axes(MAP_AXES)
-    cax = fig.add_axes((MAP_AXES[0] + MAP_AXES[2] + 0.03, MAP_AXES[1], 0.035, MAP_AXES[3]))
-    xe = np.linspace(xr[0], xr[1], bins[0] + 1)
-    ye = np.linspace(yr[0], yr[1], bins[1] + 1)
-    mesh = ax.pcolormesh(xe, ye, np.ma.masked_invalid(fit), cmap=MAP_CMAP, norm=Normalize(0.0, vmax),
-                         edgecolors="none")
-    for v in xe:
-        ax.axvline(v, color="#dddddd", lw=0.5, zorder=0)
-    for v in ye:
-        ax.axhline(v, color="#dddddd", lw=0.5, zorder=0)
-    ax.set_xlim(*xr)
-    ax.set_ylim(*yr)
-    ax.set_facecolor("white")
-    ax.set_xlabel(xl)
-    ax.set_ylabel(yl)
-    filled = int(np.isfinite(fit).sum())
-    ax.set_title(title or f"Illumination map: {filled} of {fit.size} cells filled", fontsize=10, loc="left")
-    cb = fig.colorbar(mesh, cax=cax)
-    cb.set_label(f"best world's {fitness_label}")
-    return png_bytes(fig)
+    fit, keys = illumination_grid(points, xr, yr, bins)
+    cells = [{"i": i, "j": j, "fitness": float(fit[i, j]), "key": keys[i][j]}
+             for i in range(bins[1]) for j in range(bins[0]) if math.isfinite(fit[i, j])]
+    return illumination_chart(cells, x_range=xr, y_range=yr, bins=bins, x_label=xl, y_label=yl,
+                              fitness_label=fitness_label, vmax=vmax, title=title)
 
 
 # ---------------------------------------------------------------- (b) found against runs spent
@@ -190,36 +167,16 @@ def found_curve(evaluations: Iterable[Found | Mapping[str, Any]]) -> list[tuple[
     return out
 
 
-def found_figure(methods: Mapping[str, Iterable[Found | Mapping[str, Any]]], *, what: str = "revealing worlds",
-                 budget: int | None = None, title: str | None = None, dpi: int = 90,
-                 confirmed: Mapping[str, tuple[int, int]] | None = None) -> bytes:
-    """Distinct worlds found against runs spent, one step line per method (e.g. ``search`` and
-    ``random``) on one axis; ``budget`` draws the run budget as a dashed line; ``confirmed`` maps
-    a method to (runs spent, worlds confirmed), drawn as a star of the method's colour."""
-    fig = _figure(6.4, 4.0, dpi)
-    ax = fig.subplots()
-    top = 0
-    for i, (name, evs) in enumerate(methods.items()):
-        c = found_curve(evs)
-        xs, ys = [p[0] for p in c], [p[1] for p in c]
-        top = max(top, ys[-1])
-        col = METHOD_COLOURS.get(name, f"C{i}")
-        ax.step(xs, ys, where="post", color=col, lw=2.0, label=f"{name}: {ys[-1]} in {xs[-1]} runs")
-        if confirmed is not None and name in confirmed:
-            runs, n = confirmed[name]
-            top = max(top, n)
-            ax.plot([runs], [n], marker="*", ms=14, color=col, mec="black", mew=0.6, ls="none",
-                    label=f"{name}: {n} confirmed")
-    if budget is not None:
-        ax.axvline(budget, color="#555555", ls="--", lw=0.8)
-    ax.set_xlabel("evaluations [runs spent]")
-    ax.set_ylabel(f"{what} found (distinct)")
-    ax.set_ylim(-0.05 * max(top, 1), max(top, 1) * 1.1 + 0.5)
-    ax.set_xlim(left=0)
-    ax.grid(True, alpha=0.3)
-    legend(ax, fontsize=8, loc="upper left")
-    ax.set_title(title or f"{what.capitalize()} found against runs spent", fontsize=10, loc="left")
-    return png_bytes(fig)
+def found_against_runs(methods: Mapping[str, Iterable[Found | Mapping[str, Any]]], *,
+                       what: str = "revealing worlds", budget: int | None = None, title: str | None = None,
+                       confirmed: Mapping[str, tuple[int, int]] | None = None) -> dict[str, Any]:
+    """The chart (a Vega-Lite specification, :func:`navstress.analysis.charts.found_chart`) of the
+    distinct worlds found against runs spent, one step line per method (e.g. ``search`` and
+    ``random``, each :func:`found_curve` of its evaluations) on one axis; ``budget`` draws the run
+    budget as a dashed line; ``confirmed`` maps a method to (runs spent, worlds confirmed), drawn as
+    a star of the method's colour."""
+    return found_chart({name: found_curve(evs) for name, evs in methods.items()}, what=what, budget=budget,
+                       title=title, confirmed=confirmed)
 
 
 # ---------------------------------------------------------------- (c) the best worlds and their runs

@@ -29,8 +29,9 @@ from navstress.analysis.stats import config_key
 from navstress.campaign.store import DB_NAME, Store
 from navstress.errors import NavstressError, SpecError
 from navstress.search.driver import CONFIRM, RESULT_NAME, SEARCH_SPEC_NAME, SUITE_DIR, load_result
-from navstress.search.figures import (BestWorld, Found, best_worlds_figure, found_figure,
-                                      illumination_figure, illumination_grid, tracks_of)
+from navstress.analysis.charts import chart_html
+from navstress.search.figures import (BestWorld, Found, best_worlds_figure, found_against_runs, illumination_grid,
+                                      illumination_map, tracks_of)
 from navstress.search.objectives import DESCRIPTORS
 from navstress.world.world import World
 
@@ -176,7 +177,8 @@ def _found(data: Mapping[str, Any], base: Mapping[str, Any] | None, base_dir: Pa
                     + _cell("runs", d.get("runs")) + _cell("seen", seen) + _cell("elites", n_el)
                     + _cell("confirmed", n_conf) + _cell("confirm-runs", d.get("confirm_runs")) + "</tr>")
     budget = (data.get("budget") or {}).get("runs")
-    png = found_figure(methods, what=what, budget=budget if isinstance(budget, int) else None, confirmed=confirmed)
+    chart = found_against_runs(methods, what=what, budget=budget if isinstance(budget, int) else None,
+                               confirmed=confirmed)
     out = ['<h3 id="search-found-title">Worlds found against runs spent</h3>',
            f'<p class="note">Distinct {_e(what)} <i>seen</i> (the search\'s own runs showed it) against the '
            'search runs spent, one step per generation; the marker at the end is how many elites were '
@@ -184,7 +186,7 @@ def _found(data: Mapping[str, Any], base: Mapping[str, Any] | None, base_dir: Pa
            'dashed).' + ('' if base is not None else ' Add <code>--baseline DIR2</code> (another search '
                          'directory, typically the same spec with <code>algorithm: {name: random}</code>) to '
                          'draw random sampling on the same axis.') + '</p>',
-           figure_html(png, "search-found", f"{what} found against runs spent"),
+           chart_html(chart, "search-found", f"{what} found against runs spent"),
            '<table id="search-found"><tr><th class="l">method</th><th>search runs</th><th>seen</th>'
            f'<th>elites</th><th>confirmed</th><th>confirmation runs</th></tr>{"".join(rows)}</table>']
     if base is not None:
@@ -206,8 +208,8 @@ def _map(data: Mapping[str, Any]) -> str:
             "key": str(e["key"])} for e in evaluated if len(e.get("descriptors", [])) == 2]
     obj = str((data.get("objective") or {}).get("name"))
     label = FITNESS_LABEL.get(obj, "fitness")
-    png = illumination_figure(pts, x=xn, y=yn, x_range=xr, y_range=yr, bins=bins, x_label=xl, y_label=yl,
-                              fitness_label=label)
+    chart = illumination_map(pts, x=xn, y=yn, x_range=xr, y_range=yr, bins=bins, x_label=xl, y_label=yl,
+                             fitness_label=label)
     fit, keys = illumination_grid(pts, xr, yr, bins)
     by_key = {str(e["key"]): e for e in evaluated}
     confirmed = {str(e["key"]): bool(e.get("confirmed")) for e in data.get("elites", [])}
@@ -234,7 +236,7 @@ def _map(data: Mapping[str, Any]) -> str:
         f'({_e(xl)} and {_e(yl)}, {bins[0]} x {bins[1]} cells; values outside the range fall in the edge cells); '
         f'each cell is coloured by its best world\'s {_e(label)} as <i>seen</i> in the search\'s runs. Where the '
         'colour is bright, the stack fails there; a blank cell holds no evaluated world.</p>',
-        figure_html(png, "search-illumination", f"illumination map over {xl} and {yl}"),
+        chart_html(chart, "search-illumination", f"illumination map over {xl} and {yl}"),
         '<details><summary>The filled cells and their best worlds</summary>'
         f'<table id="search-cells"><tr><th class="l">{_e(xl)}</th><th class="l">{_e(yl)}</th>'
         f'<th class="l">best world</th><th>{_e(label)}</th><th>seen (events/trials)</th>'

@@ -1,11 +1,13 @@
-"""The search report's pictures rendered to PNG from small real inputs and read back pixel by pixel:
-the illumination map colours exactly its filled cells (by their best fitness) and leaves the empty
-ones blank; the found-against-runs figure draws each method's line; the best worlds are drawn with
-the trajectories of real runs (a tiny batch on a hand-made world)."""
+"""The search report's pictures from small real inputs, read back as drawn: the illumination map
+and the found-against-runs chart by the real Vega renderer (mark by mark: the map colours exactly
+its filled cells, by their best fitness, over their cells' ranges, and leaves the empty ones blank;
+the found chart draws each method's line in its colour), the best worlds as a PNG pixel by pixel
+with the trajectories of real runs (a tiny batch on a hand-made world)."""
 
 from __future__ import annotations
 
 import io
+import json
 import math
 from pathlib import Path
 
@@ -20,9 +22,11 @@ from matplotlib.image import imread
 from navstress.errors import SpecError
 from navstress.run.batch import plan_batch, run_batch
 from navstress.run.figures import OUTCOME_COLOURS
-from navstress.search.figures import (MAP_AXES, MAP_CMAP, METHOD_COLOURS, BestWorld, Found, MapPoint,
-                                      best_worlds_figure, cell_of, found_curve, found_figure, illumination_figure,
-                                      illumination_grid, tracks_of)
+from chart_render import fields, marks
+from chart_render import rgb as css_rgb
+from navstress.analysis.charts import METHOD_COLOURS
+from navstress.search.figures import (BestWorld, Found, MapPoint, best_worlds_figure, cell_of, found_against_runs,
+                                      found_curve, illumination_grid, illumination_map, tracks_of)
 from navstress.world.world import Mission, World
 from world_fixtures import small_world
 
@@ -47,13 +51,35 @@ def near(px: np.ndarray, colour: str, tol: float = 0.08) -> np.ndarray:
 X_RANGE, Y_RANGE, BINS = (0.0, 30.0), (0.0, 1.0), (3, 2)
 
 
-def cell_patch(img: np.ndarray, i: int, j: int, bins: tuple[int, int] = BINS) -> np.ndarray:
-    """The pixels around the centre of cell (row i, column j) of the map's axes."""
-    h, w = img.shape[:2]
-    left, bottom, width, height = MAP_AXES
-    cx = (left + width * (j + 0.5) / bins[0]) * w
-    cy = (1.0 - (bottom + height * (i + 0.5) / bins[1])) * h
-    return img[int(cy) - 3:int(cy) + 4, int(cx) - 3:int(cx) + 4]
+def cmap_rgb(value: float) -> np.ndarray:
+    return np.array(colormaps["plasma"](value)[:3]) * 255
+
+
+def check_map(spec: dict, fit: np.ndarray, keys: list[list[str]], x_range: tuple[float, float],
+              y_range: tuple[float, float]) -> None:
+    """Every filled cell, and no other, is a rectangle over its cell's ranges in the colour of its
+    best fitness (Vega's plasma, against matplotlib's within a few levels), naming its world."""
+    rects = marks(spec, "cells")
+    ny, nx = fit.shape
+    assert len(rects) == int(np.isfinite(fit).sum())
+    if not rects:
+        return
+    # the pixel scale from the drawn axes: a cell is (plot width / nx) wide
+    cell_w = rects[0]["width"]
+    cell_h = rects[0]["height"]
+    plot_h = cell_h * ny
+    seen = set()
+    for r in rects:
+        j = round(r["x"] / cell_w)
+        i = ny - 1 - round(r["y"] / cell_h)
+        assert r["width"] == pytest.approx(cell_w) and r["height"] == pytest.approx(cell_h)
+        assert 0 <= i < ny and 0 <= j < nx and np.isfinite(fit[i, j]), (i, j)
+        assert fields(r)["world"] == keys[i][j]
+        assert float(fields(r)[next(k for k in fields(r) if k.startswith("best world"))]) == pytest.approx(fit[i, j])
+        assert np.abs(np.array(css_rgb(r["fill"])) - cmap_rgb(fit[i, j])).max() <= 12, (i, j, r["fill"])
+        seen.add((i, j))
+        assert r["y"] + cell_h <= plot_h + 0.5
+    assert len(seen) == len(rects)
 
 
 def test_illumination_map_colours_filled_cells_by_their_best_world() -> None:
@@ -64,36 +90,37 @@ def test_illumination_map_colours_filled_cells_by_their_best_world() -> None:
     fit, keys = illumination_grid(points, X_RANGE, Y_RANGE, BINS)
     assert np.array_equal(np.isfinite(fit), [[True, False, True], [False, False, True]])
     assert (fit[0, 0], fit[1, 2], fit[0, 2]) == (0.3, 0.9, 0.6) and keys[1][2] == "b"
-    img = rgb(illumination_figure(points, x="obstruction", y="roughness", x_range=X_RANGE, y_range=Y_RANGE,
-                                  bins=BINS))
-    cmap = colormaps[MAP_CMAP]
-    for i in range(BINS[1]):
-        for j in range(BINS[0]):
-            patch = cell_patch(img, i, j)
-            if np.isfinite(fit[i, j]):
-                assert coloured(patch).all(), (i, j)
-                want = np.array(cmap(fit[i, j])[:3])
-                assert np.abs(patch.reshape(-1, 3).mean(axis=0) - want).max() < 0.05, (i, j)
-            else:
-                assert not coloured(patch).any() and (patch > 0.8).all(), (i, j)
+    spec = illumination_map(points, x="obstruction", y="roughness", x_range=X_RANGE, y_range=Y_RANGE, bins=BINS)
+    check_map(spec, fit, keys, X_RANGE, Y_RANGE)
+    assert spec["title"] == "Illumination map: 3 of 6 cells filled"
 
 
 def test_an_empty_map_is_blank_and_axes_name_their_units() -> None:
-    img = rgb(illumination_figure([], x="barn_dispersion", y="path_ratio", bins=BINS))
-    for i in range(BINS[1]):
-        for j in range(BINS[0]):
-            assert not coloured(cell_patch(img, i, j)).any()
+    spec = illumination_map([], x="barn_dispersion", y="path_ratio", bins=BINS)
+    assert marks(spec, "cells") == []
+    titles = [spec["encoding"][a]["title"] for a in ("x", "y")]
+    from navstress.search.objectives import get_descriptor
+    assert titles == [get_descriptor("barn_dispersion", "x").axis_label, get_descriptor("path_ratio", "y").axis_label]
     with pytest.raises(SpecError) as ei:
-        illumination_figure([], x="obstructon", y="roughness")
+        illumination_map([], x="obstructon", y="roughness")
     assert ei.value.field == "x" and "obstruction" in str(ei.value)
     with pytest.raises(SpecError, match="y_range"):
-        illumination_figure([], x="obstruction", y="roughness", y_range=(1.0, 1.0))
+        illumination_map([], x="obstruction", y="roughness", y_range=(1.0, 1.0))
     with pytest.raises(SpecError, match="vmax"):
-        illumination_figure([], x="obstruction", y="roughness", vmax=0.0)
+        illumination_map([], x="obstruction", y="roughness", vmax=0.0)
     with pytest.raises(SpecError, match="bins.x"):
         illumination_grid([], X_RANGE, Y_RANGE, (0, 2))
     with pytest.raises(SpecError, match="fitness"):
         illumination_grid([{"x": 1.0, "y": 0.5}], X_RANGE, Y_RANGE, BINS)
+
+
+@settings(max_examples=6, deadline=None)
+@given(points=st.lists(st.builds(MapPoint, st.floats(-10, 40), st.floats(-0.5, 1.5), st.floats(0, 1),
+                                 st.sampled_from("abcdefgh")), max_size=20))
+def test_the_drawn_map_is_its_grid(points: list[MapPoint]) -> None:
+    fit, keys = illumination_grid(points, X_RANGE, Y_RANGE, BINS)
+    check_map(illumination_map(points, x="obstruction", y="roughness", x_range=X_RANGE, y_range=Y_RANGE,
+                               bins=BINS), fit, keys, X_RANGE, Y_RANGE)
 
 
 points_st = st.lists(st.builds(MapPoint, st.floats(-10, 40), st.floats(-0.5, 1.5), st.floats(0, 1),
@@ -130,16 +157,44 @@ def test_found_curve_counts_distinct_worlds_in_run_order(evs: list[Found]) -> No
         assert found_curve(list(reversed(evs))) == c
 
 
-def test_found_figure_draws_each_method() -> None:
+def lines_by_method(spec: dict) -> dict[str, list[dict]]:
+    out: dict[str, list[dict]] = {}
+    for v in marks(spec, "lines"):
+        out.setdefault(fields(v)["method"], []).append(v)
+    return out
+
+
+def test_found_chart_draws_each_method_in_its_colour() -> None:
     search = [Found(10 * k, f"s{k % 4}", k % 2 == 0) for k in range(1, 12)]
     rand = [{"runs": 10 * k, "key": f"r{k}", "found": k == 7} for k in range(1, 12)]
     assert found_curve(search)[-1] == (110, 2) and found_curve(rand)[-1] == (110, 1)
-    img = rgb(found_figure({"search": search, "random": rand}, budget=120))
-    assert near(img, METHOD_COLOURS["search"]).sum() > 50 and near(img, METHOD_COLOURS["random"]).sum() > 50
-    only = rgb(found_figure({"random": rand}, what="failing worlds"))
-    assert near(only, METHOD_COLOURS["search"]).sum() == 0 and near(only, METHOD_COLOURS["random"]).sum() > 50
+    spec = found_against_runs({"search": search, "random": rand}, budget=120)
+    lines = lines_by_method(spec)
+    assert sorted(lines) == ["random", "search"]
+    for m, evs in (("search", search), ("random", rand)):
+        assert {css_rgb(v["stroke"]) for v in lines[m]} == {css_rgb(METHOD_COLOURS[m])}
+        assert [(int(fields(v)["runs"]), int(fields(v)["found"])) for v in lines[m]] == found_curve(evs)
+    # a higher count is drawn higher
+    top = {m: min(v["y"] for v in vs) for m, vs in lines.items()}
+    assert top["search"] < top["random"]
+    only = found_against_runs({"random": rand}, what="failing worlds")
+    assert sorted(lines_by_method(only)) == ["random"]
+    assert only["title"] == "Failing worlds found against runs spent"
     with pytest.raises(SpecError, match="runs"):
         found_curve([{"runs": -1, "key": "a", "found": True}])
+
+
+def test_a_confirmed_count_is_a_star_of_its_method() -> None:
+    evs = [Found(10 * k, f"s{k}", True) for k in range(1, 4)]
+    plain = found_against_runs({"search": evs})
+    marked = found_against_runs({"search": evs}, confirmed={"search": (30, 2)})
+    assert "confirmed" not in json.dumps(plain)
+    (star,) = marks(marked, "confirmed")
+    assert css_rgb(star["fill"]) == css_rgb(METHOD_COLOURS["search"])
+    assert fields(star)["confirmed"] == "search: 2 confirmed"
+    # at (30 runs, 2 worlds): on the line's scales, between its points at 1 and 3 worlds
+    pts = {int(fields(v)["found"]): v for v in marks(marked, "lines")}
+    assert pts[1]["y"] > star["y"] > pts[3]["y"] and star["x"] == pytest.approx(pts[3]["x"])
 
 
 # ---------------------------------------------------------------- (c) the best worlds and their runs

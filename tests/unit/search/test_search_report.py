@@ -1,7 +1,8 @@
 """The report's Search section on real search directories (tests/search_dirs.py: a tiny MAP-Elites
 search whose map has a space path as an axis, and a random baseline): every number it shows is
-search.json's, its figures are read back pixel by pixel, and a bad ``--baseline`` is one line and
-exit 2 with no report written."""
+search.json's, its charts are read back mark by mark as the real Vega renderer draws them (its
+picture of the best worlds pixel by pixel), and a bad ``--baseline`` is one line and exit 2 with no
+report written."""
 
 from __future__ import annotations
 
@@ -15,7 +16,6 @@ from typing import Any
 
 import numpy as np
 import pytest
-from matplotlib import colormaps
 from matplotlib.colors import to_rgb
 from matplotlib.image import imread
 
@@ -26,8 +26,11 @@ from navstress.campaign.store import Store  # noqa: E402
 from navstress.errors import SpecError  # noqa: E402
 from navstress.run.figures import OUTCOME_COLOURS  # noqa: E402
 from navstress.search.driver import CONFIRM  # noqa: E402
-from navstress.search.figures import (MAP_AXES, MAP_CMAP, METHOD_COLOURS, found_figure,  # noqa: E402
-                                      illumination_figure, illumination_grid)
+from chart_render import fields, marks  # noqa: E402
+from chart_render import rgb as css_rgb  # noqa: E402
+from navstress.analysis.charts import METHOD_COLOURS  # noqa: E402
+from navstress.search.figures import illumination_grid, illumination_map  # noqa: E402
+from test_search_figures import check_map  # noqa: E402
 from navstress.search.report import STOPPED, search_section, search_sections  # noqa: E402
 from search_dirs import SEARCH, SearchDirs  # noqa: E402
 
@@ -42,6 +45,15 @@ def png_of(html: str, name: str) -> np.ndarray:
     assert m, f"figure {name} not in the section"
     img = imread(io.BytesIO(base64.b64decode(m.group(1))), format="png")
     return np.asarray(img[..., :3], np.float64)
+
+
+def spec_of(html: str, name: str) -> dict[str, Any]:
+    """The specification of the chart ``name`` as the page holds it."""
+    m = re.search(rf'<div class="chart" data-figure="{re.escape(name)}"[^>]*><div class="vl"></div>'
+                  r'<script type="application/json">(.*?)</script>', html, re.S)
+    assert m, f"chart {name} not in the section"
+    spec: dict[str, Any] = json.loads(m.group(1))
+    return spec
 
 
 def near(px: np.ndarray, colour: str, tol: float = 0.08) -> np.ndarray:
@@ -101,14 +113,6 @@ def test_it_says_what_was_searched(section: str, tiny_searches: SearchDirs) -> N
     assert f'id="search-confirmed" data-value="{d["confirmed"]}"' in section
 
 
-def cell_patch(img: np.ndarray, i: int, j: int, bins: tuple[int, int]) -> np.ndarray:
-    h, w = img.shape[:2]
-    left, bottom, width, height = MAP_AXES
-    cx = (left + width * (j + 0.5) / bins[0]) * w
-    cy = (1.0 - (bottom + height * (i + 0.5) / bins[1])) * h
-    return img[int(cy) - 3:int(cy) + 4, int(cx) - 3:int(cx) + 4]
-
-
 def test_the_illumination_map_holds_every_evaluated_candidate_on_a_space_path_axis(
         section: str, tiny_searches: SearchDirs) -> None:
     d = result(tiny_searches.search)
@@ -125,27 +129,20 @@ def test_the_illumination_map_holds_every_evaluated_candidate_on_a_space_path_ax
     for r in table:
         i, j = map(int, re.search(r'data-cell="(\d+),(\d+)"', r).groups())  # type: ignore[union-attr]
         assert f'data-key="{keys[i][j]}"' in r and float(field(r, "fitness")) == fit[i, j]
-    img = png_of(section, "search-illumination")
-    cmap = colormaps[MAP_CMAP]
-    for i in range(bins[1]):
-        for j in range(bins[0]):
-            patch = cell_patch(img, i, j, bins).reshape(-1, 3)
-            if np.isfinite(fit[i, j]):
-                assert np.abs(patch.mean(axis=0) - np.array(cmap(fit[i, j])[:3])).max() < 0.05, (i, j)
-            else:
-                assert (patch > 0.8).all(), (i, j)  # blank
+    check_map(spec_of(section, "search-illumination"), fit, keys, (dx["low"], dx["high"]), (dy["low"], dy["high"]))
 
 
 def test_a_space_path_axis_needs_its_range_and_an_unknown_name_is_refused() -> None:
     pts = [{"x": 10.0, "y": 0.5, "fitness": 1.0}]
-    labelled = illumination_figure(pts, x="obstruction", y="ground.deformation", y_range=(0.0, 1.5))
-    relabelled = illumination_figure(pts, x="obstruction", y="ground.deformation", y_range=(0.0, 1.5),
-                                     y_label="deformation d [m]")
-    assert labelled != relabelled  # the label is drawn
+    labelled = illumination_map(pts, x="obstruction", y="ground.deformation", y_range=(0.0, 1.5))
+    relabelled = illumination_map(pts, x="obstruction", y="ground.deformation", y_range=(0.0, 1.5),
+                                  y_label="deformation d [m]")
+    assert labelled["encoding"]["y"]["title"] == "ground.deformation"  # named by its path
+    assert relabelled["encoding"]["y"]["title"] == "deformation d [m]"
     with pytest.raises(SpecError, match="^y="):
-        illumination_figure(pts, x="obstruction", y="ground.deformation")  # no range: no natural one to take
+        illumination_map(pts, x="obstruction", y="ground.deformation")  # no range: no natural one to take
     with pytest.raises(SpecError, match="^x="):
-        illumination_figure(pts, x="obstructoin", y="roughness")
+        illumination_map(pts, x="obstructoin", y="roughness")
 
 
 def test_found_against_runs_shows_seen_and_confirmed_for_search_and_baseline(
@@ -157,19 +154,18 @@ def test_found_against_runs_shows_seen_and_confirmed_for_search_and_baseline(
         for r, (_, data) in zip(table, methods):
             assert int(field(r, "runs")) == data["runs"] and int(field(r, "seen")) == data["found"]
             assert int(field(r, "confirmed")) == data["confirmed"] and int(field(r, "elites")) == len(data["elites"])
-    alone, both = png_of(section, "search-found"), png_of(with_baseline, "search-found")
-    assert near(alone, METHOD_COLOURS["search"]).sum() > 100 and near(alone, METHOD_COLOURS["random"]).sum() == 0
-    assert near(both, METHOD_COLOURS["random"]).sum() > 100 and near(both, METHOD_COLOURS["search"]).sum() > 100
+    alone, both = spec_of(section, "search-found"), spec_of(with_baseline, "search-found")
+    for spec, methods_drawn in ((alone, ["search"]), (both, ["random", "search"])):
+        lines: dict[str, list[dict[str, Any]]] = {}
+        for v in marks(spec, "lines"):
+            lines.setdefault(fields(v)["method"], []).append(v)
+        assert sorted(lines) == methods_drawn
+        for m in methods_drawn:
+            assert {css_rgb(v["stroke"]) for v in lines[m]} == {css_rgb(METHOD_COLOURS[m])}
     assert "--baseline DIR2" in section and "--baseline DIR2" not in with_baseline
-    # the confirmed count is drawn: without it the figure has fewer pixels of the search's colour
-    evs = [{"runs": e["runs_spent"], "key": e["key"], "found": e["found"]} for e in d["evaluated"]]
-    plain = png_of_bytes(found_figure({"search": evs}, what=d["found_what"]))
-    marked = png_of_bytes(found_figure({"search": evs}, what=d["found_what"], confirmed={"search": (8, 2)}))
-    assert near(marked, METHOD_COLOURS["search"]).sum() > near(plain, METHOD_COLOURS["search"]).sum() + 30
-
-
-def png_of_bytes(png: bytes) -> np.ndarray:
-    return np.asarray(imread(io.BytesIO(png), format="png")[..., :3], np.float64)
+    # the confirmed count is drawn as the search's star at its runs and count
+    stars = {fields(x)["confirmed"] for x in marks(alone, "confirmed")}
+    assert stars == {f"search: {d['confirmed']} confirmed"}
 
 
 def test_the_best_worlds_are_the_elites_confirmed_first_with_their_confirmation_runs(
