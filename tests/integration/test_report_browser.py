@@ -273,8 +273,28 @@ def test_report_tables_sort_filter_and_link_runs_to_their_traces(page, tmp_path:
     assert f"m{failing.map_index} r{failing.run_index} " in (line.locator("title").text_content() or "")
     line.locator("polyline").dispatch_event("click")
     assert section.locator(f"table.runs tr.hl[data-run='{failing.run_id}']").count() == 1
+    # its own view opens with its row's facts, its trajectories and its perceived map
+    panel = section.locator(".runview")
+    assert panel.is_visible() and panel.get_attribute("data-run") == failing.run_id
+    facts = dict(zip(panel.locator("dt").all_inner_texts(), panel.locator("dd").all_inner_texts()))
+    assert facts["reason"] == failing.reason and facts["run seed"] == str(failing.run_seed)
+    assert facts["outcome"] == "Fail-TimeOut" and facts["map seed"] == str(failing.map_seed)
+    href = panel.locator("a[data-trace]").get_attribute("href")
+    assert href is not None and (out.parent / href).resolve() == (root / failing.trace).resolve()  # type: ignore[operator]
+    for kind in ("run", "runmap"):
+        pic = panel.locator(f"svg.map[data-figure='{kind}-{failing.run_id}']")
+        assert pic.count() == 1 and pic.bounding_box()["width"] > 200, kind
+    assert panel.locator(f"svg.map[data-figure='run-{failing.run_id}'] polyline.perceived").count() == 1
+    # the perceived map's picture decodes
+    assert panel.locator("svg.map image").evaluate(
+        "e => { const i = new Image(); i.src = e.getAttribute('href'); return i.decode().then(() => i.naturalWidth); }") > 10
+    panel.locator("button.close").click()
+    assert not panel.is_visible()
     other = next(r for r in mine if r.outcome == "success")
     section.locator(f"table.runs tr[data-run='{other.run_id}'] td").first.click()
+    # a successful run's view: its facts, no embedded picture
+    assert panel.is_visible() and panel.get_attribute("data-run") == other.run_id
+    assert panel.locator("svg.map").count() == 0 and "successful run" in panel.inner_text()
     marked = page.evaluate("Array.from(document.querySelectorAll('svg.map g.hl')).map(g => g.dataset.run)")
     assert marked and set(marked) == {other.run_id}
     assert section.locator(f"table.runs tr.hl").count() == 1

@@ -11,7 +11,8 @@ per experiment, navigator and fault a strip of its worlds: pass probability, exa
 class; the worlds that do not pass listed), indeterminism, fault power,
 descriptor correlations, and one section per configuration (every map with all its runs
 colour-coded by outcome, one real-vs-perceived picture, the final perceived map, and a table of
-its runs with seeds, reason and a link to each trace).
+its runs with seeds, reason and a link to each trace; a click on a run opens its own view: its
+facts and, for a failing run, its trajectories and its final perceived map).
 
 Every figure and table says which navigator (and fault) it shows: per-configuration pictures
 are drawn per map and per (navigator, fault), never mixing runs of two navigators, and their
@@ -37,6 +38,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from navstress._percent import percent, setting
 from navstress.analysis.analyze import Analysis, TrajectoryCache, analyze, trace_path
@@ -73,6 +76,11 @@ table.sortable th[aria-sort=ascending]::after{content:" \\25B2";font-size:.7em}
 table.sortable th[aria-sort=descending]::after{content:" \\25BC";font-size:.7em}
 input.filter{margin:.3em 0;padding:.2em .4em;width:20em;font:inherit}
 details.runs summary{cursor:pointer;margin:.4em 0}
+.runview{border:1px solid #ccc;border-radius:4px;padding:.4em 1em;margin:.6em 0;background:#fafafa}
+.runview h4{margin:.2em 0}.runview button.close{float:right;font:inherit}
+.runview dl{display:grid;grid-template-columns:max-content 1fr;gap:.1em 1em;font-size:.9em;margin:.4em 0}
+.runview dt{color:#555}.runview dd{margin:0}
+.runview .pair{display:flex;flex-wrap:wrap;gap:.6em}.runview .pair svg.map{width:380px;cursor:default}
 """
 
 #: Tables a reader sorts by clicking a column's header (then again for the other direction):
@@ -125,8 +133,37 @@ function select(id,toRow){
   gs.forEach(function(g){g.classList.add('hl');g.ownerSVGElement.classList.add('dim');});
   var row=document.querySelector('table.runs tr'+q);
   if(row) row.classList.add('hl');
+  var panel=showRun(id,row);
   if(toRow&&row){var d=row.closest('details');if(d) d.open=true;row.scrollIntoView({block:'center'});}
+  else if(!toRow&&panel) panel.scrollIntoView({block:'nearest'});
   else if(!toRow&&gs.length) gs[0].ownerSVGElement.scrollIntoView({block:'center'});
+}
+// a run's own view, in its configuration's panel: its row's cells (outcome, reason, seeds, trace
+// link) and, for a failing run, its embedded pictures (a <template>, inert until shown)
+function showRun(id,row){
+  if(!row) return null;
+  var sec=row.closest('section'), panel=sec&&sec.querySelector('.runview');
+  if(!panel) return null;
+  var heads=Array.prototype.map.call(row.closest('table').rows[0].cells,function(th){return th.textContent.trim();});
+  var dl=document.createElement('dl');
+  Array.prototype.forEach.call(row.cells,function(td,i){
+    var dt=document.createElement('dt'), dd=document.createElement('dd');
+    dt.textContent=heads[i]; dd.innerHTML=td.innerHTML; dl.append(dt,dd);
+  });
+  var h=document.createElement('h4'); h.textContent='Run '+id;
+  var close=document.createElement('button'); close.type='button'; close.className='close'; close.textContent='close';
+  close.addEventListener('click',function(){panel.hidden=true;});
+  panel.replaceChildren(close,h,dl);
+  var t=sec.querySelector('template[data-run-view="'+CSS.escape(id)+'"]');
+  if(t) panel.appendChild(t.content.cloneNode(true));
+  else{
+    var p=document.createElement('p'); p.className='note';
+    p.textContent=row.dataset.outcome==='success'?'A successful run: its line is marked on the maps above; its '+
+      'perceived map is in its trace.':'No picture embedded for this run: its trace holds it.';
+    panel.appendChild(p);
+  }
+  panel.setAttribute('data-run',id); panel.hidden=false;
+  return panel;
 }
 document.querySelectorAll('svg.map').forEach(function(svg){
   svg.addEventListener('click',function(ev){
@@ -558,17 +595,23 @@ def _groups(recs: list[RunRecord], navigators: list[str]) -> list[tuple[str, str
 
 def _configs(a: Analysis, cache: TrajectoryCache, max_points: int, link_base: Path | None = None) -> str:
     shown = ", ".join(a.shown_navigators)
+    budget = _Budget(MAX_RUN_VIEWS)
     out = ['<h2 id="configurations">Configurations</h2>',
            f'<p class="note">Every map with its runs, one picture per navigator and fault (runs of {_e(shown)}), '
            'colour-coded by outcome; then, per navigator, one run in detail. Hover a run to name it, click it '
-           'to find its row in the runs table (and a row to find its run); click a picture to enlarge it.</p>',
+           'to find its row in the runs table (and a row to find its run) and to open its own view: outcome, '
+           'reason, seeds, trace and, for a failing run, its real and perceived trajectories and its final '
+           'perceived map; click a picture to enlarge it.</p>',
            svgmap.legend_html(OUTCOME_LABELS)]
     by_cfg: dict[tuple[str, str], list[RunRecord]] = {}
     for r in a.records:
         if a.shows(r.navigator):
             by_cfg.setdefault((r.experiment, config_key(r)), []).append(r)
-    # every shown run is drawn: read the trajectories the analysis did not (faults, other navigators) at once
+    # every shown run is drawn: read the trajectories the analysis did not (faults, other navigators) at once,
+    # and the beliefs of the failing runs (their own views)
     cache.prefetch([trace_path(a.root, r) for recs in by_cfg.values() for r in recs])
+    cache.prefetch([trace_path(a.root, r) for recs in by_cfg.values() for r in recs
+                    if r.outcome != Outcome.SUCCESS.value][:budget.left], TOPIC_PERCEIVED)
     keys = list(dict.fromkeys([s.key for s in a.stats]))
     for key in keys:
         e, k = key
@@ -641,11 +684,95 @@ def _configs(a: Analysis, cache: TrajectoryCache, max_points: int, link_base: Pa
                             f'{svg}<figcaption>{_e(name)}: the navigator\'s map at the end, height from low '
                             f'(purple) to high (yellow); pink: never seen ({_e(percent(share))} of the map); '
                             'black outlines: the real obstacles</figcaption></figure>')
+        views = []
+        outlines: dict[int, str] = {}
+        for r in sorted(recs, key=lambda r: (r.map_index, r.run_index, r.navigator, fault_name(r.fault))):
+            if r.outcome == Outcome.SUCCESS.value or r.map_index not in worlds:
+                continue
+            if budget.left <= 0:
+                budget.skipped += 1
+                continue
+            m = r.map_index
+            if m not in outlines:
+                od, outlines[m] = svgmap.outline_defs(worlds[m], f"{gids[m]}-outline")
+                defs.append(od)
+            view = _run_view(r, worlds[m], gids[m], a.root, cache, max_points, outlines[m])
+            if view:
+                views.append(view)
+                budget.left -= 1
         out.append('<svg width="0" height="0" style="position:absolute" aria-hidden="true"><defs>'
                    + "".join(defs) + "</defs></svg>"
-                   + '<div class="maps">' + "".join(figs) + "</div>" + _runs_table(e, k, recs, a.root, link_base)
-                   + "</section>")
+                   + '<div class="maps">' + "".join(figs) + "</div>"
+                   + '<div class="runview" hidden></div>' + "".join(views)
+                   + _runs_table(e, k, recs, a.root, link_base) + "</section>")
+    if budget.skipped:
+        out.append(f'<p class="note" id="run-views-skipped">{budget.skipped} failing runs have no embedded view '
+                   f'(at most {MAX_RUN_VIEWS} per report, for its size): their trace links hold them.</p>')
     return "\n".join(out)
+
+
+#: At most this many failing runs get their embedded per-run view (about 5 kB each).
+MAX_RUN_VIEWS = 1000
+#: A per-run perceived map is drawn with at most this many cells along its longer side.
+RUN_VIEW_CELLS = 160
+
+
+@dataclass
+class _Budget:
+    left: int
+    skipped: int = 0
+
+
+def coarse_grid(grid: np.ndarray, origin_xy: tuple[float, float], cell_m: float, max_cells: int
+                ) -> tuple[np.ndarray, tuple[float, float], float]:
+    """A grid with at most ``max_cells`` cells along its longer side: blocks of k x k cells, each
+    the highest known height in it (unknown when none is known), the same origin, cells k times as
+    large (the last block of a side may extend past the grid, as unknown cells)."""
+    g = np.asarray(grid, dtype=np.float64)
+    rows, cols = g.shape
+    k = max(1, -(-max(rows, cols) // max_cells))
+    if k == 1:
+        return g, origin_xy, cell_m
+    pad = np.full((-(-rows // k) * k, -(-cols // k) * k), -np.inf)
+    pad[:rows, :cols] = np.where(np.isfinite(g), g, -np.inf)
+    top = pad.reshape(pad.shape[0] // k, k, pad.shape[1] // k, k).max(axis=(1, 3))
+    return np.where(np.isfinite(top), top, np.nan), origin_xy, cell_m * k
+
+
+def _run_view(rec: RunRecord, world: World, gid: str, root: Path, cache: TrajectoryCache, max_points: int,
+              outlines: str) -> str:
+    """A failing run's own view, shown when its row or line is clicked (an inert ``<template>``
+    until then): its real and perceived trajectories over its world, and its final perceived map
+    (coarsened to :data:`RUN_VIEW_CELLS`, under the real obstacles' ``outlines``: a ``<use>`` of
+    the map's outline); '' when its trace holds neither."""
+    fault = fault_name(rec.fault)
+    name = _run_name(rec)
+    tr = _track(rec, root, cache, max_points, perceived=True, world=world)
+    one = (_e(rec.run_id), tr, _e(_tip(rec))) if tr is not None else None
+    parts = []
+    if one is not None:
+        parts.append(svgmap.runs_svg(world, gid, [one], perceived=True,
+                                     label=_e(f"real vs perceived trajectory of {name}"),
+                                     attrs=_fig_attrs(f"run-{rec.run_id}", rec.navigator, fault)))
+    tp = trace_path(root, rec)
+    try:
+        grid = read_grid(tp, TOPIC_MAP) if tp is not None and tp.exists() else None
+    except Exception:
+        grid = None
+    share = None
+    if grid is not None:
+        # (the trajectory is in the picture beside it)
+        svg, share = svgmap.perceived_svg(world, *coarse_grid(grid[0], grid[1], grid[2], RUN_VIEW_CELLS), None,
+                                          label=_e(f"final perceived map of {name}"),
+                                          attrs=_fig_attrs(f"runmap-{rec.run_id}", rec.navigator, fault),
+                                          outlines=outlines)
+        parts.append(svg)
+    if not parts:
+        return ""
+    seen = "" if share is None else f"; its map at the end: pink never seen ({percent(share)} of the map)"
+    return (f'<template data-run-view="{_e(rec.run_id)}"><div class="pair">{"".join(parts)}</div>'
+            f'<p class="note">real (solid) and perceived (dashed) trajectory{_e(seen)}, the real obstacles outlined'
+            '</p></template>')
 
 
 def _size(w: World) -> str:

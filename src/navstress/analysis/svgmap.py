@@ -193,6 +193,16 @@ def obstacle_outlines(world: World) -> str:
     return f'<path class="outline" d="{d}"/>' if d else ""
 
 
+def outline_defs(world: World, gid: str) -> tuple[str, str]:
+    """(defs, use): every obstacle's outline once as ``<path id=gid>`` for a hidden ``<defs>``, and
+    the ``<use>`` that draws it in a picture of the same world ('' and '' without obstacles)."""
+    sy = world.size_m[1]
+    d = "".join(_path(o.corners(), sy) for o in world.obstacles)
+    # styled here: the page's ".map .outline" rule does not reach a path drawn through <use> from elsewhere
+    return (f'<path id="{gid}" d="{d}" fill="none" stroke="#000" stroke-width=".6px" '
+            'vector-effect="non-scaling-stroke"/>', f'<use href="#{gid}"/>') if d else ("", "")
+
+
 def _movers_at(world: World, movers: tuple[np.ndarray, np.ndarray], at: float, sy: float) -> str:
     out = []
     for mv, x, y, corners in movers_at(world, movers[0], movers[1], at):
@@ -236,10 +246,12 @@ def runs_svg(world: World, gid: str, tracks: list[tuple[str, RunTrack, str]], *,
 
 
 def perceived_svg(world: World, grid: np.ndarray, origin_xy: tuple[float, float], cell_m: float,
-                  track: tuple[str, RunTrack, str] | None, *, label: str = "", attrs: str = "") -> tuple[str, float]:
+                  track: tuple[str, RunTrack, str] | None, *, label: str = "", attrs: str = "",
+                  outlines: str | None = None) -> tuple[str, float]:
     """The navigator's final perceived elevation map (viridis, unknown cells pink) under the real
-    obstacles' outlines and the run's real trajectory; returns the SVG and the unknown share of
-    the map (cells inside it that were never seen)."""
+    obstacles' outlines (``outlines``: the markup that draws them, e.g. a ``<use>`` of
+    :func:`outline_defs`; by default drawn here) and the run's real trajectory; returns the SVG and
+    the unknown share of the map (cells inside it that were never seen)."""
     from matplotlib import colormaps
 
     sx, sy = world.size_m
@@ -269,7 +281,7 @@ def perceived_svg(world: World, grid: np.ndarray, origin_xy: tuple[float, float]
     body = [f'<rect width="{_n(sx)}" height="{_n(sy)}" fill="#fff"/>',
             f'<image href="{img}" x="{_n(origin_xy[0])}" y="{_n(top)}" width="{_n(cols * cell_m)}" '
             f'height="{_n(rows * cell_m)}" preserveAspectRatio="none" style="image-rendering:pixelated"/>',
-            obstacle_outlines(world)]
+            obstacle_outlines(world) if outlines is None else outlines]
     if track is not None and len(_finite(track[1].truth[:, 1:3])):
         run_id, tr, tip = track
         tol = 1e-3 * max(sx, sy)
