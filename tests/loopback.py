@@ -13,6 +13,7 @@ from __future__ import annotations
 import functools
 import ipaddress
 import os
+import socket
 import subprocess
 
 # "ip" may be missing: then bring loopback up through Python (SIOCSIFFLAGS is what ip does)
@@ -110,3 +111,10 @@ def sockets_of_tree(root: int) -> list[tuple[str, str, str]]:
             if target.startswith("socket:[") and int(target[8:-1]) in bound:
                 out.append((name, *bound[int(target[8:-1])]))
     return out
+
+
+def free_port() -> int:
+    """A TCP port free on 127.0.0.1 just now (for a server a test starts)."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])

@@ -25,6 +25,7 @@ from navstress.campaign.executors import run_campaign
 from navstress.campaign.replay import replay
 from navstress.campaign.store import Store, read_export
 import loopback
+from cli_run import cli
 from built_once import built_once
 from campaign_kill import kill_when_recorded
 
@@ -110,6 +111,40 @@ def test_replay_identity(resumed: Path, tmp_path: Path) -> None:
         stored.write_bytes(original)
     result = CliRunner().invoke(_replay_app(), [str(resumed), rec.run_id])
     assert result.exit_code == 0 and "identical" in result.output
+
+
+def test_replay_records_more_when_asked_and_compares_the_record(resumed: Path, tmp_path: Path) -> None:
+    """Any stored run opened in full: its lidar and its navigator's view recorded by a replay of the
+    same seeds, the same run (same record), the stored trace untouched; and watched live."""
+    from mcap.reader import make_reader
+
+    from navstress.run.live import LiveSettings
+    from navstress.run.trace import TOPIC_DEBUG, TOPIC_LIDAR, TOPIC_TRUTH, read_debug, read_poses
+
+    with Store.open(resumed) as s:
+        rec = s.records()[-1]
+    stored = resumed / rec.trace  # type: ignore[operator]
+    before = stored.read_bytes()
+    full = tmp_path / "full.mcap"
+    r = replay(resumed, rec.run_id, keep=full, lidar=True, navigator_view=True)
+    assert r.fuller and r.identical and r.record_differences == (), r.record_differences
+    with open(full, "rb") as f:
+        topics = {c.topic for c in make_reader(f).get_summary().channels.values()}  # type: ignore[union-attr]
+    assert {TOPIC_LIDAR, TOPIC_DEBUG} <= topics
+    assert read_debug(full)  # reference-v1's arcs, step by step
+    assert (read_poses(full, TOPIC_TRUTH) == read_poses(stored, TOPIC_TRUTH)).all()  # the same run
+    assert stored.read_bytes() == before
+    # the CLI: the fuller trace needs somewhere to go; the comparison is the record's
+    code, out, err = cli("replay", str(resumed), rec.run_id, "--lidar")
+    assert code == 2 and "--keep" in err and len(err.strip().splitlines()) == 1 and out == "", err
+    code, out, err = cli("replay", str(resumed), rec.run_id, "--live", "--speed", "0")
+    assert code == 2 and "--speed" in err and len(err.strip().splitlines()) == 1, err
+    code, out, err = cli("replay", str(resumed), rec.run_id, "--navigator-view", "--keep", str(tmp_path / "v.mcap"))
+    assert code == 0 and "same run" in out and (tmp_path / "v.mcap").is_file(), (out, err)
+    # live, with no viewer: it waits no longer than asked and runs paced, the same run
+    live = replay(resumed, rec.run_id, live=LiveSettings(host="127.0.0.1", port=loopback.free_port(), speed=1000.0,
+                                                          wait_s=0.0))
+    assert live.fuller and live.identical
 
 
 def _replay_app() -> Any:

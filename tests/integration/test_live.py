@@ -15,6 +15,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+import loopback
 import pytest
 
 from cli_run import cli
@@ -25,12 +27,6 @@ pytestmark = pytest.mark.slow
 NAVSTRESS = [sys.executable, "-m", "navstress.cli"]
 SPEED = 4.0
 TOPICS = _topics()
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 def _classes() -> dict[str, Any]:
@@ -116,7 +112,7 @@ def world(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def test_a_live_run_is_watched_as_it_goes_and_is_the_same_run(world: Path, tmp_path: Path) -> None:
-    port = _free_port()
+    port = loopback.free_port()
     out = tmp_path / "live"
     proc = subprocess.Popen([*NAVSTRESS, "run", str(world), "-o", str(out), "--timeout", "20", "--seed", "4",
                              "--live", "--live-port", str(port), "--live-wait", "120", "--speed", str(SPEED)],

@@ -4,7 +4,9 @@ checks of output paths made before any work."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
+
+import typer
 
 from navstress import _files
 from navstress.campaign.spec import MAX_WORKERS
@@ -14,7 +16,9 @@ from navstress.nav.registry import load_config
 from navstress.world.world import is_world_dir
 
 __all__ = ["MAX_RUNS", "MAX_SEED", "MAX_TIMEOUT_S", "MAX_WALL_S", "MAX_WORKERS", "Stopped", "check_executor_flags", "NAV_CONFIG_HELP", "bounded_int",
-           "check_file_out", "check_out_dir", "integer", "load_navigator_config", "number", "probe_writable"]
+           "check_file_out", "check_out_dir", "integer", "load_navigator_config", "number", "probe_writable",
+           "LidarOpt", "LiveHostOpt", "LiveOpt", "LivePortOpt", "LiveWaitOpt", "NavigatorViewOpt", "SpeedOpt",
+           "live_settings"]
 
 #: Largest seed a flag takes (seeds are stored as signed 64-bit integers).
 MAX_SEED = 2**63 - 1
@@ -72,3 +76,51 @@ def check_executor_flags(executor: str, workers: int | None, wall_limit: float |
         raise SpecError("--workers", workers, f"an integer in [1, {MAX_WORKERS}]")
     if wall_limit is not None and not 0 < wall_limit <= MAX_WALL_S:
         raise SpecError("--wall-limit", wall_limit, "seconds in (0, 2592000]")
+
+
+# ---- what a run records and the live view (navstress run, navstress replay) -----------------------
+
+LidarOpt = Annotated[bool, typer.Option("--lidar", help=(
+    "Also record lidar point clouds in the traces (one full scan per simulated second, map frame)."))]
+NavigatorViewOpt = Annotated[bool, typer.Option("--navigator-view", help=(
+    "Also record the navigator's own view in the traces: what it draws after each step (reference-v1: "
+    "its arcs, the elected one, its choice) on /nav/debug, and its map once per simulated second on "
+    "/nav/map."))]
+LiveOpt = Annotated[bool, typer.Option("--live", help=(
+    "Watch each run in Foxglove as it happens: serve it on a Foxglove WebSocket (ws://HOST:PORT, "
+    "127.0.0.1:8765 by default), start when a client subscribes, and run at --speed; implies "
+    "--navigator-view (the trace is the same as without --live)."))]
+LiveHostOpt = Annotated[str, typer.Option(metavar="HOST", help=(
+    "Address the live view binds to. Default 127.0.0.1 (this machine only)."))]
+LivePortOpt = Annotated[str, typer.Option(metavar="PORT", help="Port of the live view, in [1, 65535]. Default 8765.")]
+LiveWaitOpt = Annotated[str, typer.Option(metavar="S", help=(
+    "With --live: longest wait in seconds for a client before each run starts anyway, in [0, 3600]. "
+    "Default 30."))]
+SpeedOpt = Annotated[str, typer.Option(metavar="X", help=(
+    "With --live: simulated seconds per real second, in (0, 1000]. Default 1 (real time)."))]
+
+
+def live_settings(host: str, port: str, wait: str, speed: str) -> Any:
+    """The live view's settings, checked: a one-line error for a bad value or a port in use."""
+    import socket
+
+    from navstress.run.live import LiveSettings
+
+    port_v = bounded_int("--live-port", port, 1, 65535)
+    wait_v = number("--live-wait", wait, "a duration in seconds in [0, 3600]")
+    if not 0 <= wait_v <= 3600:
+        raise SpecError("--live-wait", wait, "a duration in seconds in [0, 3600]")
+    speed_v = number("--speed", speed, "simulated seconds per real second, in (0, 1000]")
+    if not 0 < speed_v <= 1000:
+        raise SpecError("--speed", speed, "simulated seconds per real second, in (0, 1000]")
+    try:
+        infos = socket.getaddrinfo(host, port_v, type=socket.SOCK_STREAM)
+    except (OSError, UnicodeError):
+        raise SpecError("--live-host", host, "an address of this machine, such as 127.0.0.1") from None
+    family, _type, _proto, _name, addr = infos[0]
+    with socket.socket(family, socket.SOCK_STREAM) as s:
+        try:
+            s.bind(addr)
+        except OSError as err:
+            raise SpecError("--live-port", port, f"a free port on {host} ({err.strerror or err})") from None
+    return LiveSettings(host=host, port=port_v, speed=speed_v, wait_s=wait_v)

@@ -30,7 +30,8 @@ from navstress.campaign.progress import CampaignProgress, format_counts
 from navstress.campaign.replay import replay as do_replay
 from navstress.campaign.spec import MAX_WORKERS
 from navstress.campaign.store import OUTCOMES, Store
-from navstress.cli._common import Stopped, bounded_int, check_executor_flags
+from navstress.cli._common import (LidarOpt, LiveHostOpt, LiveOpt, LivePortOpt, LiveWaitOpt, NavigatorViewOpt, SpeedOpt,
+                                   Stopped, bounded_int, check_executor_flags, live_settings)
 from navstress.errors import SpecError, WorldFileError
 
 app = typer.Typer(rich_markup_mode=None)
@@ -204,10 +205,40 @@ def replay(
     directory: Annotated[Path, typer.Argument(help="Campaign directory.")],
     run_id: Annotated[str, typer.Argument(help="The run to replay (a run_id of the runs table).")],
     keep: Annotated[Path | None, typer.Option("--keep", help="Keep the new trace at this path.")] = None,
+    lidar: LidarOpt = False,
+    navigator_view: NavigatorViewOpt = False,
+    live: LiveOpt = False,
+    live_host: LiveHostOpt = "127.0.0.1",
+    live_port: LivePortOpt = "8765",
+    live_wait: LiveWaitOpt = "30",
+    speed: SpeedOpt = "1",
 ) -> None:
-    """Re-run one run from its recorded seeds; exit 0 if the new trace is byte-identical, 1 if not."""
-    r = do_replay(directory, run_id, keep=keep)
+    """Re-run one run from its recorded seeds; exit 0 if the new trace is byte-identical, 1 if not.
+
+    With --lidar, --navigator-view or --live the replay records more than the campaign did (to
+    open the run in Foxglove with its lidar and its navigator's arcs, --keep FILE, or to watch it
+    live): its trace differs by construction, so the run's record is compared instead (exit 0 when
+    outcome, reason, duration, distances and collisions are the stored ones)."""
+    if (lidar or navigator_view) and keep is None and not live:
+        raise SpecError("--keep", None, "a file for the fuller trace that --lidar/--navigator-view record "
+                        "(or --live to watch the run)")
+    if keep is not None and keep.is_dir():
+        raise SpecError("--keep", str(keep), "a file path (this is a directory)")
+    settings = live_settings(live_host, live_port, live_wait, speed) if live else None
+    if settings is not None:
+        typer.echo(f"live: in Foxglove, Open connection -> Foxglove WebSocket -> ws://{settings.host}:{settings.port}"
+                   f" (the run starts when a client subscribes, or after {settings.wait_s:g} s)", err=True)
+    r = do_replay(directory, run_id, keep=keep, lidar=lidar, navigator_view=navigator_view, live=settings)
     typer.echo(literal(f"{run_id}: stored {r.stored.outcome} ({r.stored.reason}); replayed {r.new.outcome} ({r.new.reason})"))
+    if r.kept_trace is not None:
+        typer.echo(literal(f"kept the new trace at {r.kept_trace}"))
+    if r.fuller:
+        if r.identical:
+            typer.echo("same run: its record matches the stored one (the new trace records more than the stored "
+                       "one, so its bytes are not compared)")
+            return
+        typer.echo(f"DIFFERENT: record fields that differ: {', '.join(r.record_differences)}")
+        raise typer.Exit(1)
     if r.identical:
         typer.echo(literal(f"identical: the new trace has the same bytes as {r.stored_trace} (sha256 {r.new_sha256[:16]})"))
         return

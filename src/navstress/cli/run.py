@@ -14,8 +14,9 @@ from rich.table import Table
 from navstress._console import console
 from navstress._json import pretty as dumps
 from navstress.campaign.store import OUTCOMES
-from navstress.cli._common import (MAX_RUNS, MAX_SEED, MAX_TIMEOUT_S, MAX_WALL_S, NAV_CONFIG_HELP, bounded_int,
-                                   load_navigator_config, number)
+from navstress.cli._common import (MAX_RUNS, MAX_SEED, MAX_TIMEOUT_S, MAX_WALL_S, NAV_CONFIG_HELP, LidarOpt,
+                                   LiveHostOpt, LiveOpt, LivePortOpt, LiveWaitOpt, NavigatorViewOpt, SpeedOpt,
+                                   bounded_int, live_settings, load_navigator_config, number)
 from navstress.errors import SpecError, WorldFileError
 from navstress.nav.registry import build_and_close
 from navstress.run.batch import batch_picture, check_buildable, default_wall_limit_s, plan_batch, run_batch
@@ -38,24 +39,13 @@ def run_cmd(
     seed: Annotated[str, typer.Option(metavar="N", help="Root seed of the run seeds, an integer in [0, 2**63-1]. Default 0.")] = "0",
     timeout: Annotated[str, typer.Option(metavar="S", help="Simulated-time limit of a run in seconds, in (0, 86400]. Default 400.")] = "400",
     goal_tolerance: Annotated[str, typer.Option(metavar="M", help="Success radius around the goal in meters, > 0. Default 2.")] = "2",
-    lidar: Annotated[bool, typer.Option("--lidar", help=(
-        "Also record lidar point clouds in the traces (one full scan per simulated second, map frame).")) ] = False,
-    navigator_view: Annotated[bool, typer.Option("--navigator-view", help=(
-        "Also record the navigator's own view in the traces: what it draws after each step (reference-v1: "
-        "its arcs, the elected one, its choice) on /nav/debug, and its map once per simulated second on "
-        "/nav/map.")) ] = False,
-    live: Annotated[bool, typer.Option("--live", help=(
-        "Watch each run in Foxglove as it happens: serve it on a Foxglove WebSocket (ws://HOST:PORT, "
-        "127.0.0.1:8765 by default), start when a client subscribes, and run at --speed; implies "
-        "--navigator-view (the trace is the same as without --live).")) ] = False,
-    live_host: Annotated[str, typer.Option(metavar="HOST", help=(
-        "Address the live view binds to. Default 127.0.0.1 (this machine only).")) ] = "127.0.0.1",
-    live_port: Annotated[str, typer.Option(metavar="PORT", help="Port of the live view, in [1, 65535]. Default 8765.")] = "8765",
-    live_wait: Annotated[str, typer.Option(metavar="S", help=(
-        "With --live: longest wait in seconds for a client before each run starts anyway, in [0, 3600]. "
-        "Default 30.")) ] = "30",
-    speed: Annotated[str, typer.Option(metavar="X", help=(
-        "With --live: simulated seconds per real second, in (0, 1000]. Default 1 (real time).")) ] = "1",
+    lidar: LidarOpt = False,
+    navigator_view: NavigatorViewOpt = False,
+    live: LiveOpt = False,
+    live_host: LiveHostOpt = "127.0.0.1",
+    live_port: LivePortOpt = "8765",
+    live_wait: LiveWaitOpt = "30",
+    speed: SpeedOpt = "1",
     wall_limit: Annotated[str | None, typer.Option(metavar="S", help=(
         "Wall-clock limit of one run in real seconds, > 0 (a navigator that hangs is killed and its run "
         "recorded as Fail-Other). Default: timeout * 2 + 120.")) ] = None,
@@ -80,7 +70,7 @@ def run_cmd(
         wall_v = number("--wall-limit", wall_limit, f"a duration in seconds in (0, {MAX_WALL_S:g}]")
         if not 0 < wall_v <= MAX_WALL_S:
             raise SpecError("--wall-limit", wall_limit, f"a duration in seconds in (0, {MAX_WALL_S:g}]")
-    settings = _live_settings(live_host, live_port, live_wait, speed) if live else None
+    settings = live_settings(live_host, live_port, live_wait, speed) if live else None
     if settings is not None and wall_v is None:  # paced to the wall clock, after waiting for a client
         wall_v = default_wall_limit_s(timeout_v / settings.speed) + settings.wait_s
     world_seed = World.load(world_dir).seed  # a clear error for a non-world, before anything is written
@@ -130,29 +120,3 @@ def run_cmd(
                       f"{r.path_length_m:.1f}", r.reason)
     con.print(table)
     con.print(f"traces and records in {output}/, picture: {pic}")
-
-
-def _live_settings(host: str, port: str, wait: str, speed: str) -> Any:
-    """The live view's settings, checked: a one-line error for a bad value or a port in use."""
-    import socket
-
-    from navstress.run.live import LiveSettings
-
-    port_v = bounded_int("--live-port", port, 1, 65535)
-    wait_v = number("--live-wait", wait, "a duration in seconds in [0, 3600]")
-    if not 0 <= wait_v <= 3600:
-        raise SpecError("--live-wait", wait, "a duration in seconds in [0, 3600]")
-    speed_v = number("--speed", speed, "simulated seconds per real second, in (0, 1000]")
-    if not 0 < speed_v <= 1000:
-        raise SpecError("--speed", speed, "simulated seconds per real second, in (0, 1000]")
-    try:
-        infos = socket.getaddrinfo(host, port_v, type=socket.SOCK_STREAM)
-    except (OSError, UnicodeError):
-        raise SpecError("--live-host", host, "an address of this machine, such as 127.0.0.1") from None
-    family, _type, _proto, _name, addr = infos[0]
-    with socket.socket(family, socket.SOCK_STREAM) as s:
-        try:
-            s.bind(addr)
-        except OSError as err:
-            raise SpecError("--live-port", port, f"a free port on {host} ({err.strerror or err})") from None
-    return LiveSettings(host=host, port=port_v, speed=speed_v, wait_s=wait_v)
