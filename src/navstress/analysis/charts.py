@@ -31,6 +31,7 @@ from typing import Any, Final
 
 import altair as alt
 
+from navstress.analysis.difficulty import finite_number as _finite  # None: left out of a continuous scale
 from navstress.errors import SpecError
 
 #: Difficulty levels: (Vega-Lite point shape, colour).
@@ -54,17 +55,6 @@ STAR = ("M0,-1L0.2245,-0.309L0.9511,-0.309L0.3633,0.118L0.5878,0.809L0,0.382L-0.
 VL_VERSION = ".".join(alt.SCHEMA_VERSION.lstrip("v").split(".")[:2])
 #: The width of one chart of the page (a row of panels shares about 1,050 px).
 WIDTH = 1000
-
-
-def _num(v: Any) -> float | None:
-    """A finite float, or None (Vega-Lite leaves undefined values out of a continuous scale)."""
-    if v is None or isinstance(v, bool):
-        return None
-    try:
-        f = float(v)
-    except (TypeError, ValueError):
-        return None
-    return f if math.isfinite(f) else None
 
 
 def _data(rows: list[dict[str, Any]]) -> Any:
@@ -100,7 +90,7 @@ def class_chart(experiment: str, stats: Sequence[Any], levels: Mapping[tuple[str
              and (navigator is None or (s.navigator == navigator and s.fault == fault))]
     param = "world" if by_key else next(iter(items[0].params), "configuration") if items else "configuration"
     raw = [s.config_key if by_key else s.params.get(param, s.config_key) for s in items]
-    numeric = not by_key and all(_num(v) is not None for v in raw)
+    numeric = not by_key and all(_finite(v) is not None for v in raw)
     rows = []
     for s, v in zip(items, raw):
         r = s.successes / s.runs if s.runs else None
@@ -108,7 +98,7 @@ def class_chart(experiment: str, stats: Sequence[Any], levels: Mapping[tuple[str
                      "level": levels.get(s.key, "no data"), "runs": s.runs, "successes": s.successes,
                      "success": None if r is None else 100 * r,
                      "low": None if r is None else 100 * s.ci_low, "high": None if r is None else 100 * s.ci_high,
-                     "duration": _num(s.median_duration_s), "tortuousness": _num(s.median_tortuousness)})
+                     "duration": _finite(s.median_duration_s), "tortuousness": _finite(s.median_tortuousness)})
     short = param.rsplit(".", 1)[-1]
     x = (alt.X("x:Q", title=short, scale=alt.Scale(zero=False, padding=16)) if numeric
          else alt.X("x:N", title=short, sort=list(dict.fromkeys(str(v) for v in raw)), axis=alt.Axis(labelAngle=-30)))

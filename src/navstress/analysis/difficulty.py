@@ -190,7 +190,8 @@ class Overlap:
     hi: float
 
 
-def _num(v: Any) -> float | None:
+def finite_number(v: Any) -> float | None:
+    """``v`` as a finite float, or None (a bool, a non-number, NaN or infinity)."""
     if isinstance(v, bool):
         return None
     try:
@@ -226,7 +227,7 @@ def level_ranges(stats: list[ConfigStats], diff: Difficulty,
         for lev in LEVELS:
             if lev not in per:
                 continue
-            nums = [n for n in (_num(v) for v in per[lev]) if n is not None]
+            nums = [n for n in (finite_number(v) for v in per[lev]) if n is not None]
             lo, hi = (min(nums), max(nums)) if len(nums) == len(per[lev]) else (None, None)
             ranges.append(LevelRange(exp, param, lev, tuple(per[lev]), lo, hi))
             if lo is not None and hi is not None:
