@@ -24,6 +24,7 @@ is what draws them.
 from __future__ import annotations
 
 import functools
+import hashlib
 import json
 import math
 from collections.abc import Iterable, Mapping, Sequence
@@ -31,6 +32,7 @@ from typing import Any, Final
 
 import altair as alt
 
+from navstress import _json
 from navstress.analysis.difficulty import finite_number as _finite  # None: left out of a continuous scale
 from navstress.errors import SpecError
 
@@ -57,9 +59,13 @@ VL_VERSION = ".".join(alt.SCHEMA_VERSION.lstrip("v").split(".")[:2])
 WIDTH = 1000
 
 
-def _data(rows: list[dict[str, Any]]) -> Any:
-    """Rows inline in the specification (Altair names each data set by a hash of its content)."""
-    return alt.InlineData(values=rows)
+def _data(rows: list[dict[str, Any]], sets: dict[str, list[dict[str, Any]]]) -> Any:
+    """A reference to ``rows``, kept in ``sets`` for the specification's ``datasets``: named by
+    their content (the same input, the same text), and not walked by Altair's schema validation
+    (which costs seconds on a few thousand points)."""
+    name = "data-" + hashlib.sha256(_json.dumps(rows, sort_keys=True).encode()).hexdigest()[:16]
+    sets[name] = rows
+    return alt.NamedData(name=name)
 
 
 def _zoom(name: str, *, y_only: bool = False) -> Any:
@@ -68,12 +74,13 @@ def _zoom(name: str, *, y_only: bool = False) -> Any:
     return alt.selection_interval(bind="scales", name=name, encodings=["y"] if y_only else ["x", "y"])
 
 
-def _spec(chart: Any) -> dict[str, Any]:
+def _spec(chart: Any, sets: dict[str, list[dict[str, Any]]]) -> dict[str, Any]:
     """The chart's specification (validated by Altair against the Vega-Lite schema), with the
-    report's common look."""
+    report's common look and its data ``sets``."""
     spec: dict[str, Any] = chart.configure_view(stroke="#dddddd").configure_axis(
         gridOpacity=0.5, labelFontSize=11, titleFontSize=11).configure_title(fontSize=13, anchor="start").to_dict()
     spec.pop("$schema", None)  # a URL; the embedded libraries need no schema to draw
+    spec["datasets"] = {**spec.get("datasets", {}), **sets}
     return spec
 
 
@@ -86,6 +93,7 @@ def class_chart(experiment: str, stats: Sequence[Any], levels: Mapping[tuple[str
     keys, for explicit worlds): success rate with its 95 % interval (Wilson) and difficulty level
     per configuration, the 25 % line dotted; median duration and tortuousness of the successful
     runs. ``stats``: ConfigStats; with ``navigator``, only its rows with ``fault``."""
+    ds: dict[str, list[dict[str, Any]]] = {}
     items = [s for s in stats if s.experiment == experiment
              and (navigator is None or (s.navigator == navigator and s.fault == fault))]
     param = "world" if by_key else next(iter(items[0].params), "configuration") if items else "configuration"
@@ -110,7 +118,7 @@ def class_chart(experiment: str, stats: Sequence[Any], levels: Mapping[tuple[str
             alt.Tooltip("low:Q", title="95 % low", format=".1f"), alt.Tooltip("high:Q", title="95 % high", format=".1f"),
             alt.Tooltip("duration:Q", title="median duration s", format=".1f"),
             alt.Tooltip("tortuousness:Q", title="median tortuousness", format=".4f")]
-    base = alt.Chart(_data(rows)).properties(width=WIDTH // 3 - 70, height=230)
+    base = alt.Chart(_data(rows, ds)).properties(width=WIDTH // 3 - 70, height=230)
     rate = alt.layer(
         # (unnamed: Altair gives a concatenated layer's zoom to every named unit of it, twice over)
         base.mark_rule().encode(x=x, y=alt.Y("low:Q"), y2="high:Q", color=colour),
@@ -127,7 +135,7 @@ def class_chart(experiment: str, stats: Sequence[Any], levels: Mapping[tuple[str
             x=x, y=alt.Y(f"{field}:Q", title=title, scale=alt.Scale(zero=False, padding=16)), color=colour, shape=shape,
             tooltip=tips).add_params(_zoom(f"zoom_{field}", y_only=not numeric)).properties(name=f"{field}_points"))
     who = f" ({navigator}, {fault} runs)" if navigator is not None else ""
-    return _spec(alt.hconcat(*panels).properties(title=f"{experiment}: difficulty against {short}{who}"))
+    return _spec(alt.hconcat(*panels).properties(title=f"{experiment}: difficulty against {short}{who}"), ds)
 
 
 def verdict_chart(title: str, configs: Sequence[Any], worlds: Sequence[Any], threshold: float) -> dict[str, Any]:
@@ -135,6 +143,7 @@ def verdict_chart(title: str, configs: Sequence[Any], worlds: Sequence[Any], thr
     coloured by verdict, beside the pooled configuration (a black diamond, its verdict written
     over it); the threshold dashed. ``configs`` and ``worlds``: WorldVerdicts of one experiment,
     navigator and fault."""
+    ds: dict[str, list[dict[str, Any]]] = {}
     rows: list[dict[str, Any]] = []
     slots: list[str] = []
     for c in configs:
@@ -159,7 +168,7 @@ def verdict_chart(title: str, configs: Sequence[Any], worlds: Sequence[Any], thr
     tips = [alt.Tooltip("configuration:N"), alt.Tooltip("kind:N"), alt.Tooltip("map:Q"), alt.Tooltip("runs:Q"),
             alt.Tooltip("successes:Q"), alt.Tooltip("p:Q", title="pass probability", format=".3f"),
             alt.Tooltip("low:Q", format=".3f"), alt.Tooltip("high:Q", format=".3f"), alt.Tooltip("verdict:N")]
-    base = alt.Chart(_data(rows)).properties(width=min(WIDTH, max(360, 110 * len(configs))), height=250)
+    base = alt.Chart(_data(rows, ds)).properties(width=min(WIDTH, max(360, 110 * len(configs))), height=250)
     chart = alt.layer(
         base.mark_rule().encode(x=x, xOffset=off, y=alt.Y("low:Q"), y2="high:Q", color=colour).properties(
             name="intervals"),
@@ -173,7 +182,7 @@ def verdict_chart(title: str, configs: Sequence[Any], worlds: Sequence[Any], thr
             x=x, xOffset=off, y=alt.datum(1.06), text="verdict:N", color=colour).properties(name="verdicts"),
         alt.Chart().mark_rule(color="#555555", strokeDash=[5, 3]).encode(y=alt.datum(threshold)),
     )
-    return _spec(chart.properties(title=title))
+    return _spec(chart.properties(title=title), ds)
 
 
 def indeterminism_chart(title: str, curves: Mapping[str, Mapping[str, Any]], *, max_points: int = 400) -> dict[str, Any]:
@@ -181,6 +190,7 @@ def indeterminism_chart(title: str, curves: Mapping[str, Mapping[str, Any]], *, 
     configuration (``curves[config][group]``: arrays ``t``, ``d`` and ``n_maps``), for the
     successful and the unsuccessful runs side by side; a long curve is thinned to about
     ``max_points`` evenly spaced points (its ends kept)."""
+    ds: dict[str, list[dict[str, Any]]] = {}
     panels = []
     for group, name in (("success", "successful runs"), ("failure", "unsuccessful runs")):
         rows = []
@@ -195,23 +205,24 @@ def indeterminism_chart(title: str, curves: Mapping[str, Mapping[str, Any]], *, 
             rows += [{"configuration": label, "t": float(c.t[i]), "d": float(c.d[i])} for i in idx]
         head = alt.TitleParams(f"{title}: {name}", fontSize=12)
         if not rows:
-            panels.append(alt.Chart(_data([{"text": "no map with 2+ such runs"}])).mark_text(
+            panels.append(alt.Chart(_data([{"text": "no map with 2+ such runs"}], ds)).mark_text(
                 color="#777777", fontSize=12).encode(text="text:N").properties(
                 width=WIDTH // 2 - 120, height=240, title=head, name=f"empty_{group}"))
             continue
-        panels.append(alt.Chart(_data(rows)).mark_line(strokeWidth=1.5, point=False).encode(
+        panels.append(alt.Chart(_data(rows, ds)).mark_line(strokeWidth=1.5, point=False).encode(
             x=alt.X("t:Q", title="time t [s]"), y=alt.Y("d:Q", title="max distance between runs [m]"),
             color=alt.Color("configuration:N", title=None, legend=alt.Legend(orient="bottom", columns=2)),
             tooltip=[alt.Tooltip("configuration:N"), alt.Tooltip("t:Q", format=".1f"),
                      alt.Tooltip("d:Q", title="distance m", format=".2f")],
         ).add_params(_zoom(f"zoom_{group}")).properties(width=WIDTH // 2 - 120, height=240, title=head,
                                                         name=f"curves_{group}"))
-    return _spec(alt.hconcat(*panels).resolve_scale(color="independent"))
+    return _spec(alt.hconcat(*panels).resolve_scale(color="independent"), ds)
 
 
 def fault_power_chart(level_powers: Sequence[Any], *, navigator: str | None = None) -> dict[str, Any]:
     """Fig. 12: runs with a collision per difficulty level and fault, the faulty navigator beside
     the nominal one on the same maps, each bar labelled with its count of runs."""
+    ds: dict[str, list[dict[str, Any]]] = {}
     who = f"{navigator} " if navigator else ""
     faulty, nominal = f"{who}faulty: runs with collision", f"{who}nominal: runs with collision"
     rows = []
@@ -224,7 +235,7 @@ def fault_power_chart(level_powers: Sequence[Any], *, navigator: str | None = No
     x = alt.X("group:N", title=None, sort=list(dict.fromkeys(r["group"] for r in rows)), axis=alt.Axis(labelAngle=-20))
     off = alt.XOffset("who:N", sort=[faulty, nominal])
     top = max([r["collisions"] for r in rows] + [1])
-    base = alt.Chart(_data(rows)).properties(width=min(WIDTH, max(360, 90 * len(level_powers))), height=250)
+    base = alt.Chart(_data(rows, ds)).properties(width=min(WIDTH, max(360, 90 * len(level_powers))), height=250)
     chart = alt.layer(
         base.mark_bar().encode(
             x=x, xOffset=off, y=alt.Y("collisions:Q", title="runs with a collision",
@@ -239,7 +250,7 @@ def fault_power_chart(level_powers: Sequence[Any], *, navigator: str | None = No
             name="labels"),
     )
     return _spec(chart.properties(
-        title=f"Fault-revealing power per difficulty level{': ' + navigator if navigator else ''}"))
+        title=f"Fault-revealing power per difficulty level{': ' + navigator if navigator else ''}"), ds)
 
 
 # ---------------------------------------------------------------- the search
@@ -252,13 +263,14 @@ def found_chart(curves: Mapping[str, Sequence[tuple[int, int]]], *, what: str = 
     its (runs spent, found so far) points, as :func:`navstress.search.figures.found_curve` gives);
     ``budget`` is drawn as a dashed line; ``confirmed`` maps a method to (runs spent, worlds
     confirmed), drawn as a star of the method's colour."""
+    ds: dict[str, list[dict[str, Any]]] = {}
     names = list(curves)
     labels = {m: f"{m}: {c[-1][1] if c else 0} in {c[-1][0] if c else 0} runs" for m, c in curves.items()}
     rows = [{"method": m, "line": labels[m], "runs": r, "found": n} for m, c in curves.items() for r, n in c]
     palette = ["#4c78a8", "#f58518", "#54a24b", "#b279a2", "#9d755d"]
     colours = {m: METHOD_COLOURS.get(m, palette[i % len(palette)]) for i, m in enumerate(names)}
     line_dom = [labels[m] for m in names]
-    layers: list[Any] = [alt.Chart(_data(rows)).mark_line(interpolate="step-after", strokeWidth=2).encode(
+    layers: list[Any] = [alt.Chart(_data(rows, ds)).mark_line(interpolate="step-after", strokeWidth=2).encode(
         x=alt.X("runs:Q", title="evaluations [runs spent]"), y=alt.Y("found:Q", title=f"{what} found (distinct)"),
         color=alt.Color("line:N", title=None, scale=alt.Scale(domain=line_dom, range=[colours[m] for m in names]),
                         legend=alt.Legend(orient="top-left")),
@@ -267,7 +279,7 @@ def found_chart(curves: Mapping[str, Sequence[tuple[int, int]]], *, what: str = 
     stars: list[dict[str, Any]] = [{"method": m, "label": f"{m}: {n} confirmed", "runs": r, "found": n}
              for m, (r, n) in (confirmed or {}).items() if m in curves]
     if stars:
-        layers.append(alt.Chart(_data(stars)).mark_point(shape=STAR, size=260, filled=True, stroke="black",
+        layers.append(alt.Chart(_data(stars, ds)).mark_point(shape=STAR, size=260, filled=True, stroke="black",
                                                                    strokeWidth=0.6, opacity=1).encode(
             x="runs:Q", y="found:Q",
             fill=alt.Fill("label:N", title=None, legend=alt.Legend(orient="top-left"),
@@ -277,7 +289,7 @@ def found_chart(curves: Mapping[str, Sequence[tuple[int, int]]], *, what: str = 
     if budget is not None:
         layers.append(alt.Chart().mark_rule(color="#555555", strokeDash=[5, 3]).encode(x=alt.datum(budget)))
     return _spec(alt.layer(*layers).properties(
-        width=560, height=300, title=title or f"{what.capitalize()} found against runs spent"))
+        width=560, height=300, title=title or f"{what.capitalize()} found against runs spent"), ds)
 
 
 def illumination_chart(cells: Iterable[Mapping[str, Any]], *, x_range: tuple[float, float],
@@ -287,6 +299,7 @@ def illumination_chart(cells: Iterable[Mapping[str, Any]], *, x_range: tuple[flo
     """The illumination map: each filled cell (``cells``: dicts with ``i`` (y cell), ``j`` (x
     cell), ``fitness`` and ``key``) a rectangle over its descriptor ranges coloured by its best
     world's fitness from 0 to ``vmax``; empty cells blank; the cell borders as the grid."""
+    ds: dict[str, list[dict[str, Any]]] = {}
     if isinstance(vmax, bool) or not isinstance(vmax, (int, float)) or not (math.isfinite(vmax) and vmax > 0):
         raise SpecError("vmax", vmax, "a number > 0 (the fitness of the brightest colour)")
     nx, ny = bins
@@ -296,7 +309,7 @@ def illumination_chart(cells: Iterable[Mapping[str, Any]], *, x_range: tuple[flo
              "fitness": float(c["fitness"]), "world": c["key"]} for c in cells]
     xs = [x_range[0] + k * wx for k in range(nx + 1)]
     ys = [y_range[0] + k * wy for k in range(ny + 1)]
-    chart = alt.Chart(_data(rows)).mark_rect(stroke="white", strokeWidth=0.5).encode(
+    chart = alt.Chart(_data(rows, ds)).mark_rect(stroke="white", strokeWidth=0.5).encode(
         x=alt.X("x0:Q", title=x_label, scale=alt.Scale(domain=list(x_range), nice=False, zero=False),
                 axis=alt.Axis(values=xs if nx <= 20 else alt.Undefined, format="~g")),
         x2="x1:Q",
@@ -311,7 +324,7 @@ def illumination_chart(cells: Iterable[Mapping[str, Any]], *, x_range: tuple[flo
     ).add_params(_zoom("zoom")).properties(name="cells")
     filled = len(rows)
     return _spec(chart.properties(width=440, height=380,
-                                  title=title or f"Illumination map: {filled} of {nx * ny} cells filled"))
+                                  title=title or f"Illumination map: {filled} of {nx * ny} cells filled"), ds)
 
 
 # ---------------------------------------------------------------- the page
@@ -348,13 +361,37 @@ div.chart .vega-embed{display:inline-block}
 """
 
 
+#: How the bundle ends (it sets the global ``vegaEmbed`` last): a kept copy without it is damaged.
+_WHOLE = "window.vegaEmbed="
+
+
 @functools.lru_cache(maxsize=1)
 def _bundle() -> str:
+    """The libraries' bundle: made by vl-convert (2-4 s, holding the GIL) once per installed
+    version and kept in navstress's cache folder (``navstress.cache_dir()``); a cache that cannot
+    be read or written is only slower."""
+    from importlib.metadata import version
+
     import vl_convert
 
+    from navstress import _files
+    from navstress._paths import cache_dir
+
+    path = cache_dir() / f"vega-bundle-{version('vl-convert-python')}-vl{VL_VERSION}.js"
+    try:
+        kept = path.read_text(encoding="utf-8")
+        if _WHOLE in kept[-4000:]:  # else damaged: made again
+            return kept
+    except (OSError, UnicodeDecodeError):
+        pass
     # the snippet is optional (the default one sets the globals vegaEmbed, vega, vegaLite); the
     # package's type stub says otherwise
     text: str = vl_convert.javascript_bundle(vl_version=f"v{VL_VERSION}")  # type: ignore[call-arg]
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        _files.write_atomic(path, text)
+    except OSError:
+        pass
     return text
 
 

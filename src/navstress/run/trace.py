@@ -546,10 +546,21 @@ def read_debug(path: str | os.PathLike[str]) -> list[tuple[float, DebugDraw]]:
     return out
 
 
-def read_grids(path: str | os.PathLike[str], topic: str = TOPIC_MAP) -> list[tuple[float, np.ndarray, tuple[float, float], float]]:
-    """Every grid on ``topic`` in time order: (t, values rows x cols float32, origin xy, cell_m)."""
+def _grid_messages(path: str | os.PathLike[str], topic: str, indexed: bool = True) -> list[tuple[int, Any]]:
+    """(log time, Grid) of every message on ``topic``, through the message indexes when the file
+    has them (:func:`_indexed`: a report reads hundreds of final maps), else the library's reader."""
+    fast = _indexed(path, topic, "foxglove.Grid") if indexed else None
+    if fast is not None:
+        return [(lt, Grid.FromString(data)) for lt, data in fast]
+    return [(lt, m) for _t, lt, m in _messages(path, [topic])]
+
+
+def read_grids(path: str | os.PathLike[str], topic: str = TOPIC_MAP, *, indexed: bool = True
+               ) -> list[tuple[float, np.ndarray, tuple[float, float], float]]:
+    """Every grid on ``topic`` in time order: (t, values rows x cols float32, origin xy, cell_m);
+    ``indexed``: as :func:`read_poses` (both ways give the same values)."""
     return [(lt / 1e9, _grid_values(m), (m.pose.position.x, m.pose.position.y), m.cell_size.x)
-            for _t, lt, m in _messages(path, [topic])]
+            for lt, m in _grid_messages(path, topic, indexed)]
 
 
 def _grid_values(m: Any) -> np.ndarray:
@@ -560,13 +571,14 @@ def read_events(path: str | os.PathLike[str]) -> list[TraceEvent]:
     return [TraceEvent(lt / 1e9, m.level, m.name, m.message) for _t, lt, m in _messages(path, [TOPIC_EVENTS])]
 
 
-def read_grid(path: str | os.PathLike[str], topic: str = TOPIC_MAP) -> tuple[np.ndarray, tuple[float, float], float] | None:
-    """The last grid on ``topic``: (values rows x cols float32, origin xy, cell_m), or None."""
-    last = None
-    for _t, _lt, m in _messages(path, [topic]):
-        last = m
-    if last is None:
+def read_grid(path: str | os.PathLike[str], topic: str = TOPIC_MAP, *, indexed: bool = True
+              ) -> tuple[np.ndarray, tuple[float, float], float] | None:
+    """The last grid on ``topic``: (values rows x cols float32, origin xy, cell_m), or None;
+    ``indexed``: as :func:`read_poses`."""
+    msgs = _grid_messages(path, topic, indexed)
+    if not msgs:
         return None
+    last = msgs[-1][1]
     return _grid_values(last), (last.pose.position.x, last.pose.position.y), last.cell_size.x
 
 

@@ -235,3 +235,19 @@ def test_the_same_input_gives_the_same_text() -> None:
     one = chart_html(class_chart("trees", ss, levels, navigator="reference-v1"), "class-trees", "x")
     two = chart_html(class_chart("trees", ss, levels, navigator="reference-v1"), "class-trees", "x")
     assert one == two
+
+
+def test_the_libraries_are_made_once_and_kept(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from navstress.analysis import charts
+
+    monkeypatch.setenv("NAVSTRESS_CACHE_DIR", str(tmp_path / "cache"))
+    charts._bundle.cache_clear()
+    try:
+        made = charts.page_script()
+        (kept,) = (tmp_path / "cache").glob("vega-bundle-*.js")
+        assert kept.read_text(encoding="utf-8") in made and "window.vegaEmbed=" in made
+        kept.write_text("damaged", encoding="utf-8")  # a damaged copy is made again, not used
+        charts._bundle.cache_clear()
+        assert charts.page_script() == made and kept.read_text(encoding="utf-8") in made
+    finally:
+        charts._bundle.cache_clear()
