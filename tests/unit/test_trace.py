@@ -197,6 +197,38 @@ def test_indexed_pose_reading_matches_the_library_byte_for_byte(tmp_path: Path, 
     assert len(read_poses(path)) == n
 
 
+@settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(sizes=st.lists(st.tuples(st.integers(1, 60), st.integers(1, 60)), max_size=5), big=st.booleans(),
+       seed=st.integers(0, 2**32 - 1))
+def test_indexed_grid_reading_matches_the_library(tmp_path: Path, sizes: list[tuple[int, int]], big: bool,
+                                                  seed: int) -> None:
+    """read_grids / read_grid (the report's final perceived maps) through the message indexes give
+    the library reader's grids: every map in time order with its values (unknown cells NaN), origin
+    and cell size, and the last one."""
+    from navstress.run.trace import TOPIC_MAP, read_grid, read_grids
+
+    rng = np.random.default_rng(seed)
+    path = tmp_path / f"g{seed}-{len(sizes)}-{big}.mcap"
+    with TraceWriter(path) as tw:
+        tw.poses(TOPIC_TRUTH, np.column_stack([np.arange(10.0), np.zeros((10, 6))]))
+        for k, (r, c) in enumerate(sizes):
+            g = rng.normal(size=(r, c)).astype(np.float32)
+            g[rng.random((r, c)) < 0.3] = np.nan
+            tw.grid(TOPIC_MAP, float(k), g, (float(rng.normal()), float(rng.normal())), float(rng.uniform(0.1, 1)))
+            if big:
+                tw.points(k + 0.5, rng.normal(size=(12_000, 3)))
+    fast, slow = read_grids(path), read_grids(path, indexed=False)
+    assert len(fast) == len(slow) == len(sizes)
+    for a, b in zip(fast, slow):
+        assert a[0] == b[0] and a[2:] == b[2:] and a[1].tobytes() == b[1].tobytes()
+    last, last_slow = read_grid(path), read_grid(path, indexed=False)
+    if not sizes:
+        assert last is None and last_slow is None
+    else:
+        assert last is not None and last_slow is not None
+        assert last[0].tobytes() == last_slow[0].tobytes() == fast[-1][1].tobytes() and last[1:] == last_slow[1:]
+
+
 @pytest.mark.not_traces
 def test_indexed_reading_falls_back_on_a_file_without_index(tmp_path: Path) -> None:
     """A valid MCAP file written without chunks (so without message indexes): read_poses reads
