@@ -9,6 +9,8 @@ without DIR the benchmark runs the demo campaign into a temporary folder first).
 - ``navstress report DIR -o OUT`` as a user runs it, in a fresh process: wall time, the file's
   size, the process's peak resident memory. Targets for the paper preset (2,475 runs): under a
   minute and under 20 MB.
+- with ``--phases``: the report written again in this process with its parts timed (analysis,
+  trajectory prefetches, the failing runs' views, the charts);
 - reading a trajectory from a trace (``read_poses``: through the MCAP message indexes) against
   the MCAP library's own reader, on the same ``--sample`` traces of DIR in this one process: the
   median time per trace and the ratio (a ratio is stable on a noisy machine), and that both give
@@ -33,6 +35,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("directory", nargs="?", help="a campaign directory (default: run the demo first)")
     ap.add_argument("--sample", type=int, default=200, help="traces timed for the pose-reading comparison")
+    ap.add_argument("--phases", action="store_true", help="also write the report in this process, its parts timed")
     a = ap.parse_args()
     exe = str(Path(sys.executable).with_name("navstress"))
     with tempfile.TemporaryDirectory() as tmp:
@@ -70,6 +73,41 @@ def main() -> None:
               f"{ms / mf:.1f}x; identical: {same}")
         if not same:
             sys.exit("the two readers disagree")
+    if a.phases:
+        if a.directory is None:
+            sys.exit("--phases needs DIR (the demo's folder is gone by now)")
+        phases(root)
+
+
+def phases(root: str) -> None:
+    """The report written again in this process, its parts timed (each wraps the function of
+    that name: analysis, trajectory prefetches, run views, charts)."""
+    from navstress.analysis import analyze as A
+    from navstress.analysis import report as R
+
+    totals: dict[str, float] = {}
+
+    def wrap(mod: object, name: str, label: str) -> None:
+        orig = getattr(mod, name)
+
+        def timed(*args: object, **kw: object) -> object:
+            t = time.perf_counter()
+            try:
+                return orig(*args, **kw)
+            finally:
+                totals[label] = totals.get(label, 0.0) + time.perf_counter() - t
+        setattr(mod, name, timed)
+
+    for mod, name, label in ((R, "analyze", "analysis"), (A.TrajectoryCache, "prefetch", "trajectory prefetches"),
+                             (R, "_run_view", "run views"), (R, "class_chart", "charts"),
+                             (R, "verdict_chart", "charts"), (R, "indeterminism_chart", "charts"),
+                             (R, "fault_power_chart", "charts")):
+        wrap(mod, name, label)
+    with tempfile.TemporaryDirectory() as tmp:
+        t = time.perf_counter()
+        R.build_report(root, Path(tmp) / "report.html")
+        total = time.perf_counter() - t
+    print(f"report in this process: {total:.1f} s; " + ", ".join(f"{k} {v:.1f} s" for k, v in totals.items()))
 
 
 if __name__ == "__main__":
