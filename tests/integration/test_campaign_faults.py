@@ -186,7 +186,10 @@ def test_corrupt_world_is_regenerated_on_resume(tmp_path: Path) -> None:
 @pytest.mark.parametrize("sig,code", [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
 @pytest.mark.parametrize("moment", ["store-created", "first-record"])
 def test_signals_stop_with_a_resume_line(tmp_path: Path, sig: signal.Signals, code: int, moment: str) -> None:
-    spec = _write(tmp_path / "s.yaml", _spec(runs_per_map=3, timeout_s=6.0))
+    # a slow navigator (0.05 s of wall time per step, 40 steps a run): the campaign cannot end before
+    # the signal however loaded the machine (a quick one sometimes did, and exited 0)
+    spec = _write(tmp_path / "s.yaml", _spec(runs_per_map=3, timeout_s=4.0, navigators=[
+        {"name": "slow-v1", "target": "campaign_navs:Slow", "config": {"delay_s": 0.05}}]))
     out = tmp_path / "out"
     p = _cli(spec, out, "-j", "2")
     deadline = time.monotonic() + 120
@@ -197,6 +200,7 @@ def test_signals_stop_with_a_resume_line(tmp_path: Path, sig: signal.Signals, co
         if moment == "first-record" and _count(out) >= 1:
             break
         time.sleep(0.05)
+    assert p.poll() is None, "the campaign ended before the signal: nothing tested"
     p.send_signal(sig)
     _o, err = p.communicate(timeout=60)
     lines = err.strip().splitlines()

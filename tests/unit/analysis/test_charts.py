@@ -75,6 +75,7 @@ def test_class_chart_places_each_configuration_by_its_value_and_success_rate(
     for p, s in got:
         assert rgb(p["fill"]) == rgb(LEVEL_STYLE[levels[s.key]][1])
         assert float(fields(p)["success %"]) == pytest.approx(100 * s.successes / s.runs, abs=0.06)
+        assert re.fullmatch(r"\d+\.\d", fields(p)["success %"])  # a rate as a person reads it: one decimal
     # the durations panel: a point per configuration with successes
     assert len(marks(spec, "duration_points")) == sum(1 for s in with_runs if s.successes)
 

@@ -61,6 +61,19 @@ class Hangs(_Base):
             time.sleep(0.5)
 
 
+class Slow(_Base):
+    """Drives straight on, taking ``delay_s`` of wall time per step (a slow planner): its runs last
+    long enough in real time for a test to stop the campaign mid-way, however loaded the machine."""
+
+    def step(self, obs: Observation) -> Command | Status:
+        time.sleep(float(getattr(self, "delay_s", 0.05)))
+        return Command(0.5, 0.0)
+
+    def __init__(self, config: dict[str, Any] | None = None) -> None:
+        super().__init__(config)
+        self.delay_s = float((config or {}).get("delay_s", 0.05))
+
+
 class Raises(_Base):
     """Raises an exception from step()."""
 
