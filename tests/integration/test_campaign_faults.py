@@ -50,9 +50,17 @@ def _write(path: Path, data: dict[str, Any]) -> Path:
     return path
 
 
+def _default_sigint() -> None:
+    # a command started in the background of a script (`make test &`) inherits SIGINT ignored, and
+    # Python then never turns Ctrl-C into KeyboardInterrupt: the CLI gets the disposition a
+    # terminal gives it
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _cli(spec: Path, out: Path, *extra: str) -> subprocess.Popen[str]:
     return subprocess.Popen([sys.executable, "-m", "navstress.cli", "campaign", "run", str(spec), "-o", str(out),
-                             "-q", *extra], env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                             "-q", *extra], env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=_default_sigint)
 
 
 def _count(out: Path) -> int:
