@@ -129,8 +129,14 @@ def class_chart(experiment: str, stats: Sequence[Any], levels: Mapping[tuple[str
         alt.Chart().mark_rule(color="#d7191c", strokeDash=[2, 3]).encode(y=alt.datum(25)),
     )
     panels = [rate]
-    for i, (field, title) in enumerate((("duration", "median duration of successes [s]"),
-                                        ("tortuousness", "median tortuousness of successes [rad/step]"))):
+    for field, title in (("duration", "median duration of successes [s]"),
+                         ("tortuousness", "median tortuousness of successes [rad/step]")):
+        if all(r[field] is None for r in rows):  # no successful run: said, not an empty plot
+            panels.append(alt.Chart(_data([{"text": "no successful run yet"}], ds)).mark_text(
+                color="#777777", fontSize=12).encode(text="text:N").properties(
+                width=WIDTH // 3 - 70, height=230, title=alt.TitleParams(title, fontSize=11),
+                name=f"{field}_none"))
+            continue
         panels.append(base.mark_point(size=90, filled=True).encode(
             x=x, y=alt.Y(f"{field}:Q", title=title, scale=alt.Scale(zero=False, padding=16)), color=colour, shape=shape,
             tooltip=tips).add_params(_zoom(f"zoom_{field}", y_only=not numeric)).properties(name=f"{field}_points"))

@@ -76,8 +76,11 @@ def test_class_chart_places_each_configuration_by_its_value_and_success_rate(
         assert rgb(p["fill"]) == rgb(LEVEL_STYLE[levels[s.key]][1])
         assert float(fields(p)["success %"]) == pytest.approx(100 * s.successes / s.runs, abs=0.06)
         assert re.fullmatch(r"\d+\.\d", fields(p)["success %"])  # a rate as a person reads it: one decimal
-    # the durations panel: a point per configuration with successes
-    assert len(marks(spec, "duration_points")) == sum(1 for s in with_runs if s.successes)
+    # the durations panel: a point per configuration with successes; without any, a sentence
+    if any(s.successes for s in with_runs):
+        assert len(marks(spec, "duration_points")) == sum(1 for s in with_runs if s.successes)
+    else:
+        assert [t["text"] for t in marks(spec, "duration_none")] == ["no successful run yet"]
 
 
 def test_class_chart_draws_the_interval_around_each_rate() -> None:
