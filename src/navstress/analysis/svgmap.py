@@ -186,18 +186,22 @@ def world_defs(world: World, gid: str) -> str:
     return "".join(parts)
 
 
+def _outline_d(world: World) -> str:
+    """Every obstacle's footprint, as one path's ``d``."""
+    sy = world.size_m[1]
+    return "".join(_path(o.corners(), sy) for o in world.obstacles)
+
+
 def obstacle_outlines(world: World) -> str:
     """Every obstacle's footprint as one outline path (over a perceived map)."""
-    sy = world.size_m[1]
-    d = "".join(_path(o.corners(), sy) for o in world.obstacles)
+    d = _outline_d(world)
     return f'<path class="outline" d="{d}"/>' if d else ""
 
 
 def outline_defs(world: World, gid: str) -> tuple[str, str]:
     """(defs, use): every obstacle's outline once as ``<path id=gid>`` for a hidden ``<defs>``, and
     the ``<use>`` that draws it in a picture of the same world ('' and '' without obstacles)."""
-    sy = world.size_m[1]
-    d = "".join(_path(o.corners(), sy) for o in world.obstacles)
+    d = _outline_d(world)
     # styled here: the page's ".map .outline" rule does not reach a path drawn through <use> from elsewhere
     return (f'<path id="{gid}" d="{d}" fill="none" stroke="#000" stroke-width=".6px" '
             'vector-effect="non-scaling-stroke"/>', f'<use href="#{gid}"/>') if d else ("", "")

@@ -488,11 +488,8 @@ def read_poses(path: str | os.PathLike[str], topic: str = TOPIC_TRUTH, *, indexe
     """(N, 7) float64: t, x, y, z, yaw, pitch, roll, in time order. Read through the file's
     message indexes (:func:`_indexed`), else (no index, or ``indexed=False``) with the MCAP
     library's reader; both give the same bytes."""
-    fast = _indexed(path, topic, "foxglove.PoseInFrame") if indexed else None
-    msgs: Iterator[tuple[int, Any]] = ((lt, PoseInFrame.FromString(data)) for lt, data in fast) if fast is not None \
-        else ((lt, m) for _t, lt, m in _messages(path, [topic]))
     rows = []
-    for log_time, m in msgs:
+    for log_time, m in _decoded(path, topic, PoseInFrame, indexed):
         p = m.pose.position
         rows.append((log_time / 1e9, p.x, p.y, p.z, *euler(m.pose.orientation)))
     return np.array(rows, dtype=np.float64).reshape(-1, 7)
@@ -546,13 +543,14 @@ def read_debug(path: str | os.PathLike[str]) -> list[tuple[float, DebugDraw]]:
     return out
 
 
-def _grid_messages(path: str | os.PathLike[str], topic: str, indexed: bool = True) -> list[tuple[int, Any]]:
-    """(log time, Grid) of every message on ``topic``, through the message indexes when the file
-    has them (:func:`_indexed`: a report reads hundreds of final maps), else the library's reader."""
-    fast = _indexed(path, topic, "foxglove.Grid") if indexed else None
+def _decoded(path: str | os.PathLike[str], topic: str, cls: Any, indexed: bool = True) -> Iterator[tuple[int, Any]]:
+    """(log time, message of protobuf class ``cls``) of every message on ``topic`` in log-time
+    order, through the message indexes when the file has them (:func:`_indexed`: a report reads
+    thousands of trajectories and hundreds of final maps), else the library's reader."""
+    fast = _indexed(path, topic, cls.DESCRIPTOR.full_name) if indexed else None
     if fast is not None:
-        return [(lt, Grid.FromString(data)) for lt, data in fast]
-    return [(lt, m) for _t, lt, m in _messages(path, [topic])]
+        return ((lt, cls.FromString(data)) for lt, data in fast)
+    return ((lt, m) for _t, lt, m in _messages(path, [topic]))
 
 
 def read_grids(path: str | os.PathLike[str], topic: str = TOPIC_MAP, *, indexed: bool = True
@@ -560,7 +558,7 @@ def read_grids(path: str | os.PathLike[str], topic: str = TOPIC_MAP, *, indexed:
     """Every grid on ``topic`` in time order: (t, values rows x cols float32, origin xy, cell_m);
     ``indexed``: as :func:`read_poses` (both ways give the same values)."""
     return [(lt / 1e9, _grid_values(m), (m.pose.position.x, m.pose.position.y), m.cell_size.x)
-            for lt, m in _grid_messages(path, topic, indexed)]
+            for lt, m in _decoded(path, topic, Grid, indexed)]
 
 
 def _grid_values(m: Any) -> np.ndarray:
@@ -575,10 +573,11 @@ def read_grid(path: str | os.PathLike[str], topic: str = TOPIC_MAP, *, indexed: 
               ) -> tuple[np.ndarray, tuple[float, float], float] | None:
     """The last grid on ``topic``: (values rows x cols float32, origin xy, cell_m), or None;
     ``indexed``: as :func:`read_poses`."""
-    msgs = _grid_messages(path, topic, indexed)
-    if not msgs:
+    last = None
+    for _lt, last in _decoded(path, topic, Grid, indexed):
+        pass
+    if last is None:
         return None
-    last = msgs[-1][1]
     return _grid_values(last), (last.pose.position.x, last.pose.position.y), last.cell_size.x
 
 
