@@ -27,6 +27,7 @@ import functools
 import hashlib
 import json
 import math
+from html import escape
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any, Final
 
@@ -108,7 +109,10 @@ def class_chart(experiment: str, stats: Sequence[Any], levels: Mapping[tuple[str
                      "low": None if r is None else 100 * s.ci_low, "high": None if r is None else 100 * s.ci_high,
                      "duration": _finite(s.median_duration_s), "tortuousness": _finite(s.median_tortuousness)})
     short = param.rsplit(".", 1)[-1]
-    x = (alt.X("x:Q", title=short, scale=alt.Scale(zero=False, padding=16)) if numeric
+    xs = [float(v) for v in raw] if numeric else []
+    # one x range for the three panels (a panel with one point would otherwise get a range of its own)
+    dom: Any = [min(xs), max(xs)] if xs and min(xs) < max(xs) else [xs[0] - 0.5, xs[0] + 0.5] if xs else alt.Undefined
+    x = (alt.X("x:Q", title=short, scale=alt.Scale(zero=False, padding=16, domain=dom)) if numeric
          else alt.X("x:N", title=short, sort=list(dict.fromkeys(str(v) for v in raw)), axis=alt.Axis(labelAngle=-30)))
     lv = [k for k in LEVEL_STYLE if any(r["level"] == k for r in rows)] or ["no data"]
     colour = alt.Color("level:N", title="level", scale=alt.Scale(domain=lv, range=[LEVEL_STYLE[k][1] for k in lv]))
@@ -138,7 +142,8 @@ def class_chart(experiment: str, stats: Sequence[Any], levels: Mapping[tuple[str
                 name=f"{field}_none"))
             continue
         panels.append(base.mark_point(size=90, filled=True).encode(
-            x=x, y=alt.Y(f"{field}:Q", title=title, scale=alt.Scale(zero=False, padding=16)), color=colour, shape=shape,
+            x=x, y=alt.Y(f"{field}:Q", title=title, scale=alt.Scale(zero=False, padding=16),
+                         axis=alt.Axis(format="~g")), color=colour, shape=shape,
             tooltip=tips).add_params(_zoom(f"zoom_{field}", y_only=not numeric)).properties(name=f"{field}_points"))
     who = f" ({navigator}, {fault} runs)" if navigator is not None else ""
     return _spec(alt.hconcat(*panels).properties(title=f"{experiment}: difficulty against {short}{who}"), ds)
@@ -341,8 +346,6 @@ def chart_html(spec: Mapping[str, Any], name: str, alt_text: str, navigator: str
     """A chart as the report writes it: a ``div.chart`` (``data-figure`` = ``name``, and
     ``data-navigator``/``data-fault`` when given) holding its specification as JSON, drawn by
     :func:`page_script` (``data-rendered`` is set once it is drawn)."""
-    from html import escape
-
     who = "".join(f' data-{k}="{escape(v)}"' for k, v in (("navigator", navigator), ("fault", fault)) if v is not None)
     text = json.dumps(spec, separators=(",", ":"), sort_keys=True, allow_nan=False).replace("<", "\\u003c")
     return (f'<div class="chart" data-figure="{escape(name)}"{who} role="img" aria-label="{escape(alt_text)}">'

@@ -76,6 +76,11 @@ def test_class_chart_places_each_configuration_by_its_value_and_success_rate(
         assert rgb(p["fill"]) == rgb(LEVEL_STYLE[levels[s.key]][1])
         assert float(fields(p)["success %"]) == pytest.approx(100 * s.successes / s.runs, abs=0.06)
         assert re.fullmatch(r"\d+\.\d", fields(p)["success %"])  # a rate as a person reads it: one decimal
+    # the three panels share one x range: a configuration stands at the same place in each
+    rate_x = {fields(p)["configuration"]: p["x"] for p in pts}
+    if any(s.successes for s in with_runs):
+        for d in marks(spec, "duration_points"):
+            assert d["x"] == pytest.approx(rate_x[fields(d)["configuration"]], abs=0.6)
     # the durations panel: a point per configuration with successes; without any, a sentence
     if any(s.successes for s in with_runs):
         assert len(marks(spec, "duration_points")) == sum(1 for s in with_runs if s.successes)
