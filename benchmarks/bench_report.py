@@ -82,8 +82,8 @@ def main() -> None:
 def phases(root: str) -> None:
     """The report written again in this process, its parts timed (each wraps the function of
     that name: analysis, trajectory prefetches, run views, charts)."""
-    from navstress.analysis import analyze as A
     from navstress.analysis import report as R
+    from navstress.analysis import trajectories as T
 
     totals: dict[str, float] = {}
 
@@ -98,7 +98,7 @@ def phases(root: str) -> None:
                 totals[label] = totals.get(label, 0.0) + time.perf_counter() - t
         setattr(mod, name, timed)
 
-    for mod, name, label in ((R, "analyze", "analysis"), (A.TrajectoryCache, "prefetch", "trajectory prefetches"),
+    for mod, name, label in ((R, "analyze", "analysis"), (T.TrajectoryCache, "prefetch", "trajectory prefetches"),
                              (R, "_run_view", "run views"), (R, "class_chart", "charts"),
                              (R, "verdict_chart", "charts"), (R, "indeterminism_chart", "charts"),
                              (R, "fault_power_chart", "charts")):

@@ -29,6 +29,13 @@ settings.register_profile("navstress", deadline=None)
 settings.load_profile("navstress")
 
 
+@pytest.fixture(autouse=True, scope="session")
+def _charts_validated() -> None:
+    """Every chart a test builds is validated against the Vega-Lite schema (a report skips it)."""
+    from navstress.analysis import charts
+    charts.VALIDATE = True
+
+
 @pytest.fixture
 def world() -> World:
     return small_world()

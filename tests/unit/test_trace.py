@@ -310,3 +310,31 @@ def test_commands_round_trip_through_a_trace(tmp_path: Path) -> None:
     assert summary is not None
     (ch,) = [c for c in summary.channels.values() if c.topic == TOPIC_CMD]
     assert summary.schemas[ch.schema_id].name == "navstress.VelocityCommand"
+
+
+@pytest.mark.not_traces
+@pytest.mark.parametrize("indexed", [True, False])
+def test_a_corrupt_message_is_a_store_error_on_every_reading_path(tmp_path: Path, indexed: bool) -> None:
+    """A payload protobuf rejects, read through the message indexes or the library's reader, as a
+    pose or as a grid: the same one-line StoreError naming the file (the indexed path let
+    protobuf's DecodeError through)."""
+    from foxglove_schemas_protobuf.Grid_pb2 import Grid
+    from foxglove_schemas_protobuf.PoseInFrame_pb2 import PoseInFrame
+    from mcap.writer import Writer
+    from mcap_protobuf.schema import build_file_descriptor_set
+
+    from navstress.run.trace import read_grid, read_grids
+    path = tmp_path / "bad.mcap"
+    with open(path, "wb") as f:
+        w = Writer(f)
+        w.start()
+        for topic, cls in ((TOPIC_TRUTH, PoseInFrame), (TOPIC_MAP, Grid)):
+            sid = w.register_schema(cls.DESCRIPTOR.full_name, "protobuf",
+                                    build_file_descriptor_set(cls).SerializeToString())
+            cid = w.register_channel(topic, "protobuf", sid)
+            w.add_message(cid, log_time=1, data=b"\x00\x01", publish_time=1, sequence=1)
+        w.finish()
+    for read in (lambda: read_poses(path, indexed=indexed), lambda: read_grid(path, indexed=indexed),
+                 lambda: read_grids(path, indexed=indexed)):
+        with pytest.raises(StoreError, match="is unreadable: DecodeError"):
+            read()

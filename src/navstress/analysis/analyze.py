@@ -16,7 +16,6 @@ shows that navigator alone; by default every navigator is shown, each figure nam
 from __future__ import annotations
 
 import json
-import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -30,114 +29,12 @@ from navstress.analysis.difficulty import (LEVEL_RANK, LEVELS, Difficulty, Diffi
 from navstress.analysis.fault_power import FaultPower, LevelPower, by_level, fault_power
 from navstress.analysis.indeterminism import Curve, config_curves
 from navstress.analysis.stats import (NOMINAL, ConfigStats, config_key, config_stats, fault_name, planned_configs)
+from navstress.analysis.trajectories import TrajectoryCache
 from navstress.analysis.verdicts import Verdicts, VerdictRule, rule_of, rules_of, verdicts
 from navstress.campaign.store import Store
-from navstress.errors import NavstressError, SpecError
+from navstress.errors import SpecError
 from navstress.run.outcome import Outcome
 from navstress.run.record import RunRecord
-from navstress.run.trace import TOPIC_TRUTH, read_poses
-
-
-#: How many traces make :meth:`TrajectoryCache.prefetch` read in worker processes.
-PARALLEL_FROM = 200
-
-
-def _poses_or_none(path: str, topic: str) -> np.ndarray | None:
-    try:
-        arr = read_poses(path, topic)
-    except NavstressError:
-        return None
-    return arr if len(arr) else None
-
-
-def _poses_many(paths: list[str], topic: str) -> list[np.ndarray | None]:
-    return [_poses_or_none(p, topic) for p in paths]
-
-
-class TrajectoryCache:
-    """Decoded trajectories by (trace path, topic), read once per process (keyed by mtime too).
-
-    ``max_points`` > 0 thins a trajectory for drawing (every k-th sample, last kept)."""
-
-    def __init__(self) -> None:
-        self._c: dict[tuple[str, str, float], np.ndarray | None] = {}
-
-    def get(self, path: str | Path | None, topic: str = TOPIC_TRUTH) -> np.ndarray | None:
-        """(N, 7) poses, or None when the trace is missing or unreadable."""
-        if not path:
-            return None
-        p = str(path)
-        try:
-            mt = os.stat(p).st_mtime
-        except OSError:
-            return None
-        k = (p, topic, mt)
-        if k not in self._c:
-            self._c[k] = _poses_or_none(p, topic)
-        return self._c[k]
-
-    def prefetch(self, paths: list[Path | None], topic: str = TOPIC_TRUTH, workers: int | None = None) -> None:
-        """Read the trajectories of many traces into the cache at once: in worker processes
-        (:class:`navstress.isolate.Worker`; ``workers``, or by default one per core when there are
-        at least :data:`PARALLEL_FROM`),
-        since decoding a trace's poses is Python work (about 10 ms for a 400 s run) and a paper-sized
-        campaign has thousands. The arrays are the ones :meth:`get` would read, byte for byte."""
-        todo: list[tuple[str, float]] = []
-        seen: set[str] = set()
-        for path in paths:
-            if not path or str(path) in seen:
-                continue
-            p = str(path)
-            seen.add(p)
-            try:
-                mt = os.stat(p).st_mtime
-            except OSError:
-                continue
-            if (p, topic, mt) not in self._c:
-                todo.append((p, mt))
-        if workers is None:
-            n = min(os.cpu_count() or 1, 8, max(1, len(todo) // 64)) if len(todo) >= PARALLEL_FROM else 1
-        else:
-            n = workers
-        if n <= 1 or len(todo) < 2:
-            for p, _mt in todo:
-                self.get(p, topic)
-            return
-        # navstress's one worker loop (navstress.isolate: spawned, dies with this process); one
-        # thread per worker waits on its pipe while the worker decodes
-        import threading
-
-        from navstress.isolate import Worker
-
-        chunks = [todo[i::4 * n] for i in range(4 * n)]
-
-        def drive(mine: list[list[tuple[str, float]]]) -> None:
-            w = Worker(600.0, preload=("navstress.analysis.analyze",))
-            try:
-                for chunk in mine:
-                    status, arrays = w.call(_poses_many, [p for p, _ in chunk], topic)
-                    if status != "ok":  # the worker could not read them: read them here
-                        arrays = [_poses_or_none(p, topic) for p, _ in chunk]
-                    for (p, mt), arr in zip(chunk, arrays):
-                        self._c[(p, topic, mt)] = arr
-            finally:
-                w.close()
-
-        threads = [threading.Thread(target=drive, args=(chunks[i::n],), daemon=True) for i in range(n)]
-        for t in threads:
-            t.start()
-        for t in threads:
-            t.join()
-
-    @staticmethod
-    def thin(arr: np.ndarray, max_points: int) -> np.ndarray:
-        if max_points <= 0 or len(arr) <= max_points:
-            return arr
-        step = int(np.ceil(len(arr) / max_points))
-        idx = np.arange(0, len(arr), step)
-        if idx[-1] != len(arr) - 1:
-            idx = np.append(idx, len(arr) - 1)
-        return arr[idx]
 
 
 @dataclass
@@ -256,6 +153,7 @@ def analyze(directory: str | Path, *, params: DifficultyParams | None = None, na
             interval: str = "wilson", is_reference: Callable[[ConfigStats], bool] | None = None) -> Analysis:
     """Analyse the campaign in ``directory`` (read only; see module doc)."""
     root = Path(directory)
+    owned = cache is None
     cache = cache or TrajectoryCache()
     with Store.open(root) as store:
         spec = store.spec
@@ -269,15 +167,39 @@ def analyze(directory: str | Path, *, params: DifficultyParams | None = None, na
     nav = navigator or navs[0]
     if nav not in navs:
         raise SpecError("navigator", nav, f"one of the campaign's navigators {navs}")
-    stats = config_stats(records, planned_configs(spec, planned_runs), confidence=confidence, interval=interval)
-    nominal = [s for s in stats if s.navigator == nav and s.fault == NOMINAL]
-    refs = reference_keys(spec)
-    diff = assign_levels(nominal, is_reference or (lambda s: s.key in refs), params)
-    explicit = frozenset(e.name for e in spec.experiments if e.explicit)
-    ranges, overlaps = level_ranges(nominal, diff, explicit)
+    try:
+        # the trajectories Q2 reads: read by worker processes (when there are many) while the rest is computed
+        cache.prefetch([trace_path(root, r) for r in records if r.navigator == nav and fault_name(r.fault) == NOMINAL],
+                       wait=False)
+        stats = config_stats(records, planned_configs(spec, planned_runs), confidence=confidence, interval=interval)
+        nominal = [s for s in stats if s.navigator == nav and s.fault == NOMINAL]
+        refs = reference_keys(spec)
+        diff = assign_levels(nominal, is_reference or (lambda s: s.key in refs), params)
+        explicit = frozenset(e.name for e in spec.experiments if e.explicit)
+        ranges, overlaps = level_ranges(nominal, diff, explicit)
 
-    # the trajectories Q2 reads, in parallel when there are many
-    cache.prefetch([trace_path(root, r) for r in records if r.navigator == nav and fault_name(r.fault) == NOMINAL])
+        levels = {s.key: diff.level(*s.key) for s in nominal}
+        power = fault_power([r for r in records if r.navigator == nav], levels)
+        power_levels = by_level(power, LEVELS)
+
+        world_dirs: dict[tuple[str, str], list[tuple[int, Path]]] = {}
+        for m in maps:
+            world_dirs.setdefault((m.experiment, m.config_key), []).append((m.map_index, Path(m.world_dir)))
+        desc: dict[tuple[str, str], dict[str, float]] = {}
+        for key, dirs in world_dirs.items():
+            ds = [d for d in (world_descriptors(p) for _, p in dirs) if d is not None]
+            if ds:
+                desc[key] = mean_descriptors(ds)
+        infeasible = {key: infeasible_maps([p for _, p in dirs]) for key, dirs in world_dirs.items()}
+        rank = {k: LEVEL_RANK[v] for k, v in levels.items() if v in LEVEL_RANK}
+        succ = {s.key: s.success_rate for s in nominal if s.success_rate is not None}
+        corr = correlations(desc, rank, {k: float(v) for k, v in succ.items() if v is not None})
+        verd = verdicts(records, rule_of(spec), [(s.experiment, s.config_key, s.navigator, s.fault) for s in stats],
+                        rules_of(spec))
+        cache.wait()
+    finally:
+        if owned:
+            cache.close()  # (its reading processes; a caller's cache keeps them for its next reads)
     # Q2: nominal runs of the navigator, grouped per configuration and map
     by_cfg: dict[tuple[str, str], dict[int, list[tuple[bool, np.ndarray]]]] = {}
     for r in records:
@@ -290,25 +212,6 @@ def analyze(directory: str | Path, *, params: DifficultyParams | None = None, na
             (r.outcome == Outcome.SUCCESS.value, tr[:, :3]))
     indet = {k: config_curves(v, dt) for k, v in by_cfg.items()}
     indet = {k: v for k, v in indet.items() if v}
-
-    levels = {s.key: diff.level(*s.key) for s in nominal}
-    power = fault_power([r for r in records if r.navigator == nav], levels)
-    power_levels = by_level(power, LEVELS)
-
-    world_dirs: dict[tuple[str, str], list[tuple[int, Path]]] = {}
-    for m in maps:
-        world_dirs.setdefault((m.experiment, m.config_key), []).append((m.map_index, Path(m.world_dir)))
-    desc: dict[tuple[str, str], dict[str, float]] = {}
-    for key, dirs in world_dirs.items():
-        ds = [d for d in (world_descriptors(p) for _, p in dirs) if d is not None]
-        if ds:
-            desc[key] = mean_descriptors(ds)
-    infeasible = {key: infeasible_maps([p for _, p in dirs]) for key, dirs in world_dirs.items()}
-    rank = {k: LEVEL_RANK[v] for k, v in levels.items() if v in LEVEL_RANK}
-    succ = {s.key: s.success_rate for s in nominal if s.success_rate is not None}
-    corr = correlations(desc, rank, {k: float(v) for k, v in succ.items() if v is not None})
-    verd = verdicts(records, rule_of(spec), [(s.experiment, s.config_key, s.navigator, s.fault) for s in stats],
-                    rules_of(spec))
     return Analysis(root=root, name=spec.name, navigator=nav, done=done, planned=planned, outcome_counts=counts,
                     per_experiment=per_exp, records=records, stats=stats, nominal=nominal, difficulty=diff,
                     ranges=ranges, overlaps=overlaps, indeterminism=indet, power=power, power_levels=power_levels,

@@ -42,7 +42,8 @@ from typing import Any
 import numpy as np
 
 from navstress._percent import percent, setting
-from navstress.analysis.analyze import Analysis, TrajectoryCache, analyze, trace_path
+from navstress.analysis.analyze import Analysis, analyze, trace_path
+from navstress.analysis.trajectories import TrajectoryCache
 from navstress.analysis.difficulty import NO_DATA, DifficultyParams
 from navstress.analysis import svgmap
 from navstress.analysis import charts
@@ -593,6 +594,25 @@ def _groups(recs: list[RunRecord], navigators: list[str]) -> list[tuple[str, str
     return sorted(pairs, key=lambda p: (order.get(p[0], len(order)), p[1] != NOMINAL, p[1], p[0]))
 
 
+def _shown_by_config(a: Analysis) -> dict[tuple[str, str], list[RunRecord]]:
+    by_cfg: dict[tuple[str, str], list[RunRecord]] = {}
+    for r in a.records:
+        if a.shows(r.navigator):
+            by_cfg.setdefault((r.experiment, config_key(r)), []).append(r)
+    return by_cfg
+
+
+def _prefetch_shown(a: Analysis, cache: TrajectoryCache, *, wait: bool) -> None:
+    """Every shown run is drawn: read the trajectories the analysis did not (faults, other
+    navigators) at once, and the beliefs of the failing runs that get a view of their own (a
+    failing run's two trajectories read together: one pass over its trace). ``wait=False``: the
+    cache's workers read them while the page's first sections are written."""
+    by_cfg = _shown_by_config(a)
+    cache.prefetch([trace_path(a.root, r) for recs in by_cfg.values() for r in recs
+                    if r.outcome != Outcome.SUCCESS.value][:MAX_RUN_VIEWS], (TOPIC_TRUTH, TOPIC_PERCEIVED), wait=wait)
+    cache.prefetch([trace_path(a.root, r) for recs in by_cfg.values() for r in recs], wait=wait)
+
+
 def _configs(a: Analysis, cache: TrajectoryCache, max_points: int, link_base: Path | None = None) -> str:
     shown = ", ".join(a.shown_navigators)
     budget = _Budget(MAX_RUN_VIEWS)
@@ -603,15 +623,8 @@ def _configs(a: Analysis, cache: TrajectoryCache, max_points: int, link_base: Pa
            'reason, seeds, trace and, for a failing run, its real and perceived trajectories and its final '
            'perceived map; click a picture to enlarge it.</p>',
            svgmap.legend_html(OUTCOME_LABELS)]
-    by_cfg: dict[tuple[str, str], list[RunRecord]] = {}
-    for r in a.records:
-        if a.shows(r.navigator):
-            by_cfg.setdefault((r.experiment, config_key(r)), []).append(r)
-    # every shown run is drawn: read the trajectories the analysis did not (faults, other navigators) at once,
-    # and the beliefs of the failing runs (their own views)
-    cache.prefetch([trace_path(a.root, r) for recs in by_cfg.values() for r in recs])
-    cache.prefetch([trace_path(a.root, r) for recs in by_cfg.values() for r in recs
-                    if r.outcome != Outcome.SUCCESS.value][:budget.left], TOPIC_PERCEIVED)
+    by_cfg = _shown_by_config(a)
+    _prefetch_shown(a, cache, wait=True)
     keys = list(dict.fromkeys([s.key for s in a.stats]))
     for key in keys:
         e, k = key
@@ -735,7 +748,9 @@ def coarse_grid(grid: np.ndarray, origin_xy: tuple[float, float], cell_m: float,
         return g, origin_xy, cell_m
     pad = np.full((-(-rows // k) * k, -(-cols // k) * k), -np.inf)
     pad[:rows, :cols] = np.where(np.isfinite(g), g, -np.inf)
-    top = pad.reshape(pad.shape[0] // k, k, pad.shape[1] // k, k).max(axis=(1, 3))
+    # block maxima, rows then columns (two contiguous reductions; the maximum of maxima is the maximum)
+    top = pad.reshape(pad.shape[0] // k, k, pad.shape[1]).max(axis=1)
+    top = top.reshape(top.shape[0], pad.shape[1] // k, k).max(axis=2)
     return np.where(np.isfinite(top), top, np.nan), origin_xy, cell_m * k
 
 
@@ -828,7 +843,11 @@ def render_report(a: Analysis, *, cache: TrajectoryCache | None = None, max_poin
                   sections: Sequence[Section] = (), link_base: Path | None = None) -> str:
     """The report's HTML text for an :class:`Analysis`; ``sections`` come after the summary;
     ``link_base``: the folder the report will be in (its links to traces are relative to it)."""
-    cache = cache or TrajectoryCache()
+    if cache is None:
+        with TrajectoryCache() as own:
+            return render_report(a, cache=own, max_points=max_points, sections=sections, link_base=link_base)
+    if a.done:
+        _prefetch_shown(a, cache, wait=False)
     body = [_summary(a)] + [s.html for s in sections]
     if a.done:
         body += [_difficulty(a), _class_figures(a), _verdicts(a), _indeterminism(a), _fault_power(a), _correlations(a),
@@ -855,10 +874,10 @@ def build_report(directory: str | Path, out: str | Path, *, params: DifficultyPa
                  sections: Sequence[Section] = ()) -> Path:
     """Analyse the campaign in ``directory`` and write the report to ``out`` atomically (with
     ``sections`` after the summary); returns ``out``."""
-    cache = TrajectoryCache()
-    a = analyze(directory, params=params, navigator=navigator, dt=dt, cache=cache)
     dest = Path(out)
-    text = render_report(a, cache=cache, max_points=max_points, sections=sections, link_base=dest.parent)
+    with TrajectoryCache() as cache:  # its reading processes, shared by the analysis and the pictures
+        a = analyze(directory, params=params, navigator=navigator, dt=dt, cache=cache)
+        text = render_report(a, cache=cache, max_points=max_points, sections=sections, link_base=dest.parent)
     dest.parent.mkdir(parents=True, exist_ok=True)
     tmp = dest.with_name(f".{dest.name}.partial")
     try:

@@ -18,6 +18,7 @@ is drawn at (x, sy - y), rounded to 5 cm.
 from __future__ import annotations
 
 import base64
+import functools
 import io
 import math
 from typing import Any
@@ -92,48 +93,55 @@ def terrain_rgb(world: World) -> np.ndarray:
 
 def _n(v: float) -> str:
     """A coordinate rounded to 5 cm, without a trailing ``.0``."""
-    r = round(v * 20) / 20
-    return str(int(r)) if r == int(r) else f"{r:.2f}".rstrip("0")
+    return _nq(int(round(v * 20)))
+
+
+@functools.lru_cache(maxsize=1 << 16)
+def _nq(q: int) -> str:
+    """:func:`_n` of ``q / 20`` (``q``: a coordinate in 5 cm steps); memoised, since a report
+    writes the same few thousand numbers millions of times."""
+    r = q / 20
+    return str(q // 20) if q % 20 == 0 else f"{r:.2f}".rstrip("0")
+
+
+def _q(v: np.ndarray) -> list[int]:
+    """``round(v * 20)`` of every element (numpy's rint rounds half to even, as ``round``)."""
+    return np.rint(np.asarray(v, dtype=np.float64) * 20).astype(np.int64).tolist()  # type: ignore[no-any-return]
 
 
 def _path(corners: np.ndarray, sy: float) -> str:
     """A closed polygon: the first corner absolute, the others relative to the one before (the
     5 cm grid of :func:`_n`: each corner rounded, then differenced, so no error accumulates)."""
-    q = [(round(float(x) * 20), round(float(sy - y) * 20)) for x, y in corners]
-    out = [f"M{_n(q[0][0] / 20)} {_n(q[0][1] / 20)}"]
-    for (ax, ay), (bx, by) in zip(q, q[1:]):
-        out.append(f"l{_n((bx - ax) / 20)} {_n((by - ay) / 20)}")
-    return "".join(out) + "z"
+    return _paths([corners], sy)[0]
+
+
+def _paths(polygons: list[np.ndarray], sy: float) -> list[str]:
+    """:func:`_path` of each polygon ((n, 2) corners), rounded all at once."""
+    if not polygons:
+        return []
+    c = np.concatenate([np.asarray(p, dtype=np.float64).reshape(-1, 2) for p in polygons])
+    qx, qy = _q(c[:, 0]), _q(sy - c[:, 1])
+    out, at = [], 0
+    for p in polygons:
+        n = len(p)
+        xs, ys = qx[at:at + n], qy[at:at + n]
+        at += n
+        out.append(f"M{_nq(xs[0])} {_nq(ys[0])}"
+                   + "".join(f"l{_nq(bx - ax)} {_nq(by - ay)}" for ax, bx, ay, by in zip(xs, xs[1:], ys, ys[1:]))
+                   + "z")
+    return out
 
 
 def simplify(xy: np.ndarray, tol: float) -> np.ndarray:
     """Ramer-Douglas-Peucker: the points of the polyline ``xy`` (N, 2) to keep so that no dropped
-    point is farther than ``tol`` from the simplified line; first and last always kept."""
-    n = len(xy)
-    if n <= 2:
+    point is farther than ``tol`` from the simplified line; first and last always kept (compiled:
+    :func:`navstress.analysis.polyline.rdp_keep`)."""
+    from navstress.analysis.polyline import rdp_keep
+
+    a = np.ascontiguousarray(xy, dtype=np.float64)
+    if len(a) <= 2:
         return xy
-    keep = np.zeros(n, dtype=bool)
-    keep[0] = keep[-1] = True
-    stack = [(0, n - 1)]
-    while stack:
-        i, j = stack.pop()
-        if j - i < 2:
-            continue
-        a, b = xy[i], xy[j]
-        seg = b - a
-        pts = xy[i + 1:j] - a
-        length = math.hypot(seg[0], seg[1])
-        if length < 1e-12:
-            d = np.hypot(pts[:, 0], pts[:, 1])
-        else:
-            d = np.abs(seg[0] * pts[:, 1] - seg[1] * pts[:, 0]) / length
-        k = int(np.argmax(d))
-        if d[k] > tol:
-            m = i + 1 + k
-            keep[m] = True
-            stack.append((i, m))
-            stack.append((m, j))
-    return xy[keep]
+    return np.asarray(xy[rdp_keep(a, float(tol))])
 
 
 def _finite(xy: np.ndarray) -> np.ndarray:
@@ -144,7 +152,7 @@ def _finite(xy: np.ndarray) -> np.ndarray:
 
 def _points(xy: np.ndarray, sy: float, tol: float) -> str:
     s = simplify(_finite(xy), tol)
-    return " ".join(f"{_n(x)},{_n(sy - y)}" for x, y in s)
+    return " ".join(f"{_nq(x)},{_nq(y)}" for x, y in zip(_q(s[:, 0]), _q(sy - s[:, 1])))
 
 
 def world_defs(world: World, gid: str) -> str:
@@ -158,8 +166,9 @@ def world_defs(world: World, gid: str) -> str:
              f'width="{_n(cols * c)}" height="{_n(rows * c)}" preserveAspectRatio="none" '
              'style="image-rendering:auto"/>']
     kinds = sorted({o.kind for o in world.obstacles})
+    paths = _obstacle_paths(world)
     for kind in kinds:
-        d = "".join(_path(o.corners(), sy) for o in world.obstacles if o.kind == kind)
+        d = "".join(p for o, p in zip(world.obstacles, paths) if o.kind == kind)
         parts.append(f'<path class="obs" fill="{kind_colour(kind, kinds)}" d="{d}"><title>{kind}</title></path>')
     m = world.mission
     r = m.free_radius_m
@@ -188,8 +197,23 @@ def world_defs(world: World, gid: str) -> str:
 
 def _outline_d(world: World) -> str:
     """Every obstacle's footprint, as one path's ``d``."""
-    sy = world.size_m[1]
-    return "".join(_path(o.corners(), sy) for o in world.obstacles)
+    return "".join(_obstacle_paths(world))
+
+
+_OBSTACLE_PATHS: dict[int, tuple[World, list[str]]] = {}
+
+
+def _obstacle_paths(world: World) -> list[str]:
+    """:func:`_path` of every obstacle's footprint, in ``world.obstacles`` order; kept for the
+    last few worlds (a report draws a world's obstacles and then their outlines)."""
+    hit = _OBSTACLE_PATHS.get(id(world))
+    if hit is not None and hit[0] is world:
+        return hit[1]
+    paths = _paths([o.corners() for o in world.obstacles], world.size_m[1])
+    if len(_OBSTACLE_PATHS) >= 8:
+        _OBSTACLE_PATHS.pop(next(iter(_OBSTACLE_PATHS)))
+    _OBSTACLE_PATHS[id(world)] = (world, paths)
+    return paths
 
 
 def obstacle_outlines(world: World) -> str:

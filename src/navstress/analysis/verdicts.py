@@ -25,6 +25,7 @@ spec gives it one (the experiment's own, else the campaign's), else :data:`DEFAU
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -67,8 +68,10 @@ class VerdictRule:
         check_rule(1, 1, self.threshold, self.confidence, field="verdicts", indifference=self.indifference)
 
 
+@functools.lru_cache(maxsize=4096)
 def exact_interval(successes: int, runs: int, confidence: float) -> tuple[float, float]:
-    """Clopper-Pearson interval of successes/runs at ``confidence``; (0, 1) without runs."""
+    """Clopper-Pearson interval of successes/runs at ``confidence``; (0, 1) without runs
+    (memoised: a campaign's worlds share a few counts, and each interval is a root search)."""
     if runs == 0:
         return 0.0, 1.0
     ci = binomtest(successes, runs).proportion_ci(confidence_level=confidence, method="exact")

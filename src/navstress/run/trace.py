@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
@@ -68,7 +68,6 @@ from mcap_protobuf.writer import Writer
 from navstress.errors import StoreError
 from navstress.nav.api import DebugDraw, DebugLine, DebugPoints, DebugText
 from navstress.run.record import cap_message
-from navstress.world.export._grid import terrain_faces
 
 FRAME = "map"
 TOPIC_TRUTH = "/truth/pose"
@@ -137,6 +136,8 @@ def terrain_mesh(heights: np.ndarray, cell_m: float, max_cells: int = MESH_MAX_C
     keeps at most ``max_cells`` cells along the longer side (the last row and column always kept);
     between them the surface is linear, so with k > 1 it is the terrain seen at k * cell_m (a
     picture, not the simulated surface). Flat ground is its four corners."""
+    from navstress.world.export._grid import terrain_faces  # (local: the world package imports numba)
+
     h = np.asarray(heights, dtype=np.float64)
     rows, cols = h.shape
     if float(h.max() - h.min()) < 1e-12:
@@ -424,13 +425,14 @@ def _messages(path: str | os.PathLike[str], topics: list[str]) -> Iterator[tuple
         raise StoreError(f"trace={str(path)!r} is unreadable: {type(err).__name__}: {err}") from None
 
 
-def _indexed(path: str | os.PathLike[str], topic: str, schema: str) -> list[tuple[int, bytes]] | None:
-    """(log time, payload) of every message on ``topic``, in log-time order, found through the
-    file's MCAP message indexes: each chunk that holds the topic is decompressed once and only the
-    topic's message records are parsed (the library's reader parses every record of the chunk,
-    and for a pose trajectory that is most of the time a report spends). None when the file has
-    no summary or index, or the topic's schema is not ``schema`` (the caller reads it the general
-    way then); errors as :func:`_messages`."""
+def _index_chunks(path: str | os.PathLike[str], topics: Sequence[str], schema: str
+                  ) -> dict[str, list[tuple[int, bytes, np.ndarray]]] | None:
+    """Where the messages of ``topics`` are, found through the file's MCAP message indexes: per
+    topic, for each chunk that holds it, (the chunk's start offset in the file, its decompressed
+    records, (n, 2) uint64 (log time, offset of the Message record in those records)); each chunk
+    is decompressed once, whatever the number of topics in it. None when the file has no summary
+    or index, or a topic's schema is not ``schema`` (the caller reads it the general way then);
+    errors as :func:`_messages`."""
     import struct
 
     import zstandard
@@ -442,13 +444,13 @@ def _indexed(path: str | os.PathLike[str], topic: str, schema: str) -> list[tupl
             summary = make_reader(f).get_summary()
             if summary is None or not summary.chunk_indexes:
                 return None
-            ids = {cid for cid, ch in summary.channels.items() if ch.topic == topic}
+            ids = {cid: ch.topic for cid, ch in summary.channels.items() if ch.topic in topics}
             if any(summary.schemas[summary.channels[c].schema_id].name != schema for c in ids
                    if summary.channels[c].schema_id in summary.schemas):
                 return None
-            found: list[tuple[int, int, int, bytes]] = []
+            out: dict[str, list[tuple[int, bytes, np.ndarray]]] = {t: [] for t in topics}
             for ci in summary.chunk_indexes:
-                mine = [ci.message_index_offsets[c] for c in ids if c in ci.message_index_offsets]
+                mine = [(ids[c], ci.message_index_offsets[c]) for c in ids if c in ci.message_index_offsets]
                 if not mine:
                     continue
                 f.seek(ci.chunk_start_offset + 1 + 8)
@@ -459,7 +461,7 @@ def _indexed(path: str | os.PathLike[str], topic: str, schema: str) -> list[tupl
                     data = chunk.data
                 else:
                     return None
-                for off in mine:
+                for topic, off in mine:
                     # a MessageIndex record: opcode (1), length (8), channel (2), byte length of
                     # the entries (4), then (log time, offset in the chunk) pairs, u64 each
                     f.seek(off)
@@ -468,26 +470,97 @@ def _indexed(path: str | os.PathLike[str], topic: str, schema: str) -> list[tupl
                     if opcode != 0x07 or len(body) != length:
                         return None
                     (n,) = struct.unpack_from("<I", body, 2)
+                    if 6 + n > length or n % 16:
+                        return None
                     entries = np.frombuffer(body, dtype="<u8", count=n // 8, offset=6).reshape(-1, 2)
-                    for log_time, at in entries.tolist():
-                        # a Message record: opcode (1), length (8), channel (2), sequence (4),
-                        # log time (8), publish time (8), then the payload
-                        opcode, length = struct.unpack_from("<BQ", data, at)
-                        if opcode != 0x05:
-                            return None
-                        found.append((log_time, ci.chunk_start_offset, at, data[at + 31:at + 9 + length]))
+                    out[topic].append((ci.chunk_start_offset, data, entries))
     except FileNotFoundError:
         raise StoreError(f"trace={str(path)!r} does not exist") from None
     except Exception as err:  # mcap raises several unrelated types on corrupt input
         raise StoreError(f"trace={str(path)!r} is unreadable: {type(err).__name__}: {err}") from None
+    return out
+
+
+def _indexed(path: str | os.PathLike[str], topic: str, schema: str) -> list[tuple[int, bytes]] | None:
+    """(log time, payload) of every message on ``topic``, in log-time order, through the file's
+    MCAP message indexes (:func:`_index_chunks`): only the topic's message records are parsed
+    (the library's reader parses every record of a chunk). None and errors as
+    :func:`_index_chunks`."""
+    import struct
+
+    chunks = _index_chunks(path, [topic], schema)
+    if chunks is None:
+        return None
+    found: list[tuple[int, int, int, bytes]] = []
+    for start, data, entries in chunks[topic]:
+        for log_time, at in entries.tolist():
+            # a Message record: opcode (1), length (8), channel (2), sequence (4), log time (8),
+            # publish time (8), then the payload
+            if at + 9 > len(data):
+                return None
+            opcode, length = struct.unpack_from("<BQ", data, at)
+            if opcode != 0x05:
+                return None
+            found.append((log_time, start, at, data[at + 31:at + 9 + length]))
     found.sort(key=lambda m: m[:3])
     return [(m[0], m[3]) for m in found]
 
 
+def _poses_indexed(path: str | os.PathLike[str], topics: Sequence[str]) -> dict[str, np.ndarray | None] | None:
+    """:func:`read_poses` of each of ``topics`` through the message indexes, decoded by a compiled
+    loop (:func:`navstress.run.posewire.pose_rows`), the file opened and each chunk decompressed
+    once for all of them. None when the file has no usable index; a topic's value is None when one
+    of its messages is not one that loop reads (the caller decodes that topic with protobuf)."""
+    chunks = _index_chunks(path, topics, PoseInFrame.DESCRIPTOR.full_name)
+    if chunks is None:
+        return None
+    from navstress.run.posewire import pose_rows
+
+    out: dict[str, np.ndarray | None] = {}
+    for topic in topics:
+        parts, keys = [], []
+        for start, data, entries in chunks[topic]:
+            if (entries[:, 1] > np.iinfo(np.int64).max).any():
+                break
+            rows = np.empty((len(entries), 7), dtype=np.float64)
+            if pose_rows(np.frombuffer(data, dtype=np.uint8), entries[:, 1].astype(np.int64), entries[:, 0].copy(),
+                         rows) != -1:
+                break
+            parts.append(rows)
+            keys.append(np.column_stack([entries[:, 0], np.full(len(entries), start, dtype=np.uint64), entries[:, 1]]))
+        else:
+            if not parts:
+                out[topic] = np.zeros((0, 7), dtype=np.float64)
+                continue
+            k = np.concatenate(keys)
+            # log-time order, ties by place in the file, as the library's reader gives them
+            out[topic] = np.concatenate(parts)[np.lexsort((k[:, 2], k[:, 1], k[:, 0]))]
+            continue
+        out[topic] = None
+    return out
+
+
+def read_poses_of(path: str | os.PathLike[str], topics: Sequence[str]) -> dict[str, np.ndarray]:
+    """:func:`read_poses` of several topics of one trace, the file read once for all of them
+    (what a report does for a failing run: its true and its perceived trajectory)."""
+    fast = _poses_indexed(path, topics)
+    out: dict[str, np.ndarray] = {}
+    for t in topics:
+        arr = fast.get(t) if fast is not None else None
+        out[t] = arr if arr is not None else read_poses(path, t, indexed=fast is not None)
+    return out
+
+
 def read_poses(path: str | os.PathLike[str], topic: str = TOPIC_TRUTH, *, indexed: bool = True) -> np.ndarray:
     """(N, 7) float64: t, x, y, z, yaw, pitch, roll, in time order. Read through the file's
-    message indexes (:func:`_indexed`), else (no index, or ``indexed=False``) with the MCAP
-    library's reader; both give the same bytes."""
+    message indexes and decoded by a compiled loop (:func:`_poses_indexed`), else (no index, a
+    message that loop does not read, or ``indexed=False``) with the MCAP library's reader and
+    protobuf; both give the same bytes."""
+    if indexed:
+        fast = _poses_indexed(path, [topic])
+        arr = None if fast is None else fast[topic]
+        if arr is not None:
+            return arr
     rows = []
     for log_time, m in _decoded(path, topic, PoseInFrame, indexed):
         p = m.pose.position
@@ -549,8 +622,19 @@ def _decoded(path: str | os.PathLike[str], topic: str, cls: Any, indexed: bool =
     thousands of trajectories and hundreds of final maps), else the library's reader."""
     fast = _indexed(path, topic, cls.DESCRIPTOR.full_name) if indexed else None
     if fast is not None:
-        return ((lt, cls.FromString(data)) for lt, data in fast)
+        return _parsed(path, fast, cls)
     return ((lt, m) for _t, lt, m in _messages(path, [topic]))
+
+
+def _parsed(path: str | os.PathLike[str], found: list[tuple[int, bytes]], cls: Any) -> Iterator[tuple[int, Any]]:
+    """The payloads of :func:`_indexed` parsed, a payload protobuf rejects reported as the
+    library's reader reports it (:func:`_messages`: a StoreError naming the file)."""
+    for lt, data in found:
+        try:
+            m = cls.FromString(data)
+        except Exception as err:  # protobuf's DecodeError, and whatever else a corrupt payload raises
+            raise StoreError(f"trace={str(path)!r} is unreadable: {type(err).__name__}: {err}") from None
+        yield lt, m
 
 
 def read_grids(path: str | os.PathLike[str], topic: str = TOPIC_MAP, *, indexed: bool = True

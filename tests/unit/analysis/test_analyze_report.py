@@ -170,7 +170,7 @@ def test_report_shows_infeasible_maps_per_configuration(campaign: Path, tmp_path
 def test_trajectory_prefetch_in_worker_processes_reads_what_get_reads(tmp_path: Path) -> None:
     """Many traces are read in worker processes; the cache then holds, byte for byte, what a
     sequential get() reads; a missing trace and an unreadable one are None, as with get()."""
-    from navstress.analysis.analyze import TrajectoryCache
+    from navstress.analysis.trajectories import TrajectoryCache
     paths: list[Path | None] = []
     for i in range(6):
         paths.append(Path(write_trace(tmp_path / f"{i}.mcap", line(10 + i, 0, i, 20, 5 + i))))

@@ -54,6 +54,53 @@ def test_simplify_keeps_the_ends_and_every_dropped_point_within_tolerance(xy: np
             assert _seg_dist(xy[m], xy[a], xy[b]) <= tol + 1e-9
 
 
+def _rdp_reference(xy: np.ndarray, tol: float) -> np.ndarray:
+    """Ramer-Douglas-Peucker in numpy, one segment at a time (the report's simplification before
+    it was compiled; ``hypot`` from numpy, i.e. libm's, as the compiled loop's)."""
+    n = len(xy)
+    if n <= 2:
+        return xy
+    keep = np.zeros(n, dtype=bool)
+    keep[0] = keep[-1] = True
+    stack = [(0, n - 1)]
+    while stack:
+        i, j = stack.pop()
+        if j - i < 2:
+            continue
+        a, b = xy[i], xy[j]
+        seg = b - a
+        pts = xy[i + 1:j] - a
+        length = float(np.hypot(seg[0], seg[1]))
+        if length < 1e-12:
+            d = np.hypot(pts[:, 0], pts[:, 1])
+        else:
+            d = np.abs(seg[0] * pts[:, 1] - seg[1] * pts[:, 0]) / length
+        k = int(np.argmax(d))
+        if d[k] > tol:
+            m = i + 1 + k
+            keep[m] = True
+            stack.append((i, m))
+            stack.append((m, j))
+    return xy[keep]
+
+
+# polylines as runs draw them (steps along a heading that turns), with repeated points, spikes,
+# collinear stretches and exact ties among them
+walks = st.builds(
+    lambda steps, turns, x0, y0: np.column_stack([x0 + np.cumsum(np.cos(np.cumsum(turns)) * steps),
+                                                  y0 + np.cumsum(np.sin(np.cumsum(turns)) * steps)]),
+    arrays(np.float64, 300, elements=st.sampled_from([0.0, 0.05, 0.1, 0.5, 3.0])),
+    arrays(np.float64, 300, elements=st.sampled_from([0.0, 0.0, 0.02, -0.3, math.pi / 2, math.pi])),
+    st.floats(-100, 100), st.floats(-100, 100))
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.one_of(coords, walks, coords.map(lambda a: np.round(a))), st.sampled_from([0.0, 1e-9, 0.05, 0.2, 1.0, 7.5]))
+def test_compiled_simplification_keeps_exactly_the_points_numpy_keeps(xy: np.ndarray, tol: float) -> None:
+    """The compiled loop is the numpy algorithm, point for point (same arithmetic, same ties)."""
+    assert svgmap.simplify(xy, tol).tobytes() == _rdp_reference(xy, tol).tobytes()
+
+
 @pytest.fixture(scope="module")
 def world() -> World:
     return generate(WorldSpec.model_validate({"size_m": [30.0, 20.0], "cell_m": 0.5,
@@ -97,3 +144,31 @@ def test_the_world_layer_draws_every_obstacle_start_and_goal(world: World) -> No
     assert float(start.get("cx") or "nan") == pytest.approx(x0, abs=0.05)
     assert float(start.get("cy") or "nan") == pytest.approx(sy - y0, abs=0.05)  # y flipped
     assert any((p.findtext(f"{ns}title") or "") == "goal" for p in g.iter(f"{ns}polygon"))
+
+
+def _n_reference(v: float) -> str:
+    r = round(v * 20) / 20
+    return str(int(r)) if r == int(r) else f"{r:.2f}".rstrip("0")
+
+
+def _path_reference(corners: np.ndarray, sy: float) -> str:
+    q = [(round(float(x) * 20), round(float(sy - y) * 20)) for x, y in corners]
+    out = [f"M{_n_reference(q[0][0] / 20)} {_n_reference(q[0][1] / 20)}"]
+    for (ax, ay), (bx, by) in zip(q, q[1:]):
+        out.append(f"l{_n_reference((bx - ax) / 20)} {_n_reference((by - ay) / 20)}")
+    return "".join(out) + "z"
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.floats(-1e6, 1e6), st.lists(arrays(np.float64, st.tuples(st.integers(1, 9), st.just(2)),
+                                             elements=st.floats(-5e3, 5e3)), max_size=6),
+       st.floats(0, 1e4), st.floats(0.0, 2.0))
+def test_rounded_numbers_paths_and_points_are_written_as_one_number_at_a_time(
+        v: float, polygons: list[np.ndarray], sy: float, tol: float) -> None:
+    """The memoised, vectorised writing of coordinates (5 cm grid) gives the text the plain
+    per-number formula gives, for numbers, obstacle paths and run lines."""
+    assert svgmap._n(v) == _n_reference(v)
+    assert svgmap._paths(polygons, sy) == [_path_reference(p, sy) for p in polygons]
+    for p in polygons:
+        kept = svgmap.simplify(p, tol)
+        assert svgmap._points(p, sy, tol) == " ".join(f"{_n_reference(x)},{_n_reference(sy - y)}" for x, y in kept)
