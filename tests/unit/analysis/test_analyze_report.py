@@ -184,3 +184,27 @@ def test_trajectory_prefetch_in_worker_processes_reads_what_get_reads(tmp_path: 
         if a is not None and b is not None:
             assert a.tobytes() == b.tobytes() and len(a) > 10
     assert par.get(tmp_path / "junk.mcap") is None and par.get(tmp_path / "missing.mcap") is None
+    par.close()
+
+
+def test_trajectories_read_in_the_background_are_those_get_reads(tmp_path: Path) -> None:
+    """prefetch(wait=False) returns while the workers read; after wait() the cache holds what
+    get() reads (truth and perceived read together from each trace), nothing asked twice is read
+    twice, and close() stops the workers (the cache keeps its arrays)."""
+    from navstress.analysis.trajectories import TrajectoryCache
+    from navstress.run.trace import TOPIC_PERCEIVED, TOPIC_TRUTH
+    paths = [Path(write_trace(tmp_path / f"{i}.mcap", line(10 + i, 0, i, 20, 5 + i))) for i in range(8)]
+    seq = TrajectoryCache()
+    with TrajectoryCache() as par:
+        par.prefetch(paths[:5], (TOPIC_TRUTH, TOPIC_PERCEIVED), workers=2, wait=False)
+        par.prefetch(paths, workers=2, wait=False)  # the first five's truth is already asked for
+        par.wait()
+        assert len(par._c) == 5 * 2 + 3 and not par._pending
+        for p in paths:
+            for topic in (TOPIC_TRUTH, TOPIC_PERCEIVED):
+                a, b = par.get(p, topic), seq.get(p, topic)
+                assert a is not None and b is not None and a.tobytes() == b.tobytes()
+        procs = [w._child.proc for w in par._workers if w._child is not None]
+        assert len(procs) == 2 and all(p.is_alive() for p in procs)
+    assert not par._workers and not any(p.is_alive() for p in procs)
+    assert par.get(paths[0]) is not None
