@@ -10,7 +10,8 @@ without DIR the benchmark runs the demo campaign into a temporary folder first).
   size, the process's peak resident memory. Targets for the paper preset (2,475 runs): under a
   minute and under 20 MB.
 - with ``--phases``: the report written again in this process with its parts timed (analysis,
-  trajectory prefetches, the failing runs' views, the charts);
+  asking for the trajectories and waiting for the workers that read them, the failing runs'
+  views, the charts);
 - reading a trajectory from a trace (``read_poses``: through the MCAP message indexes) against
   the MCAP library's own reader, on the same ``--sample`` traces of DIR in this one process: the
   median time per trace and the ratio (a ratio is stable on a noisy machine), and that both give
@@ -99,6 +100,7 @@ def phases(root: str) -> None:
         setattr(mod, name, timed)
 
     for mod, name, label in ((R, "analyze", "analysis"), (T.TrajectoryCache, "prefetch", "trajectory prefetches"),
+                             (T.TrajectoryCache, "wait", "waiting for trajectories"),
                              (R, "_run_view", "run views"), (R, "class_chart", "charts"),
                              (R, "verdict_chart", "charts"), (R, "indeterminism_chart", "charts"),
                              (R, "fault_power_chart", "charts")):
