@@ -45,6 +45,8 @@ def _varint(data: np.ndarray, pos: int, end: int) -> tuple[int, int]:
     while pos < end and shift < 70:
         b = int(data[pos])
         pos += 1
+        if shift == 63 and b > 1:
+            return 0, -1  # more than 64 bits: let protobuf judge
         value |= (b & 0x7F) << shift
         if b < 0x80:
             return value, pos
@@ -81,51 +83,69 @@ def _double(data: np.ndarray, pos: int, bits: np.ndarray, value: np.ndarray) -> 
     return float(value[0])
 
 
-@numba.njit(cache=True)
-def _doubles(data: np.ndarray, pos: int, end: int, vals: np.ndarray, bits: np.ndarray, value: np.ndarray) -> bool:
-    """Parse a message of double fields 1..len(vals) (Vector3, Quaternion) into ``vals`` (merging)."""
-    while pos < end:
-        key, pos = _varint(data, pos, end)
-        if pos < 0:
-            return False
-        field, wire = key >> 3, key & 7
-        if field == 0:
-            return False
-        if wire == 1 and 1 <= field <= vals.shape[0]:
-            if pos + 8 > end:
-                return False
-            vals[field - 1] = _double(data, pos, bits, value)
-            pos += 8
-        else:
-            pos = _skip(data, pos, end, wire)
-            if pos < 0:
-                return False
-    return pos == end
+# The messages a pose is in, as the walk below sees them: PoseInFrame (field 3: a Pose), Pose
+# (field 1: a Vector3 position, field 2: a Quaternion orientation), Vector3 (doubles x, y, z:
+# slots 0-2 of the values) and Quaternion (doubles x, y, z, w: slots 3-6).
+# A Timestamp (field 1 of PoseInFrame) is walked too, its fields skipped: protobuf parses it, so
+# a malformed one is an error there. The frame id (field 2) must be ASCII here: protobuf checks
+# that a string is UTF-8, and any other byte sends the message to protobuf.
+_POSE_IN_FRAME, _POSE, _VECTOR3, _QUATERNION, _TIMESTAMP = 0, 1, 2, 3, 4
+_MAX_FIELD = (1 << 29) - 1  # protobuf's largest field number
 
 
 @numba.njit(cache=True)
-def _pose(data: np.ndarray, pos: int, end: int, position: np.ndarray, orientation: np.ndarray,
-          bits: np.ndarray, value: np.ndarray) -> bool:
-    """Parse a foxglove.Pose: field 1 position (Vector3), field 2 orientation (Quaternion)."""
-    while pos < end:
-        key, pos = _varint(data, pos, end)
-        if pos < 0:
-            return False
-        field, wire = key >> 3, key & 7
-        if field == 0:
-            return False
-        if wire == 2 and (field == 1 or field == 2):
-            n, pos = _varint(data, pos, end)
-            if pos < 0 or n < 0 or pos + n > end:
+def _pose_in_frame(data: np.ndarray, pos: int, end: int, vals: np.ndarray, depth_type: np.ndarray,
+                   depth_end: np.ndarray, bits: np.ndarray, value: np.ndarray) -> bool:
+    """Parse the PoseInFrame in ``data[pos:end]`` into ``vals`` (position x, y, z, orientation x, y,
+    z, w; absent ones 0.0), one field at a time with a stack of the messages it is inside (each
+    one's type and end); False when the bytes are not a message this walk reads."""
+    vals[:] = 0.0
+    depth = 0
+    depth_type[0], depth_end[0] = _POSE_IN_FRAME, end
+    while True:
+        stop = depth_end[depth]
+        if pos >= stop:
+            if pos > stop:
                 return False
-            if not _doubles(data, pos, pos + n, position if field == 1 else orientation, bits, value):
+            if depth == 0:
+                return True
+            depth -= 1  # the end of a sub-message: back in its parent
+            continue
+        key, pos = _varint(data, pos, stop)
+        if pos < 0 or key >> 3 == 0 or key >> 3 > _MAX_FIELD:
+            return False
+        field, wire, kind = key >> 3, key & 7, depth_type[depth]
+        child = -1
+        if wire == 2 and kind == _POSE_IN_FRAME and field == 3:
+            child = _POSE
+        elif wire == 2 and kind == _POSE_IN_FRAME and field == 1:
+            child = _TIMESTAMP
+        elif wire == 2 and kind == _POSE_IN_FRAME and field == 2:
+            n, pos = _varint(data, pos, stop)
+            if pos < 0 or n < 0 or pos + n > stop:
                 return False
+            for k in range(pos, pos + n):
+                if data[k] >= 0x80:
+                    return False
             pos += n
-        else:
-            pos = _skip(data, pos, end, wire)
+            continue
+        elif wire == 2 and kind == _POSE and (field == 1 or field == 2):
+            child = _VECTOR3 if field == 1 else _QUATERNION
+        if child >= 0:  # into the sub-message (a repeated one merges into the same values, as protobuf)
+            n, pos = _varint(data, pos, stop)
+            if pos < 0 or n < 0 or pos + n > stop:
+                return False
+            depth += 1
+            depth_type[depth], depth_end[depth] = child, pos + n
+        elif wire == 1 and ((kind == _VECTOR3 and field <= 3) or (kind == _QUATERNION and field <= 4)):
+            if pos + 8 > stop:
+                return False
+            vals[(0 if kind == _VECTOR3 else 3) + field - 1] = _double(data, pos, bits, value)
+            pos += 8
+        else:  # any other field: unknown to a pose (or of another wire type), skipped as protobuf does
+            pos = _skip(data, pos, stop, wire)
             if pos < 0:
                 return False
-    return pos == end
 
 
 @numba.njit(cache=True)
@@ -152,8 +172,9 @@ def pose_rows(data: np.ndarray, offsets: np.ndarray, log_times: np.ndarray, out:
     of the decompressed chunk ``data`` (uint8), whose log time is ``log_times[i]`` (ns). Returns -1
     when every message was decoded, else the index of the first one this loop cannot decode."""
     size = data.shape[0]
-    position = np.zeros(3)
-    orientation = np.zeros(4)
+    vals = np.zeros(7)
+    depth_type = np.zeros(3, dtype=np.int64)  # PoseInFrame, Pose, Vector3 or Quaternion: 3 deep at most
+    depth_end = np.zeros(3, dtype=np.int64)
     bits = np.zeros(1, dtype=np.uint64)
     value = bits.view(np.float64)
     for i in range(offsets.shape[0]):
@@ -167,30 +188,9 @@ def pose_rows(data: np.ndarray, offsets: np.ndarray, log_times: np.ndarray, out:
             length |= int(data[at + 1 + b]) << (8 * b)
         if length < 22 or at + 9 + length > size:
             return i
-        pos, end = at + 31, at + 9 + length
-        position[:] = 0.0
-        orientation[:] = 0.0
-        while pos < end:  # PoseInFrame: field 3 is the pose; timestamp and frame_id are skipped
-            key, pos = _varint(data, pos, end)
-            if pos < 0:
-                return i
-            field, wire = key >> 3, key & 7
-            if field == 0:
-                return i
-            if field == 3 and wire == 2:
-                n, pos = _varint(data, pos, end)
-                if pos < 0 or n < 0 or pos + n > end:
-                    return i
-                if not _pose(data, pos, pos + n, position, orientation, bits, value):
-                    return i
-                pos += n
-            else:
-                pos = _skip(data, pos, end, wire)
-                if pos < 0:
-                    return i
-        if pos != end:
+        if not _pose_in_frame(data, at + 31, at + 9 + length, vals, depth_type, depth_end, bits, value):
             return i
-        w, x, y, z = orientation[3], orientation[0], orientation[1], orientation[2]
+        w, x, y, z = vals[6], vals[3], vals[4], vals[5]
         # navstress.run.trace.euler, term for term
         roll = _atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
         s = 2 * (w * y - z * x)
@@ -199,9 +199,9 @@ def pose_rows(data: np.ndarray, offsets: np.ndarray, log_times: np.ndarray, out:
         pitch = math.asin(s)
         yaw = _atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
         out[i, 0] = log_times[i] / 1e9
-        out[i, 1] = position[0]
-        out[i, 2] = position[1]
-        out[i, 3] = position[2]
+        out[i, 1] = vals[0]
+        out[i, 2] = vals[1]
+        out[i, 3] = vals[2]
         out[i, 4] = yaw
         out[i, 5] = pitch
         out[i, 6] = roll
