@@ -29,6 +29,14 @@ settings.register_profile("navstress", deadline=None)
 settings.load_profile("navstress")
 
 
+def pytest_sessionstart(session: pytest.Session) -> None:
+    """numba's kernels compiled once before the test workers start (``make test`` has done it
+    beside mypy; then this finds the cache warm and returns at once)."""
+    if not hasattr(session.config, "workerinput"):  # the controller (or a run without xdist)
+        from numba_warm import warm
+        warm()
+
+
 @pytest.fixture(autouse=True, scope="session")
 def _charts_validated() -> None:
     """Every chart a test builds is validated against the Vega-Lite schema (a report skips it)."""

@@ -233,7 +233,9 @@ def test_crashing_and_hanging_navigators_are_classified(tmp_path: Path) -> None:
         runs_per_map=1, navigators=MISBEHAVING))
     # the limit stops hangs-v1; it leaves reference-v1's short run room on a loaded 2-core machine
     # (5 s was too tight there: the good run itself was killed)
-    res = run_campaign(spec, tmp_path / "out", workers=2, wall_limit_s=12.0)
+    # (one attempt each: the retries of a dying worker are test_campaign_faults's subject, and each
+    # costs a fresh worker process)
+    res = run_campaign(spec, tmp_path / "out", workers=2, wall_limit_s=12.0, max_attempts=1)
     assert res.recorded == res.planned == 5
     with Store.open(tmp_path / "out") as s:
         by_nav = {r.navigator: r for r in s.records()}

@@ -1,0 +1,62 @@
+"""The test session's first step: numba's on-disk cache filled once, before the test workers start.
+
+navstress's kernels are compiled on first use and cached on disk per source tree
+(``navstress._jit``). On a fresh machine (CI) or after any source change the cache is empty, and
+every process the suite starts (two pytest workers, the campaigns' run workers, the CLI's
+subprocesses) compiled the same kernels side by side, each for tens of seconds. Here two
+processes compile them once (a world generated with every kind of obstacle, rough ground and
+movers; a short mission of the reference navigator on it with the lidar and the navigator's view
+recorded; its trace read back and drawn); a marker file in the cache directory says it is done.
+Best effort: a failure here only costs time, the tests themselves report what is wrong."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+_WORLD = ["world", "generate", "--size", "30", "--trees", "4", "--buildings", "3", "--ground", "fractal",
+          "--movers", "pedestrian=2", "--seed", "3"]
+_AFTER = """
+import sys
+from navstress.analysis import svgmap
+from navstress.run.trace import read_poses
+p = sys.argv[1]
+xy = read_poses(p)[:, 1:3]
+svgmap.simplify(xy, 0.1)
+"""
+
+
+def warm() -> None:
+    from navstress._jit import numba_cache_dir
+
+    d = numba_cache_dir()
+    if d is None or (Path(d) / ".suite-warm").exists():
+        return
+    exe = str(Path(sys.executable).with_name("navstress"))
+    t0 = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="navstress-warm-") as tmp:
+        env = {**os.environ, "PYTHONWARNINGS": "ignore"}
+        quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL, "env": env}
+        # the mission's kernels (a flat world, no generation) while the generator's are compiled beside it
+        mission = subprocess.Popen([sys.executable, "-c", "from navstress.campaign.work import warm_up; warm_up()"],
+                                   **quiet)
+        gen = subprocess.Popen([exe, *_WORLD, "-o", f"{tmp}/w"], **quiet)
+        gen.wait()
+        mission.wait()
+        # then both together: obstacles, movers, the lidar and navigator view recorded, the trace read and drawn
+        run = subprocess.run([exe, "run", f"{tmp}/w", "-o", f"{tmp}/r", "--timeout", "3", "--lidar",
+                              "--navigator-view"], **quiet)
+        traces = sorted(Path(tmp).glob("r/**/*.mcap"))
+        if traces:
+            subprocess.run([sys.executable, "-c", _AFTER, str(traces[0])], **quiet)
+        ok = gen.returncode == mission.returncode == run.returncode == 0 and bool(traces)
+    if ok:
+        (Path(d) / ".suite-warm").write_text(f"{time.perf_counter() - t0:.1f} s\n")
+
+
+if __name__ == "__main__":  # `make test` runs it beside mypy, on the core mypy leaves idle
+    warm()
