@@ -34,7 +34,7 @@ import math
 import os
 import re
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -594,6 +594,11 @@ def _groups(recs: list[RunRecord], navigators: list[str]) -> list[tuple[str, str
     return sorted(pairs, key=lambda p: (order.get(p[0], len(order)), p[1] != NOMINAL, p[1], p[0]))
 
 
+#: Told how far a report is: (what is being done, steps done, steps in all); the steps are the
+#: analysis, the page's first sections, then one per configuration drawn.
+ProgressCallback = Callable[[str, int, int], None]
+
+
 def _shown_by_config(a: Analysis) -> dict[tuple[str, str], list[RunRecord]]:
     by_cfg: dict[tuple[str, str], list[RunRecord]] = {}
     for r in a.records:
@@ -613,7 +618,8 @@ def _prefetch_shown(a: Analysis, cache: TrajectoryCache, *, wait: bool) -> None:
     cache.prefetch([trace_path(a.root, r) for recs in by_cfg.values() for r in recs], wait=wait)
 
 
-def _configs(a: Analysis, cache: TrajectoryCache, max_points: int, link_base: Path | None = None) -> str:
+def _configs(a: Analysis, cache: TrajectoryCache, max_points: int, link_base: Path | None = None,
+             progress: ProgressCallback | None = None) -> str:
     shown = ", ".join(a.shown_navigators)
     budget = _Budget(MAX_RUN_VIEWS)
     out = ['<h2 id="configurations">Configurations</h2>',
@@ -626,7 +632,9 @@ def _configs(a: Analysis, cache: TrajectoryCache, max_points: int, link_base: Pa
     by_cfg = _shown_by_config(a)
     _prefetch_shown(a, cache, wait=True)
     keys = list(dict.fromkeys([s.key for s in a.stats]))
-    for key in keys:
+    for i, key in enumerate(keys):
+        if progress is not None:
+            progress("drawing the configurations", 2 + i, 2 + len(keys))
         e, k = key
         recs = by_cfg.get(key, [])
         lev = a.level(e, k)
@@ -840,18 +848,23 @@ def _runs_table(e: str, k: str, recs: list[RunRecord], root: Path, link_base: Pa
 
 
 def render_report(a: Analysis, *, cache: TrajectoryCache | None = None, max_points: int = 600,
-                  sections: Sequence[Section] = (), link_base: Path | None = None) -> str:
+                  sections: Sequence[Section] = (), link_base: Path | None = None,
+                  progress: ProgressCallback | None = None) -> str:
     """The report's HTML text for an :class:`Analysis`; ``sections`` come after the summary;
     ``link_base``: the folder the report will be in (its links to traces are relative to it)."""
     if cache is None:
         with TrajectoryCache() as own:
-            return render_report(a, cache=own, max_points=max_points, sections=sections, link_base=link_base)
+            return render_report(a, cache=own, max_points=max_points, sections=sections, link_base=link_base,
+                                 progress=progress)
     if a.done:
         _prefetch_shown(a, cache, wait=False)
+    n_cfg = len(dict.fromkeys([s.key for s in a.stats])) if a.done else 0
+    if progress is not None:
+        progress("writing the summary and the charts", 1, 2 + n_cfg)
     body = [_summary(a)] + [s.html for s in sections]
     if a.done:
         body += [_difficulty(a), _class_figures(a), _verdicts(a), _indeterminism(a), _fault_power(a), _correlations(a),
-                 _configs(a, cache, max_points, link_base)]
+                 _configs(a, cache, max_points, link_base, progress)]
     links = [("summary", "Summary"), *((s.id, s.title) for s in sections)]
     if a.done:
         links += [("difficulty", "Difficulty"), ("classes", "Classes"), ("verdicts", "Verdicts"),
@@ -871,13 +884,16 @@ def render_report(a: Analysis, *, cache: TrajectoryCache | None = None, max_poin
 
 def build_report(directory: str | Path, out: str | Path, *, params: DifficultyParams | None = None,
                  navigator: str | None = None, dt: float = 1.0, max_points: int = 600,
-                 sections: Sequence[Section] = ()) -> Path:
+                 sections: Sequence[Section] = (), progress: ProgressCallback | None = None) -> Path:
     """Analyse the campaign in ``directory`` and write the report to ``out`` atomically (with
-    ``sections`` after the summary); returns ``out``."""
+    ``sections`` after the summary); returns ``out``. ``progress`` is told how far it is."""
     dest = Path(out)
     with TrajectoryCache() as cache:  # its reading processes, shared by the analysis and the pictures
+        if progress is not None:
+            progress("analysing the campaign", 0, 2)
         a = analyze(directory, params=params, navigator=navigator, dt=dt, cache=cache)
-        text = render_report(a, cache=cache, max_points=max_points, sections=sections, link_base=dest.parent)
+        text = render_report(a, cache=cache, max_points=max_points, sections=sections, link_base=dest.parent,
+                             progress=progress)
     dest.parent.mkdir(parents=True, exist_ok=True)
     tmp = dest.with_name(f".{dest.name}.partial")
     try:
@@ -885,7 +901,10 @@ def build_report(directory: str | Path, out: str | Path, *, params: DifficultyPa
         os.replace(tmp, dest)
     finally:
         tmp.unlink(missing_ok=True)  # nothing partial left behind (a full disk, an interrupt)
+    if progress is not None:
+        n = len(dict.fromkeys([s.key for s in a.stats])) if a.done else 0
+        progress("written", 2 + n, 2 + n)
     return dest
 
 
-__all__ = ["Section", "build_report", "cell_html", "figure_html", "render_report"]
+__all__ = ["ProgressCallback", "Section", "build_report", "cell_html", "figure_html", "render_report"]

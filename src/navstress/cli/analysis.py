@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from navstress._console import console, literal
@@ -168,7 +169,17 @@ def report_cmd(
         load_search_dir(directory, "directory")
     probe_writable(out)  # before the analysis and the figures, not after
     sections = search_sections(directory, baseline=baseline)
-    path = build_report(directory, out, params=params, navigator=navigator, dt=dt, sections=sections)
+    # how far it is, on standard error (a paper-sized campaign takes half a minute); gone when done
+    err = console(stderr=True)
+    with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
+                  TimeElapsedColumn(), console=err, transient=True, disable=not err.is_terminal) as prog:
+        bar = prog.add_task("report: reading the campaign", total=2)
+
+        def step(what: str, done: int, total: int) -> None:
+            prog.update(bar, description=f"report: {what}", completed=done, total=total)
+
+        path = build_report(directory, out, params=params, navigator=navigator, dt=dt, sections=sections,
+                            progress=step)
     typer.echo(literal(f"report: {path.resolve()}"))
 
 

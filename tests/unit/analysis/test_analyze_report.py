@@ -129,6 +129,59 @@ def test_report_numbers_match_the_store(campaign: Path, tmp_path: Path) -> None:
     assert not any(s.startswith(("http:", "https:", "//")) for s in p.srcs)  # self-contained
 
 
+def test_a_report_says_how_far_it_is_step_by_step(campaign: Path, tmp_path: Path) -> None:
+    """The progress callback: the analysis, the first sections, one step per configuration (each
+    named in the page), then done; never backwards; the last step is the whole."""
+    seen: list[tuple[str, int, int]] = []
+    out = build_report(campaign, tmp_path / "p.html", progress=lambda what, done, total: seen.append((what, done, total)))
+    text = out.read_text()
+    n = text.count("<section id=")
+    assert n > 3 and seen[0] == ("analysing the campaign", 0, 2)
+    assert [w for w, _d, _t in seen[1:]] == ["writing the summary and the charts"] + ["drawing the configurations"] * n \
+        + ["written"]
+    assert [d for _w, d, _t in seen[1:]] == list(range(1, n + 3)) and {t for _w, _d, t in seen[1:]} == {n + 2}
+    empty: list[tuple[str, int, int]] = []
+    make_store(tmp_path / "e").close()
+    build_report(tmp_path / "e", tmp_path / "e.html", progress=lambda *a: empty.append(a))
+    assert empty[-1] == ("written", 2, 2)
+
+
+def test_the_report_command_shows_its_progress_on_a_terminal_only(campaign: Path, tmp_path: Path) -> None:
+    """``navstress report``: with standard error a terminal, a progress bar names each step (and is
+    gone at the end); piped, standard error stays empty; standard output is the one result line
+    either way."""
+    import os
+    import pty
+    import subprocess
+    import sys
+    exe = str(Path(sys.executable).with_name("navstress"))
+    piped = subprocess.run([exe, "report", str(campaign), "-o", str(tmp_path / "a.html")], capture_output=True,
+                           text=True, timeout=300)
+    assert piped.returncode == 0 and piped.stderr == ""
+    assert piped.stdout == f"report: {(tmp_path / 'a.html').resolve()}\n"
+    main, sub = pty.openpty()
+    p = subprocess.Popen([exe, "report", str(campaign), "-o", str(tmp_path / "b.html")], stdout=subprocess.PIPE,
+                         stderr=sub, text=True, env={**os.environ, "COLUMNS": "120"})
+    os.close(sub)
+    seen = b""
+    while True:
+        try:
+            chunk = os.read(main, 65536)
+        except OSError:  # the terminal's other end is closed: the command has ended
+            break
+        if not chunk:
+            break
+        seen += chunk
+    out, _ = p.communicate(timeout=300)
+    os.close(main)
+    assert p.returncode == 0 and out == f"report: {(tmp_path / 'b.html').resolve()}\n"
+    import re
+    text = re.sub(r"\x1b\[[0-9;?]*[A-Za-z]", "", seen.decode(errors="replace"))
+    # (drawn at 10 Hz: a fast report may skip steps, never the first and the last)
+    assert re.search(r"report: reading the campaign \S+ 0/2", text), text[-500:]
+    assert re.search(r"report: written \S+ (\d+)/\1 ", text), text[-500:]
+
+
 def test_empty_campaign_report_says_so(tmp_path: Path) -> None:
     make_store(tmp_path / "e").close()
     text = build_report(tmp_path / "e", tmp_path / "e.html").read_text()
