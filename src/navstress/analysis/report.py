@@ -607,15 +607,20 @@ def _shown_by_config(a: Analysis) -> dict[tuple[str, str], list[RunRecord]]:
     return by_cfg
 
 
-def _prefetch_shown(a: Analysis, cache: TrajectoryCache, *, wait: bool) -> None:
-    """Every shown run is drawn: read the trajectories the analysis did not (faults, other
-    navigators) at once, and the beliefs of the failing runs that get a view of their own (a
-    failing run's two trajectories read together: one pass over its trace). ``wait=False``: the
-    cache's workers read them while the page's first sections are written."""
+def _config_keys(a: Analysis) -> list[tuple[str, str]]:
+    """The configurations drawn, in the report's order (one progress step each)."""
+    return list(dict.fromkeys([s.key for s in a.stats]))
+
+
+def _prefetch_shown(a: Analysis, cache: TrajectoryCache) -> None:
+    """Every shown run is drawn: ask the cache's workers for the trajectories the analysis did not
+    read (faults, other navigators) and for the beliefs of the failing runs that get a view of
+    their own (a failing run's two trajectories read together: one pass over its trace); they read
+    them while the page's first sections are written (:func:`_configs` waits for them)."""
     by_cfg = _shown_by_config(a)
     cache.prefetch([trace_path(a.root, r) for recs in by_cfg.values() for r in recs
-                    if r.outcome != Outcome.SUCCESS.value][:MAX_RUN_VIEWS], (TOPIC_TRUTH, TOPIC_PERCEIVED), wait=wait)
-    cache.prefetch([trace_path(a.root, r) for recs in by_cfg.values() for r in recs], wait=wait)
+                    if r.outcome != Outcome.SUCCESS.value][:MAX_RUN_VIEWS], (TOPIC_TRUTH, TOPIC_PERCEIVED), wait=False)
+    cache.prefetch([trace_path(a.root, r) for recs in by_cfg.values() for r in recs], wait=False)
 
 
 def _configs(a: Analysis, cache: TrajectoryCache, max_points: int, link_base: Path | None = None,
@@ -630,8 +635,8 @@ def _configs(a: Analysis, cache: TrajectoryCache, max_points: int, link_base: Pa
            'perceived map; click a picture to enlarge it.</p>',
            svgmap.legend_html(OUTCOME_LABELS)]
     by_cfg = _shown_by_config(a)
-    _prefetch_shown(a, cache, wait=True)
-    keys = list(dict.fromkeys([s.key for s in a.stats]))
+    cache.wait()  # for what render_report asked for (_prefetch_shown); a trajectory not asked for is read on demand
+    keys = _config_keys(a)
     for i, key in enumerate(keys):
         if progress is not None:
             progress("drawing the configurations", 2 + i, 2 + len(keys))
@@ -857,10 +862,9 @@ def render_report(a: Analysis, *, cache: TrajectoryCache | None = None, max_poin
             return render_report(a, cache=own, max_points=max_points, sections=sections, link_base=link_base,
                                  progress=progress)
     if a.done:
-        _prefetch_shown(a, cache, wait=False)
-    n_cfg = len(dict.fromkeys([s.key for s in a.stats])) if a.done else 0
+        _prefetch_shown(a, cache)
     if progress is not None:
-        progress("writing the summary and the charts", 1, 2 + n_cfg)
+        progress("writing the summary and the charts", 1, 2 + (len(_config_keys(a)) if a.done else 0))
     body = [_summary(a)] + [s.html for s in sections]
     if a.done:
         body += [_difficulty(a), _class_figures(a), _verdicts(a), _indeterminism(a), _fault_power(a), _correlations(a),
@@ -902,8 +906,8 @@ def build_report(directory: str | Path, out: str | Path, *, params: DifficultyPa
     finally:
         tmp.unlink(missing_ok=True)  # nothing partial left behind (a full disk, an interrupt)
     if progress is not None:
-        n = len(dict.fromkeys([s.key for s in a.stats])) if a.done else 0
-        progress("written", 2 + n, 2 + n)
+        n = 2 + (len(_config_keys(a)) if a.done else 0)
+        progress("written", n, n)
     return dest
 
 

@@ -18,7 +18,7 @@ from navstress.world.world import is_world_dir
 __all__ = ["MAX_RUNS", "MAX_SEED", "MAX_TIMEOUT_S", "MAX_WALL_S", "MAX_WORKERS", "Stopped", "check_executor_flags", "NAV_CONFIG_HELP", "bounded_int",
            "check_file_out", "check_out_dir", "integer", "load_navigator_config", "number", "probe_writable",
            "LidarOpt", "LiveHostOpt", "LiveOpt", "LivePortOpt", "LiveWaitOpt", "NavigatorViewOpt", "SpeedOpt",
-           "live_settings"]
+           "live_banner", "live_settings"]
 
 #: Largest seed a flag takes (seeds are stored as signed 64-bit integers).
 MAX_SEED = 2**63 - 1
@@ -124,3 +124,9 @@ def live_settings(host: str, port: str, wait: str, speed: str) -> Any:
         except OSError as err:
             raise SpecError("--live-port", port, f"a free port on {host} ({err.strerror or err})") from None
     return LiveSettings(host=host, port=port_v, speed=speed_v, wait_s=wait_v)
+
+
+def live_banner(settings: Any) -> str:
+    """How to watch a live run in Foxglove (printed by every command that serves one)."""
+    return (f"live: in Foxglove, Open connection -> Foxglove WebSocket -> ws://{settings.host}:{settings.port}; "
+            f"each run starts when a client subscribes (or after {settings.wait_s:g} s)")

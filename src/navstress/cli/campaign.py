@@ -31,7 +31,8 @@ from navstress.campaign.replay import replay as do_replay
 from navstress.campaign.spec import MAX_WORKERS
 from navstress.campaign.store import OUTCOMES, Store
 from navstress.cli._common import (LidarOpt, LiveHostOpt, LiveOpt, LivePortOpt, LiveWaitOpt, NavigatorViewOpt, SpeedOpt,
-                                   Stopped, bounded_int, check_executor_flags, live_settings)
+                                   Stopped, bounded_int, check_executor_flags, live_banner,
+                                   live_settings)
 from navstress.errors import SpecError, WorldFileError
 
 app = typer.Typer(rich_markup_mode=None)
@@ -226,8 +227,7 @@ def replay(
         raise SpecError("--keep", str(keep), "a file path (this is a directory)")
     settings = live_settings(live_host, live_port, live_wait, speed) if live else None
     if settings is not None:
-        typer.echo(f"live: in Foxglove, Open connection -> Foxglove WebSocket -> ws://{settings.host}:{settings.port}"
-                   f" (the run starts when a client subscribes, or after {settings.wait_s:g} s)", err=True)
+        typer.echo(live_banner(settings), err=True)
     r = do_replay(directory, run_id, keep=keep, lidar=lidar, navigator_view=navigator_view, live=settings)
     typer.echo(literal(f"{run_id}: stored {r.stored.outcome} ({r.stored.reason}); replayed {r.new.outcome} ({r.new.reason})"))
     if r.kept_trace is not None:

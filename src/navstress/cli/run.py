@@ -16,7 +16,7 @@ from navstress._json import pretty as dumps
 from navstress.campaign.store import OUTCOMES
 from navstress.cli._common import (MAX_RUNS, MAX_SEED, MAX_TIMEOUT_S, MAX_WALL_S, NAV_CONFIG_HELP, LidarOpt,
                                    LiveHostOpt, LiveOpt, LivePortOpt, LiveWaitOpt, NavigatorViewOpt, SpeedOpt,
-                                   bounded_int, live_settings, load_navigator_config, number)
+                                   bounded_int, live_banner, live_settings, load_navigator_config, number)
 from navstress.errors import SpecError, WorldFileError
 from navstress.nav.registry import build_and_close
 from navstress.run.batch import batch_picture, check_buildable, default_wall_limit_s, plan_batch, run_batch
@@ -89,8 +89,7 @@ def run_cmd(
                            seed=seed_v, timeout_s=timeout_v, goal_tolerance_m=tol, record_lidar=lidar,
                            record_navigator=navigator_view or live, map_seed=world_seed)
         if settings is not None:
-            con.print(f"live: in Foxglove, Open connection -> Foxglove WebSocket -> ws://{settings.host}:{settings.port}"
-                      f"; each run starts when a panel subscribes (or after {settings.wait_s:g} s)")
+            con.print(live_banner(settings))
         with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
                       TimeRemainingColumn(), TextColumn("{task.fields[counts]}"), console=con) as prog:
             bar = prog.add_task("runs", total=n, counts="")

@@ -507,47 +507,52 @@ def _indexed(path: str | os.PathLike[str], topic: str, schema: str) -> list[tupl
 
 
 def _poses_indexed(path: str | os.PathLike[str], topics: Sequence[str]) -> dict[str, np.ndarray | None] | None:
-    """:func:`read_poses` of each of ``topics`` through the message indexes, decoded by a compiled
-    loop (:func:`navstress.run.posewire.pose_rows`), the file opened and each chunk decompressed
-    once for all of them. None when the file has no usable index; a topic's value is None when one
-    of its messages is not one that loop reads (the caller decodes that topic with protobuf)."""
+    """Each of ``topics``'s poses (as :func:`read_poses`) through the message indexes, decoded by a
+    compiled loop (:func:`navstress.run.posewire.pose_rows`), the file opened and each chunk
+    decompressed once for all of them. None when the file has no usable index; a topic's value is
+    None when one of its messages is not one that loop reads (protobuf decodes that topic then)."""
     chunks = _index_chunks(path, topics, PoseInFrame.DESCRIPTOR.full_name)
     if chunks is None:
         return None
     from navstress.run.posewire import pose_rows
 
-    out: dict[str, np.ndarray | None] = {}
-    for topic in topics:
-        parts, keys = [], []
-        for start, data, entries in chunks[topic]:
-            if (entries[:, 1] > np.iinfo(np.int64).max).any():
-                break
-            rows = np.empty((len(entries), 7), dtype=np.float64)
+    def decoded(parts: list[tuple[int, bytes, np.ndarray]]) -> np.ndarray | None:
+        rows, keys = [np.zeros((0, 7))], [np.zeros((0, 3), dtype=np.uint64)]
+        for start, data, entries in parts:
+            out = np.empty((len(entries), 7), dtype=np.float64)
+            # (an offset past int64 wraps negative: pose_rows refuses it like any offset out of the chunk)
             if pose_rows(np.frombuffer(data, dtype=np.uint8), entries[:, 1].astype(np.int64), entries[:, 0].copy(),
-                         rows) != -1:
-                break
-            parts.append(rows)
+                         out) != -1:
+                return None
+            rows.append(out)
             keys.append(np.column_stack([entries[:, 0], np.full(len(entries), start, dtype=np.uint64), entries[:, 1]]))
-        else:
-            if not parts:
-                out[topic] = np.zeros((0, 7), dtype=np.float64)
-                continue
-            k = np.concatenate(keys)
-            # log-time order, ties by place in the file, as the library's reader gives them
-            out[topic] = np.concatenate(parts)[np.lexsort((k[:, 2], k[:, 1], k[:, 0]))]
-            continue
-        out[topic] = None
-    return out
+        k = np.concatenate(keys)
+        # log-time order, ties by place in the file, as the library's reader gives them
+        return np.concatenate(rows)[np.lexsort((k[:, 2], k[:, 1], k[:, 0]))]
+
+    return {t: decoded(chunks[t]) for t in topics}
 
 
-def read_poses_of(path: str | os.PathLike[str], topics: Sequence[str]) -> dict[str, np.ndarray]:
+def _poses_protobuf(path: str | os.PathLike[str], topic: str, indexed: bool) -> np.ndarray:
+    """:func:`read_poses` decoded message by message with protobuf (found through the message
+    indexes when ``indexed``, else by the MCAP library's reader)."""
+    rows = []
+    for log_time, m in _decoded(path, topic, PoseInFrame, indexed):
+        p = m.pose.position
+        rows.append((log_time / 1e9, p.x, p.y, p.z, *euler(m.pose.orientation)))
+    return np.array(rows, dtype=np.float64).reshape(-1, 7)
+
+
+def read_poses_of(path: str | os.PathLike[str], topics: Sequence[str], *, indexed: bool = True
+                  ) -> dict[str, np.ndarray]:
     """:func:`read_poses` of several topics of one trace, the file read once for all of them
     (what a report does for a failing run: its true and its perceived trajectory)."""
-    fast = _poses_indexed(path, topics)
+    fast = _poses_indexed(path, topics) if indexed else None
     out: dict[str, np.ndarray] = {}
     for t in topics:
-        arr = fast.get(t) if fast is not None else None
-        out[t] = arr if arr is not None else read_poses(path, t, indexed=fast is not None)
+        arr = None if fast is None else fast[t]
+        # (no index: straight to the library's reader; a message the loop refused: protobuf decides)
+        out[t] = arr if arr is not None else _poses_protobuf(path, t, fast is not None)
     return out
 
 
@@ -556,16 +561,7 @@ def read_poses(path: str | os.PathLike[str], topic: str = TOPIC_TRUTH, *, indexe
     message indexes and decoded by a compiled loop (:func:`_poses_indexed`), else (no index, a
     message that loop does not read, or ``indexed=False``) with the MCAP library's reader and
     protobuf; both give the same bytes."""
-    if indexed:
-        fast = _poses_indexed(path, [topic])
-        arr = None if fast is None else fast[topic]
-        if arr is not None:
-            return arr
-    rows = []
-    for log_time, m in _decoded(path, topic, PoseInFrame, indexed):
-        p = m.pose.position
-        rows.append((log_time / 1e9, p.x, p.y, p.z, *euler(m.pose.orientation)))
-    return np.array(rows, dtype=np.float64).reshape(-1, 7)
+    return read_poses_of(path, [topic], indexed=indexed)[topic]
 
 
 def read_transforms(path: str | os.PathLike[str]) -> dict[tuple[str, str], np.ndarray]:
