@@ -8,6 +8,8 @@ scheduler retries, see :mod:`navstress.campaign.scheduler`).
 
 from __future__ import annotations
 
+import os
+import shutil
 import tempfile
 import time
 from dataclasses import dataclass, replace
@@ -110,13 +112,46 @@ def with_trace(task: RunTask, trace_path: str) -> RunTask:
     return replace(task, trace_path=trace_path)
 
 
+WARM_UP_PREFIX = "navstress-warmup-"
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # another user's process: alive
+        return True
+    return True
+
+
+def sweep_warm_ups(parent: Path | None = None) -> list[Path]:
+    """Remove the warm-up directories of processes that are gone, and return them.
+
+    A worker is often stopped while it warms up (a campaign that ends first, a pool shut down,
+    a kill), and a killed process cannot remove its temporary directory: each is named with its
+    process id (``navstress-warmup-<pid>-...``), so the next warm-up removes those whose process
+    no longer runs. A directory of a live process (or a reused pid) is left alone."""
+    root = Path(parent if parent is not None else tempfile.gettempdir())
+    gone = []
+    for d in root.glob(WARM_UP_PREFIX + "*-*"):
+        pid = d.name[len(WARM_UP_PREFIX):].split("-", 1)[0]
+        if pid.isdigit() and d.is_dir() and not _alive(int(pid)):
+            shutil.rmtree(d, ignore_errors=True)
+            gone.append(d)
+    return gone
+
+
 def warm_up() -> float:
     """Run a 0.5 s mission on a small flat world so that this process's JIT and imports are done.
 
-    Returns the seconds it took. Best effort: any failure is ignored (the real run will report it)."""
+    Returns the seconds it took. Best effort: any failure is ignored (the real run will report it).
+    The scratch directory is named with this process's id, and warm-up directories left by killed
+    processes are removed first (:func:`sweep_warm_ups`)."""
     t0 = time.perf_counter()
     try:
-        with tempfile.TemporaryDirectory(prefix="navstress-warmup-") as tmp:
+        sweep_warm_ups()
+        with tempfile.TemporaryDirectory(prefix=f"{WARM_UP_PREFIX}{os.getpid()}-") as tmp:
             World.flat(WorldSpec(size_m=(20.0, 20.0))).save(Path(tmp) / "w")
             execute(RunTask(run_id="warm-up", world_dir=str(Path(tmp) / "w"), run_seed=0,
                             trace_path=str(Path(tmp) / "t.mcap"), timeout_s=0.5))
