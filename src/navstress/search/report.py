@@ -110,6 +110,11 @@ def _what(data: Mapping[str, Any], spec: Mapping[str, Any]) -> str:
            + f'<td class="l">{_e(params[path].get("kind", "float"))}</td>' if path in params
            else '<td>\u2013</td><td>\u2013</td><td class="l">\u2013</td>') + "</tr>"
         for path in data.get("parameters", []))
+    moves = space.get("moves")
+    if isinstance(moves, dict):
+        prow += (f'<tr data-parameter="moves"><td class="l">obstacle moves</td><td colspan="3" class="l">'
+                 f'{_e(moves.get("count", "?"))} moves of the obstacle nearest a point of the map, by up to '
+                 f'{_e(moves.get("radius_m", "?"))} m along x and y</td></tr>')
     if space.get("map_seed", True):
         prow += (f'<tr data-parameter="map_seed"><td class="l">map seed</td><td colspan="3" class="l">one of '
                  f'{_e(space.get("map_seeds", "?"))} seeds</td></tr>')

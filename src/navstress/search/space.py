@@ -37,7 +37,9 @@ from numpy.typing import ArrayLike
 
 from navstress.seeding import derive_seed
 from navstress.campaign.spec import deep_merge
-from navstress.search.spec import ParameterSpec, SearchSpec, base_cell_m, world_overrides
+from navstress.search.spec import (SIZE_PATH, MovesSpec, ParameterSpec, SearchSpec, base_cell_m, scaled,
+                                   world_overrides)
+from navstress.world.spec import WorldSpec
 
 #: The seed path of the map seeds of a search (under the search's seed).
 MAP_SEED_PATH = "search-map"
@@ -63,16 +65,22 @@ class Space:
     seed: int
     base: dict[str, Any]
     map_seeds: int | None  # None: the map seed is not searched
+    moves: MovesSpec | None = None
 
     @classmethod
     def from_spec(cls, spec: SearchSpec) -> "Space":
         s = spec.space
-        return cls(tuple(s.parameters), spec.seed, dict(spec.world), s.map_seeds if s.map_seed else None)
+        return cls(tuple(s.parameters), spec.seed, dict(spec.world), s.map_seeds if s.map_seed else None, s.moves)
+
+    @property
+    def n_moves(self) -> int:
+        return self.moves.count if self.moves is not None else 0
 
     @property
     def dimension(self) -> int:
-        """The number of coordinates of a point: one per parameter, plus one for a searched map seed."""
-        return len(self.parameters) + (self.map_seeds is not None)
+        """The number of coordinates of a point: one per parameter, four per searched obstacle move,
+        plus one for a searched map seed."""
+        return len(self.parameters) + MOVE_COORDS * self.n_moves + (self.map_seeds is not None)
 
     @property
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
@@ -82,7 +90,8 @@ class Space:
     @property
     def names(self) -> list[str]:
         """The name of each dimension: the parameter paths, then ``map_seed`` when searched."""
-        return [p.path for p in self.parameters] + (["map_seed"] if self.map_seeds is not None else [])
+        return ([p.path for p in self.parameters] + [move_name(i, f) for i in range(self.n_moves) for f in MOVE_FIELDS]
+                + (["map_seed"] if self.map_seeds is not None else []))
 
     def decode(self, x: ArrayLike) -> Candidate:
         """The candidate at point ``x`` (coordinates clipped to [0, 1]; a NaN counts as 0)."""
@@ -91,6 +100,19 @@ class Space:
             raise ValueError(f"a point of {self.dimension} coordinates expected, got shape {np.shape(x)}")
         cell = base_cell_m(self.base)
         params = {p.path: p.value(float(ui), cell) for p, ui in zip(self.parameters, u)}
+        overrides = world_overrides(params, self.base)
+        if self.moves is not None:
+            size = self._size(params)
+            moves = []
+            for i in range(self.moves.count):
+                ux, uy, udx, udy = (float(v) for v in u[len(self.parameters) + MOVE_COORDS * i:][:MOVE_COORDS])
+                r = self.moves.radius_m
+                mv = {"at_x": scaled(ux, 0.0, size[0]), "at_y": scaled(uy, 0.0, size[1]),
+                      "dx": scaled(udx, -r, r), "dy": scaled(udy, -r, r)}
+                params.update({move_name(i, f): v for f, v in mv.items()})
+                moves.append({"at": [mv["at_x"], mv["at_y"]], "by": [mv["dx"], mv["dy"]]})
+            base_moves = list((self.base.get("obstacles") or {}).get("moves") or [])
+            overrides.setdefault("obstacles", {})["moves"] = base_moves + moves
         if self.map_seeds is None:
             index, seed = None, derive_seed(self.seed, MAP_SEED_PATH)
         else:
@@ -99,11 +121,29 @@ class Space:
             index = min(int(math.floor(last * self.map_seeds)), self.map_seeds - 1)
             seed = derive_seed(self.seed, MAP_SEED_PATH, index)
         return Candidate(key=candidate_key(params, seed), map_seed=seed,
-                         world_overrides=world_overrides(params, self.base), params=params, seed_index=index)
+                         world_overrides=overrides, params=params, seed_index=index)
+
+    def _size(self, params: dict[str, float | int]) -> tuple[float, float]:
+        """The candidate's map size: the searched ``size_m``, else the base world's."""
+        if SIZE_PATH in params:
+            v = float(params[SIZE_PATH])
+            return v, v
+        sx, sy = self.base.get("size_m", WorldSpec.model_fields["size_m"].default)
+        return float(sx), float(sy)
 
     def world(self, candidate: Candidate) -> dict[str, Any]:
         """The candidate's whole WorldSpec mapping (its overrides on the base world)."""
         return deep_merge(self.base, candidate.world_overrides)
+
+
+#: A searched obstacle move's coordinates: the point its obstacle is nearest, and its displacement.
+MOVE_FIELDS = ("at_x", "at_y", "dx", "dy")
+MOVE_COORDS = len(MOVE_FIELDS)
+
+
+def move_name(i: int, field: str) -> str:
+    """The name of a searched move's value in a candidate's ``params`` (``moves.0.dx``)."""
+    return f"moves.{i}.{field}"
 
 
 def candidate_key(params: dict[str, float | int], map_seed: int) -> str:

@@ -105,20 +105,43 @@ class ParameterSpec(BaseModel):
             # the tolerance above may take a multiple a rounding error below low (or above high):
             # the range's own end is then the grid point, up to that error
             return min(max(round(k * cell_m, 10), self.low), self.high)
-        digits = 6 - math.floor(math.log10(width))
-        v = round(self.low + u * width, digits)
-        return min(max(v, self.low), self.high)
+        return scaled(u, self.low, self.high)
+
+
+def scaled(u: float, low: float, high: float) -> float:
+    """``low + u (high - low)`` (``u`` clipped to [0, 1], NaN as 0) rounded to 6 significant digits
+    of the range's width and clipped to [low, high]: a float parameter's value, and a searched
+    obstacle move's coordinates."""
+    u = min(max(float(u), 0.0), 1.0) if math.isfinite(u) else 0.0
+    v = round(low + u * (high - low), 6 - math.floor(math.log10(high - low)))
+    return min(max(v, low), high)
+
+
+#: Most obstacle moves a space may search.
+MAX_SEARCHED_MOVES = 16
+
+
+class MovesSpec(BaseModel):
+    """Local moves of single obstacles, searched with the parameters: ``count`` moves, each taking
+    the generated obstacle nearest a point of the map and moving it by up to ``radius_m`` along x
+    and along y (WorldSpec ``obstacles.moves``; a move that would break a placement constraint is
+    not applied)."""
+
+    model_config = _STRICT
+    count: int = Field(ge=1, le=MAX_SEARCHED_MOVES)
+    radius_m: float = Field(gt=0.0, allow_inf_nan=False)
 
 
 class SpaceSpec(BaseModel):
-    """The searched parameters and whether the map seed is searched too.
+    """The searched parameters, obstacle moves, and whether the map seed is searched too.
 
     ``map_seed: true``: one more dimension picks one of ``map_seeds`` map seeds (derived from the
     search seed); ``false``: every candidate uses the search's one map seed, so a candidate's world
-    is a function of its parameters alone."""
+    is a function of its parameters (and moves) alone."""
 
     model_config = _STRICT
     parameters: list[ParameterSpec] = Field(default_factory=list)
+    moves: MovesSpec | None = None
     map_seed: bool = True
     map_seeds: int = Field(10_000, ge=1, le=1 << 31)
 
@@ -481,8 +504,9 @@ def parse_search(data: Any) -> SearchSpec:
     except SpecError as err:
         raise SpecError(f"world.{err.field}", err.value, err.expected, err.fix) from None
     params = spec.space.parameters
-    if not params and not spec.space.map_seed:
-        raise SpecError("space", "no parameters and map_seed: false", "at least one parameter, or map_seed: true")
+    if not params and not spec.space.map_seed and spec.space.moves is None:
+        raise SpecError("space", "no parameters and map_seed: false",
+                        "at least one parameter, space.moves, or map_seed: true")
     seen: set[str] = set()
     for i, p in enumerate(params):
         if p.path in seen:

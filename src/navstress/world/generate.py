@@ -6,8 +6,9 @@ saved files. Draws come from independent sub-streams of the seed (``navstress.se
 (one per obstacle type), so that changing the obstruction does not change the raw terrain or
 the mission, and ``"movers", <type>`` (one per mover type, drawn last: adding movers changes
 nothing else). Order: raw terrain, mission, obstacles (which keep out of the mission's free
-discs), levelling of the ground under each obstacle, movers (:mod:`navstress.world.movers`),
-descriptors (with the movers' only when the spec has a ``movers`` field).
+discs), the spec's obstacle moves (:func:`~navstress.world.placement.apply_moves`; a world with
+moves has a ``moves_applied`` descriptor), levelling of the ground under each obstacle, movers
+(:mod:`navstress.world.movers`), descriptors (with the movers' only when the spec has a ``movers`` field).
 
     >>> from navstress.world.spec import WorldSpec
     >>> w = generate(WorldSpec(size_m=(20.0, 20.0), obstacles={"obstruction": {"tree": 5}}), seed=3)
@@ -25,7 +26,7 @@ from navstress.seeding import rng
 from navstress.world.descriptors import describe
 from navstress.world.mission import make_mission
 from navstress.world.movers import mover_descriptors, place_movers
-from navstress.world.placement import level_terrain, place_obstacles
+from navstress.world.placement import apply_moves, level_terrain, place_obstacles
 from navstress.world.spec import WorldSpec
 from navstress.world.terrain import make_heights
 from navstress.world.world import Terrain, World
@@ -43,12 +44,15 @@ def generate(spec: WorldSpec, seed: int, *, robot: RobotSpec | None = None) -> W
     raw = make_heights(spec.ground, spec.grid_shape, spec.cell_m, rng(seed, "terrain"))
     mission = make_mission(spec, rng(seed, "mission"))
     placement = place_obstacles(spec, mission, seed)
-    lev = level_terrain(raw, spec.cell_m, placement.obstacles)
+    placed, moved = apply_moves(placement.obstacles, spec, mission)
+    lev = level_terrain(raw, spec.cell_m, placed)
     obstacles = lev.obstacles
     terrain = Terrain(lev.heights, spec.cell_m)
     desc = describe(spec, terrain, tuple(obstacles), mission, robot=robot, placement=placement)
     desc["levelled_clusters"] = lev.n_clusters
     desc["levelled_largest_cluster"] = lev.largest_cluster
+    if spec.obstacles.moves:
+        desc["moves_applied"] = sum(k >= 0 for k in moved)
     movers = place_movers(spec, mission, tuple(obstacles), seed)
     if not spec.movers.empty:
         desc.update(mover_descriptors(spec, movers))

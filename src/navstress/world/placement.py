@@ -39,7 +39,7 @@ mean of the nearby obstacles' ``z`` (``e_k`` = distance to vertex box k), which 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numba
 import numpy as np
@@ -247,6 +247,63 @@ def place_obstacles(spec: WorldSpec, mission: Mission, seed: int) -> PlacementRe
                 f"{tried} attempts in {rounds} rounds ({len(placed)} placed); lower the target, use "
                 "smaller obstacles, a larger map or a smaller mission.free_radius_m")
     return res
+
+
+def _box(o: Obstacle, dx: float = 0.0, dy: float = 0.0) -> tuple[float, float, float, float]:
+    """(x0, y0, x1, y1): the axis-aligned bounding box of ``o``'s footprint moved by (dx, dy)."""
+    c = o.corners()
+    return (float(c[:, 0].min()) + dx, float(c[:, 1].min()) + dy, float(c[:, 0].max()) + dx, float(c[:, 1].max()) + dy)
+
+
+def _disc_clear(box: tuple[float, float, float, float], cx: float, cy: float, r: float) -> bool:
+    """Whether the closed box keeps out of the open disc of radius ``r`` around (cx, cy)."""
+    ex = max(box[0] - cx, 0.0, cx - box[2])
+    ey = max(box[1] - cy, 0.0, cy - box[3])
+    return ex * ex + ey * ey >= r * r
+
+
+def apply_moves(obstacles: list[Obstacle], spec: WorldSpec, mission: Mission) -> tuple[list[Obstacle], list[int]]:
+    """The obstacles after ``spec.obstacles.moves``, and for each move the index of the obstacle
+    it moved, or -1 when it was not applied.
+
+    Each move takes the obstacle whose centre is nearest its ``at`` (the first in placement order
+    on a tie) and translates it by ``by`` if the moved footprint stays inside the map, shares no
+    interior point with another obstacle's footprint (touching is allowed) and keeps out of the
+    start and goal free discs (exact tests: the generator's boxes are axis-aligned); otherwise
+    the obstacle stays where it is. Moves apply one after the other, each to the obstacles as the
+    previous ones left them; sizes, kinds and the order of the obstacles never change."""
+    moves = spec.obstacles.moves
+    out = list(obstacles)
+    done: list[int] = []
+    if not moves:
+        return out, done
+    size_x, size_y = spec.size_m
+    sx, sy, _ = mission.start
+    discs = ((sx, sy), mission.goal)
+    for mv in moves:
+        if not out:
+            done.append(-1)
+            continue
+        ax, ay = mv.at
+        d2 = [(o.x - ax) ** 2 + (o.y - ay) ** 2 for o in out]
+        k = int(np.argmin(d2))
+        o = out[k]
+        dx, dy = mv.by
+        b = _box(o, dx, dy)
+        ok = b[0] >= 0.0 and b[1] >= 0.0 and b[2] <= size_x and b[3] <= size_y
+        ok = ok and all(_disc_clear(b, cx, cy, mission.free_radius_m) for cx, cy in discs)
+        if ok:
+            for j, other in enumerate(out):
+                if j == k:
+                    continue
+                q = _box(other)
+                if b[0] < q[2] and q[0] < b[2] and b[1] < q[3] and q[1] < b[3]:
+                    ok = False
+                    break
+        if ok:
+            out[k] = replace(o, x=o.x + dx, y=o.y + dy)
+        done.append(k if ok else -1)
+    return out, done
 
 
 @numba.njit(cache=True)

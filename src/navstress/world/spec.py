@@ -73,6 +73,23 @@ BUILTIN_TYPES: dict[str, ObstacleType] = {
 }
 
 
+#: At most this many obstacle moves in a spec.
+MAX_MOVES = 256
+
+
+class ObstacleMove(BaseModel):
+    """A local move of one generated obstacle: the obstacle whose centre is nearest ``at``
+    (x, y in meters; the first placed on a tie) is translated by ``by`` (dx, dy in meters).
+
+    Moves apply in order after placement, before the ground is levelled. A move that would put
+    its obstacle outside the map, over another obstacle or into the start or goal free disc is
+    not applied (the world's ``moves_applied`` descriptor counts the applied ones)."""
+
+    model_config = _STRICT
+    at: tuple[float, float]
+    by: tuple[float, float]
+
+
 class ObstaclesSpec(BaseModel):
     """Obstacle types and how much of the map they cover.
 
@@ -86,6 +103,15 @@ class ObstaclesSpec(BaseModel):
     obstruction: dict[str, float] = Field(default_factory=dict)
     total: float | None = Field(None, ge=0.0, lt=100.0)
     mix: dict[str, float] | None = None
+    moves: tuple[ObstacleMove, ...] = ()
+
+    @model_serializer(mode="wrap")
+    def _dump(self, handler: SerializerFunctionWrapHandler) -> Any:
+        """Without moves, no ``moves`` key: the files of every world without moves keep their bytes."""
+        data = handler(self)
+        if isinstance(data, dict) and not self.moves:
+            data.pop("moves", None)
+        return data
 
     def all_types(self) -> dict[str, ObstacleType]:
         return {**BUILTIN_TYPES, **self.types}
@@ -122,6 +148,12 @@ class ObstaclesSpec(BaseModel):
                 raise SpecError(f"obstacles.mix.{name}", w, "a weight >= 0")
         if self.total is not None and self.total > 0 and sum((self.mix or {}).values()) <= 0:
             raise SpecError("obstacles.mix", self.mix, "at least one weight > 0")
+        if len(self.moves) > MAX_MOVES:
+            raise SpecError("obstacles.moves", f"{len(self.moves)} moves", f"at most {MAX_MOVES} moves")
+        for i, mv in enumerate(self.moves):
+            for name, pair in (("at", mv.at), ("by", mv.by)):
+                if not all(math.isfinite(v) for v in pair):
+                    raise SpecError(f"obstacles.moves.{i}.{name}", list(pair), "two finite numbers (meters)")
         s = sum(self.targets().values())
         if s >= 100.0:
             raise SpecError("obstacles.obstruction", round(s, 3), "a total below 100 percent")
@@ -375,6 +407,10 @@ class WorldSpec(BaseModel):
         for name, pt in (("start", m.start), ("goal", m.goal)):
             if pt is not None and not (0 <= pt[0] <= self.size_m[0] and 0 <= pt[1] <= self.size_m[1]):
                 raise SpecError(f"mission.{name}", list(pt), f"a point inside the map [0, {self.size_m[0]:g}] x [0, {self.size_m[1]:g}]")
+        for i, mv in enumerate(self.obstacles.moves):
+            if not (0 <= mv.at[0] <= self.size_m[0] and 0 <= mv.at[1] <= self.size_m[1]):
+                raise SpecError(f"obstacles.moves.{i}.at", list(mv.at),
+                                f"a point inside the map [0, {self.size_m[0]:g}] x [0, {self.size_m[1]:g}]")
         counts = self.movers.counts(self.size_m)
         total = sum(counts.values())
         if total > MAX_MOVERS:

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+import yaml
 from matplotlib.colors import to_rgb
 from matplotlib.image import imread
 
@@ -233,3 +234,15 @@ def test_a_bad_baseline_is_one_line_exit_2_and_writes_nothing(case: str, tiny_se
     want = "directory=" if case == "dir-no-search" else ("search.json" if case == "other-format" else "--baseline=")
     assert want in line, line
     assert not out.exists() and not out.parent.exists()
+
+
+def test_searched_obstacle_moves_have_their_row_in_the_space_table(tiny_searches: SearchDirs) -> None:
+    from navstress.search.report import _what
+    data = result(tiny_searches.search)
+    spec = yaml.safe_load((tiny_searches.search / "search.yaml").read_text(encoding="utf-8"))
+    spec["space"]["moves"] = {"count": 3, "radius_m": 1.5}
+    html = _what(data, spec)
+    row = re.search(r'<tr data-parameter="moves">(.*?)</tr>', html)
+    assert row is not None and "3 moves" in row.group(1) and "1.5 m" in row.group(1)
+    del spec["space"]["moves"]
+    assert 'data-parameter="moves"' not in _what(data, spec)

@@ -17,6 +17,7 @@ from navstress.search.space import MAP_SEED_PATH, Candidate, Space, candidate_ke
 from navstress.search.spec import ParameterSpec, SearchSpec, parse_search
 from navstress.seeding import derive_seed
 from navstress.world.spec import parse_spec
+from navstress.world.world import World
 
 # searchable parameters and the widest range each may take in a space of this test (their corners
 # together still make valid worlds: obstruction sums below 100 %, maps holding the mission)
@@ -55,8 +56,13 @@ def spaces(draw: st.DrawFn) -> SearchSpec:
         params.append({**c, "low": a, "high": b})
     map_seed = draw(st.booleans())
     seeds = draw(st.integers(1, 1 << 31))
-    return parse_search({"seed": draw(st.integers(0, 2**40)), "world": {"size_m": [40.0, 40.0], "cell_m": 0.5},
-                         "space": {"parameters": params, "map_seed": map_seed, "map_seeds": seeds},
+    space: dict[str, Any] = {"parameters": params, "map_seed": map_seed, "map_seeds": seeds}
+    if draw(st.booleans()):
+        space["moves"] = {"count": draw(st.integers(1, 3)), "radius_m": draw(st.floats(1e-3, 50.0))}
+    world: dict[str, Any] = {"size_m": [40.0, 40.0], "cell_m": 0.5}
+    if draw(st.booleans()):  # the base world's own moves come first
+        world["obstacles"] = {"moves": [{"at": [1.0, 2.0], "by": [0.5, 0.0]}]}
+    return parse_search({"seed": draw(st.integers(0, 2**40)), "world": world, "space": space,
                          "objective": {"name": "failure"}, "budget": {"runs": 80}})
 
 
@@ -78,6 +84,17 @@ def test_every_point_decodes_to_a_valid_world_within_the_ranges(spec: SearchSpec
             assert isinstance(v, int)
         if p.path == "size_m":
             assert world.size_m == (v, v)
+    m = spec.space.moves
+    base_moves = list(parse_spec(spec.world).obstacles.moves)
+    assert space.dimension == len(spec.space.parameters) + 4 * (m.count if m else 0) + spec.space.map_seed
+    assert list(world.obstacles.moves[:len(base_moves)]) == base_moves
+    searched = world.obstacles.moves[len(base_moves):]
+    assert len(searched) == (m.count if m else 0)
+    for i, mv in enumerate(searched):
+        assert 0 <= mv.at[0] <= world.size_m[0] and 0 <= mv.at[1] <= world.size_m[1]
+        assert m is not None and all(-m.radius_m <= v <= m.radius_m for v in mv.by)
+        assert (c.params[f"moves.{i}.at_x"], c.params[f"moves.{i}.at_y"]) == mv.at
+        assert (c.params[f"moves.{i}.dx"], c.params[f"moves.{i}.dy"]) == mv.by
     assert _NAME.match(c.key) and re.fullmatch(r"w[0-9a-f]{12}", c.key)
     assert space.decode(x) == c  # the same point, the same candidate
     assert space.decode(np.asarray(x)) == c
@@ -166,3 +183,71 @@ def test_size_snaps_to_the_grid_inside_its_range(low: float, high: float, cell: 
         v = p.value(u, cell)
         assert low <= v <= high, (u, v)
         parse_spec({"size_m": [v, v], "cell_m": cell})
+
+
+def test_moves_take_four_coordinates_each_between_the_parameters_and_the_map_seed() -> None:
+    space = Space.from_spec(_spec([{"path": "size_m", "low": 20, "high": 40}], map_seed=True, map_seeds=4,
+                                  moves={"count": 2, "radius_m": 1.5}))
+    assert space.names == ["size_m", "moves.0.at_x", "moves.0.at_y", "moves.0.dx", "moves.0.dy",
+                           "moves.1.at_x", "moves.1.at_y", "moves.1.dx", "moves.1.dy", "map_seed"]
+    c = space.decode([0.5, 0.5, 1.0, 0.0, 1.0, 0.25, 0.0, 0.5, 0.75, 0.6])
+    # at: over the candidate's own map (size 30 here); by: over [-radius, radius]
+    assert c.world_overrides["obstacles"]["moves"] == [{"at": [15.0, 30.0], "by": [-1.5, 1.5]},
+                                                       {"at": [7.5, 0.0], "by": [0.0, 0.75]}]
+    assert c.seed_index == 2
+    other = space.decode([0.5, 0.5, 1.0, 0.0, 1.0, 0.25, 0.0, 0.5, 0.76, 0.6])
+    assert other.key != c.key and other.map_seed == c.map_seed
+
+
+@pytest.mark.parametrize("moves, field", [
+    ({"count": 0, "radius_m": 1.0}, "space.moves.count"),
+    ({"count": 17, "radius_m": 1.0}, "space.moves.count"),
+    ({"count": 2, "radius_m": 0.0}, "space.moves.radius_m"),
+    ({"count": 2, "radius_m": -1.0}, "space.moves.radius_m"),
+    ({"count": 2, "radius_m": float("inf")}, "space.moves.radius_m"),
+    ({"count": 2, "radius_m": float("nan")}, "space.moves.radius_m"),
+    ({"count": 2}, "space.moves.radius_m"),
+    ({"count": 2, "radius_m": 1.0, "corridor": 3}, "space.moves.corridor"),
+    ({"count": 1.5, "radius_m": 1.0}, "space.moves.count"),
+])
+def test_bad_moves_in_a_space_are_one_line_errors_naming_the_field(moves: dict[str, Any], field: str) -> None:
+    from navstress.errors import SpecError
+    with pytest.raises(SpecError) as err:
+        _spec([], map_seed=False, moves=moves)
+    text = str(err.value)
+    assert "\n" not in text and text.startswith(field + "="), text
+
+
+def test_a_space_of_moves_alone_is_a_space() -> None:
+    space = Space.from_spec(_spec([], map_seed=False, moves={"count": 1, "radius_m": 2.0}))
+    assert space.dimension == 4
+    assert parse_spec(space.world(space.decode([0.5, 0.5, 0.5, 0.5]))).obstacles.moves[0].by == (0.0, 0.0)
+
+
+def test_a_candidate_with_moves_is_the_same_world_through_the_campaign_store(tmp_path: Any) -> None:
+    """The moves travel through the search's campaign spec, its store and a worker's generation
+    unchanged: each planned world is the one generated straight from the candidate."""
+    from navstress.campaign.store import Store
+    from navstress.campaign.work import generate_world
+    from navstress.search.driver import _campaign, _entry, generation_name
+    from navstress.world.generate import generate
+
+    spec = parse_search({"seed": 9, "world": {"size_m": [20.0, 20.0], "obstacles": {"obstruction": {"tree": 10}}},
+                         "space": {"parameters": [], "moves": {"count": 3, "radius_m": 2.0}, "map_seed": True},
+                         "objective": {"name": "failure"}, "budget": {"runs": 80}})
+    space = Space.from_spec(spec)
+    g = np.random.default_rng(1)
+    cands = [space.decode(g.random(space.dimension)) for _ in range(4)]
+    cspec, text = _campaign(spec, [{"name": generation_name(0), "worlds": [_entry(c) for c in cands]}])
+    with Store.create(tmp_path / "s", cspec, text) as store:
+        jobs = {j.config_key: j for j in store.plan().maps}
+    assert sorted(jobs) == sorted(c.key for c in cands)
+    applied = 0
+    for c in cands:
+        generate_world(jobs[c.key])
+        stored = World.load(jobs[c.key].world_dir)
+        direct = generate(parse_spec(space.world(c)), c.map_seed)
+        assert stored.obstacles == direct.obstacles and stored.spec == direct.spec
+        assert len(stored.spec.obstacles.moves) == 3
+        applied += stored.descriptors["moves_applied"]
+    assert applied > 0  # some of the twelve moves moved a tree
