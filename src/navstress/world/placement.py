@@ -23,6 +23,9 @@ sub-stream ``rng(seed, "obstacles", kind)``):
   has its sides scaled down (same aspect) so that the type lands exactly on its target; at most
   one obstacle per type is trimmed (its size may then be below the variability envelope).
 
+Local moves (:func:`apply_moves`, the spec's ``obstacles.moves``) then shift single obstacles,
+each only when the moved box keeps the constraints above, tested exactly on the boxes.
+
 Levelling (:func:`level_terrain`): an obstacle's *vertex box* is the set of terrain vertices
 of every cell its footprint touches (the footprint's bounding box pushed out to the vertex
 lattice: an apron of 0 to 1 cell). Every vertex of the vertex box is set to the base height
@@ -249,16 +252,18 @@ def place_obstacles(spec: WorldSpec, mission: Mission, seed: int) -> PlacementRe
     return res
 
 
-def _box(o: Obstacle, dx: float = 0.0, dy: float = 0.0) -> tuple[float, float, float, float]:
-    """(x0, y0, x1, y1): the axis-aligned bounding box of ``o``'s footprint moved by (dx, dy)."""
-    c = o.corners()
-    return (float(c[:, 0].min()) + dx, float(c[:, 1].min()) + dy, float(c[:, 0].max()) + dx, float(c[:, 1].max()) + dy)
+def _boxes(obstacles: list[Obstacle]) -> np.ndarray:
+    """(n, 4) rows (x0, y0, x1, y1): each footprint's axis-aligned bounding box."""
+    if not obstacles:
+        return np.zeros((0, 4))
+    c = np.array([o.corners() for o in obstacles])
+    return np.concatenate([c.min(axis=1), c.max(axis=1)], axis=1)
 
 
-def _disc_clear(box: tuple[float, float, float, float], cx: float, cy: float, r: float) -> bool:
+def _disc_clear(box: np.ndarray, cx: float, cy: float, r: float) -> bool:
     """Whether the closed box keeps out of the open disc of radius ``r`` around (cx, cy)."""
-    ex = max(box[0] - cx, 0.0, cx - box[2])
-    ey = max(box[1] - cy, 0.0, cy - box[3])
+    ex = max(float(box[0]) - cx, 0.0, cx - float(box[2]))
+    ey = max(float(box[1]) - cy, 0.0, cy - float(box[3]))
     return ex * ex + ey * ey >= r * r
 
 
@@ -280,28 +285,27 @@ def apply_moves(obstacles: list[Obstacle], spec: WorldSpec, mission: Mission) ->
     size_x, size_y = spec.size_m
     sx, sy, _ = mission.start
     discs = ((sx, sy), mission.goal)
+    boxes = _boxes(out)
+    centres = np.array([(o.x, o.y) for o in out]).reshape(-1, 2)
     for mv in moves:
         if not out:
             done.append(-1)
             continue
         ax, ay = mv.at
-        d2 = [(o.x - ax) ** 2 + (o.y - ay) ** 2 for o in out]
-        k = int(np.argmin(d2))
-        o = out[k]
+        k = int(np.argmin((centres[:, 0] - ax) ** 2 + (centres[:, 1] - ay) ** 2))
         dx, dy = mv.by
-        b = _box(o, dx, dy)
-        ok = b[0] >= 0.0 and b[1] >= 0.0 and b[2] <= size_x and b[3] <= size_y
+        moved = replace(out[k], x=out[k].x + dx, y=out[k].y + dy)
+        b = _boxes([moved])[0]  # from the moved obstacle itself: the very box the world will hold
+        ok = bool(b[0] >= 0.0 and b[1] >= 0.0 and b[2] <= size_x and b[3] <= size_y)
         ok = ok and all(_disc_clear(b, cx, cy, mission.free_radius_m) for cx, cy in discs)
         if ok:
-            for j, other in enumerate(out):
-                if j == k:
-                    continue
-                q = _box(other)
-                if b[0] < q[2] and q[0] < b[2] and b[1] < q[3] and q[1] < b[3]:
-                    ok = False
-                    break
+            hit = (b[0] < boxes[:, 2]) & (boxes[:, 0] < b[2]) & (b[1] < boxes[:, 3]) & (boxes[:, 1] < b[3])
+            hit[k] = False
+            ok = not hit.any()
         if ok:
-            out[k] = replace(o, x=o.x + dx, y=o.y + dy)
+            out[k] = moved
+            boxes[k] = b
+            centres[k] = (moved.x, moved.y)
         done.append(k if ok else -1)
     return out, done
 
