@@ -4,7 +4,8 @@ Two cases, each run twice through the real search machinery (:func:`run_search`:
 executor, repeated runs per candidate, elites re-run with fresh run seeds):
 
 - **(a) fault-revealing**: worlds where the ``small-footprint`` fault fails and the nominal
-  reference stack succeeds, on the same world with paired run seeds;
+  reference stack succeeds, on the same world with paired run seeds; its space also holds local
+  moves of two single trees (:data:`MOVES_A`);
 - **(b) failure**: worlds where the nominal reference stack fails.
 
 Each case runs the search algorithm (``--algorithm``, default ``ga``: pymoo's genetic algorithm)
@@ -15,8 +16,9 @@ re-run with fresh run seeds and judged by the same confirmation rule, so a metho
 bounded by what it saw, never by a cap shared with the other method. The confirmation runs come on
 top of the budget, for both, and are printed.
 
-The figure is the number of **distinct confirmed worlds** (distinct keys: distinct parameters or
-map seed, so distinct generated worlds), and the target is search >= 3x random, judged on the
+The figure is the number of **distinct confirmed worlds**: distinct generated worlds
+(:meth:`World.digest`), not keys, since two keys can make one world when an obstacle move is not
+applied (``confirmed_keys`` prints the keys), and the target is search >= 3x random, judged on the
 counts pooled over ``--seeds``. Worlds of one map seed and nearby obstruction share their layout
 (for a given seed, 95 % of the trees of an 8 % world lie within 0.3 m of a tree of the 8.1 % or
 8.5 % world; another size variability draws another layout), so the benchmark also prints the
@@ -43,7 +45,7 @@ from typing import Any
 
 import yaml
 
-from navstress.search.driver import SearchResult, run_search
+from navstress.search.driver import SearchResult, distinct_worlds, run_search
 
 TARGET = 3.0
 
@@ -64,6 +66,12 @@ BASE: dict[str, Any] = {
     "elites": 10000,
 }
 
+#: Case (a) also searches local moves of two single trees (each the tree nearest a point of the
+#: map, moved by up to 1 m along x and y: ``space.moves``). A revealing world needs a gap the
+#: faulty stack believes it fits through and the nominal one avoids; without moves a search can
+#: only wait for one to be generated (it then did not beat random: docs/performance.md).
+MOVES_A: dict[str, Any] = {"count": 2, "radius_m": 1.0}
+
 #: The search's settings: pymoo's GA with a crossover probability of 0.5 (half the children
 #: are a parent's copy, mutated), so that a found world's neighbours (its map seed kept, its
 #: parameters moved a little: mostly the same layout) are tried often.
@@ -71,7 +79,8 @@ SEARCH_SETTINGS: dict[str, dict[str, Any]] = {"ga": {"crossover_prob": 0.5}}
 
 CASES: dict[str, dict[str, Any]] = {
     "a-fault-revealing": {"objective": {"name": "fault-revealing", "fault": "small-footprint"},
-                          "faults": [None, "small-footprint"], "runs_per_candidate": 2, "confirm_runs": 20},
+                          "faults": [None, "small-footprint"], "runs_per_candidate": 2, "confirm_runs": 20,
+                          "moves": MOVES_A},
     "b-failure": {"objective": {"name": "failure"}, "faults": [None], "runs_per_candidate": 2, "confirm_runs": 5},
 }
 #: Candidates per generation: revealing worlds are rare and flaky (a revealing world reveals
@@ -86,16 +95,22 @@ SEEDS = (11,)
 
 def spec_for(case: str, algorithm: str, budget: int, batch: int, seed: int) -> dict[str, Any]:
     algo: dict[str, Any] = {"name": algorithm, "batch": batch, **SEARCH_SETTINGS.get(algorithm, {})}
-    return {"name": f"{case}-{algorithm}", **BASE, **CASES[case], "seed": seed, "budget": {"runs": budget},
-            "algorithm": algo}
+    c = dict(CASES[case])
+    moves = c.pop("moves", None)
+    spec = {"name": f"{case}-{algorithm}", **BASE, **c, "seed": seed, "budget": {"runs": budget}, "algorithm": algo}
+    if moves is not None:
+        spec["space"] = {**spec["space"], "moves": moves}
+    return spec
 
 
-def summary(res: SearchResult) -> dict[str, Any]:
-    ok = res.confirmed
+def summary(res: SearchResult, directory: Path) -> dict[str, Any]:
+    """The figures of one search; ``confirmed`` counts distinct generated worlds (two keys whose
+    worlds are the same, e.g. through obstacle moves that were not applied, count once)."""
+    ok, _ = distinct_worlds(res.confirmed, directory)
     return {"candidates": len(res.evaluated), "distinct": len({e.candidate.key for e in res.evaluated}),
             "seen": len({e.candidate.key for e in res.evaluated if e.found}), "runs": res.runs,
-            "confirm_runs": res.confirm_runs, "elites": len(res.elites), "confirmed": len(ok),
-            "layouts": len({e.candidate.map_seed for e in ok}), "sim_h": res.sim_hours}
+            "confirm_runs": res.confirm_runs, "elites": len(res.elites), "confirmed_keys": len(res.confirmed),
+            "confirmed": len(ok), "layouts": len({e.candidate.map_seed for e in ok}), "sim_h": res.sim_hours}
 
 
 def run_case(case: str, algorithm: str, budget: int, batch: int, seed: int, root: Path,
@@ -113,7 +128,7 @@ def run_case(case: str, algorithm: str, budget: int, batch: int, seed: int, root
         if res.unfinished:
             print(f"{name}: {len(res.unfinished)} runs unfinished; run again with --keep {root}")
             return None
-        rows[algo] = {**summary(res), "wall_s": wall}
+        rows[algo] = {**summary(res, root / name), "wall_s": wall}
     return rows
 
 
@@ -146,20 +161,21 @@ def main() -> int:
           f"{args.workers} workers; seeds {seeds}; searches in {root}")
     failed = []
     cases = [("a-fault-revealing", args.budget_a), ("b-failure", args.budget_b)]
-    cols = ("candidates", "distinct", "seen", "runs", "confirm_runs", "confirmed", "layouts", "sim_h", "wall_s")
+    cols = ("candidates", "distinct", "seen", "runs", "confirm_runs", "confirmed_keys", "confirmed", "layouts", "sim_h",
+            "wall_s")
     for case, budget in [c for c in cases if args.case in ("both", c[0][0])]:
         c = CASES[case]
         print(f"\n{case} (budget {budget} runs, {c['runs_per_candidate']} runs per candidate and stack, batch "
               f"{args.batch or BATCH[case]}; every seen world confirmed with {c['confirm_runs']} fresh-seed runs per stack)")
-        print(f"  {'seed':>5} {'method':<8}" + "".join(f"{col:>13}" for col in cols))
+        print(f"  {'seed':>5} {'method':<8}" + "".join(f"{col:>15}" for col in cols))
         total = {args.algorithm: [0, 0], "random": [0, 0]}
         for seed in seeds:
             rows = run_case(case, args.algorithm, budget, args.batch or BATCH[case], seed, root, args.workers)
             if rows is None:
                 return 2
             for algo, r in rows.items():
-                print(f"  {seed:>5} {algo:<8}" + "".join(f"{r[col]:>13.1f}" if isinstance(r[col], float)
-                                                        else f"{r[col]:>13}" for col in cols))
+                print(f"  {seed:>5} {algo:<8}" + "".join(f"{r[col]:>15.1f}" if isinstance(r[col], float)
+                                                        else f"{r[col]:>15}" for col in cols))
                 total[algo][0] += r["confirmed"]
                 total[algo][1] += r["layouts"]
             s, r_ = rows[args.algorithm]["confirmed"], rows["random"]["confirmed"]

@@ -532,16 +532,38 @@ _SUITE_HEAD = """\
 """
 
 
+def distinct_worlds(elites: list[Elite], root: Path) -> tuple[list[Elite], dict[str, str]]:
+    """The elites whose generated worlds differ from every earlier one's (in order), and for each
+    other elite the key of the earlier one with the same world (:meth:`World.digest`).
+
+    Different keys can make the same world: obstacle moves that were not applied, or two moves
+    that take the same obstacle the same way. An elite whose world is not on disk is kept."""
+    first: dict[str, str] = {}
+    kept: list[Elite] = []
+    same: dict[str, str] = {}
+    for e in elites:
+        d = root / "worlds" / CONFIRM / e.candidate.key / "m0"
+        digest = World.load(d).digest() if d.is_dir() else e.candidate.key
+        if digest in first:
+            same[e.candidate.key] = first[digest]
+        else:
+            first[digest] = e.candidate.key
+            kept.append(e)
+    return kept, same
+
+
 def write_suite(spec: SearchSpec, result: SearchResult, root: Path) -> Path | None:
     """Write ``suite/``: suite.yaml (a campaign spec, one experiment ``suite`` of the confirmed
     worlds), suite.json (their verdicts and provenance) and worlds/KEY (the generated worlds).
     Returns suite.yaml's path, or None when no world was confirmed (then suite/ holds suite.json
-    alone). The directory is built aside and renamed into place."""
+    alone). A confirmed world that is the same generated world as a better one (different keys,
+    same world: :func:`distinct_worlds`) is listed once; suite.json names it ``same_world_as``.
+    The directory is built aside and renamed into place."""
     final = root / SUITE_DIR
     tmp = root / f".{SUITE_DIR}.tmp"
     shutil.rmtree(tmp, ignore_errors=True)
     tmp.mkdir()
-    ok = result.confirmed
+    ok, same = distinct_worlds(result.confirmed, root)
     data = {"name": f"{spec.name}-suite", "seed": spec.seed, "world": spec.world,
             "experiments": [{"name": "suite", "worlds": [_entry(e.candidate) for e in ok]}],
             "runs_per_map": spec.confirm_runs,
@@ -561,7 +583,9 @@ def write_suite(spec: SearchSpec, result: SearchResult, root: Path) -> Path | No
                 shutil.copytree(src, tmp / "worlds" / e.candidate.key)
     info = {"format": FORMAT, "search": spec.name, "objective": spec.objective.model_dump(mode="json"),
             "algorithm": spec.algorithm.name, "worlds": [
-                {**e.to_json(), "found_in_generation": e.generation} for e in result.elites]}
+                {**e.to_json(), "found_in_generation": e.generation,
+                 **({"same_world_as": same[e.candidate.key]} if e.candidate.key in same else {})}
+                for e in result.elites]}
     (tmp / "suite.json").write_text(_json.dumps(info, indent=1, sort_keys=True) + "\n", encoding="utf-8")
     if final.exists():
         old = root / f".{SUITE_DIR}.old"

@@ -15,6 +15,7 @@ movers when it has any: a world without movers has no ``movers`` key, as before 
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
@@ -226,6 +227,16 @@ class World:
     @property
     def size_m(self) -> tuple[float, float]:
         return self.spec.size_m
+
+    def digest(self) -> str:
+        """A hex digest of what was generated: the terrain grid, the obstacles, the mission and the
+        movers (not the spec, seed or descriptors). Two worlds a robot cannot tell apart have the
+        same digest, whatever specs made them (e.g. obstacle moves that were not applied)."""
+        h = hashlib.sha256()
+        h.update(repr((self.terrain.heights.shape, self.terrain.cell_m)).encode())
+        h.update(self.terrain.heights.tobytes())
+        h.update(repr((self.obstacles, self.mission, self.movers)).encode())
+        return h.hexdigest()
 
     @classmethod
     def flat(cls, spec: WorldSpec, seed: int = 0, obstacles: tuple[Obstacle, ...] = (),
