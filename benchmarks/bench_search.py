@@ -80,7 +80,7 @@ SEARCH_SETTINGS: dict[str, dict[str, Any]] = {"ga": {"crossover_prob": 0.5}}
 CASES: dict[str, dict[str, Any]] = {
     "a-fault-revealing": {"objective": {"name": "fault-revealing", "fault": "small-footprint"},
                           "faults": [None, "small-footprint"], "runs_per_candidate": 2, "confirm_runs": 20,
-                          "moves": MOVES_A},
+                          "space": {**BASE["space"], "moves": MOVES_A}},
     "b-failure": {"objective": {"name": "failure"}, "faults": [None], "runs_per_candidate": 2, "confirm_runs": 5},
 }
 #: Candidates per generation: revealing worlds are rare and flaky (a revealing world reveals
@@ -95,12 +95,8 @@ SEEDS = (11,)
 
 def spec_for(case: str, algorithm: str, budget: int, batch: int, seed: int) -> dict[str, Any]:
     algo: dict[str, Any] = {"name": algorithm, "batch": batch, **SEARCH_SETTINGS.get(algorithm, {})}
-    c = dict(CASES[case])
-    moves = c.pop("moves", None)
-    spec = {"name": f"{case}-{algorithm}", **BASE, **c, "seed": seed, "budget": {"runs": budget}, "algorithm": algo}
-    if moves is not None:
-        spec["space"] = {**spec["space"], "moves": moves}
-    return spec
+    return {"name": f"{case}-{algorithm}", **BASE, **CASES[case], "seed": seed, "budget": {"runs": budget},
+            "algorithm": algo}
 
 
 def summary(res: SearchResult, directory: Path) -> dict[str, Any]:

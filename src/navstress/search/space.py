@@ -89,7 +89,8 @@ class Space:
 
     @property
     def names(self) -> list[str]:
-        """The name of each dimension: the parameter paths, then ``map_seed`` when searched."""
+        """The name of each dimension: the parameter paths, the moves' coordinates (:func:`move_name`),
+        then ``map_seed`` when searched."""
         return ([p.path for p in self.parameters] + [move_name(i, f) for i in range(self.n_moves) for f in MOVE_FIELDS]
                 + (["map_seed"] if self.map_seeds is not None else []))
 
@@ -104,9 +105,9 @@ class Space:
         if self.moves is not None:
             size = self._size(params)
             moves = []
+            r = self.moves.radius_m
             for i in range(self.moves.count):
                 ux, uy, udx, udy = (float(v) for v in u[len(self.parameters) + MOVE_COORDS * i:][:MOVE_COORDS])
-                r = self.moves.radius_m
                 mv = {"at_x": scaled(ux, 0.0, size[0]), "at_y": scaled(uy, 0.0, size[1]),
                       "dx": scaled(udx, -r, r), "dy": scaled(udy, -r, r)}
                 params.update({move_name(i, f): v for f, v in mv.items()})

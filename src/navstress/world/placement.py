@@ -279,18 +279,15 @@ def apply_moves(obstacles: list[Obstacle], spec: WorldSpec, mission: Mission) ->
     previous ones left them; sizes, kinds and the order of the obstacles never change."""
     moves = spec.obstacles.moves
     out = list(obstacles)
+    if not moves or not out:  # (nothing to do: no box is computed for a world without moves)
+        return out, [-1] * len(moves)
     done: list[int] = []
-    if not moves:
-        return out, done
     size_x, size_y = spec.size_m
     sx, sy, _ = mission.start
     discs = ((sx, sy), mission.goal)
     boxes = _boxes(out)
     centres = np.array([(o.x, o.y) for o in out]).reshape(-1, 2)
     for mv in moves:
-        if not out:
-            done.append(-1)
-            continue
         ax, ay = mv.at
         k = int(np.argmin((centres[:, 0] - ax) ** 2 + (centres[:, 1] - ay) ** 2))
         dx, dy = mv.by
