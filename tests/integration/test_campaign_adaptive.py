@@ -8,7 +8,6 @@ from the run's seed, so the streams stop at varied run counts within seconds.
 
 from __future__ import annotations
 
-import json
 import os
 import signal
 import subprocess
@@ -19,7 +18,7 @@ from typing import Any
 import pytest
 import yaml
 
-import loopback
+import ray_battery
 from built_once import built_once
 from campaign_kill import kill_when_recorded
 from navstress.campaign.executors import run_campaign
@@ -130,34 +129,19 @@ def test_sigkill_then_resume_gives_the_same_final_set(uninterrupted: Path, tmp_p
     assert [p for p in out.rglob(".*") if p.name != ".lock"] == []
 
 
-_RAY = """
-import json, os, sys
-import ray
-from navstress.campaign.executors import run_campaign
-os.environ.setdefault("RAY_AUTH_MODE", "disabled")
-ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False,
-         runtime_env={"env_vars": {"PYTHONPATH": os.environ["PYTHONPATH"]}})
-try:
-    res = run_campaign(sys.argv[1], sys.argv[2], executor="ray")
-finally:
-    ray.shutdown()
-print(json.dumps({"recorded": res.recorded, "planned": res.planned}))
-"""
+def _ray_job(root: Path, factory: pytest.TempPathFactory) -> dict[str, Any]:
+    return {"kind": "campaign", "spec": str(_write(root / "spec.yaml")), "out": str(root / "out"), "workers": 2}
+
+
+ray_battery.register("adaptive", _ray_job)
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(not loopback.available(), reason="needs a network namespace (unshare -rn)")
-def test_ray_executor_gives_the_same_final_set(uninterrupted: Path, tmp_path: Path) -> None:
-    pytest.importorskip("ray", reason="ray is not installed (pip extra 'ray'; the 'test' extra installs it)")
-    spec = _write(tmp_path / "spec.yaml")
-    tests = Path(__file__).resolve().parents[1]
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([SRC, HELPERS, str(tests), os.environ.get("PYTHONPATH", "")])}
-    p = subprocess.run(loopback.loopback_only([sys.executable, "-c", _RAY, str(spec), str(tmp_path / "out")]),
-                       env=env, capture_output=True, text=True, timeout=400)
-    assert p.returncode == 0, p.stderr[-3000:]
-    res = json.loads(p.stdout.strip().splitlines()[-1])
+def test_ray_executor_gives_the_same_final_set(uninterrupted: Path, tmp_path_factory: pytest.TempPathFactory) -> None:
+    """On the suite's one local Ray cluster (``ray_battery``)."""
+    res = ray_battery.job(tmp_path_factory, "adaptive")
     assert res["recorded"] == res["planned"] == len(_runs(uninterrupted))
-    assert _runs(tmp_path / "out") == _runs(uninterrupted)
+    assert _runs(Path(res["out"])) == _runs(uninterrupted)
 
 
 def test_analysis_counts_a_finished_adaptive_campaign_complete(uninterrupted: Path) -> None:

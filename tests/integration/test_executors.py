@@ -7,8 +7,6 @@ its worker on every attempt), because the scheduling core is written once
 from __future__ import annotations
 
 import json
-import os
-import subprocess
 import sys
 from pathlib import Path
 from typing import Any
@@ -16,6 +14,7 @@ from typing import Any
 import pytest
 
 import loopback
+import ray_battery
 from built_once import built_once
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -26,24 +25,6 @@ if HELPERS not in sys.path:
 import executor_contract  # noqa: E402
 
 pytestmark = pytest.mark.slow
-
-#: What RAY_ADDRESS holds while the Ray contract runs: nothing listens there.
-DEAD_RAY_ADDRESS = "127.0.0.1:1"
-
-
-def _ray_contract(root: Path) -> dict[str, Any]:
-    env = {k: v for k, v in os.environ.items() if not k.startswith("RAY_")}
-    # a dead address in RAY_ADDRESS: with no address given navstress must not follow it but start
-    # its own local cluster (test_ray_ignores_ray_address_and_starts_its_own_cluster)
-    env["RAY_ADDRESS"] = DEAD_RAY_ADDRESS
-    env["PYTHONPATH"] = os.pathsep.join([str(ROOT / "src"), HELPERS, str(ROOT / "tests"),
-                                         os.environ.get("PYTHONPATH", "")])
-    code = "import sys, executor_contract; executor_contract.main('ray', sys.argv[1])"
-    p = subprocess.run([sys.executable, "-c", code, str(root)], env=env, capture_output=True, text=True,
-                       timeout=500)
-    assert p.returncode == 0, p.stderr[-3000:]
-    out: dict[str, Any] = json.loads(p.stdout.strip().splitlines()[-1])
-    return out
 
 
 def _local_contract(root: Path) -> dict[str, Any]:
@@ -57,11 +38,9 @@ def _local_contract(root: Path) -> dict[str, Any]:
 # each contract is built once in the session, also when pytest -n deals its tests to two workers
 @pytest.fixture(scope="module")
 def ray_contract(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
-    """The scenarios on a Ray cluster that navstress starts (in a fresh interpreter), with the
-    sockets its processes held while it ran."""
-    pytest.importorskip("ray", reason="ray is not installed (pip extra 'ray'; the 'test' extra installs it)")
-    out: dict[str, Any] = built_once(tmp_path_factory, "ray-contract", _ray_contract)
-    return out
+    """The scenarios on the Ray cluster that navstress starts (in a fresh interpreter: the suite's
+    one cluster, ``ray_battery``), with the sockets its processes held while it ran."""
+    return ray_battery.battery(tmp_path_factory)
 
 
 @pytest.fixture(scope="module")

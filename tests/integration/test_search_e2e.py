@@ -25,6 +25,7 @@ from typing import Any
 import pytest
 import yaml
 
+import ray_battery
 from built_once import built_once
 from campaign_kill import descendants, recorded, wait_gone
 from cli_run import cli
@@ -212,23 +213,22 @@ def test_killed_and_stopped_at_random_moments_it_resumes_to_the_same_bytes(refer
 
 # ---- Ray ---------------------------------------------------------------------------------------
 
-_RAY = """
-import sys
-from navstress.search.driver import run_search
-res = run_search(sys.argv[1], sys.argv[2], budget=int(sys.argv[3]), workers=2, executor="ray")
-assert not res.unfinished, res.unfinished
-"""
+def _ray_job(root: Path, factory: pytest.TempPathFactory) -> dict[str, Any]:
+    spec, _, _ = built_once(factory, "search-reference", _reference)
+    return {"kind": "search", "spec": spec, "out": str(root / "ray"), "budget": BUDGET, "workers": 2}
 
 
-def test_on_a_local_ray_cluster_the_search_is_the_same(reference: tuple[Path, Path, str], tmp_path: Path) -> None:
-    """The cluster navstress starts (127.0.0.1 only, as the executor contract checks), in a
-    fresh interpreter."""
-    pytest.importorskip("ray", reason="ray is not installed (pip extra 'ray'; the 'test' extra installs it)")
-    spec, ref, _ = reference
-    out = tmp_path / "ray"
-    p = subprocess.run([sys.executable, "-c", _RAY, str(spec), str(out), str(BUDGET)], env=ENV,
-                       capture_output=True, text=True, timeout=500)
-    assert p.returncode == 0, p.stderr[-3000:]
+ray_battery.register("search", _ray_job)
+
+
+def test_on_a_local_ray_cluster_the_search_is_the_same(reference: tuple[Path, Path, str],
+                                                        tmp_path_factory: pytest.TempPathFactory) -> None:
+    """On the cluster navstress starts (the suite's one, ``ray_battery``: 127.0.0.1 only, as the
+    executor contract checks), in a fresh interpreter."""
+    _, ref, _ = reference
+    res = ray_battery.job(tmp_path_factory, "search")
+    assert res["unfinished"] == [] and res["runs"] == BUDGET
+    out = Path(res["out"])
     assert (out / "search.json").read_bytes() == (ref / "search.json").read_bytes()
     assert traces(out) == traces(ref)
 

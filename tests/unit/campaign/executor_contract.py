@@ -4,6 +4,11 @@ worker on every attempt, and a good run. Importable by a subprocess (``python -c
 cluster never starts inside the test process.
 
     python -c "import executor_contract; executor_contract.main('ray', DIR)"   # prints JSON
+
+On Ray the suite starts one cluster for all its Ray tests (``tests/ray_battery.py``): after the
+scenarios, :func:`main` runs the jobs listed in ``DIR/jobs.json`` (campaigns and searches other
+test modules registered) on the same cluster, through the public entry points, which join the
+cluster this process initialised.
 """
 
 from __future__ import annotations
@@ -12,6 +17,7 @@ import json
 import os
 import re
 import sys
+import traceback
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +29,8 @@ from navstress.campaign.ray_executor import RayExecutor
 from navstress.campaign.scheduler import Executor, resume
 from navstress.campaign.spec import load_campaign
 from navstress.campaign.store import Store
+from navstress.campaign.executors import run_campaign
+from navstress.search.driver import run_search
 
 #: The wall-clock limit of the crashing navigator's runs (a Ray task's clock starts when it is
 #: submitted: the limit leaves a fresh Ray worker the time to start on a busy machine).
@@ -72,8 +80,22 @@ def normalised(reason: str, worker: str) -> str:
     return re.sub(r"\(([^()]|\([^()]*\))*\)", "(...)", reason.replace(worker, "WORKER"))
 
 
+def job(spec: dict[str, Any]) -> dict[str, Any]:
+    """One registered job (``ray_battery``) on the Ray cluster this process runs: its result, or
+    the traceback of its failure (which fails its own test only)."""
+    try:
+        if spec["kind"] == "campaign":
+            res = run_campaign(spec["spec"], spec["out"], workers=spec["workers"], executor="ray")
+            return {"out": spec["out"], "recorded": res.recorded, "planned": res.planned, "workers": res.workers}
+        got = run_search(spec["spec"], spec["out"], budget=spec["budget"], workers=spec["workers"], executor="ray")
+        return {"out": spec["out"], "unfinished": sorted(got.unfinished.items()), "runs": got.runs}
+    except Exception:
+        return {"out": spec["out"], "error": traceback.format_exc()}
+
+
 def main(kind: str, root: str) -> None:
-    """Run :func:`scenarios` on a fresh executor of ``kind``; print the JSON (last line)."""
+    """Run :func:`scenarios` on a fresh executor of ``kind`` (Ray: then the jobs of
+    ``root/jobs.json``, if any, on the same cluster); print the JSON (last line)."""
     ex: Any
     if kind == "ray":
         ex = RayExecutor(2, {n["name"]: n["target"] for n in NAVS if "target" in n})
@@ -83,6 +105,9 @@ def main(kind: str, root: str) -> None:
         out = scenarios(ex, Path(root))
         if kind == "ray":
             out["sockets"] = loopback.sockets_of_tree(os.getpid())
+            jobs = Path(root) / "jobs.json"
+            if jobs.is_file():
+                out["jobs"] = {name: job(spec) for name, spec in json.loads(jobs.read_text()).items()}
     finally:
         if kind == "ray":
             ex.close()
