@@ -296,6 +296,35 @@ def test_the_terrain_surface_round_trips_through_a_trace(tmp_path: Path) -> None
     assert read_terrain_mesh(tmp_path / "none.mcap") is None
 
 
+@settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.lists(st.sampled_from(["tree", "building", "rock", "wall", "hut", "a", "b", "c"]), min_size=0, max_size=12))
+def test_the_scene_has_the_pictures_colours(tmp_path: Path, kinds: list[str]) -> None:
+    """Foxglove's 3D scene colours each obstacle as the world's pictures do (``kind_colour``:
+    the built-in kinds their own colour, other kinds one each, never grey), start and goal too."""
+    from mcap_protobuf.decoder import DecoderFactory
+
+    from navstress.world.colours import GOAL_COLOUR, START_COLOUR, kind_colour
+
+    obstacles = [{"kind": k, "x": float(i), "y": 1.0, "yaw": 0.0, "size": [1, 1, 2], "z": 0.0} for i, k in enumerate(kinds)]
+    with TraceWriter(tmp_path / "s.mcap") as tw:
+        tw.scene(obstacles, (1, 1, 0), (9, 9), (0, 0))
+    with open(tmp_path / "s.mcap", "rb") as f:
+        [(_, _, _, scene)] = list(make_reader(f, decoder_factories=[DecoderFactory()]).iter_decoded_messages(
+            topics=["/world/scene"]))
+    [ent] = scene.entities
+
+    def hexed(c: object) -> str:
+        return "#" + "".join(f"{round(getattr(c, ch) * 255):02x}" for ch in "rgb")
+
+    distinct = sorted(set(kinds))
+    assert [hexed(c.color) for c in ent.cubes] == [kind_colour(k, distinct) for k in kinds]
+    assert [hexed(s.color) for s in ent.spheres] == [START_COLOUR, GOAL_COLOUR]
+    assert all(c.color.a == 1.0 for c in ent.cubes)
+    others = [k for k in distinct if k not in ("tree", "building")]
+    if len(others) <= 5:  # up to five other kinds: each its own colour
+        assert len({kind_colour(k, distinct) for k in distinct}) == len(distinct)
+
+
 def test_commands_round_trip_through_a_trace(tmp_path: Path) -> None:
     """The navigator's commands: written with their own schema (navstress.VelocityCommand, kept
     in the file), read back by the MCAP protobuf decoder; non-finite or negative times left out."""

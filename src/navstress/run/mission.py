@@ -28,7 +28,6 @@ from typing import Any, Protocol
 
 import mujoco
 import numpy as np
-from scipy.spatial.transform import Rotation, Slerp
 
 from navstress.errors import NavstressError, SimulationError
 from navstress.nav.api import (DebugDraw, InvalidAnswer, NavMission, Navigator, Status, check_answer, check_debug,
@@ -397,6 +396,8 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
 def _to_map_frame(pts: np.ndarray, mount: tuple[float, float, float], truth: np.ndarray, t: float) -> np.ndarray:
     """Sensor-frame points into the map frame with the TRUE pose at ``t`` (interpolated between
     observer samples, 10 Hz: a few cm off while turning; for visualisation only)."""
+    from scipy.spatial.transform import Rotation, Slerp  # here: runs that record no lidar never import it
+
     ts = truth[:, 0]
     k = int(np.clip(np.searchsorted(ts, t), 1, len(ts) - 1)) if len(ts) > 1 else 0
     if len(ts) > 1:

@@ -126,7 +126,12 @@ def _rgba(c: tuple[float, float, float, float]) -> dict[str, float]:
     return {"r": c[0], "g": c[1], "b": c[2], "a": c[3]}
 
 
-_KIND_COLORS = {"tree": Color(r=0.13, g=0.55, b=0.13, a=1.0), "building": Color(r=0.55, g=0.45, b=0.4, a=1.0)}
+def _colour(hex_rgb: str) -> Color:
+    """A ``#rrggbb`` colour of :mod:`navstress.world.colours` (the pictures' own), opaque."""
+    from navstress.world.colours import rgb  # (local: the world package imports numba)
+
+    r, g, b = rgb(hex_rgb)
+    return Color(r=r, g=g, b=b, a=1.0)
 
 
 def terrain_mesh(heights: np.ndarray, cell_m: float, max_cells: int = MESH_MAX_CELLS) -> tuple[np.ndarray, np.ndarray]:
@@ -262,18 +267,22 @@ class TraceMessages:
 
     def scene(self, obstacles: list[dict[str, Any]], start: tuple[float, float, float], goal: tuple[float, float],
               ground_z: tuple[float, float]) -> None:
-        """Obstacles (dicts with kind, x, y, yaw, size, z) as cubes; start and goal as spheres."""
+        """Obstacles (dicts with kind, x, y, yaw, size, z) as cubes; start and goal as spheres; in
+        the colours of the world's pictures (per obstacle kind, start, goal)."""
+        from navstress.world.colours import GOAL_COLOUR, START_COLOUR, kind_colour  # (local: as terrain_faces)
+
+        kinds = sorted({o["kind"] for o in obstacles})
         cubes = [CubePrimitive(pose=Pose(position=Vector3(x=o["x"], y=o["y"], z=o["z"] + o["size"][2] / 2),
                                          orientation=quaternion(o["yaw"], 0.0, 0.0)),
                                size=Vector3(x=o["size"][0], y=o["size"][1], z=o["size"][2]),
-                               color=_KIND_COLORS.get(o["kind"], Color(r=0.5, g=0.5, b=0.5, a=1.0)))
+                               color=_colour(kind_colour(o["kind"], kinds)))
                  for o in obstacles]
         marks = [SpherePrimitive(pose=Pose(position=Vector3(x=start[0], y=start[1], z=ground_z[0] + 0.5),
                                            orientation=Quaternion(w=1.0)),
-                                 size=Vector3(x=1, y=1, z=1), color=Color(r=0.1, g=0.3, b=1.0, a=1.0)),
+                                 size=Vector3(x=1, y=1, z=1), color=_colour(START_COLOUR)),
                  SpherePrimitive(pose=Pose(position=Vector3(x=goal[0], y=goal[1], z=ground_z[1] + 0.5),
                                            orientation=Quaternion(w=1.0)),
-                                 size=Vector3(x=1, y=1, z=1), color=Color(r=1.0, g=0.2, b=0.1, a=1.0))]
+                                 size=Vector3(x=1, y=1, z=1), color=_colour(GOAL_COLOUR))]
         ent = SceneEntity(timestamp=_stamp(0.0), frame_id=FRAME, id="world", frame_locked=True,
                           cubes=cubes, spheres=marks)
         self._put(TOPIC_SCENE, SceneUpdate(entities=[ent]), 0)

@@ -26,11 +26,17 @@ def kind_colour(kind: str, kinds: list[str]) -> str:
         else EXTRA_KIND_COLOURS[0]
 
 
+def rgb(hex_rgb: str) -> tuple[float, float, float]:
+    """``#rrggbb`` as (r, g, b) in [0, 1]."""
+    r, g, b = (int(hex_rgb[i:i + 2], 16) / 255 for i in (1, 3, 5))
+    return r, g, b
+
+
 def terrain_colours(t: np.ndarray) -> np.ndarray:
     """RGB in [0, 1], shape ``t.shape + (3,)``, for ``t`` in [0, 1] (clipped): linear between
     the stops, as ``matplotlib.colors.LinearSegmentedColormap.from_list(TERRAIN_STOPS)`` (without
     its 256-entry table)."""
-    stops = np.array([[int(h[i:i + 2], 16) / 255 for i in (1, 3, 5)] for h in TERRAIN_STOPS])
+    stops = np.array([rgb(h) for h in TERRAIN_STOPS])
     x = np.clip(np.asarray(t, dtype=np.float64), 0.0, 1.0)
     at = np.linspace(0.0, 1.0, len(stops))
     return np.stack([np.interp(x, at, stops[:, c]) for c in range(3)], axis=-1)

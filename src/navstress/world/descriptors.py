@@ -42,9 +42,6 @@ from typing import Any
 
 import numba
 import numpy as np
-from scipy import ndimage
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import dijkstra
 
 import navstress._jit  # noqa: F401  (numba's cache directory, before any @njit(cache=True))
 from navstress.robot import RobotSpec
@@ -185,6 +182,8 @@ def barn_metrics(size_m: tuple[float, float], obstacles: tuple[Obstacle, ...],
     occ = (d <= 0.0).astype(np.uint8)
     if not occ.any():
         return none
+    from scipy import ndimage  # here: 0.3-0.5 s to import, and a process that only runs missions never needs it
+
     edt = ndimage.distance_transform_edt(occ == 0) * cell
     free = occ == 0
     vis, disp, cd, n = _rays(occ, cell, float(ray_m))
@@ -247,6 +246,9 @@ def shortest_path_length(terrain: Terrain, ok: np.ndarray, start: tuple[float, f
         src.append(idx[a][m])
         dst.append(idx[b][m])
         wts.append(np.sqrt(planar * planar + dz[m] ** 2))
+    from scipy.sparse import coo_matrix  # here, as ndimage above
+    from scipy.sparse.csgraph import dijkstra
+
     n = rows * cols
     g = coo_matrix((np.concatenate(wts), (np.concatenate(src), np.concatenate(dst))), shape=(n, n)).tocsr()
     dist = dijkstra(g, directed=False, indices=int(idx[si]))
@@ -279,6 +281,8 @@ def describe(spec: WorldSpec, terrain: Terrain, obstacles: tuple[Obstacle, ...],
     h = np.asarray(terrain.heights, np.float64)
     sl = slope_deg(h, terrain.cell_m)
     sigma = ROUGHNESS_SIGMA_M / terrain.cell_m
+    from scipy import ndimage  # here, as above
+
     resid = h - ndimage.gaussian_filter(h, sigma, mode="nearest")
     out.update({
         "height_min_m": _f(h.min()), "height_max_m": _f(h.max()), "height_std_m": _f(h.std()),
