@@ -108,3 +108,20 @@ def test_help_imports_no_command_module() -> None:
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert proc.stdout.strip().splitlines()[-1] == "[]", proc.stdout
+
+
+#: What a module's own commands never use, so importing it must not import them: the search's
+#: algorithm libraries (pyribs, pymoo: 1-3 s) and scipy's image, graph and rotation modules (0.3-0.5 s).
+NOT_NEEDED = {
+    "navstress.cli.analysis": ("ribs", "pymoo"),  # report, analyze: read a search's files, run no algorithm
+    "navstress.campaign.work": ("ribs", "pymoo", "scipy.ndimage", "scipy.sparse", "scipy.spatial"),
+    "navstress.cli.run": ("ribs", "pymoo", "scipy.ndimage", "scipy.sparse", "scipy.spatial"),
+}
+
+
+@pytest.mark.parametrize("module", sorted(NOT_NEEDED))
+def test_commands_do_not_import_what_they_never_use(module: str) -> None:
+    code = f"import sys, {module}; print(sorted(m for m in {NOT_NEEDED[module]!r} if m in sys.modules))"
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert proc.stdout.strip().splitlines()[-1] == "[]", f"import {module} pulled {proc.stdout.strip()}"

@@ -45,7 +45,6 @@ from navstress.campaign.store import DB_NAME, Store
 from navstress.errors import NavstressError, SpecError, StoreError
 from navstress.run.batch import default_wall_limit_s
 from navstress.run.record import RunRecord
-from navstress.search.algorithms import make_algorithm
 from navstress.search.objectives import (Confirmation, by_world, confirm, descriptor_values, evaluate,
                                          get_descriptor, world_feasible)
 from navstress.search.space import Candidate, Space
@@ -325,6 +324,10 @@ def run_search(spec_path: str | Path, directory: str | Path, *, budget: int | No
         raise SpecError("--workers", workers, "an integer >= 1")
     if executor not in ("local", "ray"):
         raise SpecError("--executor", executor, "local or ray")
+    # here: pyribs and pymoo take 1-3 s to import, and the report and analysis commands, which
+    # import this module for its file names and readers, never run an algorithm
+    from navstress.search.algorithms import make_algorithm
+
     space = Space.from_spec(spec)
     algo = make_algorithm(spec, space, n_obj=2 if spec.algorithm.name == "nsga2" else 1)
     root = Path(directory)
