@@ -7,8 +7,6 @@ completes), replay identity, export, the CLI sub-app, and the Ray executor on a 
 
 from __future__ import annotations
 
-import json
-import os
 import shutil
 import signal
 import subprocess

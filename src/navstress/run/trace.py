@@ -272,10 +272,11 @@ class TraceMessages:
         from navstress.world.colours import GOAL_COLOUR, START_COLOUR, kind_colour  # (local: as terrain_faces)
 
         kinds = sorted({o["kind"] for o in obstacles})
+        colour = {k: _colour(kind_colour(k, kinds)) for k in kinds}
         cubes = [CubePrimitive(pose=Pose(position=Vector3(x=o["x"], y=o["y"], z=o["z"] + o["size"][2] / 2),
                                          orientation=quaternion(o["yaw"], 0.0, 0.0)),
                                size=Vector3(x=o["size"][0], y=o["size"][1], z=o["size"][2]),
-                               color=_colour(kind_colour(o["kind"], kinds)))
+                               color=colour[o["kind"]])
                  for o in obstacles]
         marks = [SpherePrimitive(pose=Pose(position=Vector3(x=start[0], y=start[1], z=ground_z[0] + 0.5),
                                            orientation=Quaternion(w=1.0)),
