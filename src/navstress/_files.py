@@ -1,18 +1,34 @@
-"""Files navstress writes for others to read: modes that follow the process umask.
+"""Files navstress writes for others to read: modes that follow the process umask, and writes
+and deletions that never leave the directory they were given.
 
 ``tempfile.mkstemp`` and ``mkdtemp`` create owner-only files (0600) and directories (0700)
 whatever the umask, which breaks a Gazebo container running as another user or Ray nodes
 with another uid. Every writer goes through these helpers, which give new files
 ``0o666 & ~umask`` and new directories ``0o777 & ~umask``, as ``open`` and ``mkdir`` would.
+
+The output-directory rule (docs/design.md, invariant 6): nothing navstress writes or deletes
+leaves the directory it was given. A file is written under a unique temporary name made with
+``O_EXCL`` (never an existing name, so never through a link) and renamed onto its name (a link
+there is replaced, its target untouched); a file kept under a fixed name is opened with
+``O_NOFOLLOW`` (:func:`open_nofollow`); a tree is removed only when it is a real directory
+(:func:`remove_tree`); and a directory navstress keeps working in (a campaign, a search, a demo)
+is refused when a symbolic link is planted anywhere inside it (:func:`refuse_links`). The
+directory the user names may itself be a link: that is the user's choice, followed once.
 """
 
 from __future__ import annotations
 
+import errno
 import os
+import shutil
+import stat
 import tempfile
 import threading
 from collections.abc import Mapping
 from pathlib import Path
+from typing import IO, Any
+
+from navstress.errors import OutputPathError
 
 _LOCK = threading.Lock()
 _SWAPPED: list[int] = []  # the umask read by swapping, once (only where /proc cannot tell)
@@ -110,9 +126,8 @@ def temp_dir_beside(dest: str | os.PathLike[str]) -> Path:
 
 def create_file(path: str | os.PathLike[str]) -> None:
     """Create an empty file at ``path`` with the umask's mode (before a library such as SQLite,
-    which would use its own fixed mode, opens it)."""
-    fd = os.open(path, os.O_WRONLY | os.O_CREAT, 0o666)  # the OS applies the umask
-    os.close(fd)
+    which would use its own fixed mode, opens it); a symbolic link there is refused."""
+    open_nofollow(path, "wb").close()
 
 
 def probe_writable(dest: str | os.PathLike[str]) -> None:
@@ -137,3 +152,133 @@ def fsync_dir(path: str | os.PathLike[str]) -> None:
         os.fsync(fd)
     finally:
         os.close(fd)
+
+
+# ---- the output-directory rule -------------------------------------------------------------
+
+_MODES = {"wb": os.O_WRONLY | os.O_CREAT | os.O_TRUNC, "w": os.O_WRONLY | os.O_CREAT | os.O_TRUNC,
+          "ab": os.O_WRONLY | os.O_CREAT | os.O_APPEND, "a": os.O_WRONLY | os.O_CREAT | os.O_APPEND,
+          "a+": os.O_RDWR | os.O_CREAT | os.O_APPEND}
+
+
+def link_error(link: str | os.PathLike[str], root: str | os.PathLike[str] | None = None,
+               field: str = "output", flag: str = "-o") -> OutputPathError:
+    """The one-line error for symbolic link ``link`` met inside output directory ``root``."""
+    p = Path(link)
+    try:
+        target = os.readlink(p)
+    except OSError:
+        target = "?"
+    where = f"{field}={str(root if root is not None else p.parent)!r}"
+    return OutputPathError(
+        f"{where} is invalid: expected a directory with no symbolic link inside (navstress writes and deletes only "
+        f"inside the directory it is given); {str(p)!r} is a symbolic link (to {target!r}): remove the link, or "
+        f"choose another {flag}")
+
+
+def open_nofollow(path: str | os.PathLike[str], mode: str = "wb", **kw: Any) -> IO[Any]:
+    """``open(path, mode)`` for writing (``w``, ``wb``, ``a``, ``ab``, ``a+``) that refuses a symbolic
+    link at ``path`` (OutputPathError) instead of writing into its target; new files get the umask's
+    mode. For files kept under a fixed name (a lock, a partial trace, a log appended to)."""
+    try:
+        fd = os.open(path, _MODES[mode] | os.O_NOFOLLOW | os.O_CLOEXEC, 0o666)  # the OS applies the umask
+    except OSError as e:
+        if e.errno == errno.ELOOP and Path(path).is_symlink():
+            raise link_error(path) from None
+        raise
+    try:
+        return os.fdopen(fd, mode, **kw)
+    except BaseException:
+        os.close(fd)
+        raise
+
+
+def first_link(root: str | os.PathLike[str]) -> Path | None:
+    """The first symbolic link found under directory ``root`` (depth first, in name order), links
+    never followed; ``root`` itself is followed (the user's choice). None when there is none."""
+    stack = [Path(root)]
+    while stack:
+        d = stack.pop()
+        try:
+            with os.scandir(d) as it:
+                entries = sorted(it, key=lambda e: e.name)
+        except (FileNotFoundError, NotADirectoryError):
+            continue
+        subdirs = []
+        for e in entries:
+            if e.is_symlink():
+                return Path(e.path)
+            if e.is_dir(follow_symlinks=False):
+                subdirs.append(Path(e.path))
+        stack.extend(reversed(subdirs))
+    return None
+
+
+def refuse_links(root: str | os.PathLike[str], field: str = "output", flag: str = "-o") -> None:
+    """OutputPathError naming the first symbolic link planted anywhere inside directory ``root``
+    (for directories navstress keeps writing in and cleaning: a campaign, a search, a demo)."""
+    link = first_link(root)
+    if link is not None:
+        raise link_error(link, root, field, flag)
+
+
+def check_below(root: str | os.PathLike[str], path: str | os.PathLike[str], field: str = "output",
+                flag: str = "-o") -> None:
+    """OutputPathError unless ``path`` is lexically inside ``root`` and none of its existing
+    components below ``root`` (``path`` included) is a symbolic link: then writing or deleting at
+    ``path`` stays inside ``root``."""
+    p = Path(os.path.normpath(os.path.abspath(path)))
+    rel = None
+    for b in (os.path.realpath(root), os.path.abspath(root)):  # the root as followed once, or as given
+        base = Path(os.path.normpath(b))
+        try:
+            rel = p.relative_to(base)
+            break
+        except ValueError:
+            continue
+    if rel is None:
+        raise OutputPathError(f"{field}={str(root)!r} is invalid: navstress was about to write {str(path)!r}, outside "
+                              "it; restore the directory from a backup, or choose another " + flag)
+    cur = base
+    for part in rel.parts:
+        cur = cur / part
+        try:
+            st = os.lstat(cur)
+        except (FileNotFoundError, NotADirectoryError):
+            return
+        if stat.S_ISLNK(st.st_mode):
+            raise link_error(cur, root, field, flag)
+
+
+def remove_tree(path: str | os.PathLike[str]) -> None:
+    """Remove the directory tree navstress made at ``path`` (nothing when there is none). A
+    symbolic link there is refused (OutputPathError), never followed; links inside the tree are
+    removed as links (``shutil.rmtree`` never follows them)."""
+    p = Path(path)
+    if p.is_symlink():
+        raise link_error(p)
+    if p.is_dir():
+        shutil.rmtree(p, ignore_errors=True)
+    elif p.exists():
+        p.unlink(missing_ok=True)
+
+
+def copy_atomic(src: str | os.PathLike[str], dest: str | os.PathLike[str]) -> None:
+    """Copy file ``src`` to ``dest`` the way :func:`write_atomic` writes (a unique temporary file
+    beside ``dest``, renamed onto it: a link at ``dest`` is replaced, its target untouched)."""
+    d = Path(dest)
+    d.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{d.name}.", suffix=".tmp", dir=d.parent)
+    except OSError as e:
+        raise OSError(e.errno, e.strerror, str(d)) from None
+    try:
+        os.fchmod(fd, file_mode())
+        with os.fdopen(fd, "wb") as f, open(src, "rb") as s:
+            shutil.copyfileobj(s, f, 1 << 20)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, d)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise

@@ -12,14 +12,14 @@ the modules that export are imported by every campaign worker).
 from __future__ import annotations
 
 import csv
+import io
 import json
 import math
-import os
 from collections.abc import Collection, Iterable, Mapping
 from pathlib import Path
 from typing import Any, Literal
 
-from navstress import _json
+from navstress import _files, _json
 from navstress.errors import SpecError
 
 Kind = Literal["int", "float", "bool", "str", "strlist"]
@@ -51,26 +51,25 @@ def write_table(rows: Iterable[Mapping[str, Any]], columns: Mapping[str, Kind], 
     if fmt not in FORMATS:
         raise SpecError("format", fmt, "csv or parquet")
     rows = list(rows)
-    dest.parent.mkdir(parents=True, exist_ok=True)
-    tmp = dest.with_name(f".{dest.name}.tmp")
-    try:
-        if fmt == "csv":
-            with open(tmp, "w", newline="", encoding="utf-8") as f:
-                w = csv.DictWriter(f, fieldnames=list(columns))
-                w.writeheader()
-                w.writerows([{c: _cell(r[c], k) for c, k in columns.items()} for r in rows])
-        else:
-            import pyarrow as pa  # local: see the module's doc
-            import pyarrow.parquet as pq
+    raw: bytes | str
+    if fmt == "csv":
+        f = io.StringIO(newline="")
+        w = csv.DictWriter(f, fieldnames=list(columns))
+        w.writeheader()
+        w.writerows([{c: _cell(r[c], k) for c, k in columns.items()} for r in rows])
+        raw = f.getvalue()
+    else:
+        import pyarrow as pa  # local: see the module's doc
+        import pyarrow.parquet as pq
 
-            types = {"int": pa.int64(), "float": pa.float64(), "bool": pa.bool_(), "str": pa.string(),
-                     "strlist": pa.list_(pa.string())}
-            schema = pa.schema([(c, types[k]) for c, k in columns.items()], metadata=dict(metadata or {}))
-            data = [{c: _arrow(k, r[c]) for c, k in columns.items()} for r in rows]
-            pq.write_table(pa.Table.from_pylist(data, schema=schema), tmp)
-        os.replace(tmp, dest)
-    finally:
-        tmp.unlink(missing_ok=True)
+        types = {"int": pa.int64(), "float": pa.float64(), "bool": pa.bool_(), "str": pa.string(),
+                 "strlist": pa.list_(pa.string())}
+        schema = pa.schema([(c, types[k]) for c, k in columns.items()], metadata=dict(metadata or {}))
+        data = [{c: _arrow(k, r[c]) for c, k in columns.items()} for r in rows]
+        sink = pa.BufferOutputStream()
+        pq.write_table(pa.Table.from_pylist(data, schema=schema), sink)
+        raw = sink.getvalue().to_pybytes()
+    _files.write_atomic(dest, raw)  # a unique temporary name, renamed into place
     return dest
 
 

@@ -56,3 +56,8 @@ class NavigatorError(NavstressError):
 
 class StoreError(NavstressError):
     """A campaign store is missing, corrupt or incompatible."""
+
+
+class OutputPathError(NavstressError):
+    """A path inside an output directory that would make navstress write or delete outside it
+    (a symbolic link planted inside the directory, a stored path that leaves it)."""

@@ -41,6 +41,7 @@ from typing import Any
 
 import numpy as np
 
+from navstress import _files
 from navstress._percent import percent, setting
 from navstress.analysis.analyze import Analysis, analyze, trace_path
 from navstress.analysis.trajectories import TrajectoryCache
@@ -898,13 +899,7 @@ def build_report(directory: str | Path, out: str | Path, *, params: DifficultyPa
         a = analyze(directory, params=params, navigator=navigator, dt=dt, cache=cache)
         text = render_report(a, cache=cache, max_points=max_points, sections=sections, link_base=dest.parent,
                              progress=progress)
-    dest.parent.mkdir(parents=True, exist_ok=True)
-    tmp = dest.with_name(f".{dest.name}.partial")
-    try:
-        tmp.write_text(text, encoding="utf-8")
-        os.replace(tmp, dest)
-    finally:
-        tmp.unlink(missing_ok=True)  # nothing partial left behind (a full disk, an interrupt)
+    _files.write_atomic(dest, text)  # nothing partial left behind (a full disk, an interrupt)
     if progress is not None:
         n = 2 + (len(_config_keys(a)) if a.done else 0)
         progress("written", n, n)

@@ -104,6 +104,8 @@ class Plan:
     maps: tuple[MapJob, ...]
     tasks: tuple[RunTask, ...]
     streams: tuple[Stream, ...] = ()
+    #: the campaign directory (as followed once) every path of the plan is inside
+    root: str = ""
 
     @property
     def adaptive(self) -> bool:
@@ -174,4 +176,4 @@ def plan(spec: CampaignSpec, root: str | Path) -> Plan:
                                 experiment=exp.name, config=dict(cfg.values),
                                 map_index=m, run_index=r, map_seed=ms, sim_overrides=dict(spec.sim)))
                 streams.extend(Stream(tuple(v), rule) for v in ids.values())
-    return Plan(maps=tuple(maps), tasks=tuple(tasks), streams=tuple(streams))
+    return Plan(maps=tuple(maps), tasks=tuple(tasks), streams=tuple(streams), root=str(base))

@@ -21,6 +21,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+from navstress import _files
 from navstress.campaign.store import Store
 from navstress.campaign.work import generate_world, register_targets, run_one, with_trace
 from navstress.errors import StoreError
@@ -77,6 +78,7 @@ def replay(directory: str | Path, run_id: str, *, keep: str | Path | None = None
         if not stored_trace.is_file():
             raise StoreError(f"trace={str(stored_trace)!r} of run_id={run_id!r} is missing")
         job = next(m for m in store.plan().maps if m.world_dir == task.world_dir)
+        _files.check_below(store.root, job.world_dir, "campaign", "campaign directory")  # a missing world is generated there
         targets = {n.name: n.target for n in store.spec.navigators if n.target}
     generate_world(job)
     register_targets(targets)
@@ -97,8 +99,7 @@ def replay(directory: str | Path, run_id: str, *, keep: str | Path | None = None
         kept = None
         if keep is not None:
             kept = Path(keep)
-            kept.parent.mkdir(parents=True, exist_ok=True)
-            shutil.copyfile(new_trace, kept)
+            _files.copy_atomic(new_trace, kept)  # never through a link at --keep (replaced, its target untouched)
         diffs = tuple(f for f in COMPARED if not _same(getattr(stored, f), getattr(new, f)))
         same = not diffs if fuller else a == b
         return ReplayResult(run_id, same, stored_trace, a, b, stored, new, diffs, kept, fuller)

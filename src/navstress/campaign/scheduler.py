@@ -25,13 +25,14 @@ interruptions: on resume, what is due is recomputed from the store's records.
 
 from __future__ import annotations
 
-import shutil
 import time
 from collections import deque
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, Literal, Protocol
 
+from navstress import _files
 from navstress.campaign.plan import MapJob, Plan, Stream
 from navstress.campaign.store import Store, disk_full
 from navstress.campaign.work import Infra
@@ -209,6 +210,7 @@ class WorkQueue:
     def __init__(self, plan: Plan, pending: Iterable[RunTask] = (), repetition: Repetition | None = None,
                  on_planned: PlannedCallback | None = None) -> None:
         self.jobs: dict[str, MapJob] = {m.world_dir: m for m in plan.maps}
+        self.root = plan.root
         self.by_map: dict[str, deque[RunTask]] = {}
         self.to_generate: deque[MapJob] = deque()
         self.ready: deque[RunTask] = deque()
@@ -252,10 +254,19 @@ class WorkQueue:
         return bool(self.ready or self.to_generate)
 
     def next(self) -> Job:
-        """The next job; call only when the queue is not empty."""
+        """The next job; call only when the queue is not empty. OutputPathError when a symbolic
+        link was planted on the way to what the job writes (the output-directory rule)."""
         if self.ready:
-            return Job("run", self.ready.popleft())
-        return Job("world", self.to_generate.popleft())
+            task = self.ready.popleft()
+            self._inside(str(Path(task.trace_path).parent))
+            return Job("run", task)
+        job = self.to_generate.popleft()
+        self._inside(job.world_dir)
+        return Job("world", job)
+
+    def _inside(self, path: str) -> None:
+        if self.root:
+            _files.check_below(self.root, path)
 
     def world_ended(self, job: MapJob, result: str | Infra | None, rec: Recorder) -> None:
         self.generating.discard(job.world_dir)
@@ -286,7 +297,8 @@ class WorkQueue:
         if world_dir in self.generating:
             return
         if remove:
-            shutil.rmtree(world_dir, ignore_errors=True)
+            self._inside(world_dir)
+            _files.remove_tree(world_dir)
         self.generating.add(world_dir)
         self.to_generate.append(self.jobs[world_dir])
 

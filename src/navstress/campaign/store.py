@@ -11,7 +11,10 @@ Every record is one ``INSERT`` in its own transaction (a record is there whole o
 all); ``run_id`` is the primary key, so no run can be recorded twice. Only the campaign
 driver writes (single writer), holding an exclusive lock on ``DIR/.lock`` (released by the
 OS even on SIGKILL). On resume the runs already in ``runs`` are skipped, and stale partial
-files (``.*.partial`` traces, ``.m<k>.*`` world temp dirs) are removed.
+files are removed: only the names navstress gives them (``.<trace name>.partial`` beside a
+planned trace, ``.m<k>.XXXXXXXX`` and ``.m<k>.old`` beside a planned world), never through a link.
+A symbolic link planted anywhere inside ``DIR`` is refused (one line) before anything is written:
+nothing navstress writes or deletes leaves ``DIR`` (docs/design.md, invariant 6).
 
 A campaign grows with :meth:`Store.extend`: a spec that adds experiments at the end of the
 stored spec's list (all else unchanged) adds their planned runs and becomes the stored spec in
@@ -35,6 +38,7 @@ import fcntl
 import json
 import math
 import os
+import re
 import shutil
 import sqlite3
 import time
@@ -79,6 +83,9 @@ _SIDE = ("-journal", "-wal", "-shm")
 #: Files a store creation that was killed may leave behind (removed when creation is redone).
 _CREATION_LEFTOVERS = (f".{SPEC_NAME}.tmp", _TMP_DB, *(_TMP_DB + x for x in _SIDE), *(DB_NAME + x for x in _SIDE))
 _OUR_NAMES = {SPEC_NAME, "worlds", "traces", LOCK_NAME, DB_NAME, *_CREATION_LEFTOVERS}
+#: World.save's temporary directory (``tempfile.mkdtemp``'s 8 characters) or replaced old
+#: directory, beside a world directory ``m<k>`` (group 1).
+_WORLD_TEMP = re.compile(r"^\.(m\d+)\.(?:old|[a-z0-9_]{8})$")
 #: Columns every store's tables must have (checked when a store is opened).
 _REQUIRED = {"meta": ("key", "value"), "planned": ("run_id", "seq", "task"), "runs": COLUMNS}
 
@@ -167,6 +174,7 @@ class Store:
         if d.exists() and not d.is_dir():
             raise StoreError(f"output={str(d)!r} exists and is not a directory; choose another -o")
         d.mkdir(parents=True, exist_ok=True)
+        _files.refuse_links(d)  # before anything is written: a planted link would take it elsewhere
         cls._refuse_foreign(d)  # before the lock file: a folder of something else is left as it was
         lock = cls._take_lock(d)
         try:
@@ -240,6 +248,9 @@ class Store:
     def open(cls, root: str | Path) -> "Store":
         """Open an existing campaign directory for reading (no lock taken)."""
         d = Path(root)
+        for name in (DB_NAME, *(DB_NAME + x for x in _SIDE)):  # SQLite writes its side files even to read
+            if (d / name).is_symlink():
+                raise _files.link_error(d / name, d, "campaign", "campaign directory")
         if not (d / DB_NAME).is_file():
             raise StoreError(f"campaign={str(d)!r} is not a campaign directory (no {DB_NAME}); "
                              "create one with `navstress campaign run SPEC -o DIR`")
@@ -283,7 +294,7 @@ class Store:
 
     @staticmethod
     def _take_lock(d: Path) -> IO[str]:
-        f = open(d / LOCK_NAME, "a+", encoding="utf-8")
+        f = _files.open_nofollow(d / LOCK_NAME, "a+", encoding="utf-8")
         try:
             fcntl.flock(f.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
@@ -387,8 +398,13 @@ class Store:
                 raise ValueError(f"a {type(d).__name__}, not an object")
         except ValueError as err:
             raise _bad_value(self.root, "planned", run_id, "task", err) from None
-        d["world_dir"] = str((self.root / d["world_dir"]).resolve())
-        d["trace_path"] = str((self.root / d["trace_path"]).resolve())
+        base = self.root.resolve()
+        for key in ("world_dir", "trace_path"):  # inside the directory, links never followed
+            p = os.path.normpath(base / str(d.get(key, "")))
+            if not Path(p).is_relative_to(base / ("worlds" if key == "world_dir" else "traces")):
+                raise _bad_value(self.root, "planned", run_id, "task",
+                                 ValueError(f"{key} {d.get(key)!r} is not inside the campaign directory"))
+            d[key] = p
         return RunTask(**d)
 
     def done_ids(self) -> set[str]:
@@ -403,21 +419,44 @@ class Store:
         return [t for t in p.tasks if t.run_id in due and t.run_id not in outcomes]
 
     def cleanup_partials(self) -> list[Path]:
-        """Remove partial traces and world temp dirs left by a killed run; returns what was removed."""
+        """Remove the partial files a killed run left; returns what was removed.
+
+        Only names navstress gives, beside the plan's own paths: ``.<name>.partial`` beside each
+        planned trace (TraceWriter), ``.m<k>.XXXXXXXX`` (World.save's temporary directory) and
+        ``.m<k>.old`` beside each planned world. Folders reached through a symbolic link are
+        never entered and a link is never removed (OutputPathError, the output-directory rule)."""
+        p = self.plan()
+        partials: dict[str, set[str]] = {}
+        for t in p.tasks:
+            tp = Path(t.trace_path)
+            partials.setdefault(str(tp.parent), set()).add(f".{tp.name}.partial")
+        worlds: dict[str, set[str]] = {}
+        for m in p.maps:
+            wd = Path(m.world_dir)
+            worlds.setdefault(str(wd.parent), set()).add(wd.name)
         removed: list[Path] = []
-        for sub in ("traces", "worlds"):
-            base = self.root / sub
-            if not base.is_dir():
-                continue
-            for p in sorted(base.rglob(".*")):
-                if not p.exists() and not p.is_symlink():
-                    continue
-                if p.is_dir():
-                    shutil.rmtree(p, ignore_errors=True)
-                else:
-                    p.unlink(missing_ok=True)
-                removed.append(p)
-        return removed
+        for folder, names in partials.items():
+            for e in self._entries(folder):
+                if e.name in names and e.is_file(follow_symlinks=False):
+                    Path(e.path).unlink(missing_ok=True)
+                    removed.append(Path(e.path))
+        for folder, maps in worlds.items():
+            for e in self._entries(folder):
+                hit = _WORLD_TEMP.match(e.name)
+                if hit is not None and hit.group(1) in maps and e.is_dir(follow_symlinks=False):
+                    shutil.rmtree(e.path, ignore_errors=True)
+                    removed.append(Path(e.path))
+        return sorted(removed)
+
+    def _entries(self, folder: str) -> list[os.DirEntry[str]]:
+        """The entries of ``folder`` (none when it is not there), after checking that no part of
+        it below the campaign directory is a symbolic link."""
+        _files.check_below(self.root, folder)
+        try:
+            with os.scandir(folder) as it:
+                return list(it)
+        except (FileNotFoundError, NotADirectoryError):
+            return []
 
     # ---- records ---------------------------------------------------------------------
     def add(self, record: RunRecord) -> bool:
@@ -722,10 +761,13 @@ def _task_json(t: RunTask, root: Path) -> str:
 
 
 def _rel(path: str, root: Path) -> str:
-    try:
-        return str(Path(path).resolve().relative_to(root.resolve()))
-    except ValueError:
-        return path
+    """``path`` relative to ``root`` (as followed once, or as given), lexically: a link inside
+    ``root`` is never followed."""
+    p = Path(os.path.normpath(os.path.abspath(path)))
+    for base in (root.resolve(), Path(os.path.normpath(os.path.abspath(root)))):
+        if p.is_relative_to(base):
+            return str(p.relative_to(base))
+    return path
 
 
 def _spec_from_json(text: str) -> CampaignSpec:
@@ -734,7 +776,7 @@ def _spec_from_json(text: str) -> CampaignSpec:
 
 def _atomic_write(path: Path, text: str) -> None:
     tmp = path.with_name(f".{path.name}.tmp")
-    with open(tmp, "w", encoding="utf-8") as f:
+    with _files.open_nofollow(tmp, "w", encoding="utf-8") as f:
         f.write(text)
         f.flush()
         os.fsync(f.fileno())

@@ -17,7 +17,7 @@ from pathlib import Path
 
 from navstress.campaign.plan import MapJob
 from navstress.campaign.store import is_disk_full
-from navstress.errors import GenerationError, SpecError, WorldFileError
+from navstress.errors import GenerationError, OutputPathError, SpecError, WorldFileError
 from navstress.nav import registry
 from navstress.run.batch import failure_record
 from navstress.run.mission import execute
@@ -80,6 +80,8 @@ def attempt_run(task: RunTask) -> RunRecord | Infra:
         return execute(task)
     except WorldFileError as err:
         return Infra("world", f"world unusable: {' '.join(str(err).split())}")
+    except OutputPathError as err:  # a link planted in the campaign directory meanwhile: never a result
+        return Infra("error", _line(err))
     except (OSError, MemoryError) as err:
         if is_disk_full(err):
             return Infra("disk-full", _line(err))

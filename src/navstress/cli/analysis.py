@@ -14,6 +14,7 @@ import typer
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from navstress import _files
 from navstress._console import console, literal
 from navstress._percent import percent, setting
 from navstress.analysis.analyze import Analysis, analyze
@@ -113,13 +114,7 @@ def analyze_cmd(
                   f"over {cr.n} configurations")
     if json_out is not None:
         text = dumps(a.to_json())
-        json_out.parent.mkdir(parents=True, exist_ok=True)
-        tmp = json_out.with_name(f".{json_out.name}.tmp")  # written whole, then renamed into place
-        try:
-            tmp.write_text(text, encoding="utf-8")
-            tmp.replace(json_out)
-        finally:
-            tmp.unlink(missing_ok=True)
+        _files.write_atomic(json_out, text)  # written whole, then renamed into place
         con.print(f"wrote {json_out}")
 
 

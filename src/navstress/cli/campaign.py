@@ -12,7 +12,6 @@ the root CLI prints them on one line and exits 2.
 
 from __future__ import annotations
 
-import os
 import shlex
 import signal
 from pathlib import Path
@@ -21,7 +20,7 @@ from typing import Annotated, Any
 import typer
 from rich.table import Table
 
-from navstress import __version__, _json
+from navstress import __version__, _files, _json
 from navstress._console import console, literal
 from navstress._percent import percent
 from navstress.campaign.executors import run_campaign
@@ -52,11 +51,7 @@ def init(
         raise SpecError("--preset", preset, f"one of {list(PRESETS)}")
     if out.exists() and not force:
         raise SpecError("--output", str(out), "a path that does not exist yet", "pass --force to overwrite it")
-    text = preset_yaml(preset)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(f".{out.name}.tmp")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, out)
+    _files.write_atomic(out, preset_yaml(preset))
     typer.echo(literal(f"wrote {out} (preset {preset})"))
 
 
@@ -274,12 +269,11 @@ def demo(
             raise WorldFileError(f"--output={str(output)!r} is invalid: expected a new folder or a previous demo "
                                  f"(it holds {others[0]!r}); choose another path or remove it")
     output.mkdir(parents=True, exist_ok=True)
+    _files.refuse_links(output)  # demo.yaml, campaign/, report.html: never through a planted link
     spec_path = output / "demo.yaml"
     text = preset_yaml("demo")
     if not spec_path.exists() or spec_path.read_text(encoding="utf-8") != text:
-        tmp = spec_path.with_name(".demo.yaml.tmp")
-        tmp.write_text(text, encoding="utf-8")
-        tmp.replace(spec_path)
+        _files.write_atomic(spec_path, text)
     con = console()
     con.print(f"demo campaign: {spec_path} -> {output / 'campaign'}")
     with CampaignProgress() as bar:

@@ -10,7 +10,6 @@ search run SPEC -o DIR``). User errors raise
 
 from __future__ import annotations
 
-import os
 import shlex
 import signal
 from pathlib import Path
@@ -20,6 +19,7 @@ import typer
 from typer import _click as click
 from typer.core import TyperGroup
 
+from navstress import _files
 from navstress._console import literal
 from navstress.errors import SpecError
 from navstress.cli._common import MAX_WORKERS, Stopped, check_executor_flags
@@ -61,10 +61,7 @@ def init(
     text = template_yaml(objective)
     if out.exists() and not force:
         raise SpecError("--output", str(out), "a path that does not exist yet", "pass --force to overwrite it")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(f".{out.name}.tmp")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, out)
+    _files.write_atomic(out, text)
     typer.echo(literal(f"wrote {out} (objective {objective})"))
 
 

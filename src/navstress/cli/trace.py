@@ -31,7 +31,7 @@ def trace_export(
     """Export a run's trace to another tool's format."""
     if fmt.lower() not in FORMATS:
         raise SpecError("--format", fmt, f"one of {', '.join(FORMATS)}")
-    if output.exists():
+    if output.exists() or output.is_symlink():
         raise SpecError("--output", str(output), "a path that does not exist yet (a ROS 2 bag is a new directory)")
     from navstress.run.ros2 import export_ros2
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -134,6 +135,8 @@ def world_generate(
     world_spec = build_spec(spec_file=spec, size=size, cell=cell, subdivisions=subdivisions,
                             deformation=deformation, ground=ground, trees=trees, buildings=buildings,
                             obstruction=obstruction, mix=mix, movers=movers, mover_behaviour=mover_behaviour)
+    if output.is_symlink():  # a link named as -o is the user's choice: followed once, its target replaced
+        output = Path(os.path.realpath(output))
     check_out_dir(output)
     world = generate(world_spec, seed_v)
     save_with_preview(world, output)

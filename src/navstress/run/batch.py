@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from navstress import _json
+from navstress import _files, _json
 from navstress.errors import NavstressError
 from navstress.isolate import Worker
 from navstress.run.mission import execute
@@ -144,7 +144,7 @@ def run_batch(tasks: list[RunTask], out: Path, on_done: Callable[[RunRecord], No
     limit = wall_limit_s if wall_limit_s is not None else max(
         (default_wall_limit_s(t.timeout_s) for t in tasks), default=WALL_SLACK_S)
     preload = ("navstress.run.mission", "navstress.sim.simulation", "navstress.nav.reference")
-    with Worker(limit, preload=preload) as worker, open(out / "runs.jsonl", "a", encoding="utf-8") as f:
+    with Worker(limit, preload=preload) as worker, _files.open_nofollow(out / "runs.jsonl", "a", encoding="utf-8") as f:
         for task in tasks:
             rec = run_isolated(task, worker, live)
             f.write(record_line(rec))

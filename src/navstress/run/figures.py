@@ -20,6 +20,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from navstress import _files
 from navstress.world.export.images import draw_world
 from navstress.world.world import Mover, World
 
@@ -153,10 +154,9 @@ def save_png(fig: Figure, path: str | Path) -> Path:
     """Lay out and write ``fig`` as a PNG atomically (a partial file never takes the name)."""
     fig.tight_layout()
     out = Path(path)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(f".{out.name}.partial")
-    fig.savefig(tmp, format="png")
-    tmp.replace(out)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    _files.write_atomic(out, buf.getvalue())
     return out
 
 

@@ -233,7 +233,7 @@ def export_ros2(trace: str | os.PathLike[str], out: str | os.PathLike[str]) -> d
     from rosbags.typesys import Stores, get_typestore
 
     src, dest = Path(trace), Path(out)
-    if dest.exists():
+    if dest.exists() or dest.is_symlink():
         raise SpecError("--output", str(dest), "a path that does not exist yet (a ROS 2 bag is a new directory)")
     messages = list(_messages(src, _TOPICS))  # reads (and checks) the whole trace before anything is written
     tmp = _files.temp_dir_beside(dest)

@@ -65,6 +65,7 @@ from mcap.writer import CompressionType
 from mcap_protobuf.decoder import DecoderFactory
 from mcap_protobuf.writer import Writer
 
+from navstress import _files
 from navstress.errors import StoreError
 from navstress.nav.api import DebugDraw, DebugLine, DebugPoints, DebugText
 from navstress.run.record import cap_message
@@ -368,7 +369,7 @@ class TraceWriter(TraceMessages):
         self.path = Path(path)
         self._tmp = self.path.with_name(f".{self.path.name}.partial")
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._f: IO[bytes] = open(self._tmp, "wb")
+        self._f: IO[bytes] = _files.open_nofollow(self._tmp, "wb")  # a link planted there is refused
         self._w = Writer(self._f, compression=CompressionType.ZSTD)
         self._w._writer.add_metadata("navstress.run", {k: str(v) for k, v in (metadata or {}).items()})
         self._pending: list[tuple[int, int, str, Any]] = []  # (log_time, submission order, topic, message)

@@ -333,6 +333,8 @@ def run_search(spec_path: str | Path, directory: str | Path, *, budget: int | No
     root = Path(directory)
     if root.exists() and not root.is_dir():
         raise StoreError(f"output={str(root)!r} exists and is not a directory; choose another -o")
+    if root.is_dir():  # before its files are read: a planted link is refused (Store.create checks again)
+        _files.refuse_links(root)
     stored, stored_confirm, stored_runs = _stored(root)
     if stored_confirm and stored_confirm[0]["runs_per_map"] != spec.confirm_runs:
         raise StoreError(f"output={str(root)!r} holds this search's confirmation, run with confirm_runs="
@@ -564,7 +566,7 @@ def write_suite(spec: SearchSpec, result: SearchResult, root: Path) -> Path | No
     The directory is built aside and renamed into place."""
     final = root / SUITE_DIR
     tmp = root / f".{SUITE_DIR}.tmp"
-    shutil.rmtree(tmp, ignore_errors=True)
+    _files.remove_tree(tmp)  # what a killed write left; a link there is refused, never followed
     tmp.mkdir()
     ok, same = distinct_worlds(result.confirmed, root)
     data = {"name": f"{spec.name}-suite", "seed": spec.seed, "world": spec.world,
@@ -592,7 +594,7 @@ def write_suite(spec: SearchSpec, result: SearchResult, root: Path) -> Path | No
     (tmp / "suite.json").write_text(_json.dumps(info, indent=1, sort_keys=True) + "\n", encoding="utf-8")
     if final.exists():
         old = root / f".{SUITE_DIR}.old"
-        shutil.rmtree(old, ignore_errors=True)
+        _files.remove_tree(old)
         os.replace(final, old)
         os.replace(tmp, final)
         shutil.rmtree(old, ignore_errors=True)

@@ -266,7 +266,9 @@ class World:
     def save(self, path: str | os.PathLike[str]) -> None:
         """Write the world directory atomically (a temp dir renamed into place).
 
-        ``path`` must not exist, or must be an existing world directory (replaced)."""
+        ``path`` must not exist, or must be an existing world directory (replaced). What is
+        written or removed is ``path`` and, beside it, ``.NAME.XXXXXXXX`` (the new directory
+        before its rename) and ``.NAME.old`` (the directory it replaces, then removed)."""
         dest = Path(path)
         if dest.exists() and not is_world_dir(dest):
             raise WorldFileError(f"output={str(dest)!r} exists and is not a world directory; "
@@ -281,7 +283,7 @@ class World:
                 np.savez_compressed(f, heights=self.terrain.heights, cell_m=np.float64(self.terrain.cell_m))
             if dest.exists():
                 old = dest.with_name(f".{dest.name}.old")
-                shutil.rmtree(old, ignore_errors=True)
+                _files.remove_tree(old)  # a link there is refused, never followed
                 dest.rename(old)
                 tmp.rename(dest)
                 shutil.rmtree(old, ignore_errors=True)

@@ -124,7 +124,7 @@ def test_cleanup_partials(tmp_path: Path) -> None:
         partial = trace.with_name(f".{trace.name}.partial")
         partial.write_bytes(b"half")
         trace.write_bytes(b"whole")
-        wtmp = Path(t.world_dir).parent / ".m0.abc123"
+        wtmp = Path(t.world_dir).parent / ".m0.abc12_45"  # tempfile.mkdtemp's 8 characters
         wtmp.mkdir(parents=True)
         (wtmp / "world.json").write_text("{")
         removed = s.cleanup_partials()
