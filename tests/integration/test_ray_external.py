@@ -130,7 +130,7 @@ def _series(argvs: list[list[str]], env: dict[str, str], netns: bool = False) ->
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
 
 
-def _results(p: subprocess.Popen[str], timeout: float = 300) -> list[dict[str, Any]]:
+def _results(p: subprocess.Popen[str], timeout: float = 150) -> list[dict[str, Any]]:
     out, err = p.communicate(timeout=timeout)
     assert p.returncode == 0, err[-3000:]
     got: list[dict[str, Any]] = json.loads(out.strip().splitlines()[-1])
@@ -197,10 +197,9 @@ def results(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Results]:
            "search": [(f"127.0.0.1:{closed}", refused), (f"127.0.0.1:{silent_port}", grpc), ("127.0.0.1", form)]}
     procs: list[subprocess.Popen[str]] = []  # every process started here: none outlives the fixture
     family: list[tuple[list[str], subprocess.Popen[str]]] = []
-    for c, cases in bad.items():
-        family.append(([n for _a, n in cases],
-                       _series([_run([c, "run"], root / f"bad-{c}-{i}", a, specs) for i, (a, _n) in enumerate(cases)],
-                               _clean_env())))
+    runs = [(_run([c, "run"], root / f"bad-{c}-{i}", a, specs), n) for c, cases in bad.items()
+            for i, (a, n) in enumerate(cases)]
+    family.append(([n for _r, n in runs], _series([r for r, _n in runs], _clean_env())))
     if loopback.available():  # a name that does not resolve, looked up where nothing leaves the machine
         family.append(([f"{refused} no-such-head.invalid:6379"] * 2,
                        _series([_run([c, "run"], root / f"bad-{c}-name", "no-such-head.invalid:6379", specs)
@@ -255,11 +254,11 @@ def results(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Results]:
                                          env={k: v for k, v in env.items() if k != "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"},
                                          text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
                 procs.append(first)
-                out, err = first.communicate(timeout=300)
+                out, err = first.communicate(timeout=150)
                 assert first.returncode == 0, err[-3000:]
                 res.imported_first = json.loads(out.strip().splitlines()[-1])
                 res.no_token = _results(nt)
-                o, e = campaign.communicate(timeout=300)
+                o, e = campaign.communicate(timeout=150)
                 res.documented = subprocess.CompletedProcess(line, campaign.returncode, o, e)
                 # the head's sockets again, its Ray worker among them now (ss: TCP; /proc: UDP too)
                 res.head_sockets = sorted(set(res.head_sockets) | set(loopback.sockets_of_tree(head.pid)))

@@ -103,7 +103,7 @@ _FAILED = re.compile(r"Failed to connect to GCS|Failed to get cluster ID|Invalid
 _LOG_HEAD = re.compile(r"^\[[^]]*\]\s*(\S+\.(cc|h|py):\d+:\s*)?")
 _PROBE = """
 import logging, signal, sys
-signal.alarm(int(sys.argv[2]))  # a bound of its own (SIGALRM's default ends it), should navstress vanish
+getattr(signal, "alarm", int)(int(sys.argv[2]))  # a bound of its own (SIGALRM ends it), should navstress vanish
 try:
     import ray
     ray.init(address=sys.argv[1], include_dashboard=False, log_to_driver=False, logging_level=logging.WARNING)
