@@ -7,7 +7,7 @@ in silence).
 Everything starts at once, in the module's one fixture, to keep the wall time small: the
 family of bad addresses (which needs no head) runs while the head starts; then the documented
 campaign, the driver without the token and the script that imported ray first run side by side
-on the head. About 25 s in all on a loaded 2-core machine. Everything listens and talks on
+on the head. About a minute in all on a 2-core machine that other work keeps busy. Everything listens and talks on
 127.0.0.1 only (the one exception: the script that imported ray first is sent by Ray to this
 machine's own outside address, which is what it checks; nothing leaves the machine), and the
 name that does not resolve is looked up in a network namespace that has only loopback.
@@ -156,6 +156,8 @@ class Results:
     no_token: list[dict[str, Any]] = field(default_factory=list)
     imported_first: dict[str, Any] = field(default_factory=dict)
     head_alive: bool = False
+    token: str = ""  # ~/.ray/auth_token after `ray get-auth-token --generate`
+    printed: str = ""  # what `ray get-auth-token` printed then
     clock: list[tuple[str, float]] = field(default_factory=list)  # (command, seconds since the first began)
 
 
@@ -215,7 +217,7 @@ def results(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Results]:
     res.port = loopback.free_port()
     env = _clean_env(HOME=str(home), NAVSTRESS_CACHE_DIR=str(cache_dir()), PATH=f"{BIN}{os.pathsep}{os.environ['PATH']}")
     head = None
-    log = open(root / "head.log", "w+b")  # noqa: SIM115 (closed below)
+    log = open(root / "head.log", "w+b")  # the head's output (closed below)
     try:
         t0 = time.monotonic()
         for line in lines:
@@ -269,9 +271,14 @@ def results(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Results]:
                                     if any(int(p) in tree for p in re.findall(r"pid=(\d+)", ln))]
             elif line == "ray stop":
                 pass  # stops every Ray instance of this user on the machine: the head is ended below
-            else:  # ray get-auth-token --generate
+            else:  # ray get-auth-token --generate; then, beside the head, what prints the token again
                 subprocess.run(["bash", "-c", line], env=env, check=True, capture_output=True, timeout=120)
+                printed = subprocess.Popen([str(BIN / "ray"), "get-auth-token"], env=env, text=True, stdout=subprocess.PIPE,
+                                           stderr=subprocess.PIPE)
+                procs.append(printed)
         assert head is not None and res.documented is not None, lines
+        res.token = (home / ".ray" / "auth_token").read_text(encoding="utf-8")
+        res.printed = printed.communicate(timeout=150)[0]
         res.head_alive = head.poll() is None
         res.family = [(n, r) for needles, p in family for n, r in zip(needles, _results(p), strict=True)]
         (root / "results.json").write_text(json.dumps({"family": res.family, "no_token": res.no_token,
@@ -315,6 +322,7 @@ def test_a_campaign_runs_on_a_loopback_only_head_with_a_token(results: Results) 
         recs = s.records()
     assert len(recs) == 1 and recs[0].outcome in OUTCOMES and recs[0].outcome != "fail-other", recs
     assert recs[0].trace and (results.out / recs[0].trace).is_file()
+    assert len(results.token) >= 16 and results.printed.strip() == results.token.strip()
     assert results.head_alive, results.head_log[-3000:]
     assert "Token authentication is disabled" not in results.head_log, results.head_log[-3000:]
     names = {s[0] for s in results.head_sockets}
