@@ -50,6 +50,11 @@ def is_loopback(address: str) -> bool:
     return host.startswith("127.") or host == "::1" or host.startswith("::ffff:127.")
 
 
+def descendants(root: int) -> set[int]:
+    """``root`` and every process below it, now."""
+    return _descendants(root)
+
+
 def _descendants(root: int) -> set[int]:
     parent: dict[int, int] = {}
     for entry in os.listdir("/proc"):

@@ -72,7 +72,7 @@ def run(
     budget: Annotated[int | None, typer.Option("--budget", help="Run budget, replacing the spec's budget.runs.")] = None,
     workers: Annotated[int | None, typer.Option("--workers", "-j", help=f"Parallel runs, in [1, {MAX_WORKERS}] (default: all cores).")] = None,
     executor: Annotated[str, typer.Option("--executor", help="local (process pool) or ray.")] = "local",
-    ray_address: Annotated[str | None, typer.Option("--ray-address", help="Ray cluster address (default: start a local one).")] = None,
+    ray_address: Annotated[str | None, typer.Option("--ray-address", help="Ray cluster to join: HOST:PORT or auto (default: start a local one on 127.0.0.1). Joined within 60 s, or refused in one line with Ray's reason.")] = None,
     wall_limit: Annotated[float | None, typer.Option("--wall-limit", help="Per-run wall-clock limit in seconds (default timeout_s*2+120).")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
 ) -> None:

@@ -379,15 +379,45 @@ class AuthenticationError(Exception):
 
 
 @pytest.mark.parametrize("err,logs,needle", [
-    (AuthenticationError("Authentication token is missing or incorrect"), "", "RAY_AUTH_TOKEN"),
+    (AuthenticationError("Authentication token is missing or incorrect"), "", "export RAY_AUTH_MODE=token"),
+    (AuthenticationError("Token authentication is enabled but no authentication token was found"), "",
+     "~/.ray/auth_token, RAY_AUTH_TOKEN_PATH=FILE or RAY_AUTH_TOKEN"),
     (ConnectionError("Failed to connect to Ray cluster at 10.0.0.2:6379"),
-     "gcs_client.cc:210: Unauthenticated: RPC error: InvalidAuthToken", "RAY_AUTH_MODE=token RAY_AUTH_TOKEN"),
+     "gcs_client.cc:210: Unauthenticated: RPC error: InvalidAuthToken", "export RAY_AUTH_MODE=token"),
+    (ConnectionError("Ray: Failed to get cluster ID from GCS server: Unauthenticated: RPC error: InvalidAuthToken: "
+                     "Authentication token is missing or incorrect"), "", "`ray get-auth-token` prints it"),
     (ConnectionError("Failed to connect to Ray cluster at 10.0.0.2:6379"), "", "ray start --head"),
-    (RuntimeError("line one\nline two"), "", "line one line two"),
+    (ConnectionError("Ray: Failed to connect to GCS at address 10.0.0.2:6379 within 5 seconds."), "",
+     "Ray: Failed to connect to GCS at address 10.0.0.2:6379 within 5 seconds; start one"),
+    (RuntimeError("line one\nline two"), "", "RuntimeError: line one line two"),
+    (RuntimeError("\x1b[31mred\x1b[0m " + "x" * 1000), "", "RuntimeError: ?[31mred?[0m xxx"),
 ])
 def test_ray_init_errors_are_one_line_with_a_fix(err: Exception, logs: str, needle: str) -> None:
     from navstress.campaign.ray_executor import _init_error
 
     e = _init_error("10.0.0.2:6379", err, logs)
-    assert isinstance(e, SpecError) and "\n" not in str(e) and needle in str(e)
-    assert str(e).startswith("--ray-address='10.0.0.2:6379' is invalid")
+    assert isinstance(e, SpecError) and "\n" not in str(e) and "\x1b" not in str(e) and needle in str(e)
+    assert str(e).startswith("--ray-address='10.0.0.2:6379' is invalid") and len(str(e)) < 1000
+
+
+@pytest.mark.parametrize("line,said", [
+    ("[2026-11-27 12:32:43,483 W 15771 15771] gcs_client.cc:210: Failed to get cluster ID from GCS server: "
+     "Unauthenticated", "Failed to get cluster ID from GCS server: Unauthenticated"),
+    ("[2026-11-27 12:28:56,267 W 10596 10596] rpc_client.h:153: Failed to connect to GCS at address "
+     "192.0.2.2:46379 within 5 seconds.\r", "Failed to connect to GCS at address 192.0.2.2:46379 within 5 seconds"),
+    ("navstress-probe-error ConnectionError: Could not find any running Ray instance.",
+     "ConnectionError: Could not find any running Ray instance"),
+])
+def test_ray_log_lines_are_quoted_without_their_heads(line: str, said: str) -> None:
+    from navstress.campaign.ray_executor import _ray_line
+
+    assert _ray_line(line) == said
+
+
+def test_a_cluster_that_ray_moved_off_loopback_says_what_to_set() -> None:
+    from navstress.campaign.ray_executor import _init_error
+
+    e = str(_init_error("127.0.0.1:6379", ConnectionError("nothing answers at 192.0.2.2:6379 (Connection refused)"),
+                        dialled="192.0.2.2:6379"))
+    assert "Ray connects to 192.0.2.2:6379 instead" in e and "set RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER=0" in e
+    assert "nothing answers at 192.0.2.2:6379" in e
