@@ -6,11 +6,10 @@ in silence).
 
 Everything starts at once, in the module's one fixture, to keep the wall time small: the
 family of bad addresses (which needs no head) runs while the head starts; then the documented
-campaign, the driver without the token and the script that imported ray first run side by side
-on the head. About a minute in all on a 2-core machine that other work keeps busy. Everything listens and talks on
-127.0.0.1 only (the one exception: the script that imported ray first is sent by Ray to this
-machine's own outside address, which is what it checks; nothing leaves the machine), and the
-name that does not resolve is looked up in a network namespace that has only loopback.
+campaign and the driver without the token run side by side on the head. About a minute in all
+on a 2-core machine that other work keeps busy. Everything listens and talks on 127.0.0.1 only
+(a script that imported ray before navstress is sent by Ray to the machine's outside address, so
+that case is not run here: its message is covered by a unit test), and the name that does not resolve is looked up in a network namespace that has only loopback.
 """
 
 from __future__ import annotations
@@ -73,24 +72,6 @@ for argv in json.loads(sys.argv[1]):
                 "s": time.monotonic() - t, "exception": exc})
 print(json.dumps(out))
 """
-#: A script that imported ray itself (RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER unset) before calling
-#: navstress's entry point with a loopback address (run_search joins through the same RayExecutor).
-_IMPORTED_FIRST = r"""
-import json, sys, time
-import ray
-from navstress.campaign.executors import run_campaign
-from navstress.errors import SpecError
-node, addr, campaign, out = ray.util.get_node_ip_address(), *sys.argv[1:]
-t = time.monotonic()
-try:
-    run_campaign(campaign, out, executor="ray", ray_address=addr)
-    error = None
-except SpecError as err:
-    error = str(err)
-print(json.dumps({"node": node, "error": error, "s": time.monotonic() - t}))
-"""
-
-
 def documented() -> list[str]:
     """The command lines of the docs' block that starts a head, comments taken off."""
     blocks = re.findall(r"```sh\n(.*?)```", DOC.read_text(encoding="utf-8"), re.S)
@@ -154,7 +135,6 @@ class Results:
     out: Path | None = None
     family: list[tuple[str, dict[str, Any]]] = field(default_factory=list)  # (what its line says, result)
     no_token: list[dict[str, Any]] = field(default_factory=list)
-    imported_first: dict[str, Any] = field(default_factory=dict)
     head_alive: bool = False
     token: str = ""  # ~/.ray/auth_token after `ray get-auth-token --generate`
     printed: str = ""  # what `ray get-auth-token` printed then
@@ -243,7 +223,7 @@ def results(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Results]:
                 procs.append(campaign)
                 res.out = root / "documented"
                 # beside it, on the same head: a driver without RAY_AUTH_MODE=token, a Ray port that is
-                # not the GCS, and a script that imported ray before navstress
+                # not the GCS
                 res.head_sockets = loopback.sockets_of_tree(head.pid)
                 raylet = next(int(s[2].rsplit(":", 1)[1]) for s in res.head_sockets if s[0] == "raylet" and s[1].startswith("tcp"))
                 no_token = {k: v for k, v in env.items() if k != "RAY_AUTH_MODE"}
@@ -251,14 +231,6 @@ def results(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Results]:
                               _run(["search", "run"], root / "nt-s", f"127.0.0.1:{res.port}", specs),
                               _run(["campaign", "run"], root / "nt-r", f"127.0.0.1:{raylet}", specs)], no_token)
                 procs.append(nt)
-                first = subprocess.Popen([sys.executable, "-c", _IMPORTED_FIRST, f"127.0.0.1:{res.port}",
-                                          str(specs["campaign"]), str(root / "first")],
-                                         env={k: v for k, v in env.items() if k != "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"},
-                                         text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-                procs.append(first)
-                out, err = first.communicate(timeout=150)
-                assert first.returncode == 0, err[-3000:]
-                res.imported_first = json.loads(out.strip().splitlines()[-1])
                 res.no_token = _results(nt)
                 o, e = campaign.communicate(timeout=150)
                 res.documented = subprocess.CompletedProcess(line, campaign.returncode, o, e)
@@ -282,7 +254,6 @@ def results(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Results]:
         res.head_alive = head.poll() is None
         res.family = [(n, r) for needles, p in family for n, r in zip(needles, _results(p), strict=True)]
         (root / "results.json").write_text(json.dumps({"family": res.family, "no_token": res.no_token,
-                                                        "imported_first": res.imported_first,
                                                         "clock": res.clock}, indent=1))
     finally:
         if head is not None:
@@ -367,14 +338,3 @@ def test_a_driver_without_the_token_or_at_another_ray_port_fails_in_one_line(res
     _one_line_within_seconds(raylet, "Ray: Failed to get cluster ID from GCS server")
 
 
-def test_ray_imported_before_navstress_is_said_in_one_line(results: Results) -> None:
-    """A script imported ray (RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER unset) and then gave navstress
-    127.0.0.1:PORT: Ray sends its driver to this machine's outside address, where the
-    loopback-only head is not; navstress says so, and what to set, at once."""
-    got = results.imported_first
-    if loopback.is_loopback(f"{got['node']}:0"):
-        pytest.skip("this machine has no outside address: Ray does not rewrite 127.0.0.1 here")
-    assert got["error"] is not None, got
-    assert f"Ray connects to {got['node']}:{results.port} instead" in got["error"], got
-    assert "set RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER=0" in got["error"] and "\n" not in got["error"], got
-    assert got["s"] < FAIL_WITHIN_S, got
