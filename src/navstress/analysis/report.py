@@ -24,6 +24,12 @@ Every number a test may check carries stable attributes: summary values have ids
 ``data-experiment``, ``data-config``, ``data-navigator``, ``data-fault`` and cells
 ``data-field="<name>"`` with the exact value in ``data-value`` (empty when undefined).
 Works on a partial or running campaign and on an empty one.
+
+Layout: the page reads at a phone's width (390 px) and a laptop's (1,280 px) without sideways
+scrolling; a wide table scrolls in its own box. Every table puts the columns a person came for
+first (level, success, verdict, pass probability, ...: header cells ``th.key``); in a
+``table.keyed`` the first cell says what the row is (its class, navigator and fault in small type
+below) and stays in view while the table scrolls (docs/analysis.md, "On a phone or a laptop").
 """
 
 from __future__ import annotations
@@ -66,7 +72,7 @@ h1{margin-bottom:.2em}h2{border-bottom:2px solid #ddd;padding-bottom:.2em;margin
 table{border-collapse:collapse;margin:.6em 0;font-size:.9em}
 th,td{border:1px solid #ccc;padding:.25em .55em;text-align:right}th{background:#f3f3f3}
 td.l,th.l{text-align:left}td[data-field=reason]{min-width:16em}
-.level{font-weight:600;padding:.05em .4em;border-radius:3px;color:#fff;white-space:nowrap}
+.level{display:inline-block;font-weight:600;padding:.05em .4em;border-radius:3px;color:#fff}
 .note{color:#555;font-size:.9em}.warn{background:#fff4d6;border:1px solid #e8c46b;padding:.5em 1em;border-radius:4px}
 img.figure{max-width:100%;height:auto;border:1px solid #eee;margin:.3em 0}
 .maps{display:flex;flex-wrap:wrap;gap:.6em}.maps figure{margin:0;flex:0 1 auto;max-width:100%}
@@ -353,7 +359,7 @@ def _difficulty(a: Analysis) -> str:
         lev = a.level(s.experiment, s.config_key)
         rate = s.success_rate
         rows.append(
-            f'<tr {_row_attrs(s)}>' + _first(_params(a, s), _sub(s.experiment, s.navigator, s.fault, who))
+            f'<tr {_row_attrs(s)}>' + _config_cell(a, s, who)
             + f'<td class="l" data-field="level" data-value="{_e(lev)}">{_level_badge(lev)}</td>'
             + _cell("success-rate", rate, _pc(rate))
             + _cell("ci-low", s.ci_low if s.runs else None, _pc(s.ci_low if s.runs else None))
@@ -391,9 +397,13 @@ def _difficulty(a: Analysis) -> str:
     return "\n".join(out)
 
 
-def _params(a: Analysis, s: ConfigStats) -> str:
-    """A configuration's parameters; an explicit world's key first (its overrides may repeat)."""
-    return f"{s.config_key}: {params_text(s.params)}" if s.experiment in a.explicit else params_text(s.params)
+def _config_cell(a: Analysis, s: ConfigStats, who: bool) -> str:
+    """A configuration's first cell: its parameters (an explicit world: its key, its overrides in
+    the small line below with its class)."""
+    if s.experiment in a.explicit:
+        return _first(s.config_key, " \u00b7 ".join([_sub(s.experiment, s.navigator, s.fault, who),
+                                                     params_text(s.params)]))
+    return _first(params_text(s.params), _sub(s.experiment, s.navigator, s.fault, who))
 
 
 def _class_figures(a: Analysis) -> str:
@@ -483,8 +493,8 @@ def _verdicts(a: Analysis, max_worlds: int = 2000) -> str:
                               f"pass probability and verdict of every world of {e}, {n}, {f}", n, f))
     shown = [w for w in worlds if w.verdict != "passes"][:max_worlds]
     wrows = "".join(
-        f'<tr {_verdict_attrs(w)}>' + _first(w.config_key, _sub(w.experiment, w.navigator, w.fault, who))
-        + f'<td>{w.map_index}</td>' + _verdict_cells(w)
+        f'<tr {_verdict_attrs(w)}>' + _first(f"{w.config_key} m{w.map_index}", _sub(w.experiment, w.navigator, w.fault, who))
+        + _verdict_cells(w) + _cell("map", w.map_index)
         + f'<td class="l">{_e(w.experiment)}</td><td class="l">{_e(w.navigator)}</td><td class="l">{_e(w.fault)}</td>'
         + "</tr>" for w in shown)
     n_pass = sum(w.verdict == "passes" for w in worlds)
@@ -493,8 +503,8 @@ def _verdicts(a: Analysis, max_worlds: int = 2000) -> str:
             if len([w for w in worlds if w.verdict != "passes"]) > max_worlds else "")
     out.append(f'<h3>Worlds that do not pass</h3><p class="note">{n_pass} of {len(worlds)} worlds pass; '
                'the others:</p>'
-               f'<table id="verdicts-worlds" class="sortable keyed"><tr><th class="l">configuration</th><th>map</th>'
-               f'{heads}{ids}</tr>{wrows}</table>{more}')
+               f'<table id="verdicts-worlds" class="sortable keyed"><tr><th class="l">world (configuration, map)</th>'
+               f'{heads}<th>map</th>{ids}</tr>{wrows}</table>{more}')
     return "\n".join(out)
 
 

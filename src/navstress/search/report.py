@@ -231,8 +231,8 @@ def _map(data: Mapping[str, Any]) -> str:
             y0 = yr[0] + (yr[1] - yr[0]) * i / bins[1]
             x1, y1 = x0 + (xr[1] - xr[0]) / bins[0], y0 + (yr[1] - yr[0]) / bins[1]
             conf = "confirmed" if confirmed.get(k) else ("not confirmed" if k in confirmed else "not re-run")
-            rows.append(f'<tr data-cell="{i},{j}" data-key="{_e(k)}"><td class="l">{_num(x0)} \u2013 {_num(x1)}</td>'
-                        f'<td class="l">{_num(y0)} \u2013 {_num(y1)}</td>'
+            rows.append(f'<tr data-cell="{i},{j}" data-key="{_e(k)}"><td class="l">{_num(x0)} \u2013 {_num(x1)} '
+                        f'<small class="sub">{_e(yl)}: {_num(y0)} \u2013 {_num(y1)}</small></td>'
                         + _cell("fitness", float(fit[i, j]), f"{fit[i, j]:.2f}")
                         + f'<td class="l" data-field="confirmation">{_e(conf)}</td>'
                         + _cell("seen", f"{ev.get('events')}/{ev.get('trials')}")
@@ -246,8 +246,8 @@ def _map(data: Mapping[str, Any]) -> str:
         'colour is bright, the stack fails there; a blank cell holds no evaluated world.</p>',
         chart_html(chart, "search-illumination", f"illumination map over {xl} and {yl}"),
         '<details><summary>The filled cells and their best worlds</summary>'
-        f'<table id="search-cells"><tr><th class="l">{_e(xl)}</th><th class="l">{_e(yl)}</th>'
-        f'<th class="key">{_e(label)}</th><th class="l key">confirmation</th><th>seen (events/trials)</th>'
+        f'<table id="search-cells" class="keyed"><tr><th class="l">cell: {_e(xl)} <small class="sub">and '
+        f'{_e(yl)}</small></th><th class="key">{_e(label)}</th><th class="l key">confirmation</th><th>seen (events/trials)</th>'
         f'<th class="l">best world</th></tr>{"".join(rows)}</table></details>'])
 
 
