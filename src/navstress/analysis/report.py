@@ -67,7 +67,7 @@ from navstress.world.world import World
 _CSS = """
 body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;margin:0 auto;max-width:1200px;padding:1em 2em;
 color:#222;line-height:1.4;overflow-wrap:break-word}
-@media (max-width:640px){body{padding:.5em .75em}h1{font-size:1.6em}}
+@media (max-width:640px){body{padding:.5em .75em}h1{font-size:1.6em}}@media (min-width:641px){.level{white-space:nowrap}}
 h1{margin-bottom:.2em}h2{border-bottom:2px solid #ddd;padding-bottom:.2em;margin-top:2em}
 table{border-collapse:collapse;margin:.6em 0;font-size:.9em}
 th,td{border:1px solid #ccc;padding:.25em .55em;text-align:right}th{background:#f3f3f3}
