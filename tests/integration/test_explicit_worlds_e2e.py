@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import csv
 import json
+import re
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -82,7 +83,9 @@ def check_report(d: Path, tmp: Path) -> None:
     html = (tmp / "r.html").read_text()
     for key in ("open", "wooded"):
         assert f'data-experiment="suite" data-config="{key}"' in html
-    assert "wooded: tree=6" in html and "open: (base)" in html  # an explicit world's key, then its overrides
+    # an explicit world's key, then (in small type below it) its class and its overrides
+    assert re.search(r'>wooded <small class="sub">suite \u00b7 [^<]*tree=6</small>', html)
+    assert re.search(r'>open <small class="sub">suite \u00b7 [^<]*\(base\)</small>', html)
     assert 'id="class-suite"' in html or "class-suite" in html
 
 

@@ -4,8 +4,10 @@ Checks that the page renders, that every picture loads (decoded, non-zero size) 
 is drawn by the embedded Vega libraries, that a chart zooms with the wheel, pans by dragging and
 resets on a double click, that nothing is fetched from outside the file, and that the numbers
 shown match the store; a search directory's report (``navstress report DIR --baseline DIR2``)
-shows its Search section, charts drawn, without a script error. Fails (does not
-skip) when chromium or playwright is missing under CI (``CI=true``)."""
+shows its Search section, charts drawn, without a script error. At a phone's width (390 px) and
+a laptop's (1,280 px) the page never scrolls sideways and the header cells of the columns a person
+came for (``th.key``: level, success, verdict, ...) are in view at load. Fails (does not skip)
+when chromium or playwright is missing under CI (``CI=true``)."""
 
 from __future__ import annotations
 
@@ -13,17 +15,21 @@ import json
 import os
 import shutil
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
+import yaml
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "unit" / "analysis"))
-from analysis_synth import line, make_store, record, save_flat_worlds, write_trace  # noqa: E402
+from analysis_synth import line, make_store, record, save_flat_worlds, spec_dict, write_trace  # noqa: E402
 
 from cli_run import cli  # noqa: E402
 from navstress._percent import percent  # noqa: E402
 from navstress.analysis.report import build_report  # noqa: E402
 from navstress.analysis.stats import wilson  # noqa: E402
+from navstress.campaign.plan import run_id  # noqa: E402
+from navstress.campaign.spec import parse_campaign  # noqa: E402
 from navstress.campaign.store import Store  # noqa: E402
 from required import need as _need  # noqa: E402
 from search_dirs import SearchDirs  # noqa: E402
@@ -313,4 +319,110 @@ def test_report_tables_sort_filter_and_link_runs_to_their_traces(page, tmp_path:
     assert visible == ["fail-timeout"]
     box.fill("")
     assert runs.evaluate_all("rs => rs.filter(r => r.offsetParent !== null).length") == len(mine)
+    assert errors == []
+
+
+# ---- the page at a phone's and a laptop's width ----------------------------------------------
+
+#: The widths a report must read at without sideways scrolling: a phone's, a laptop's.
+WIDTHS = (390, 1280)
+#: The navigators of the wide campaign (two built-in ones: the report's every table names them).
+NAVIGATORS = ("reference-v1", "reference-global-v1")
+#: Per table, the header cells that must be in view at load (the columns a person came for).
+KEYS = {"difficulty-table": {"level", "success"},
+        "verdicts-configurations": {"verdict", "pass probability"},
+        "verdicts-worlds": {"verdict", "pass probability"},
+        "fault-power-table": {"fault", "share with collision", "new failures"},
+        "indeterminism-table": {"peak [m]"},
+        "search-found": {"seen", "confirmed"},
+        "search-elites": {"confirmation", "fitness"}}
+
+
+def _wide_campaign(root: Path) -> Path:
+    """A demo-like campaign, wider than ``_campaign``: two classes, seven configurations, two
+    navigators, a faulty stack beside the nominal one, every outcome, long reasons."""
+    reason = "the navigator raised RuntimeError: " + "planner/global/costmap-inflation " * 6
+    d = spec_dict(trees=[0, 4, 8, 16], defs=[0.5, 1.0, 1.5], faults=[None, "small-footprint"])
+    d["navigators"] = [{"name": n} for n in NAVIGATORS]
+    with Store.create(root, parse_campaign(d), yaml.safe_dump(d)) as s:
+        save_flat_worlds(s, trees_per_map=2)
+        outcomes = ["success", "fail-collision", "fail-error", "fail-timeout"]
+        n = 0
+        for exp, keys in (("trees", ["tree=0", "tree=4", "tree=8", "tree=16"]),
+                          ("smooth", ["deformation=0.5", "deformation=1.0", "deformation=1.5"])):
+            for j, key in enumerate(keys):
+                for fault in (None, "small-footprint") if exp == "trees" else (None,):
+                    for i in range(4):
+                        m, r = divmod(i, 2)
+                        o = outcomes[(i * j + (fault is not None)) % 4] if j else "success"
+                        t = write_trace(root / "traces" / f"{n}.mcap", line(20 + i, 5, 5, 15 - i, 15))
+                        rec = record(exp, key, m, r, o, fault=fault, duration=20.0 + i, tort=0.01 * (i + 1),
+                                     goal=1.0 + i, collisions=int(o == "fail-collision"), trace=t)
+                        for nav in NAVIGATORS:
+                            s.add(replace(rec, navigator=nav, run_id=run_id(exp, key, m, r, nav, fault),
+                                          reason=reason if o != "success" else "goal"))
+                        n += 1
+    return root
+
+
+def _fits(page, url: str, width: int, tables: set[str]) -> None:  # type: ignore[no-untyped-def]
+    """The report at ``url`` in a ``width`` px wide window: the page does not scroll sideways,
+    every key column's header cell of every table shown is in view at load (and once every
+    folded part is opened), ``tables`` among them; a table's first column stays in view when
+    its box is scrolled to its end."""
+    page.set_viewport_size({"width": width, "height": 900})
+    page.goto(url)
+    drawn(page)
+    assert page.evaluate("document.documentElement.scrollWidth") <= width
+    # the header cells shown: (table, text, left, right, marked as a key column)
+    heads = """() => Array.from(document.querySelectorAll('table tr:first-child > th')).filter(th => th.offsetParent !== null)
+        .map(th => { const r = th.getBoundingClientRect();
+                     return [th.closest('table').id, th.textContent.trim(), r.left, r.right, th.classList.contains('key')]; })"""
+    for opened in (False, True):
+        if opened:
+            page.evaluate("document.querySelectorAll('details').forEach(d => d.open = true)")
+            assert page.evaluate("document.documentElement.scrollWidth") <= width
+        cells = page.evaluate(heads)
+        # the named key columns (by their header's text) and every column marked as one
+        keys = [c for c in cells if c[4] or c[1] in KEYS.get(c[0], ())]
+        assert not [k for k in keys if k[2] < 0 or k[3] > width], (width, keys)
+        shown: dict[str, set[str]] = {}
+        for t, text, _l, _r, _k in keys:
+            shown.setdefault(t, set()).add(text)
+        for t in tables:
+            assert KEYS[t] <= shown.get(t, set()), (t, shown.get(t))
+        if opened:  # every runs table has its outcome column in view
+            runs = page.evaluate("Array.from(document.querySelectorAll('table.runs')).map(t => t.id)")
+            assert runs and all("outcome" in shown.get(t, set()) for t in runs), (runs, shown)
+    # a keyed table scrolled to its end in its box: its first column is still at the box's left
+    for t in page.evaluate("Array.from(document.querySelectorAll('table.keyed')).map(t => t.id)"):
+        box = page.evaluate("""id => { const t = document.getElementById(id), b = t.closest('.scroll');
+            b.scrollLeft = b.scrollWidth; const c = t.rows[t.rows.length - 1].cells[0];
+            return [b.getBoundingClientRect().left, c.getBoundingClientRect().left, b.scrollWidth > b.clientWidth]; }""", t)
+        assert abs(box[0] - box[1]) < 1.5, (t, box)
+
+
+@pytest.mark.parametrize("width", WIDTHS)
+def test_a_campaign_report_reads_at_a_phone_and_a_laptop_width(page, tmp_path: Path,  # type: ignore[no-untyped-def]
+                                                               width: int) -> None:
+    errors: list[str] = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    for make in (_campaign, _wide_campaign):
+        root = make(tmp_path / make.__name__)
+        out = build_report(root, tmp_path / f"{make.__name__}.html")
+        _fits(page, out.resolve().as_uri(), width, {"difficulty-table", "verdicts-configurations", "verdicts-worlds",
+                                                    "fault-power-table", "indeterminism-table"})
+    assert errors == []
+
+
+@pytest.mark.parametrize("width", WIDTHS)
+def test_a_search_report_reads_at_a_phone_and_a_laptop_width(page, tiny_searches: SearchDirs,  # type: ignore[no-untyped-def]
+                                                             tmp_path: Path, width: int) -> None:
+    errors: list[str] = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    for base in ((), ("--baseline", str(tiny_searches.baseline))):
+        out = tmp_path / f"search{len(base)}.html"
+        code, _, err = cli("report", str(tiny_searches.search), "-o", str(out), *base)
+        assert code == 0, err
+        _fits(page, out.resolve().as_uri(), width, {"search-found", "search-elites", "difficulty-table"})
     assert errors == []

@@ -26,7 +26,10 @@ run in any world (too few runs to prove the bar, or none recorded) fails all its
 from __future__ import annotations
 
 import math
+import socket
+import time
 from dataclasses import dataclass, field, replace
+from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 from xml.etree import ElementTree as ET
@@ -93,7 +96,9 @@ class GateRule:
 
 @dataclass(frozen=True)
 class RunEvidence:
-    """One recorded run of a world, as the JUnit file shows it."""
+    """One recorded run of a world, as the JUnit file shows it: ``wall_s`` and ``sim_s`` its wall
+    and simulated seconds (0 when the store holds no usable number), ``started`` when it started
+    (seconds since the epoch: its record's time less its wall time; None when unknown)."""
 
     run_id: str
     outcome: str
@@ -101,6 +106,9 @@ class RunEvidence:
     map_seed: int
     run_seed: int
     trace: str | None  # path under the campaign directory as given, None without a trace
+    wall_s: float = 0.0
+    sim_s: float = 0.0
+    started: float | None = None
 
 
 @dataclass(frozen=True)
@@ -129,6 +137,12 @@ class WorldCase:
     @property
     def successes(self) -> int:
         return sum(r.outcome == SUCCESS for r in self.runs)
+
+    @property
+    def wall_ms(self) -> int:
+        """The wall time of the world's recorded runs, summed, in whole milliseconds (its JUnit
+        ``time``)."""
+        return sum(round(_seconds(r.wall_s) * 1000) for r in self.runs)
 
     def failed_runs(self) -> list[RunEvidence]:
         return [r for r in self.runs if r.outcome != SUCCESS]
@@ -251,6 +265,7 @@ def gate(directory: str | Path, rule: GateRule, *, navigators: tuple[str, ...] |
         recorded, planned = store.progress()
         planned_ids = store.planned_ids()
         records = store.records() if recorded else []
+        recorded_at = _recorded_at(store) if recorded else {}
     if not recorded:
         raise StoreError(f"campaign={str(root)!r} is invalid: expected a campaign with recorded runs (it has "
                          f"none of its {planned} planned runs); run it first with `navstress campaign run`")
@@ -270,7 +285,7 @@ def gate(directory: str | Path, rule: GateRule, *, navigators: tuple[str, ...] |
     for r in records:
         k = (r.experiment, config_key(r), r.navigator, fault_name(r.fault))
         if k[2] in navs and k[3] in fset:
-            worlds.setdefault(k, {}).setdefault(r.map_index, []).append(_evidence(r, root))
+            worlds.setdefault(k, {}).setdefault(r.map_index, []).append(_evidence(r, root, recorded_at.get(r.run_id)))
     if not worlds:  # a gate over nothing would pass: say what there is to gate instead
         ran = ", ".join(fault_names)
         raise SpecError("--fault", ",".join(sorted(fset)), f"a stack the campaign ran (its faults: {ran})",
@@ -279,12 +294,42 @@ def gate(directory: str | Path, rule: GateRule, *, navigators: tuple[str, ...] |
     return GateResult(spec.name, str(root), rule, recorded, planned, configs)
 
 
-def _evidence(r: RunRecord, root: Path) -> RunEvidence:
+def _recorded_at(store: Store) -> dict[str, float]:
+    """When each run was recorded (seconds since the epoch, the store's ``runs.recorded_at``); a
+    run whose time is not a usable number is left out."""
+    out: dict[str, float] = {}
+    for rid, at in store.con.execute("SELECT run_id, recorded_at FROM runs"):
+        t = _seconds(at)
+        if t > 0.0:
+            out[str(rid)] = t
+    return out
+
+
+#: Seconds past this (about 31,700 years) are no run's time nor date: a damaged value.
+MAX_SECONDS = 1e12
+
+
+def _seconds(v: Any) -> float:
+    """``v`` as a duration or time in seconds: a number in [0, :data:`MAX_SECONDS`], else 0 (a
+    damaged or missing value never makes a NaN, negative or overflowing time in the JUnit file)."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return 0.0
+    try:
+        f = float(v)
+    except OverflowError:  # an integer too large for a float
+        return 0.0
+    return f if 0.0 <= f <= MAX_SECONDS else 0.0
+
+
+def _evidence(r: RunRecord, root: Path, recorded_at: float | None = None) -> RunEvidence:
     trace = None
     if r.trace:
         t = Path(r.trace)
         trace = str(t if t.is_absolute() else root / t)
-    return RunEvidence(r.run_id, r.outcome, r.reason, r.map_seed, r.run_seed, trace)
+    wall = _seconds(r.wall_s)
+    started = recorded_at - wall if recorded_at is not None and recorded_at - wall > 0.0 else None
+    return RunEvidence(r.run_id, r.outcome, r.reason, r.map_seed, r.run_seed, trace, wall, _seconds(r.duration_s),
+                       started)
 
 
 def _judge(k: tuple[str, str, str, str], by_map: dict[int, list[RunEvidence]], rule: GateRule) -> ConfigResult:
@@ -317,36 +362,84 @@ def _judge(k: tuple[str, str, str, str], by_map: dict[int, list[RunEvidence]], r
 # ---- JUnit XML -------------------------------------------------------------------------------
 
 
-def junit_xml(result: GateResult) -> str:
-    """The JUnit XML of ``result``: one ``testsuite`` per gated configuration, one ``testcase``
-    per world (classname ``experiment/config``, name ``m<k>/navigator/fault``). A failed case's
-    ``failure`` carries the reason (message) and, in its text, each failed run: run id, outcome,
-    reason, seeds, trace path and the command that replays it."""
+#: The JUnit file's timestamps: ISO 8601, UTC, to the second, no zone (Ant's schema allows none).
+TIMESTAMP_FORMAT = "%Y-%m-%dT%H:%M:%S"
+
+
+def junit_xml(result: GateResult, *, hostname: str | None = None, now: float | None = None) -> str:
+    """The JUnit XML of ``result``, valid against both schemas CI readers hold JUnit files to
+    (Ant's JUnit.xsd and Jenkins' junit-10.xsd): one ``testsuite`` per gated configuration, one
+    ``testcase`` per world (classname ``experiment/config``, name ``m<k>/navigator/fault``).
+
+    - a case's ``time`` is the wall time of the world's recorded runs, summed (seconds, to the
+      millisecond); a suite's is the sum of its cases'; its ``timestamp`` is when its first run
+      started (UTC; ``now``, default the gate's time, for a configuration without a recorded run);
+      ``hostname`` the host the gate ran on (default this one); ``id`` its index, ``package``
+      ``navstress.<campaign>``; its properties the campaign, directory, bar, evidence, verdict and
+      the simulated seconds of its runs;
+    - a failed case's ``failure`` carries the reason (message) and, in its text, each failed run:
+      run id, outcome, reason, seeds, simulated and wall seconds, trace path and the command that
+      replays it; the failed runs a passing world's bar tolerated are in its suite's ``system-out``.
+
+    The root ``testsuites`` element has no attributes: Ant's schema allows none (readers sum the
+    suites)."""
     rule = result.rule
-    top = ET.Element("testsuites", name=f"navstress gate {result.campaign}")
-    total = fails = 0
-    for c in result.configs:
-        suite = ET.SubElement(top, "testsuite", name=c.label, tests=str(len(c.worlds)),
-                              failures=str(sum(w.failed for w in c.worlds)), errors="0", skipped="0")
+    host = _token(hostname if hostname is not None else socket.gethostname(), "localhost")
+    gate_time = time.time() if now is None else now
+    package = _token(f"navstress.{result.campaign}", "navstress")
+    top = ET.Element("testsuites")
+    for i, c in enumerate(result.configs):
+        starts = [t for w in c.worlds for r in w.runs if r.started is not None and (t := _seconds(r.started)) > 0.0]
+        sim = sum(_seconds(r.sim_s) for w in c.worlds for r in w.runs)
+        suite = ET.SubElement(top, "testsuite", {
+            "name": _token(c.label, "configuration"), "tests": str(len(c.worlds)),
+            "failures": str(sum(w.failed for w in c.worlds)), "errors": "0",
+            "time": _ms(sum(w.wall_ms for w in c.worlds)), "timestamp": _timestamp(min(starts, default=gate_time),
+                                                                                  gate_time),
+            "hostname": host, "id": str(i), "package": package})
         props = ET.SubElement(suite, "properties")
-        for name, value in (("bar", rule.text()), ("evidence", c.evidence(rule)),
-                            ("passed", str(c.passed).lower())):
+        for name, value in (("campaign", result.campaign), ("directory", result.directory), ("bar", rule.text()),
+                            ("evidence", c.evidence(rule)), ("passed", str(c.passed).lower()),
+                            ("simulated_s", f"{sim:.3f}")):
             ET.SubElement(props, "property", name=name, value=value)
+        tolerated = []
         for w in c.worlds:
-            case = ET.SubElement(suite, "testcase", classname=w.classname, name=w.name)
-            total += 1
+            case = ET.SubElement(suite, "testcase", classname=_token(w.classname, "-"), name=_token(w.name, "-"),
+                                 time=_ms(w.wall_ms))
             if w.failed:
-                fails += 1
                 f = ET.SubElement(case, "failure", message=w.reason, type="GateFailure")
                 f.text = _runs_text(w, result.directory, only_failed=True)
             elif w.failed_runs():
-                out = ET.SubElement(case, "system-out")
-                out.text = "tolerated by the bar:\n" + _runs_text(w, result.directory, only_failed=True)
-    top.set("tests", str(total))
-    top.set("failures", str(fails))
-    top.set("errors", "0")
+                tolerated.append(f"{w.classname}/{w.name}: tolerated by the bar:\n"
+                                 + _runs_text(w, result.directory, only_failed=True))
+        ET.SubElement(suite, "system-out").text = "\n".join(tolerated)
+        ET.SubElement(suite, "system-err").text = ""
     ET.indent(top)
     return _xml_safe(ET.tostring(top, encoding="unicode", xml_declaration=True)) + "\n"
+
+
+def _token(text: str, empty: str) -> str:
+    """``text`` as an XML Schema token (no leading, trailing or repeated white space, no line
+    breaks or tabs: what the schemas' name attributes hold); ``empty`` when nothing is left."""
+    return " ".join(_xml_safe(str(text)).split()) or empty
+
+
+def _ms(ms: int) -> str:
+    """Whole milliseconds as the schemas' decimal seconds: ``12.345``."""
+    return f"{ms // 1000}.{ms % 1000:03d}"
+
+
+def _timestamp(t: float, fallback: float) -> str:
+    """``t`` (seconds since the epoch) in UTC as :data:`TIMESTAMP_FORMAT` (``fallback`` when it
+    is no date with a four-digit year)."""
+    for v in (t, fallback, 0.0):
+        try:
+            d = datetime.fromtimestamp(v, timezone.utc)
+        except (OverflowError, OSError, ValueError):
+            continue
+        if 1970 <= d.year <= 9999:
+            return d.strftime(TIMESTAMP_FORMAT)
+    return "1970-01-01T00:00:00"
 
 
 def _runs_text(w: WorldCase, directory: str, *, only_failed: bool) -> str:
@@ -356,6 +449,7 @@ def _runs_text(w: WorldCase, directory: str, *, only_failed: bool) -> str:
     lines = []
     for r in runs:
         lines.append(f"{r.run_id}: {r.outcome} ({r.reason}); map_seed={r.map_seed} run_seed={r.run_seed}; "
+                     f"simulated {r.sim_s:.1f} s, wall {r.wall_s:.1f} s; "
                      f"trace: {r.trace or '(none)'}; replay: navstress replay {directory} {r.run_id}")
     return "\n".join(lines)
 
@@ -372,5 +466,5 @@ def write_junit(result: GateResult, path: str | Path) -> Path:
     return Path(path)
 
 
-__all__ = ["GateResult", "GateRule", "ConfigResult", "RunEvidence", "WorldCase", "check_confidence",
-           "gate", "junit_xml", "lower_bound", "write_junit"]
+__all__ = ["GateResult", "GateRule", "ConfigResult", "RunEvidence", "TIMESTAMP_FORMAT", "WorldCase",
+           "check_confidence", "gate", "junit_xml", "lower_bound", "write_junit"]

@@ -24,6 +24,12 @@ Every number a test may check carries stable attributes: summary values have ids
 ``data-experiment``, ``data-config``, ``data-navigator``, ``data-fault`` and cells
 ``data-field="<name>"`` with the exact value in ``data-value`` (empty when undefined).
 Works on a partial or running campaign and on an empty one.
+
+Layout: the page reads at a phone's width (390 px) and a laptop's (1,280 px) without sideways
+scrolling; a wide table scrolls in its own box. Every table puts the columns a person came for
+first (level, success, verdict, pass probability, ...: header cells ``th.key``); in a
+``table.keyed`` the first cell says what the row is (its class, navigator and fault in small type
+below) and stays in view while the table scrolls (docs/analysis.md, "On a phone or a laptop").
 """
 
 from __future__ import annotations
@@ -61,28 +67,35 @@ from navstress.world.world import World
 
 _CSS = """
 body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;margin:0 auto;max-width:1200px;padding:1em 2em;
-color:#222;line-height:1.4}
+color:#222;line-height:1.4;overflow-wrap:break-word}
+@media (max-width:640px){body{padding:.5em .75em}h1{font-size:1.6em}}@media (min-width:641px){.level{white-space:nowrap}}
 h1{margin-bottom:.2em}h2{border-bottom:2px solid #ddd;padding-bottom:.2em;margin-top:2em}
 table{border-collapse:collapse;margin:.6em 0;font-size:.9em}
 th,td{border:1px solid #ccc;padding:.25em .55em;text-align:right}th{background:#f3f3f3}
-td.l,th.l{text-align:left}
-.level{font-weight:600;padding:.05em .4em;border-radius:3px;color:#fff}
+td.l,th.l{text-align:left}td[data-field=reason]{min-width:16em}
+.level{display:inline-block;font-weight:600;padding:.05em .4em;border-radius:3px;color:#fff}
 .note{color:#555;font-size:.9em}.warn{background:#fff4d6;border:1px solid #e8c46b;padding:.5em 1em;border-radius:4px}
-img.figure{max-width:100%;border:1px solid #eee;margin:.3em 0}
-.maps{display:flex;flex-wrap:wrap;gap:.6em}.maps figure{margin:0;flex:0 0 auto}
+img.figure{max-width:100%;height:auto;border:1px solid #eee;margin:.3em 0}
+.maps{display:flex;flex-wrap:wrap;gap:.6em}.maps figure{margin:0;flex:0 1 auto;max-width:100%}
 figcaption{font-size:.85em;color:#444}
-nav a{margin-right:1em}
+nav{display:flex;flex-wrap:wrap;gap:.2em 1em}
+pre{overflow-x:auto;max-width:100%}
 .scroll{overflow-x:auto;max-width:100%}
+table.keyed{border-collapse:separate;border-spacing:0}table.keyed th,table.keyed td{border-width:1px 1px 0 0}
+table.keyed tr:last-child>*{border-bottom-width:1px}
+table.keyed tr>:first-child{position:sticky;left:0;z-index:1;background:#fff;border-left-width:1px}
+table.keyed tr>th:first-child{background:#f3f3f3}table.keyed tr.hl>td:first-child{background:#fff3b0}
+small.sub{display:block;color:#666;font-size:.8em;font-weight:normal;overflow-wrap:anywhere}
 table.sortable th{cursor:pointer;user-select:none}
 table.sortable th[aria-sort=ascending]::after{content:" \\25B2";font-size:.7em}
 table.sortable th[aria-sort=descending]::after{content:" \\25BC";font-size:.7em}
-input.filter{margin:.3em 0;padding:.2em .4em;width:20em;font:inherit}
+input.filter{margin:.3em 0;padding:.2em .4em;width:20em;max-width:100%;box-sizing:border-box;font:inherit}
 details.runs summary{cursor:pointer;margin:.4em 0}
 .runview{border:1px solid #ccc;border-radius:4px;padding:.4em 1em;margin:.6em 0;background:#fafafa}
 .runview h4{margin:.2em 0}.runview button.close{float:right;font:inherit}
 .runview dl{display:grid;grid-template-columns:max-content 1fr;gap:.1em 1em;font-size:.9em;margin:.4em 0}
-.runview dt{color:#555}.runview dd{margin:0}
-.runview .pair{display:flex;flex-wrap:wrap;gap:.6em}.runview .pair svg.map{width:380px;cursor:default}
+.runview dt{color:#555}.runview dd{margin:0;min-width:0;overflow-wrap:anywhere}
+.runview .pair{display:flex;flex-wrap:wrap;gap:.6em}.runview .pair svg.map{width:380px;max-width:100%;cursor:default}
 """
 
 #: Tables a reader sorts by clicking a column's header (then again for the other direction):
@@ -261,6 +274,19 @@ def _row_attrs(s: ConfigStats) -> str:
             f'data-navigator="{_e(s.navigator)}" data-fault="{_e(s.fault)}"')
 
 
+def _sub(experiment: str, navigator: str | None = None, fault: str | None = None, who: bool = False) -> str:
+    """The second line of a row's first cell: its experiment class and, where the table holds
+    several (navigator, fault) pairs, its navigator and fault."""
+    return " \u00b7 ".join([experiment] + ([f"{navigator}, {fault}"] if who else []))
+
+
+def _first(main: str, sub: str = "") -> str:
+    """A row's first cell in a ``table.keyed``: what the row is (``main``) and, in small type
+    below it, where it belongs (``sub``); it stays in view while the table scrolls sideways."""
+    small = f' <small class="sub">{_e(sub)}</small>' if sub else ""
+    return f'<td class="l">{_e(main)}{small}</td>'
+
+
 # ---- sections ---------------------------------------------------------------------------------
 
 def _summary(a: Analysis) -> str:
@@ -295,20 +321,21 @@ def _summary(a: Analysis) -> str:
             c[r.outcome] = c.get(r.outcome, 0) + 1
     order = {n: i for i, n in enumerate(a.navigators)}
     nav_rows = "".join(
-        f'<tr data-navigator="{_e(n)}" data-fault="{_e(f)}"><td class="l">{_e(n)}</td><td class="l">{_e(f)}</td>'
+        f'<tr data-navigator="{_e(n)}" data-fault="{_e(f)}">{_first(n, f)}'
         + "".join(_cell(o, c.get(o, 0)) for o in a.outcome_counts) + "</tr>"
         for (n, f), c in sorted(by_nav.items(), key=lambda kv: (order.get(kv[0][0], len(order)), kv[0][1] != NOMINAL,
                                                               kv[0][1])))
-    nav_heads = "".join(f"<th>{_e(OUTCOME_LABELS.get(o, o))}</th>" for o in a.outcome_counts)
-    out.append(f'<table id="outcome-counts-by-navigator"><tr><th class="l">navigator</th><th class="l">fault</th>'
-               f'{nav_heads}</tr>{nav_rows}</table>')
+    key = ' class="key"'
+    heads = "".join(f'<th{key if o == Outcome.SUCCESS.value else ""}>{_e(OUTCOME_LABELS.get(o, o))}</th>'
+                    for o in a.outcome_counts)
+    out.append(f'<table id="outcome-counts-by-navigator" class="keyed"><tr><th class="l">navigator and fault</th>'
+               f'{heads}</tr>{nav_rows}</table>')
     exp_rows = "".join(
         f'<tr data-experiment="{_e(e)}"><td class="l">{_e(e)}</td><td data-field="done" data-value="{d}">{d}</td>'
         f'<td data-field="planned" data-value="{p}">{p}</td>'
         + "".join(f'<td data-field="{_e(o)}" data-value="{n}">{n}</td>' for o, n in c.items()) + "</tr>"
         for e, d, p, c in a.per_experiment)
-    heads = "".join(f"<th>{_e(OUTCOME_LABELS.get(o, o))}</th>" for o in a.outcome_counts)
-    out.append(f'<table id="per-experiment"><tr><th class="l">experiment class</th><th>done</th><th>planned</th>'
+    out.append(f'<table id="per-experiment" class="keyed"><tr><th class="l">experiment class</th><th>done</th><th>planned</th>'
                f'{heads}</tr>{exp_rows}</table>')
     return "\n".join(out)
 
@@ -327,33 +354,33 @@ def _difficulty(a: Analysis) -> str:
     for n in a.difficulty.notes:
         out.append(f'<p class="note">Note: {_e(n)}</p>')
     rows = []
-    for s in a.stats:
-        if not a.shows(s.navigator):
-            continue
+    shown = [s for s in a.stats if a.shows(s.navigator)]
+    who = len({(s.navigator, s.fault) for s in shown}) > 1
+    for s in shown:
         lev = a.level(s.experiment, s.config_key)
         rate = s.success_rate
         rows.append(
-            f'<tr {_row_attrs(s)}><td class="l">{_e(s.experiment)}</td><td class="l">{_e(_params(a, s))}</td>'
-            f'<td class="l">{_e(s.navigator)}</td><td class="l">{_e(s.fault)}</td>'
-            + _cell("runs", s.runs, f"{s.runs}/{s.planned}" if s.planned else str(s.runs))
-            + _cell("successes", s.successes)
+            f'<tr {_row_attrs(s)}>' + _config_cell(a, s, who)
+            + f'<td class="l" data-field="level" data-value="{_e(lev)}">{_level_badge(lev)}</td>'
             + _cell("success-rate", rate, _pc(rate))
             + _cell("ci-low", s.ci_low if s.runs else None, _pc(s.ci_low if s.runs else None))
             + _cell("ci-high", s.ci_high if s.runs else None, _pc(s.ci_high if s.runs else None))
+            + _cell("runs", s.runs, f"{s.runs}/{s.planned}" if s.planned else str(s.runs))
+            + _cell("successes", s.successes)
             + _cell("median-duration", s.median_duration_s, _fmt(s.median_duration_s, 1))
             + _cell("median-tortuousness", s.median_tortuousness, _fmt(s.median_tortuousness, 4))
             + _cell("mean-goal-distance", s.mean_goal_distance_m, _fmt(s.mean_goal_distance_m, 2))
             + _cell("infeasible-maps", a.infeasible.get(s.key, (0, 0))[0],
                     "{}/{}".format(*a.infeasible.get(s.key, (0, 0))))
             + "".join(_cell(f"n-{o}", n) for o, n in s.outcomes.items())
-            + f'<td class="l" data-field="level" data-value="{_e(lev)}">{_level_badge(lev)}</td>'
+            + f'<td class="l">{_e(s.experiment)}</td><td class="l">{_e(s.navigator)}</td><td class="l">{_e(s.fault)}</td>'
             + f'<td class="l"><a href="#{_slug(s.experiment, s.config_key)}">maps</a></td></tr>')
     heads = "".join(f"<th>{_e(OUTCOME_LABELS.get(o, o))}</th>" for o in (a.stats[0].outcomes if a.stats else {}))
-    out.append('<table id="difficulty-table" class="sortable"><tr><th class="l">class</th><th class="l">parameters</th>'
-               '<th class="l">navigator</th><th class="l">fault</th><th>runs</th><th>successes</th>'
-               '<th>success</th><th>CI low</th><th>CI high</th><th>median duration [s]</th>'
-               f'<th>median tortuousness</th><th>mean end distance [m]</th><th>maps infeasible a priori</th>'
-               f'{heads}<th class="l">level</th><th></th></tr>'
+    out.append('<table id="difficulty-table" class="sortable keyed"><tr><th class="l">parameters</th>'
+               '<th class="l key">level</th><th class="key">success</th><th>CI low</th><th>CI high</th><th>runs</th>'
+               '<th>successes</th><th>median duration [s]</th><th>median tortuousness</th><th>mean end distance [m]</th>'
+               f'<th>maps infeasible a priori</th>{heads}<th class="l">class</th><th class="l">navigator</th>'
+               '<th class="l">fault</th><th></th></tr>'
                + "".join(rows) + "</table>")
     # level ranges and overlaps
     rr = "".join(f'<tr data-experiment="{_e(r.experiment)}" data-level="{_e(r.level)}"><td class="l">{_e(r.experiment)}'
@@ -371,9 +398,13 @@ def _difficulty(a: Analysis) -> str:
     return "\n".join(out)
 
 
-def _params(a: Analysis, s: ConfigStats) -> str:
-    """A configuration's parameters; an explicit world's key first (its overrides may repeat)."""
-    return f"{s.config_key}: {params_text(s.params)}" if s.experiment in a.explicit else params_text(s.params)
+def _config_cell(a: Analysis, s: ConfigStats, who: bool) -> str:
+    """A configuration's first cell: its parameters (an explicit world: its key, its overrides in
+    the small line below with its class)."""
+    if s.experiment in a.explicit:
+        return _first(s.config_key, " \u00b7 ".join([_sub(s.experiment, s.navigator, s.fault, who),
+                                                     params_text(s.params)]))
+    return _first(params_text(s.params), _sub(s.experiment, s.navigator, s.fault, who))
 
 
 def _class_figures(a: Analysis) -> str:
@@ -397,11 +428,12 @@ def _verdict_badge(v: str) -> str:
 
 
 def _verdict_cells(w: WorldVerdict) -> str:
+    """The verdict first, then the pass probability and its interval, then the counts."""
     pp = w.pass_probability
-    return (_cell("runs", w.runs) + _cell("successes", w.successes)
+    return (f'<td class="l" data-field="verdict" data-value="{_e(w.verdict)}">{_verdict_badge(w.verdict)}</td>'
             + _cell("pass_probability", pp, _pc(pp))
             + _cell("ci_low", w.ci[0], _pc(w.ci[0])) + _cell("ci_high", w.ci[1], _pc(w.ci[1]))
-            + f'<td class="l" data-field="verdict" data-value="{_e(w.verdict)}">{_verdict_badge(w.verdict)}</td>')
+            + _cell("runs", w.runs) + _cell("successes", w.successes))
 
 
 def _verdict_attrs(w: WorldVerdict) -> str:
@@ -441,16 +473,18 @@ def _verdicts(a: Analysis, max_worlds: int = 2000) -> str:
     if not cfgs:
         out.append('<p class="note">No run recorded yet.</p>')
         return "\n".join(out)
-    heads = ('<th>runs</th><th>successes</th><th>pass probability</th><th>low</th><th>high</th>'
-             '<th class="l">verdict</th>')
+    heads = ('<th class="l key">verdict</th><th class="key">pass probability</th><th>low</th><th>high</th>'
+             '<th>runs</th><th>successes</th>')
+    ids = '<th class="l">class</th><th class="l">navigator</th><th class="l">fault</th>'
+    who = len({(c.navigator, c.fault) for c in cfgs}) > 1
     rows = "".join(
-        f'<tr {_verdict_attrs(c)}><td class="l">{_e(c.experiment)}</td><td class="l">{_e(c.config_key)}</td>'
-        f'<td class="l">{_e(c.navigator)}</td><td class="l">{_e(c.fault)}</td>' + _cell("worlds", c.worlds)
-        + "".join(_cell(f"worlds_{k}", n) for k, n in c.world_verdicts) + _verdict_cells(c) + "</tr>"
-        for c in cfgs)
+        f'<tr {_verdict_attrs(c)}>' + _first(c.config_key, _sub(c.experiment, c.navigator, c.fault, who))
+        + _verdict_cells(c) + _cell("worlds", c.worlds) + "".join(_cell(f"worlds_{k}", n) for k, n in c.world_verdicts)
+        + f'<td class="l">{_e(c.experiment)}</td><td class="l">{_e(c.navigator)}</td><td class="l">{_e(c.fault)}</td>'
+        + "</tr>" for c in cfgs)
     wheads = "".join(f"<th>worlds {k}</th>" for k, _ in cfgs[0].world_verdicts)
-    out.append(f'<table id="verdicts-configurations" class="sortable"><tr><th class="l">experiment</th><th class="l">configuration</th>'
-               f'<th class="l">navigator</th><th class="l">fault</th><th>worlds</th>{wheads}{heads}</tr>{rows}</table>')
+    out.append(f'<table id="verdicts-configurations" class="sortable keyed"><tr><th class="l">configuration</th>'
+               f'{heads}<th>worlds</th>{wheads}{ids}</tr>{rows}</table>')
     groups = list(dict.fromkeys((c.experiment, c.navigator, c.fault) for c in cfgs))
     for e, n, f in groups:
         cs = [c for c in cfgs if (c.experiment, c.navigator, c.fault) == (e, n, f)]
@@ -460,17 +494,18 @@ def _verdicts(a: Analysis, max_worlds: int = 2000) -> str:
                               f"pass probability and verdict of every world of {e}, {n}, {f}", n, f))
     shown = [w for w in worlds if w.verdict != "passes"][:max_worlds]
     wrows = "".join(
-        f'<tr {_verdict_attrs(w)}><td class="l">{_e(w.experiment)}</td><td class="l">{_e(w.config_key)}</td>'
-        f'<td>{w.map_index}</td><td class="l">{_e(w.navigator)}</td><td class="l">{_e(w.fault)}</td>'
-        + _verdict_cells(w) + "</tr>" for w in shown)
+        f'<tr {_verdict_attrs(w)}>' + _first(f"{w.config_key} m{w.map_index}", _sub(w.experiment, w.navigator, w.fault, who))
+        + _verdict_cells(w) + _cell("map", w.map_index)
+        + f'<td class="l">{_e(w.experiment)}</td><td class="l">{_e(w.navigator)}</td><td class="l">{_e(w.fault)}</td>'
+        + "</tr>" for w in shown)
     n_pass = sum(w.verdict == "passes" for w in worlds)
     more = (f'<p class="note">... and {len([w for w in worlds if w.verdict != "passes"]) - max_worlds} more '
             '(all in <code>analyze --json</code> and <code>campaign export --table verdicts</code>).</p>'
             if len([w for w in worlds if w.verdict != "passes"]) > max_worlds else "")
     out.append(f'<h3>Worlds that do not pass</h3><p class="note">{n_pass} of {len(worlds)} worlds pass; '
                'the others:</p>'
-               f'<table id="verdicts-worlds" class="sortable"><tr><th class="l">experiment</th><th class="l">configuration</th>'
-               f'<th>map</th><th class="l">navigator</th><th class="l">fault</th>{heads}</tr>{wrows}</table>{more}')
+               f'<table id="verdicts-worlds" class="sortable keyed"><tr><th class="l">world (configuration, map)</th>'
+               f'{heads}<th>map</th>{ids}</tr>{wrows}</table>{more}')
     return "\n".join(out)
 
 
@@ -487,14 +522,15 @@ def _indeterminism(a: Analysis) -> str:
         for g, c in cs.items():
             rows.append(f'<tr data-experiment="{_e(e)}" data-config="{_e(k)}" data-group="{_e(g)}" '
                         f'data-navigator="{_e(a.navigator)}" data-fault="{NOMINAL}">'
-                        f'<td class="l">{_e(e)}</td><td class="l">{_e(k)}</td><td class="l">{_e(a.navigator)}</td>'
-                        f'<td class="l">{_e(g)}</td>'
-                        + _cell("n-maps", c.n_maps) + _cell("n-runs", c.n_runs)
+                        + _first(k, e) + f'<td class="l">{_e(g)}</td>'
                         + _cell("peak", c.peak_m, _fmt(c.peak_m, 2)) + _cell("mean", c.mean_m, _fmt(c.mean_m, 2))
-                        + _cell("final", c.final_m, _fmt(c.final_m, 2)) + "</tr>")
-    out.append('<table id="indeterminism-table" class="sortable"><tr><th class="l">class</th><th class="l">configuration</th>'
-               '<th class="l">navigator</th><th class="l">runs</th><th>maps</th><th>runs</th><th>peak [m]</th><th>time mean [m]</th>'
-               '<th>final [m]</th></tr>' + "".join(rows) + "</table>")
+                        + _cell("final", c.final_m, _fmt(c.final_m, 2))
+                        + _cell("n-maps", c.n_maps) + _cell("n-runs", c.n_runs)
+                        + f'<td class="l">{_e(e)}</td><td class="l">{_e(a.navigator)}</td></tr>')
+    out.append('<table id="indeterminism-table" class="sortable keyed"><tr><th class="l">configuration</th>'
+               '<th class="l key">runs</th><th class="key">peak [m]</th><th class="key">time mean [m]</th>'
+               '<th>final [m]</th><th>maps</th><th>runs</th><th class="l">class</th><th class="l">navigator</th></tr>'
+               + "".join(rows) + "</table>")
     for e in dict.fromkeys(k[0] for k in a.indeterminism):
         curves = {k: cs for (ee, k), cs in a.indeterminism.items() if ee == e}
         out.append(chart_html(indeterminism_chart(f"{e} ({a.navigator}, nominal)", curves), f"indeterminism-{e}",
@@ -510,26 +546,30 @@ def _fault_power(a: Analysis) -> str:
     if not a.power:
         out.append('<p class="note" id="fault-power-empty">No faulty run recorded.</p>')
         return "\n".join(out)
+    who = len({p.navigator for p in a.power}) > 1
     rows = "".join(
         f'<tr data-experiment="{_e(p.experiment)}" data-config="{_e(p.config_key)}" data-fault="{_e(p.fault)}" '
-        f'data-navigator="{_e(p.navigator)}"><td class="l">{_e(p.experiment)}</td><td class="l">{_e(p.config_key)}</td>'
-        f'<td class="l">{_e(p.navigator)}</td><td class="l">{_e(p.fault)}</td>'
-        f'<td class="l">{_level_badge(p.level or NO_DATA)}</td>' + _cell("runs", p.runs) + _cell("collisions", p.collisions)
+        f'data-navigator="{_e(p.navigator)}">'
+        + _first(p.config_key, " \u00b7 ".join([p.experiment] + ([p.navigator] if who else [])))
+        + f'<td class="l">{_e(p.fault)}</td>'
         + _cell("collision-share", p.collision_share, _pc(p.collision_share))
-        + _cell("new-failures", p.new_failures) + _cell("nominal-runs", p.nominal_runs)
-        + _cell("nominal-collisions", p.nominal_collisions) + "</tr>" for p in a.power)
-    out.append('<table id="fault-power-table" class="sortable"><tr><th class="l">class</th><th class="l">configuration</th>'
-               '<th class="l">navigator</th><th class="l">fault</th><th class="l">level</th><th>runs</th><th>with collision</th><th>share</th>'
-               '<th>new failures</th><th>nominal runs</th><th>nominal with collision</th></tr>' + rows + "</table>")
+        + _cell("new-failures", p.new_failures) + _cell("collisions", p.collisions) + _cell("runs", p.runs)
+        + f'<td class="l">{_level_badge(p.level or NO_DATA)}</td>'
+        + _cell("nominal-runs", p.nominal_runs) + _cell("nominal-collisions", p.nominal_collisions)
+        + f'<td class="l">{_e(p.experiment)}</td><td class="l">{_e(p.navigator)}</td></tr>' for p in a.power)
+    out.append('<table id="fault-power-table" class="sortable keyed"><tr><th class="l">configuration</th>'
+               '<th class="l key">fault</th><th class="key">share with collision</th><th class="key">new failures</th>'
+               '<th>with collision</th><th>runs</th><th class="l">level</th><th>nominal runs</th>'
+               '<th>nominal with collision</th><th class="l">class</th><th class="l">navigator</th></tr>' + rows + "</table>")
     lrows = "".join(
         f'<tr data-level="{_e(p.level)}" data-fault="{_e(p.fault)}"><td class="l">{_level_badge(p.level or NO_DATA)}</td>'
-        f'<td class="l">{_e(p.fault)}</td>' + _cell("configs", p.configs) + _cell("runs", p.runs)
-        + _cell("collisions", p.collisions) + _cell("new-failures", p.new_failures)
+        f'<td class="l">{_e(p.fault)}</td>' + _cell("collisions", p.collisions) + _cell("new-failures", p.new_failures)
+        + _cell("runs", p.runs) + _cell("configs", p.configs)
         + _cell("nominal-runs", p.nominal_runs) + _cell("nominal-collisions", p.nominal_collisions) + "</tr>"
         for p in a.power_levels)
-    out.append('<table id="fault-power-levels"><tr><th class="l">level</th><th class="l">fault</th><th>configs</th>'
-               '<th>runs</th><th>with collision</th><th>new failures</th><th>nominal runs</th>'
-               '<th>nominal with collision</th></tr>' + lrows + "</table>")
+    out.append('<table id="fault-power-levels" class="keyed"><tr><th class="l">level</th><th class="l key">fault</th>'
+               '<th class="key">with collision</th><th class="key">new failures</th><th>runs</th><th>configs</th>'
+               '<th>nominal runs</th><th>nominal with collision</th></tr>' + lrows + "</table>")
     out.append(chart_html(fault_power_chart(a.power_levels, navigator=a.navigator), "fault-power",
                           f"collisions per difficulty level, faults of {a.navigator}", a.navigator))
     return "\n".join(out)
@@ -546,10 +586,11 @@ def _correlations(a: Analysis, top: int = 15) -> str:
         out.append('<p class="note" id="descriptors-empty">Too few configurations with a level (3 needed).</p>')
         return "\n".join(out)
     rows = "".join(f'<tr data-descriptor="{_e(c.descriptor)}"><td class="l">{_e(c.descriptor)}</td>'
-                   + _cell("n", c.n) + _cell("rho-level", c.rho_level, _fmt(c.rho_level, 2))
-                   + _cell("rho-failure", c.rho_failure, _fmt(c.rho_failure, 2)) + "</tr>" for c in cs)
-    out.append('<table id="descriptor-correlations" class="sortable"><tr><th class="l">descriptor</th><th>configs</th>'
-               '<th>&rho; with level</th><th>&rho; with failure rate</th></tr>' + rows + "</table>")
+                   + _cell("rho-level", c.rho_level, _fmt(c.rho_level, 2))
+                   + _cell("rho-failure", c.rho_failure, _fmt(c.rho_failure, 2)) + _cell("n", c.n) + "</tr>" for c in cs)
+    out.append('<table id="descriptor-correlations" class="sortable keyed"><tr><th class="l">descriptor</th>'
+               '<th class="key">&rho; with level</th><th class="key">&rho; with failure rate</th><th>configs</th></tr>'
+               + rows + "</table>")
     return "\n".join(out)
 
 
@@ -832,8 +873,8 @@ def _trace_href(root: Path, rec: RunRecord, link_base: Path | None) -> str | Non
 
 
 def _runs_table(e: str, k: str, recs: list[RunRecord], root: Path, link_base: Path | None) -> str:
-    """Every run of a configuration, one row each (sortable, filterable): map, run, navigator,
-    fault, outcome, reason, seeds, duration and a link to its trace (open it in Foxglove)."""
+    """Every run of a configuration, one row each (sortable, filterable): map, run, outcome,
+    reason, navigator, fault, duration, seeds and a link to its trace (open it in Foxglove)."""
     rows = []
     for r in sorted(recs, key=lambda r: (r.map_index, r.run_index, r.navigator, fault_name(r.fault))):
         href = _trace_href(root, r, link_base)
@@ -841,14 +882,14 @@ def _runs_table(e: str, k: str, recs: list[RunRecord], root: Path, link_base: Pa
         rows.append(
             f'<tr data-run="{_e(r.run_id)}" data-outcome="{_e(r.outcome)}">'
             f'{_cell("map", r.map_index, f"m{r.map_index}")}{_cell("run", r.run_index, f"r{r.run_index}")}'
-            f'<td class="l">{_e(r.navigator)}</td><td class="l">{_e(fault_name(r.fault))}</td>'
             f'<td class="l" data-field="outcome">{_e(OUTCOME_LABELS.get(r.outcome, r.outcome))}</td>'
             f'<td class="l" data-field="reason">{_e(r.reason)}</td>'
+            f'<td class="l">{_e(r.navigator)}</td><td class="l">{_e(fault_name(r.fault))}</td>'
             f'{_cell("duration", r.duration_s, _fmt(r.duration_s, 1))}'
             f'{_cell("map-seed", r.map_seed, str(r.map_seed))}{_cell("run-seed", r.run_seed, str(r.run_seed))}'
             f'<td class="l">{link}</td></tr>')
-    head = ('<tr><th>map</th><th>run</th><th class="l">navigator</th><th class="l">fault</th><th class="l">outcome</th>'
-            '<th class="l">reason</th><th>duration s</th><th>map seed</th><th>run seed</th><th class="l">trace</th></tr>')
+    head = ('<tr><th>map</th><th>run</th><th class="l key">outcome</th><th class="l">reason</th>'
+            '<th class="l">navigator</th><th class="l">fault</th><th>duration s</th><th>map seed</th><th>run seed</th><th class="l">trace</th></tr>')
     return (f'<details class="runs"><summary>{len(recs)} runs: outcome, reason, seeds and trace of each</summary>'
             f'<table id="runs-{_slug(e, k)[4:]}" class="sortable filterable runs">{head}{"".join(rows)}</table></details>')
 

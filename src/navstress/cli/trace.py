@@ -26,7 +26,8 @@ def trace_export(
     fmt: Annotated[str, typer.Option("--format", "-f", metavar="|".join(FORMATS), help=(
         "ros2: a rosbag2 (MCAP storage) with standard ROS 2 messages (tf2_msgs/TFMessage, nav_msgs/Odometry, "
         "sensor_msgs/PointCloud2, visualization_msgs/MarkerArray, nav_msgs/OccupancyGrid, rcl_interfaces/Log) "
-        "for `ros2 bag play` and RViz."))] = "ros2",
+        "for `ros2 bag play` and RViz (on Humble, install its MCAP storage plugin first: "
+        "ros-humble-rosbag2-storage-mcap)."))] = "ros2",
 ) -> None:
     """Export a run's trace to another tool's format."""
     if fmt.lower() not in FORMATS:

@@ -178,9 +178,10 @@ def _found(data: Mapping[str, Any], base: Mapping[str, Any] | None, base_dir: Pa
         seen, n_el, n_conf = _found_counts(d)
         confirmed[name] = (int(d.get("runs", 0)), n_conf)
         where = "this directory" if own else str(base_dir)
-        rows.append(f'<tr data-method="{_e(name)}"><td class="l">{_e(name)} ({_e(d.get("algorithm"))}; {_e(where)})</td>'
-                    + _cell("runs", d.get("runs")) + _cell("seen", seen) + _cell("elites", n_el)
-                    + _cell("confirmed", n_conf) + _cell("confirm-runs", d.get("confirm_runs")) + "</tr>")
+        rows.append(f'<tr data-method="{_e(name)}"><td class="l">{_e(name)} <small class="sub">'
+                    f'{_e(d.get("algorithm"))}; {_e(where)}</small></td>'
+                    + _cell("seen", seen) + _cell("confirmed", n_conf) + _cell("elites", n_el)
+                    + _cell("runs", d.get("runs")) + _cell("confirm-runs", d.get("confirm_runs")) + "</tr>")
     budget = (data.get("budget") or {}).get("runs")
     chart = found_against_runs(methods, what=what, budget=budget if isinstance(budget, int) else None,
                                confirmed=confirmed)
@@ -192,8 +193,9 @@ def _found(data: Mapping[str, Any], base: Mapping[str, Any] | None, base_dir: Pa
                          'directory, typically the same spec with <code>algorithm: {name: random}</code>) to '
                          'draw random sampling on the same axis.') + '</p>',
            chart_html(chart, "search-found", f"{what} found against runs spent"),
-           '<table id="search-found"><tr><th class="l">method</th><th>search runs</th><th>seen</th>'
-           f'<th>elites</th><th>confirmed</th><th>confirmation runs</th></tr>{"".join(rows)}</table>']
+           '<table id="search-found" class="keyed"><tr><th class="l">method</th><th class="key">seen</th>'
+           '<th class="key">confirmed</th><th>elites</th><th>search runs</th><th>confirmation runs</th></tr>'
+           f'{"".join(rows)}</table>']
     if base is not None:
         for n in _baseline_notes(data, base):
             out.append(f'<p class="warn search-baseline-note">Not an equal comparison: {_e(n)}.</p>')
@@ -229,11 +231,12 @@ def _map(data: Mapping[str, Any]) -> str:
             y0 = yr[0] + (yr[1] - yr[0]) * i / bins[1]
             x1, y1 = x0 + (xr[1] - xr[0]) / bins[0], y0 + (yr[1] - yr[0]) / bins[1]
             conf = "confirmed" if confirmed.get(k) else ("not confirmed" if k in confirmed else "not re-run")
-            rows.append(f'<tr data-cell="{i},{j}" data-key="{_e(k)}"><td class="l">{_num(x0)} \u2013 {_num(x1)}</td>'
-                        f'<td class="l">{_num(y0)} \u2013 {_num(y1)}</td><td class="l">{_e(k)}</td>'
+            rows.append(f'<tr data-cell="{i},{j}" data-key="{_e(k)}"><td class="l">{_num(x0)} \u2013 {_num(x1)} '
+                        f'<small class="sub">{_e(yl)}: {_num(y0)} \u2013 {_num(y1)}</small></td>'
                         + _cell("fitness", float(fit[i, j]), f"{fit[i, j]:.2f}")
+                        + f'<td class="l" data-field="confirmation">{_e(conf)}</td>'
                         + _cell("seen", f"{ev.get('events')}/{ev.get('trials')}")
-                        + f'<td class="l" data-field="confirmation">{_e(conf)}</td></tr>')
+                        + f'<td class="l">{_e(k)}</td></tr>')
     n_pts = len(pts)
     return "\n".join([
         '<h3 id="search-map-title">Illumination map</h3>',
@@ -243,9 +246,9 @@ def _map(data: Mapping[str, Any]) -> str:
         'colour is bright, the stack fails there; a blank cell holds no evaluated world.</p>',
         chart_html(chart, "search-illumination", f"illumination map over {xl} and {yl}"),
         '<details><summary>The filled cells and their best worlds</summary>'
-        f'<table id="search-cells"><tr><th class="l">{_e(xl)}</th><th class="l">{_e(yl)}</th>'
-        f'<th class="l">best world</th><th>{_e(label)}</th><th>seen (events/trials)</th>'
-        f'<th class="l">confirmation</th></tr>{"".join(rows)}</table></details>'])
+        f'<table id="search-cells" class="keyed"><tr><th class="l">cell: {_e(xl)} <small class="sub">and '
+        f'{_e(yl)}</small></th><th class="key">{_e(label)}</th><th class="l key">confirmation</th><th>seen (events/trials)</th>'
+        f'<th class="l">best world</th></tr>{"".join(rows)}</table></details>'])
 
 
 def _verdict(c: Mapping[str, Any]) -> str:
@@ -306,17 +309,17 @@ def _elites(data: Mapping[str, Any], root: Path) -> str:
         params = ", ".join(f"{k}={_num(v, 4)}" for k, v in sorted((el.get("params") or {}).items()))
         rows.append(
             f'<tr data-key="{_e(key)}" data-confirmed="{str(bool(el.get("confirmed"))).lower()}">'
-            f'<td class="l">{_e(key)}</td>' + _cell("generation", el.get("generation"))
-            + f'<td class="l">{_e(params)}; map seed {_e(el.get("map_seed"))}</td>'
-            + _cell("fitness", el.get("fitness"), _num(el.get("fitness"), 2))
-            + _cell("seen", f"{ev.get('events')}/{ev.get('trials')}")
+            f'<td class="l">{_e(key)}</td>'
             + f'<td class="l" data-field="verdict" data-value="{_e(_verdict(c))}">{_e(_verdict(c))}</td>'
+            + _cell("fitness", el.get("fitness"), _num(el.get("fitness"), 2))
             + _cell("events", c.get("events")) + _cell("trials", c.get("trials"))
             + _cell("interval", f"{iv[0]},{iv[1]}", f"[{_num(iv[0])}, {_num(iv[1])}]")
+            + _cell("seen", f"{ev.get('events')}/{ev.get('trials')}") + _cell("generation", el.get("generation"))
+            + f'<td class="l">{_e(params)}; map seed {_e(el.get("map_seed"))}</td>'
             + f'<td class="l" data-field="reason">{_e(c.get("reason", ""))}</td></tr>')
-    parts.append('<table id="search-elites"><tr><th class="l">world</th><th>found in generation</th>'
-                 '<th class="l">parameters</th><th>fitness</th><th>seen (search runs)</th>'
-                 '<th class="l">confirmation</th><th>events</th><th>fresh runs</th><th>interval</th>'
+    parts.append('<table id="search-elites" class="keyed"><tr><th class="l">world</th><th class="l key">confirmation</th>'
+                 '<th class="key">fitness</th><th>events</th><th>fresh runs</th><th>interval</th>'
+                 '<th>seen (search runs)</th><th>found in generation</th><th class="l">parameters</th>'
                  f'<th class="l">why</th></tr>{"".join(rows)}</table>')
     return "\n".join(parts)
 

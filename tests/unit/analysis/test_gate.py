@@ -1,13 +1,19 @@
 """The CI gate (navstress.analysis.gate and ``navstress gate``) on real SQLite stores with
 hand-written records: the lower bound, the verdict per configuration and per world, the JUnit
-file read back with junitparser, exit codes and one-line errors; ``campaign status --json``."""
+file read back with junitparser and valid against Ant's and Jenkins' JUnit schemas (times,
+timestamps, hostnames as CI readers need them), exit codes and one-line errors;
+``campaign status --json``."""
 
 from __future__ import annotations
 
 import json
 import math
+import sqlite3
 import sys
+from dataclasses import replace
+from datetime import datetime, timezone
 from pathlib import Path
+from xml.etree import ElementTree as ET
 
 import numpy as np
 import pytest
@@ -21,8 +27,10 @@ UNIT = str(Path(__file__).resolve().parents[1])
 if UNIT not in sys.path:
     sys.path.insert(0, UNIT)
 
+import junit_schemas
 from cli_inputs import assert_one_line_error, invoke, snapshot
-from navstress.analysis.gate import GateRule, gate, junit_xml, lower_bound
+from navstress.analysis.gate import (ConfigResult, GateResult, GateRule, RunEvidence, WorldCase, gate, junit_xml,
+                                     lower_bound)
 from navstress.errors import SpecError, StoreError
 
 # ---- the lower bound ------------------------------------------------------------------------
@@ -203,6 +211,85 @@ def _cases(xml: JUnitXml) -> dict[str, TestCase]:
     return {f"{c.classname}/{c.name}": c for suite in xml for c in suite}
 
 
+def _totals(xml: JUnitXml) -> tuple[int, int]:
+    """(tests, failures) over the suites (the root carries no counts: Ant's schema allows none)."""
+    return sum(s.tests for s in xml), sum(s.failures for s in xml)
+
+
+_valid = junit_schemas.assert_valid
+
+
+@pytest.mark.parametrize("rule", [GateRule(0.0), GateRule(0.5), GateRule(0.75), GateRule(0.0, max_collisions=0),
+                                  GateRule(1.0)])
+@pytest.mark.parametrize("faults", [None, ("small-footprint",), ("nominal", "small-footprint")])
+def test_junit_is_valid_for_ant_and_jenkins(tmp_path: Path, rule: GateRule, faults: tuple[str, ...] | None) -> None:
+    d = _store(tmp_path)
+    _valid(junit_xml(gate(d, rule, faults=faults)))
+
+
+def test_junit_times_timestamps_and_host_come_from_the_runs(tmp_path: Path) -> None:
+    """A case's time is its world's runs' wall seconds, summed; a suite's timestamp is when its
+    first run started (its record's time less its wall time, UTC); the host is the gate's; the
+    simulated seconds are a property; a configuration without a run is stamped with the gate's time."""
+    d = tmp_path / "c"
+    with make_store(d, maps=2, runs=2) as s:
+        for m in range(2):
+            for r in range(2):
+                s.add(replace(record("trees", "tree=4", m, r, "fail-error" if (m, r) == (1, 0) else "success",
+                                     duration=30.0 + r), wall_s=1.25 + m + 0.5 * r))
+    res = gate(d, GateRule(0.5))
+    text = junit_xml(res, hostname="ci-runner 7\n", now=0.0)
+    _valid(text)
+    with sqlite3.connect(d / "campaign.sqlite") as con:
+        start = min(at - wall for at, wall in con.execute("SELECT recorded_at, wall_s FROM runs"))
+    suites = {x.get("name"): x for x in ET.fromstring(text)}
+    tree4 = suites["trees/tree=4 reference-v1"]
+    assert tree4.get("timestamp") == datetime.fromtimestamp(start, timezone.utc).strftime("%Y-%m-%dT%H:%M:%S")
+    assert tree4.get("hostname") == "ci-runner 7"
+    cases = {c.get("name"): c for c in tree4.iter("testcase")}
+    assert cases["m0/reference-v1/nominal"].get("time") == "3.000"  # 1.25 + 1.75
+    assert cases["m1/reference-v1/nominal"].get("time") == "5.000"  # 2.25 + 2.75
+    assert tree4.get("time") == "8.000"
+    props = {p.get("name"): p.get("value") for p in tree4.iter("property")}
+    assert props["simulated_s"] == "122.000" and props["campaign"] == "synth" and props["passed"] == "false"
+    failure = cases["m1/reference-v1/nominal"].find("failure")
+    assert failure is not None and "simulated 30.0 s, wall 2.2 s" in (failure.text or "")
+    # nothing recorded: no time, stamped with the gate's time (here the epoch)
+    for name in ("trees/tree=0 reference-v1", "smooth/deformation=0.5 reference-v1"):
+        assert suites[name].get("timestamp") == "1970-01-01T00:00:00" and suites[name].get("time") == "0.000"
+
+
+_TEXT = st.text(st.characters(codec="utf-8", exclude_categories=("Cs",)), max_size=40)
+_SECONDS = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.floats(0, 1e6))
+
+
+@st.composite
+def _results(draw: st.DrawFn) -> GateResult:
+    """Gate results with any text (control characters, line breaks, white space only, markup) in
+    every name and message, and any number (NaN, infinite, negative, huge) as run times."""
+    configs = []
+    for _ in range(draw(st.integers(0, 3))):
+        worlds = []
+        for m in range(draw(st.integers(0, 3))):
+            runs = tuple(RunEvidence(draw(_TEXT), draw(st.sampled_from(["success", "fail-error", "fail-collision"])),
+                                     draw(_TEXT), draw(st.integers(0, 2**63 - 1)), draw(st.integers(0, 2**63 - 1)),
+                                     draw(st.none() | _TEXT), draw(_SECONDS), draw(_SECONDS),
+                                     draw(st.none() | _SECONDS))
+                         for _ in range(draw(st.integers(0, 3))))
+            worlds.append(WorldCase(draw(_TEXT), draw(_TEXT), m, draw(_TEXT), draw(_TEXT), runs,
+                                    failed=draw(st.booleans()), reason=draw(_TEXT)))
+        ok = draw(st.booleans())
+        configs.append(ConfigResult(draw(_TEXT), draw(_TEXT), draw(_TEXT), draw(_TEXT), draw(st.integers(0, 50)),
+                                    0, 0, 0.0, ok, True, tuple(worlds)))
+    return GateResult(draw(_TEXT), draw(_TEXT), GateRule(0.5), 1, 1, tuple(configs))
+
+
+@settings(max_examples=150, deadline=None)
+@given(res=_results(), host=st.none() | _TEXT, now=st.none() | _SECONDS)
+def test_junit_is_valid_whatever_the_names_and_numbers(res: GateResult, host: str | None, now: float | None) -> None:
+    _valid(junit_xml(res, hostname=host, now=None if now is None or not math.isfinite(now) else now))
+
+
 def test_junit_read_back_with_junitparser(tmp_path: Path) -> None:
     d = _store(tmp_path)
     res = gate(d, GateRule(0.75))
@@ -210,14 +297,14 @@ def test_junit_read_back_with_junitparser(tmp_path: Path) -> None:
     xml = JUnitXml.fromfile(str(tmp_path / "g.xml"))
     cases = _cases(xml)
     # one case per world x navigator x fault: 4 configurations x 4 maps, nominal only
-    assert len(cases) == 16 and xml.tests == 16
+    assert len(cases) == 16 and _totals(xml)[0] == 16
     assert {s.name for s in xml} == {"trees/tree=0 reference-v1", "trees/tree=4 reference-v1",
                                      "trees/tree=8 reference-v1", "smooth/deformation=0.5 reference-v1"}
     failed = {k for k, c in cases.items() if any(isinstance(r, Failure) for r in c.result)}
     assert failed == {"trees/tree=4/m2/reference-v1/nominal",  # the world with the two timeouts
                       "trees/tree=8/m1/reference-v1/nominal", "trees/tree=8/m3/reference-v1/nominal",
                       *(f"smooth/deformation=0.5/m{m}/reference-v1/nominal" for m in range(4))}
-    assert xml.failures == len(failed) == 7
+    assert _totals(xml)[1] == len(failed) == 7
     f = next(r for r in cases["trees/tree=4/m2/reference-v1/nominal"].result if isinstance(r, Failure))
     assert f.message == ("success 2/4 on this world; configuration trees/tree=4 reference-v1: success 14/16 = "
                          "88%, lower 95% bound 66% < 75%")
@@ -239,8 +326,8 @@ def test_junit_failures_exactly_when_the_gate_fails(tmp_path: Path) -> None:
     for rule in (GateRule(0.0), GateRule(0.5), GateRule(0.75), GateRule(0.0, max_collisions=0), GateRule(1.0)):
         for faults in (None, ("small-footprint",), ("nominal", "small-footprint")):
             res = gate(d, rule, faults=faults)
-            xml = JUnitXml.fromstring(junit_xml(res))
-            assert (xml.failures > 0) == (not res.passed), (rule, faults)
+            xml = JUnitXml.fromstring(junit_xml(res).encode("utf-8"))
+            assert (_totals(xml)[1] > 0) == (not res.passed), (rule, faults)
             bad_suites = {s.name for s in xml if s.failures}
             assert bad_suites == {c.label for c in res.failing}
 
@@ -251,7 +338,7 @@ def test_junit_text_is_valid_xml_whatever_the_reason_holds(tmp_path: Path) -> No
         rec = record("trees", "tree=0", 0, 0, "fail-error")
         s.add(rec.__class__(**{**rec.__dict__, "reason": "bad \x00\x1b[31m <&> ]]> end"}))
     res = gate(d, GateRule(0.5))
-    xml = JUnitXml.fromstring(junit_xml(res))
+    xml = JUnitXml.fromstring(junit_xml(res).encode("utf-8"))
     f = next(r for c in _cases(xml).values() for r in c.result)
     assert "<&> ]]>" in f.text and "\\x1b" in f.text and " end" in f.text
 
@@ -268,7 +355,8 @@ def test_gate_command_exit_codes_and_lines(tmp_path: Path) -> None:
                      lines[-1]] and lines[-1].startswith("gate FAILED: 1 of 4 configurations")
     code, out, err = invoke(["gate", d, "--min-success", "0", "--junit", str(tmp_path / "j" / "g.xml")])
     assert code == 0 and out.startswith("gate passed: all 4 configurations meet the bar"), out
-    assert JUnitXml.fromfile(str(tmp_path / "j" / "g.xml")).failures == 0
+    assert _totals(JUnitXml.fromfile(str(tmp_path / "j" / "g.xml")))[1] == 0
+    _valid((tmp_path / "j" / "g.xml").read_text(encoding="utf-8"))
     code, out, _ = invoke(["gate", d, "--min-success", "0", "--max-collisions", "0", "--fault", "small-footprint"])
     assert code == 1 and "collision runs 16 > 0" in out
 

@@ -62,7 +62,7 @@ def near(px: np.ndarray, colour: str, tol: float = 0.08) -> np.ndarray:
 
 
 def rows(html: str, table: str) -> list[str]:
-    m = re.search(rf'<table id="{table}">(.*?)</table>', html, re.S)
+    m = re.search(rf'<table id="{table}"[^>]*>(.*?)</table>', html, re.S)
     assert m, f"table {table} not in the section"
     return re.findall(r"<tr (?:data-[^>]*)>.*?</tr>", m.group(1), re.S)
 
