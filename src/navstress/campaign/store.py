@@ -279,8 +279,12 @@ class Store:
             if meta.get("schema") != SCHEMA_VERSION:
                 raise StoreError(f"campaign={str(d)!r} has store schema {meta.get('schema')!r}, expected "
                                  f"{SCHEMA_VERSION} (made by another navstress version); use that version to read it")
-            spec = _spec_from_json(meta["spec_json"])
-            _check_rows(con, d, spec)
+            _check_types(con, d)
+            try:
+                spec = _spec_from_json(meta["spec_json"])
+            except (ValueError, TypeError) as err:  # (SpecError included)
+                raise _bad_value(d, "meta", "key='spec_json'", "value", f"not a campaign spec: {err}") from None
+            _check_contents(con, d, spec)
             if lock is not None:
                 _attempts_schema(con)
         except StoreError:
@@ -394,7 +398,7 @@ class Store:
         if row is None:
             raise StoreError(f"run_id={run_id!r} is not a run of campaign {self.spec.name!r}; "
                              "list them with `navstress campaign export DIR --format csv`")
-        d = json.loads(row[0])  # (every planned task was checked when the store was opened: _check_rows)
+        d = json.loads(row[0])  # (every planned task was checked when the store was opened: _check_contents)
         d["world_dir"] = str((self.root / d["world_dir"]).resolve())
         d["trace_path"] = str((self.root / d["trace_path"]).resolve())
         if not any(m.world_dir == d["world_dir"] for m in self.plan().maps):
@@ -686,7 +690,7 @@ def read_export(path: str | Path) -> list[dict[str, Any]]:
 
 
 def _record(row: dict[str, Any], root: Path) -> RunRecord:
-    """A ``runs`` row as a RunRecord (every row was checked when the store was opened: _check_rows)."""
+    """A ``runs`` row as a RunRecord (every row was checked when the store was opened: _check_types)."""
     for c in _FLOATS:
         if row[c] is None:  # SQLite stores NaN as NULL
             row[c] = math.nan
@@ -774,10 +778,10 @@ def _clip(v: Any, n: int = 60) -> str:
     return t if len(t) <= n else t[:n - 3] + "..."
 
 
-def _check_rows(con: sqlite3.Connection, root: Path, spec: CampaignSpec) -> None:
-    """Every value of every row against :data:`RULES`, the JSON columns' contents, and how the
-    tables agree (a record's keys are its planned run's, a planned task is its row's, names are the
-    spec's). The first damaged value is a StoreError naming table, row and column (:func:`_bad_value`)."""
+def _check_types(con: sqlite3.Connection, root: Path) -> None:
+    """Every value of every row against :data:`RULES` (its SQLite type, range, vocabulary: one SQL
+    query per table). The first damaged value is a StoreError naming table, row and column
+    (:func:`_bad_value`); :func:`_check_contents` checks the rest."""
     tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
     for table, cols in RULES.items():
         if table not in tables:
@@ -791,6 +795,11 @@ def _check_rows(con: sqlite3.Connection, root: Path, spec: CampaignSpec) -> None
             v = bad[c]
             got = "NULL" if v is None else f"{_SQL_TYPE.get(type(v), type(v).__name__)} {_clip(v)}"
             raise _bad_value(root, table, _row_name(table, bad, bad[0]), c, f"expected {cols[c].expected()}, got {got}")
+
+
+def _check_contents(con: sqlite3.Connection, root: Path, spec: CampaignSpec) -> None:
+    """After :func:`_check_types`: the JSON columns' contents, and how the tables agree (a record's
+    keys are its planned run's, a planned task is its row's, names are the spec's)."""
     _check_planned(con, root, spec)
     _check_runs(con, root)
 
