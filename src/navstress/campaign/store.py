@@ -752,15 +752,17 @@ RULES: dict[str, dict[str, _Col]] = {
 _SAME_AS_PLANNED = ("experiment", "map_index", "run_index", "navigator", "fault")
 
 
-def _task_fields() -> dict[str, tuple[tuple[type, ...], bool]]:
-    """RunTask field -> (the Python types its JSON value may have, whether it may be left out)."""
-    kinds: dict[str, tuple[type, ...]] = {"str": (str,), "int": (int,), "float": (int, float), "bool": (bool,),
-                                          "str | None": (str, type(None)), "dict[str, Any]": (dict,)}
-    return {f.name: (kinds[str(f.type)], f.default is not MISSING or f.default_factory is not MISSING)
-            for f in fields(RunTask)}
+def _task_fields() -> tuple[dict[str, frozenset[type]], frozenset[str]]:
+    """The exact Python types the JSON value of each RunTask field may have, and the fields that
+    may not be left out (those without a default)."""
+    kinds: dict[str, frozenset[type]] = {
+        "str": frozenset({str}), "int": frozenset({int}), "float": frozenset({int, float}),
+        "bool": frozenset({bool}), "str | None": frozenset({str, type(None)}), "dict[str, Any]": frozenset({dict})}
+    types = {f.name: kinds[str(f.type)] for f in fields(RunTask)}
+    return types, frozenset(f.name for f in fields(RunTask) if f.default is MISSING and f.default_factory is MISSING)
 
 
-_TASK_FIELDS = _task_fields()
+_TASK_TYPES, _TASK_REQUIRED = _task_fields()
 
 
 def _row_name(table: str, row: sqlite3.Row | dict[str, Any], rowid: int) -> str:
@@ -838,30 +840,32 @@ def _check_planned(con: sqlite3.Connection, root: Path, spec: CampaignSpec) -> N
 def _task_error(task: dict[str, Any], row: dict[str, Any]) -> str | None:
     """What is wrong with a planned task's JSON object (None: nothing), ``row`` its row's values."""
     for name, v in task.items():
-        if name not in _TASK_FIELDS:
+        types = _TASK_TYPES.get(name)
+        if types is None:
             return f"unknown field {_clip(name, 40)}"
-        types, _ = _TASK_FIELDS[name]
-        if not isinstance(v, types) or (isinstance(v, bool) and bool not in types) or \
-                (isinstance(v, float) and not math.isfinite(v)):
-            return f"field {name}={_clip(v, 40)} is not {' or '.join(t.__name__ for t in types)}"
-    missing = [n for n, (_, optional) in _TASK_FIELDS.items() if n not in task and not optional]
+        if type(v) not in types or (type(v) is float and not math.isfinite(v)):
+            return f"field {name}={_clip(v, 40)} is not {' or '.join(sorted(t.__name__ for t in types))}"
+    missing = _TASK_REQUIRED - task.keys()
     if missing:
-        return f"field {missing[0]} is missing"
+        return f"field {sorted(missing)[0]} is missing"
     for name, v in row.items():
         if task[name] != v or type(task[name]) is not type(v):
             return f"field {name}={_clip(task[name], 40)} is not the row's {name} ({_clip(v, 40)})"
     for name in ("world_dir", "trace_path"):
-        p = Path(task[name])
-        if p.is_absolute() or ".." in p.parts or not p.parts:
-            return f"field {name}={_clip(task[name], 40)} is not a path inside the campaign directory"
+        p = task[name]
+        if not p or p.startswith("/") or ".." in p.split("/"):
+            return f"field {name}={_clip(p, 40)} is not a path inside the campaign directory"
     if min(task.get("map_seed", 0), task["run_seed"]) < 0:
         return "a seed is negative"
     return None
 
 
 def _check_runs(con: sqlite3.Connection, root: Path) -> None:
-    q = (f"SELECT r.rowid AS rowid_, r.*, p.run_id AS p_run_id, p.config AS p_config, "
-         f"{', '.join(f'p.{c} AS p_{c}' for c in _SAME_AS_PLANNED)} FROM runs r LEFT JOIN planned p USING (run_id)")
+    """Each record against its planned run (in SQL, the rows that differ in text only), its errors."""
+    differ = " OR ".join(f"r.{c} IS NOT p.{c}" for c in (*_SAME_AS_PLANNED, "config"))
+    q = (f"SELECT r.rowid AS rowid_, r.run_id, r.config, {', '.join(f'r.{c}' for c in _SAME_AS_PLANNED)}, "
+         f"p.run_id AS p_run_id, p.config AS p_config, {', '.join(f'p.{c} AS p_{c}' for c in _SAME_AS_PLANNED)} "
+         f"FROM runs r LEFT JOIN planned p USING (run_id) WHERE p.run_id IS NULL OR {differ}")
     for row in con.execute(q):
         rowid = row["rowid_"]
         name = _row_name("runs", row, rowid)
@@ -872,10 +876,11 @@ def _check_runs(con: sqlite3.Connection, root: Path) -> None:
                 raise _bad_value(root, "runs", name, c, f"{_clip(row[c])} is not its planned run's "
                                  f"{_clip(row[f'p_{c}'])}")
         config = _json_of(root, "runs", row, rowid, "config", dict)
-        _json_of(root, "runs", row, rowid, "errors", list)
-        if config != json.loads(row["p_config"]):
+        if config != json.loads(row["p_config"]):  # (the same JSON in another text passes)
             raise _bad_value(root, "runs", name, "config", f"{_clip(row['config'], 40)} is not its planned run's "
                              f"{_clip(row['p_config'], 40)}")
+    for row in con.execute("SELECT rowid AS rowid_, run_id, errors FROM runs WHERE errors IS NOT '[]'"):
+        _json_of(root, "runs", row, row["rowid_"], "errors", list)
 
 
 def _bad_value(root: Path, table: str, row: str, column: str, why: str) -> StoreError:
