@@ -13,6 +13,12 @@ driver writes (single writer), holding an exclusive lock on ``DIR/.lock`` (relea
 OS even on SIGKILL). On resume the runs already in ``runs`` are skipped, and stale partial
 files (``.*.partial`` traces, ``.m<k>.*`` world temp dirs) are removed.
 
+Opening a store checks every row of every table (:data:`RULES`, :func:`_check_types`,
+:func:`_check_contents`): a value of the wrong type, out of range or vocabulary, JSON that does
+not parse or is of the wrong kind, a record whose keys are not its planned run's, a planned task
+that is not its row's, is one StoreError naming table, row and column. So every reader below
+returns values of the types it says, and no command meets a damaged store with a traceback.
+
 A campaign grows with :meth:`Store.extend`: a spec that adds experiments at the end of the
 stored spec's list (all else unchanged) adds their planned runs and becomes the stored spec in
 one transaction. The database is the truth: ``spec.yaml`` is its copy, rewritten after the
@@ -47,7 +53,7 @@ from typing import IO, Any, Literal
 
 from navstress import __version__, _files, _json
 from navstress._tables import FORMATS, Kind, read_table, write_table
-from navstress.campaign.plan import NOMINAL, Plan, config_key_of, plan
+from navstress.campaign.plan import NOMINAL, Plan, config_key_of, plan, trace_path, world_path
 from navstress.campaign.spec import CampaignSpec, parse_campaign_text
 from navstress.errors import SpecError, StoreError
 from navstress.run.outcome import Outcome
@@ -851,10 +857,12 @@ def _task_error(task: dict[str, Any], row: dict[str, Any]) -> str | None:
     for name, v in row.items():
         if task[name] != v or type(task[name]) is not type(v):
             return f"field {name}={_clip(task[name], 40)} is not the row's {name} ({_clip(v, 40)})"
-    for name in ("world_dir", "trace_path"):
-        p = task[name]
-        if not p or p.startswith("/") or ".." in p.split("/"):
-            return f"field {name}={_clip(p, 40)} is not a path inside the campaign directory"
+    key = config_key_of(row["run_id"], row["experiment"], row["config"])
+    for name, path in (("world_dir", world_path(row["experiment"], key, row["map_index"])),
+                       ("trace_path", trace_path(row["experiment"], key, row["map_index"], row["run_index"],
+                                                 row["navigator"], row["fault"]))):
+        if task[name] != path:
+            return f"field {name}={_clip(task[name], 40)} is not this run's {path!r} in the campaign directory"
     if min(task.get("map_seed", 0), task["run_seed"]) < 0:
         return "a seed is negative"
     return None

@@ -90,6 +90,7 @@ def _task_edits() -> dict[str, Any]:
             "task-other-map": setting(map_index=7), "task-other-run-id": setting(run_id="x/y/m0/r0/a/b"),
             "task-world-outside": setting(world_dir="../../elsewhere"),
             "task-world-absolute": setting(world_dir="/tmp"), "task-trace-outside": setting(trace_path="../t.mcap"),
+            "task-other-world": setting(world_dir="worlds/trees/tree=4/m0"),
             "task-config-other": setting(config={"obstacles.obstruction.tree": "x"}),
             "task-navigator-config-list": setting(navigator_config=[1])}
 
