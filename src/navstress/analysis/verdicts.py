@@ -274,10 +274,3 @@ def export_verdicts(directory: str | Path, table: str, fmt: str, dest: Path) -> 
         v = verdicts(store.records(), rule_of(store.spec), rules=rules_of(store.spec))
         meta = {"navstress.version": __version__, "navstress.table": table, "navstress.spec": store.spec_text()}
     return write_verdicts(v, fmt, dest, meta, table), len(v.rows(table))
-
-
-def campaign_verdicts(directory: str | Path) -> Verdicts:
-    """The verdicts of the campaign in ``directory`` (read only), under its spec's rule."""
-
-    with Store.open(directory) as store:
-        return verdicts(store.records(), rule_of(store.spec), rules=rules_of(store.spec))
