@@ -220,20 +220,20 @@ def test_the_cases_cover_every_column_of_every_table(template: Path) -> None:
         {(t, c) for t in RULES for c in COMMANDS}
 
 
-@pytest.mark.parametrize("kind", ["numbers", "texts"])
-def test_valid_tamperings_work_in_every_command(scratch: tuple[Path, Path, bytes], kind: str) -> None:
-    """Every accepted tampering of one kind at once (REAL columns: NULL, a huge number, infinity;
-    free text: any text): every command works as on an intact store (nothing refused, no traceback)."""
+def test_valid_tamperings_work_in_every_command(scratch: tuple[Path, Path, bytes]) -> None:
+    """Every column with accepted tamperings gets one of them, all in one store, the labels in turn
+    (REAL columns: NULL, a huge number, infinity; free text: any text): every command works as on
+    an intact store (nothing refused, no traceback)."""
     d, out, db = scratch
     _fresh(d, db)
-    labels = _NUMBERS if kind == "numbers" else _FREE_TEXT
+    columns = sorted({(t, c) for t, c, _ in ACCEPTED})
     done = []
-    for label in labels:
-        for table, column, lab in sorted(ACCEPTED):
-            if lab == label and (table, column) not in {(t, c) for t, c, _ in done}:
-                assert _tamper(d, table, column, label)
-                done.append((table, column, label))
-    assert len(done) >= 8
+    for i, (table, column) in enumerate(columns):
+        labels = sorted(lab for t, c, lab in ACCEPTED if (t, c) == (table, column))
+        label = labels[i % len(labels)]
+        assert _tamper(d, table, column, label)
+        done.append(label)
+    assert set(done) == {lab for _, _, lab in ACCEPTED}  # every kind of valid value is there
     try:
         for name, args in _commands(d, out).items():
             code, err, exc = _invoke(args)
