@@ -7,6 +7,12 @@ is an empty cell, read back as ``None`` for numbers and booleans and for the ``s
 named ``nullable``; booleans are ``true``/``false``. Parquet files carry ``metadata`` (string
 keys and values) in their schema. pyarrow is imported only when Parquet is written or read (it costs ~0.35 s, and
 the modules that export are imported by every campaign worker).
+
+**One vocabulary for keys.** Every table and every JSON output that names a run, a world or a
+configuration uses the columns of :data:`KEYS`, spelled and typed the same way, never empty:
+``config`` is the configuration key (``tree=4``, the run id's second part), ``fault`` is
+``"nominal"`` for the nominal stack; so any two tables join on the keys they share, and a
+reader's default ``groupby`` keeps every run. :func:`write_table` refuses a table that breaks it.
 """
 
 from __future__ import annotations
@@ -24,6 +30,24 @@ from navstress.errors import SpecError
 
 Kind = Literal["int", "float", "bool", "str", "strlist"]
 FORMATS = ("csv", "parquet")
+#: The fault of the nominal stack, in every table and JSON output.
+NOMINAL = "nominal"
+#: The key columns (see the module doc): name -> kind, the same in every table that has them.
+KEYS: dict[str, Kind] = {"run_id": "str", "experiment": "str", "config": "str", "map_index": "int",
+                         "run_index": "int", "navigator": "str", "fault": "str"}
+
+
+def _check_keys(rows: list[Mapping[str, Any]], columns: Mapping[str, Kind]) -> None:
+    """ValueError (a bug of the caller, never the user's) when a key column has another kind or a
+    missing value, or an ``int`` key holds something else than an int."""
+    for c, kind in columns.items():
+        if c in KEYS:
+            if kind != KEYS[c]:
+                raise ValueError(f"key column {c!r} must be {KEYS[c]}, not {kind}")
+            want = str if kind == "str" else int
+            for r in rows:
+                if not isinstance(r[c], want) or isinstance(r[c], bool):
+                    raise ValueError(f"key column {c!r} holds {r[c]!r}: every row needs a {kind}")
 
 
 def _cell(x: Any, kind: Kind) -> Any:
@@ -51,6 +75,7 @@ def write_table(rows: Iterable[Mapping[str, Any]], columns: Mapping[str, Kind], 
     if fmt not in FORMATS:
         raise SpecError("format", fmt, "csv or parquet")
     rows = list(rows)
+    _check_keys(rows, columns)
     raw: bytes | str
     if fmt == "csv":
         f = io.StringIO(newline="")

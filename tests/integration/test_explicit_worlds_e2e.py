@@ -100,7 +100,8 @@ def check_export_runs(d: Path, tmp: Path) -> None:
         for r in suite:
             key = r["run_id"].split("/")[1]
             assert int(r["map_seed"]) == {"open": 11, "wooded": 12}[key] and int(r["map_index"]) == 0
-            assert json.loads(r["config"]) == ({"obstacles.obstruction.tree": 6} if key == "wooded" else {})
+            assert json.loads(r["params"]) == ({"obstacles.obstruction.tree": 6} if key == "wooded" else {})
+            assert r["config"] == key  # an explicit world's key is its configuration's
 
 
 def check_export_verdicts(d: Path, tmp: Path) -> None:

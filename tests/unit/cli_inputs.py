@@ -77,8 +77,9 @@ OUTPUT_COMMANDS = [
     OutputCommand("campaign export csv", ("campaign", "export", "{root}/c", "-o", "{out}"), "file"),
     OutputCommand("campaign export parquet", ("campaign", "export", "{root}/c", "-f", "parquet", "-o", "{out}"),
                   "file"),
-    *[OutputCommand(f"campaign export verdicts {f}", ("campaign", "export", "{root}/c", "--table", "verdicts", "-f", f,
-                                                       "-o", "{out}"), "file") for f in ("csv", "parquet")],
+    *[OutputCommand(f"campaign export {t} {f}", ("campaign", "export", "{root}/c", "--table", t, "-f", f,
+                                                 "-o", "{out}"), "file")
+      for t in ("verdicts", "configurations") for f in ("csv", "parquet")],
     OutputCommand("report", ("report", "{root}/c", "-o", "{out}"), "file"),
     OutputCommand("analyze --json", ("analyze", "{root}/c", "--json", "{out}"), "file"),
     OutputCommand("gate --junit", ("gate", "{root}/c", "--min-success", "0", "--junit", "{out}"), "file"),

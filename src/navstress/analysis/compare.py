@@ -256,8 +256,9 @@ class PairedStats:
         return self.rate_a * (1 - self.rate_a) + self.rate_b * (1 - self.rate_b)
 
     def to_json(self) -> dict[str, Any]:
-        return {"experiment": self.experiment, "config": self.config_key, "params": self.params,
-                "label": self.label, "pairs": self.pairs, "maps": list(self.maps),
+        # the overall figures name no configuration (keys are never empty: docs/campaigns.md)
+        keys = {"experiment": self.experiment, "config": self.config_key} if self.experiment else {}
+        return {**keys, "params": self.params, "label": self.label, "pairs": self.pairs, "maps": list(self.maps),
                 "table": {"both_succeed": self.both, "only_a_succeeds": self.a_only,
                           "only_b_succeeds": self.b_only, "both_fail": self.neither},
                 "success_rate_a": self.rate_a, "success_rate_b": self.rate_b, "diff": self.diff,

@@ -196,8 +196,8 @@ class ConfigResult:
                 "fault": self.fault, "runs": self.runs, "successes": self.successes,
                 "success_rate": self.successes / self.runs if self.runs else None, "lower_bound": self.lower,
                 "collisions": self.collisions, "passed": self.passed, "evidence": self.evidence(rule),
-                "worlds": [{"world": f"{w.classname}/m{w.map_index}", "runs": len(w.runs), "successes": w.successes,
-                            "failed": w.failed} for w in self.worlds]}
+                "worlds": [{"world": f"{w.classname}/m{w.map_index}", "map_index": w.map_index, "runs": len(w.runs),
+                            "successes": w.successes, "failed": w.failed} for w in self.worlds]}
 
 
 @dataclass(frozen=True)

@@ -28,12 +28,13 @@ from typing import Any
 from scipy import stats as _st
 
 from navstress import _json
+from navstress._tables import NOMINAL as NOMINAL  # the fault of the nominal stack
+from navstress.campaign.plan import config_key_of
 from navstress.errors import SpecError
 from navstress.run.outcome import Outcome
 from navstress.run.record import RunRecord
 
 OUTCOMES: tuple[str, ...] = tuple(o.value for o in Outcome)
-NOMINAL = "nominal"
 
 
 def _check(successes: int, n: int, confidence: float) -> None:
@@ -72,10 +73,7 @@ def clopper_pearson(successes: int, n: int, confidence: float = 0.95) -> tuple[f
 def config_key(rec: RunRecord) -> str:
     """The configuration key of a record: the second part of its run id
     (``experiment/config_key/m<k>/r<j>/navigator/fault``), else a stable text of ``config``."""
-    parts = rec.run_id.split("/")
-    if len(parts) >= 6 and parts[0] == rec.experiment:
-        return "/".join(parts[1:-4])
-    return ",".join(f"{k.rsplit('.', 1)[-1]}={v}" for k, v in sorted(rec.config.items())) or "base"
+    return config_key_of(rec.run_id, rec.experiment, rec.config)
 
 
 def fault_name(fault: str | None) -> str:

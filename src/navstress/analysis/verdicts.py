@@ -33,6 +33,7 @@ from typing import Any
 
 from scipy.stats import binomtest
 
+from navstress import __version__
 from navstress._tables import Kind, read_table, write_table
 from navstress.analysis.stats import config_key, fault_name
 from navstress.campaign.store import Store
@@ -44,11 +45,17 @@ from navstress.sequential import FLAKY_BAND, VERDICTS, Verdict, check_rule, conf
 DEFAULT_THRESHOLD = 0.8
 DEFAULT_CONFIDENCE = 0.95
 
-#: Columns of ``campaign export --table verdicts`` (one row per world, then one per configuration).
+#: Columns of ``campaign export --table verdicts``: one row per world, keyed as the runs table
+#: (experiment, config, map_index, navigator, fault); ``scope`` is ``"world"`` and ``worlds`` 1.
 VERDICT_COLUMNS: tuple[str, ...] = (
     "scope", "experiment", "config", "map_index", "navigator", "fault", "worlds", "runs", "successes",
     "pass_probability", "ci_low", "ci_high", "seq_low", "seq_high", "verdict", "threshold", "confidence",
     "indifference")
+#: Columns of ``campaign export --table configurations``: one row per configuration (its worlds
+#: pooled), the same without ``map_index`` (a configuration has none); ``scope`` is ``"configuration"``.
+CONFIGURATION_COLUMNS: tuple[str, ...] = tuple(c for c in VERDICT_COLUMNS if c != "map_index")
+#: The tables of verdicts ``campaign export --table`` writes, and their columns.
+TABLES: dict[str, tuple[str, ...]] = {"verdicts": VERDICT_COLUMNS, "configurations": CONFIGURATION_COLUMNS}
 _INTS = {"map_index", "worlds", "runs", "successes"}
 _FLOATS = {"pass_probability", "ci_low", "ci_high", "seq_low", "seq_high", "threshold", "confidence",
            "indifference"}
@@ -161,13 +168,17 @@ class WorldVerdict:
         return d
 
     def row(self) -> dict[str, Any]:
-        """One row of the verdicts export (:data:`VERDICT_COLUMNS`)."""
-        return {"scope": "world" if self.map_index is not None else "configuration", "experiment": self.experiment,
-                "config": self.config_key, "map_index": self.map_index, "navigator": self.navigator,
-                "fault": self.fault, "worlds": self.worlds, "runs": self.runs, "successes": self.successes,
-                "pass_probability": self.pass_probability, "ci_low": self.ci[0], "ci_high": self.ci[1],
-                "seq_low": self.sequence[0], "seq_high": self.sequence[1], "verdict": self.verdict,
-                "threshold": self.threshold, "confidence": self.confidence, "indifference": self.indifference}
+        """One row of the verdicts export (:data:`VERDICT_COLUMNS`), or of the configurations
+        export (:data:`CONFIGURATION_COLUMNS`) for a configuration's verdict."""
+        d = {"scope": "world" if self.map_index is not None else "configuration", "experiment": self.experiment,
+             "config": self.config_key, "map_index": self.map_index, "navigator": self.navigator,
+             "fault": self.fault, "worlds": self.worlds, "runs": self.runs, "successes": self.successes,
+             "pass_probability": self.pass_probability, "ci_low": self.ci[0], "ci_high": self.ci[1],
+             "seq_low": self.sequence[0], "seq_high": self.sequence[1], "verdict": self.verdict,
+             "threshold": self.threshold, "confidence": self.confidence, "indifference": self.indifference}
+        if self.map_index is None:
+            del d["map_index"]
+        return d
 
 
 def world_verdict(experiment: str, key: str, map_index: int | None, navigator: str, fault: str, *,
@@ -206,8 +217,9 @@ class Verdicts:
                 "worlds": [w.to_json() for w in self.worlds],
                 "configurations": [c.to_json() for c in self.configurations]}
 
-    def rows(self) -> list[dict[str, Any]]:
-        return [w.row() for w in self.worlds] + [c.row() for c in self.configurations]
+    def rows(self, table: str = "verdicts") -> list[dict[str, Any]]:
+        """The rows of export ``table`` (:data:`TABLES`): the worlds' or the configurations'."""
+        return [w.row() for w in (self.worlds if table == "verdicts" else self.configurations)]
 
 
 def verdicts(records: Iterable[RunRecord], rule: VerdictRule | None = None,
@@ -241,19 +253,24 @@ def verdicts(records: Iterable[RunRecord], rule: VerdictRule | None = None,
     return Verdicts(rule, worlds, configs, rules)
 
 
-def write_verdicts(v: Verdicts, fmt: str, dest: Path, metadata: dict[str, str] | None = None) -> Path:
-    """Write the verdicts table (:data:`VERDICT_COLUMNS`) as CSV or Parquet, atomically
-    (``metadata``: a Parquet file's schema metadata)."""
-    return write_table(v.rows(), _KINDS, fmt, dest, metadata=metadata)
+def write_verdicts(v: Verdicts, fmt: str, dest: Path, metadata: dict[str, str] | None = None,
+                   table: str = "verdicts") -> Path:
+    """Write export ``table`` of :data:`TABLES` (the worlds' verdicts, or the configurations') as
+    CSV or Parquet, atomically (``metadata``: a Parquet file's schema metadata)."""
+    if table not in TABLES:
+        raise SpecError("--table", table, " or ".join(TABLES))
+    return write_table(v.rows(table), {c: _KINDS[c] for c in TABLES[table]}, fmt, dest, metadata=metadata)
 
 
-def read_verdicts(path: str | Path) -> list[dict[str, Any]]:
-    """Read back a verdicts export (CSV or Parquet) as typed rows."""
-    return read_table(path, _KINDS)
+def read_verdicts(path: str | Path, table: str = "verdicts") -> list[dict[str, Any]]:
+    """Read back a verdicts (or configurations) export, CSV or Parquet, as typed rows."""
+    return read_table(path, {c: _KINDS[c] for c in TABLES[table]})
 
 
-def campaign_verdicts(directory: str | Path) -> Verdicts:
-    """The verdicts of the campaign in ``directory`` (read only), under its spec's rule."""
-
+def export_verdicts(directory: str | Path, table: str, fmt: str, dest: Path) -> tuple[Path, int]:
+    """``campaign export --table verdicts|configurations``: write the table (the spec and the
+    version in a Parquet file's metadata); returns the path and its number of rows."""
     with Store.open(directory) as store:
-        return verdicts(store.records(), rule_of(store.spec), rules=rules_of(store.spec))
+        v = verdicts(store.records(), rule_of(store.spec), rules=rules_of(store.spec))
+        meta = {"navstress.version": __version__, "navstress.table": table, "navstress.spec": store.spec_text()}
+    return write_verdicts(v, fmt, dest, meta, table), len(v.rows(table))

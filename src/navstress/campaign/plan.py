@@ -35,12 +35,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from navstress._tables import NOMINAL as NOMINAL  # the fault of the nominal stack
 from navstress.campaign.spec import CampaignSpec
 from navstress.run.record import RunTask
 from navstress.seeding import derive_seed
 from navstress.sequential import AdaptiveRule, should_continue
-
-NOMINAL = "nominal"
 
 
 @dataclass(frozen=True)
@@ -135,6 +134,31 @@ def run_id(experiment: str, config_key: str, map_index: int, run_index: int, nav
     return f"{experiment}/{config_key}/m{map_index}/r{run_index}/{navigator}/{fault or NOMINAL}"
 
 
+def world_path(experiment: str, config_key: str, map_index: int) -> str:
+    """Where a map's world lives, relative to the campaign directory."""
+    return f"worlds/{experiment}/{config_key}/m{map_index}"
+
+
+def trace_path(experiment: str, config_key: str, map_index: int, run_index: int, navigator: str,
+               fault: str | None) -> str:
+    """Where a run's trace lives, relative to the campaign directory."""
+    return f"traces/{experiment}/{config_key}/m{map_index}/r{run_index}-{navigator}-{fault or NOMINAL}.mcap"
+
+
+def config_key_of(rid: str, experiment: str, config: Mapping[str, Any]) -> str:
+    """The configuration key of run ``rid`` of ``experiment`` (what every table and JSON output
+    calls ``config``): the run id's second part, else (a run id of another form) a stable text of
+    the swept parameters ``config``.
+
+        >>> config_key_of("trees/tree=4/m0/r1/reference-v1/nominal", "trees", {})
+        'tree=4'
+    """
+    parts = rid.split("/")
+    if len(parts) >= 6 and parts[0] == experiment:
+        return "/".join(parts[1:-4])
+    return ",".join(f"{k.rsplit('.', 1)[-1]}={v}" for k, v in sorted(config.items())) or "base"
+
+
 def map_seed(seed: int, experiment: str, config_key: str, map_index: int) -> int:
     return derive_seed(seed, "map", experiment, config_key, map_index)
 
@@ -155,7 +179,7 @@ def plan(spec: CampaignSpec, root: str | Path) -> Plan:
         for cfg in exp.configurations(spec.world):
             for m in range(spec.maps_of(exp)):
                 ms = cfg.map_seed if cfg.map_seed is not None else map_seed(spec.seed, exp.name, cfg.key, m)
-                wdir = base / "worlds" / exp.name / cfg.key / f"m{m}"
+                wdir = base / world_path(exp.name, cfg.key, m)
                 maps.append(MapJob(key=f"{exp.name}/{cfg.key}/m{m}", experiment=exp.name, config_key=cfg.key,
                                    map_index=m, map_seed=ms, world=cfg.world, world_dir=str(wdir)))
                 ids: dict[tuple[str, str | None], list[str]] = {(n.name, f): [] for n in spec.navigators
@@ -166,8 +190,7 @@ def plan(spec: CampaignSpec, root: str | Path) -> Plan:
                         for fault in faults:
                             rid = run_id(exp.name, cfg.key, m, r, nav.name, fault)
                             ids[(nav.name, fault)].append(rid)
-                            trace = base / "traces" / exp.name / cfg.key / f"m{m}" / \
-                                f"r{r}-{nav.name}-{fault or NOMINAL}.mcap"
+                            trace = base / trace_path(exp.name, cfg.key, m, r, nav.name, fault)
                             tasks.append(RunTask(
                                 run_id=rid, world_dir=str(wdir), run_seed=rs, trace_path=str(trace),
                                 navigator=nav.name, navigator_config=dict(nav.config), fault=fault,

@@ -16,6 +16,12 @@ planned trace, ``.m<k>.XXXXXXXX`` and ``.m<k>.old`` beside a planned world), nev
 A symbolic link planted anywhere inside ``DIR`` is refused (one line) before anything is written:
 nothing navstress writes or deletes leaves ``DIR`` (docs/design.md, invariant 6).
 
+Opening a store checks every row of every table (:data:`RULES`, :func:`_check_types`,
+:func:`_check_contents`): a value of the wrong type, out of range or vocabulary, JSON that does
+not parse or is of the wrong kind, a record whose keys are not its planned run's, a planned task
+that is not its row's, is one StoreError naming table, row and column. So every reader below
+returns values of the types it says, and no command meets a damaged store with a traceback.
+
 A campaign grows with :meth:`Store.extend`: a spec that adds experiments at the end of the
 stored spec's list (all else unchanged) adds their planned runs and becomes the stored spec in
 one transaction. The database is the truth: ``spec.yaml`` is its copy, rewritten after the
@@ -44,14 +50,14 @@ import sqlite3
 import time
 from collections import Counter
 from collections.abc import Sequence
-from dataclasses import fields
+from dataclasses import MISSING, dataclass, fields
 from pathlib import Path
 from types import TracebackType
 from typing import IO, Any, Literal
 
 from navstress import __version__, _files, _json
 from navstress._tables import FORMATS, Kind, read_table, write_table
-from navstress.campaign.plan import NOMINAL, Plan, plan
+from navstress.campaign.plan import NOMINAL, Plan, config_key_of, plan, trace_path, world_path
 from navstress.campaign.spec import CampaignSpec, parse_campaign_text
 from navstress.errors import SpecError, StoreError
 from navstress.run.outcome import Outcome
@@ -72,8 +78,21 @@ _TYPES = {"map_index": "INTEGER", "run_index": "INTEGER", "map_seed": "INTEGER",
 #: The runs table's column kinds in exports (navstress._tables).
 _KIND_OF: dict[str, Kind] = {"INTEGER": "int", "REAL": "float", "TEXT": "str"}
 _KINDS: dict[str, Kind] = {c: _KIND_OF[_TYPES.get(c, "TEXT")] for c in COLUMNS}
-#: The record's columns in a runs export: errors as a list of strings.
-_EXPORT_KINDS: dict[str, Kind] = {**_KINDS, "errors": "strlist"}
+
+
+def _export_kinds() -> dict[str, Kind]:
+    """The record's columns in a runs export: ``config`` the configuration key (the key vocabulary
+    of navstress._tables), ``params`` after it (the swept parameters as one JSON object), ``errors``
+    a list of strings."""
+    out: dict[str, Kind] = {}
+    for c, kind in _KINDS.items():
+        out[c] = "strlist" if c == "errors" else kind
+        if c == "config":
+            out["params"] = "str"
+    return out
+
+
+_EXPORT_KINDS = _export_kinds()
 _FLOATS = ("duration_s", "wall_s", "goal_distance_m", "path_length_m", "tortuousness")
 _TMP_DB = f".{DB_NAME}.tmp"
 #: The ``meta`` key of the spec text an extension gave (what ``spec.yaml`` must hold).
@@ -277,8 +296,12 @@ class Store:
             if meta.get("schema") != SCHEMA_VERSION:
                 raise StoreError(f"campaign={str(d)!r} has store schema {meta.get('schema')!r}, expected "
                                  f"{SCHEMA_VERSION} (made by another navstress version); use that version to read it")
-            spec = _spec_from_json(meta["spec_json"])
-            _check_rows(con, d)
+            _check_types(con, d)
+            try:
+                spec = _spec_from_json(meta["spec_json"])
+            except (ValueError, TypeError) as err:  # (SpecError included)
+                raise _bad_value(d, "meta", "key='spec_json'", "value", f"not a campaign spec: {err}") from None
+            _check_contents(con, d, spec)
             if lock is not None:
                 _attempts_schema(con)
         except StoreError:
@@ -392,19 +415,17 @@ class Store:
         if row is None:
             raise StoreError(f"run_id={run_id!r} is not a run of campaign {self.spec.name!r}; "
                              "list them with `navstress campaign export DIR --format csv`")
-        try:
-            d = json.loads(row[0])
-            if not isinstance(d, dict):
-                raise ValueError(f"a {type(d).__name__}, not an object")
-        except ValueError as err:
-            raise _bad_value(self.root, "planned", run_id, "task", err) from None
+        d = json.loads(row[0])  # (every planned task was checked when the store was opened: _check_contents)
         base = self.root.resolve()
         for key in ("world_dir", "trace_path"):  # inside the directory, links never followed
             p = os.path.normpath(base / str(d.get(key, "")))
             if not Path(p).is_relative_to(base / ("worlds" if key == "world_dir" else "traces")):
-                raise _bad_value(self.root, "planned", run_id, "task",
-                                 ValueError(f"{key} {d.get(key)!r} is not inside the campaign directory"))
+                raise _bad_value(self.root, "planned", f"run_id={_clip(run_id)}", "task",
+                                 f"its {key} {_clip(str(d.get(key)), 80)} is not inside the campaign directory")
             d[key] = p
+        if not any(m.world_dir == d["world_dir"] for m in self.plan().maps):
+            raise _bad_value(self.root, "planned", f"run_id={_clip(run_id)}", "task",
+                             f"its world_dir {_clip(d['world_dir'], 80)} is not a map of the campaign's plan")
         return RunTask(**d)
 
     def done_ids(self) -> set[str]:
@@ -607,8 +628,10 @@ class Store:
     def export(self, fmt: Literal["csv", "parquet"], out: str | Path | None = None) -> Path:
         """Write the runs table (plan order) as CSV or Parquet; returns the path written (atomically).
 
-        Columns: the run record's (``config`` the swept parameters as one JSON object, ``errors``
-        a list of strings: a Parquet list, a JSON array in CSV), then one typed column per swept
+        Columns: the run record's, keys spelled as in every table (``config`` the configuration
+        key, ``fault`` ``"nominal"`` for the nominal stack: navstress._tables.KEYS), ``params`` the
+        swept parameters as one JSON object, ``errors`` a list of strings (a Parquet list, a JSON
+        array in CSV), then one typed column per swept
         parameter (``param.<path>``: int, float, bool or text), then the numeric descriptors of
         each run's world (``world.<name>``, floats, empty where the world is not generated). A
         Parquet file's schema metadata holds ``navstress.version``, ``navstress.table`` and
@@ -619,12 +642,12 @@ class Store:
         q = (f"SELECT {', '.join('r.' + c for c in COLUMNS)}, p.task AS task FROM runs r "
              "LEFT JOIN planned p USING (run_id) ORDER BY p.seq")
         rows = [dict(r) for r in self.con.execute(q)]
-        params: dict[str, list[Any]] = {}
-        for r in rows:
-            for k in json.loads(r["config"]):
-                params.setdefault(k, [])
-        for r in rows:
-            cfg = json.loads(r["config"])
+        configs = [json.loads(r["config"]) for r in rows]
+        params: dict[str, list[Any]] = {k: [] for cfg in configs for k in cfg}
+        for r, cfg in zip(rows, configs):
+            r["params"] = r["config"]
+            r["config"] = config_key_of(r["run_id"], r["experiment"], cfg)
+            r["fault"] = r["fault"] or NOMINAL
             for k, vals in params.items():
                 vals.append(cfg.get(k))
         kinds = dict(_EXPORT_KINDS)
@@ -708,49 +731,212 @@ def _short(v: Any) -> str:
 
 def read_export(path: str | Path) -> list[dict[str, Any]]:
     """Read back an exported runs table (CSV or Parquet) as rows with typed values."""
-    return read_table(path, _EXPORT_KINDS, nullable=("fault", "trace"))
+    return read_table(path, _EXPORT_KINDS, nullable=("trace",))
 
 
 def _record(row: dict[str, Any], root: Path) -> RunRecord:
+    """A ``runs`` row as a RunRecord (every row was checked when the store was opened: _check_types)."""
     for c in _FLOATS:
         if row[c] is None:  # SQLite stores NaN as NULL
             row[c] = math.nan
-    for c, kind in (("config", dict), ("errors", list)):
-        try:
-            v = json.loads(row[c]) if isinstance(row[c], str) else row[c]
-            if not isinstance(v, kind):
-                raise ValueError(f"a {type(v).__name__}, not a JSON {'object' if kind is dict else 'array'}")
-        except ValueError as err:
-            raise _bad_value(root, "runs", row.get("run_id"), c, err) from None
-        row[c] = v
+    return RunRecord.from_row(row)
+
+
+# ---- what a stored value may be --------------------------------------------------------------
+# Every column of every table has a rule, checked for every row when a store is opened (in SQL for
+# the types, in one pass of Python for the JSON columns and how the tables agree): a damaged row is
+# one StoreError naming its table, row and column, never a traceback in whatever reads it later.
+
+
+@dataclass(frozen=True)
+class _Col:
+    """What one stored column holds: ``int`` (SQLite INTEGER, at least ``least``), ``real`` (a
+    number, infinities included; NULL where ``null``: SQLite stores NaN as NULL), ``text`` (one of ``vocab`` when
+    given), ``object`` / ``array`` (JSON text of that kind; ``array``: of strings)."""
+
+    kind: Literal["int", "real", "text", "object", "array"]
+    null: bool = False
+    least: int | None = None
+    vocab: tuple[str, ...] = ()
+
+    def expected(self) -> str:
+        what = {"int": f"an integer >= {self.least}" if self.least is not None else "an integer",
+                "real": "a number", "text": "one of " + ", ".join(self.vocab) if self.vocab else "text",
+                "object": "a JSON object", "array": "a JSON array of strings"}[self.kind]
+        return what + (" or NULL" if self.null else "")
+
+    def bad_sql(self, c: str) -> str:
+        """An SQL expression, true where column ``c`` breaks the rule in its SQLite type or range."""
+        types = {"int": ("integer",), "real": ("real", "integer")}.get(self.kind, ("text",)) + \
+            (("null",) if self.null else ())
+        p = f"typeof({c}) NOT IN ({', '.join(repr(t) for t in types)})"
+        if self.least is not None:
+            p += f" OR (typeof({c}) = 'integer' AND {c} < {self.least})"
+        if self.vocab:
+            p += f" OR (typeof({c}) = 'text' AND {c} NOT IN ({', '.join(repr(v) for v in self.vocab)}))"
+        return f"({p})"
+
+
+_SQL_TYPE = {str: "text", int: "integer", float: "real", bytes: "blob"}
+_TEXT, _TEXT_OR_NULL, _COUNT = _Col("text"), _Col("text", null=True), _Col("int", least=0)
+_RUN_COLUMNS: dict[str, _Col] = {
+    **{c: _COUNT for c, t in _TYPES.items() if t == "INTEGER"},
+    **{c: _Col("real", null=True) for c, t in _TYPES.items() if t == "REAL"},
+    "config": _Col("object"), "errors": _Col("array"), "fault": _TEXT_OR_NULL, "trace": _TEXT_OR_NULL,
+    "outcome": _Col("text", vocab=OUTCOMES)}
+#: The rule of every column of every table (a test checks that it names each column of the schema).
+RULES: dict[str, dict[str, _Col]] = {
+    "meta": {"key": _TEXT, "value": _TEXT},
+    "planned": {"run_id": _TEXT, "seq": _COUNT, "experiment": _TEXT, "config": _Col("object"), "map_index": _COUNT,
+                "run_index": _COUNT, "navigator": _TEXT, "fault": _TEXT_OR_NULL, "task": _Col("object")},
+    "runs": {**{c: _RUN_COLUMNS.get(c, _TEXT) for c in COLUMNS}, "recorded_at": _Col("real", null=True)},
+    "attempts": {"run_id": _TEXT, "attempt": _Col("int", least=1), "kind": _TEXT, "reason": _TEXT,
+                 "at": _Col("real", null=True)},
+}
+#: The planned columns a run's record repeats (they must agree).
+_SAME_AS_PLANNED = ("experiment", "map_index", "run_index", "navigator", "fault")
+
+
+def _task_fields() -> tuple[dict[str, frozenset[type]], frozenset[str]]:
+    """The exact Python types the JSON value of each RunTask field may have, and the fields that
+    may not be left out (those without a default)."""
+    kinds: dict[str, frozenset[type]] = {
+        "str": frozenset({str}), "int": frozenset({int}), "float": frozenset({int, float}),
+        "bool": frozenset({bool}), "str | None": frozenset({str, type(None)}), "dict[str, Any]": frozenset({dict})}
+    types = {f.name: kinds[str(f.type)] for f in fields(RunTask)}
+    return types, frozenset(f.name for f in fields(RunTask) if f.default is MISSING and f.default_factory is MISSING)
+
+
+_TASK_TYPES, _TASK_REQUIRED = _task_fields()
+
+
+def _row_name(table: str, row: sqlite3.Row | dict[str, Any], rowid: int) -> str:
+    """How a message names a row: its key where it has a text one, else its rowid."""
+    key = "key" if table == "meta" else "run_id"
+    v = row[key]
+    if not isinstance(v, str):
+        return f"rowid={rowid}"
+    name = f"{key}={_clip(v)}"
+    return name + (f", attempt={row['attempt']!r}" if table == "attempts" else "")
+
+
+def _clip(v: Any, n: int = 60) -> str:
+    t = repr(v)
+    return t if len(t) <= n else t[:n - 3] + "..."
+
+
+def _check_types(con: sqlite3.Connection, root: Path) -> None:
+    """Every value of every row against :data:`RULES` (its SQLite type, range, vocabulary: one SQL
+    query per table). The first damaged value is a StoreError naming table, row and column
+    (:func:`_bad_value`); :func:`_check_contents` checks the rest."""
+    tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+    for table, cols in RULES.items():
+        if table not in tables:
+            continue  # attempts: stores made before it existed (the required tables are checked before)
+        where = " OR ".join(col.bad_sql(c) for c, col in cols.items())
+        bad = con.execute(f"SELECT rowid, * FROM {table} WHERE {where} LIMIT 1").fetchone()
+        if bad is not None:
+            flags = con.execute(f"SELECT {', '.join(col.bad_sql(c) for c, col in cols.items())} FROM {table} "
+                                "WHERE rowid = ?", (bad[0],)).fetchone()
+            c = next(c for c, f in zip(cols, flags) if f)
+            v = bad[c]
+            got = "NULL" if v is None else f"{_SQL_TYPE.get(type(v), type(v).__name__)} {_clip(v)}"
+            raise _bad_value(root, table, _row_name(table, bad, bad[0]), c, f"expected {cols[c].expected()}, got {got}")
+
+
+def _check_contents(con: sqlite3.Connection, root: Path, spec: CampaignSpec) -> None:
+    """After :func:`_check_types`: the JSON columns' contents, and how the tables agree (a record's
+    keys are its planned run's, a planned task is its row's, names are the spec's)."""
+    _check_planned(con, root, spec)
+    _check_runs(con, root)
+
+
+def _json_of(root: Path, table: str, row: sqlite3.Row, rowid: int, c: str, kind: type) -> Any:
     try:
-        return RunRecord.from_row(row)
-    except (TypeError, ValueError) as err:
-        raise _bad_value(root, "runs", row.get("run_id"), "?", err) from None
+        v = json.loads(row[c])
+        if not isinstance(v, kind):
+            raise ValueError(f"a JSON {type(v).__name__}")
+        if isinstance(v, list) and not all(isinstance(x, str) for x in v):
+            raise ValueError("an item is not a string")
+    except ValueError as err:  # (JSONDecodeError included)
+        msg = " ".join(str(err).split())[:80]
+        raise _bad_value(root, table, _row_name(table, row, rowid), c,
+                         f"expected {RULES[table][c].expected()}, got {_clip(row[c], 40)}: {msg}") from None
+    return v
 
 
-def _check_rows(con: sqlite3.Connection, root: Path) -> None:
-    """Every JSON column of every row parses to the right kind (a damaged row is a one-line
-    StoreError when the store is opened, not a traceback in whatever reads it later)."""
-    for table, cols in (("runs", (("config", dict), ("errors", list))), ("planned", (("task", dict),))):
-        q = f"SELECT run_id, {', '.join(c for c, _ in cols)} FROM {table}"
-        for row in con.execute(q):
-            for j, (c, kind) in enumerate(cols, start=1):
-                v = row[j]
-                try:
-                    ok = isinstance(json.loads(v), kind) if isinstance(v, str) else False
-                except ValueError:
-                    ok = False
-                if not ok:
-                    raise _bad_value(root, table, row[0], c, ValueError(f"{str(v)[:40]!r} is not a JSON "
-                                                                        f"{'object' if kind is dict else 'array'}"))
+def _check_planned(con: sqlite3.Connection, root: Path, spec: CampaignSpec) -> None:
+    names: dict[str, set[str | None]] = {
+        "experiment": {e.name for e in spec.experiments}, "navigator": {n.name for n in spec.navigators},
+        "fault": {f for e in spec.experiments for f in spec.faults_of(e)}}
+    for row in con.execute("SELECT rowid AS rowid_, * FROM planned"):
+        rowid = row["rowid_"]
+        for c, allowed in names.items():
+            if row[c] not in allowed:
+                raise _bad_value(root, "planned", _row_name("planned", row, rowid), c,
+                                 f"{_clip(row[c])} is not a {c} of the campaign's spec")
+        config = _json_of(root, "planned", row, rowid, "config", dict)
+        task = _json_of(root, "planned", row, rowid, "task", dict)
+        why = _task_error(task, {**{c: row[c] for c in ("run_id", *_SAME_AS_PLANNED)}, "config": config})
+        if why:
+            raise _bad_value(root, "planned", _row_name("planned", row, rowid), "task", why)
 
 
-def _bad_value(root: Path, table: str, run_id: Any, column: str, err: Exception) -> StoreError:
-    msg = " ".join(str(err).split())[:120]
-    return StoreError(f"campaign={str(root)!r} has a corrupt {DB_NAME}: table {table!r}, run_id={run_id!r}, "
-                      f"column {column!r} is not valid ({msg}); restore the file from a backup, or delete that "
-                      "row and resume to run it again")
+def _task_error(task: dict[str, Any], row: dict[str, Any]) -> str | None:
+    """What is wrong with a planned task's JSON object (None: nothing), ``row`` its row's values."""
+    for name, v in task.items():
+        types = _TASK_TYPES.get(name)
+        if types is None:
+            return f"unknown field {_clip(name, 40)}"
+        if type(v) not in types or (type(v) is float and not math.isfinite(v)):
+            return f"field {name}={_clip(v, 40)} is not {' or '.join(sorted(t.__name__ for t in types))}"
+    missing = _TASK_REQUIRED - task.keys()
+    if missing:
+        return f"field {sorted(missing)[0]} is missing"
+    for name, v in row.items():
+        if task[name] != v or type(task[name]) is not type(v):
+            return f"field {name}={_clip(task[name], 40)} is not the row's {name} ({_clip(v, 40)})"
+    key = config_key_of(row["run_id"], row["experiment"], row["config"])
+    for name, path in (("world_dir", world_path(row["experiment"], key, row["map_index"])),
+                       ("trace_path", trace_path(row["experiment"], key, row["map_index"], row["run_index"],
+                                                 row["navigator"], row["fault"]))):
+        if task[name] != path:
+            return f"field {name}={_clip(task[name], 40)} is not this run's {path!r} in the campaign directory"
+    if min(task.get("map_seed", 0), task["run_seed"]) < 0:
+        return "a seed is negative"
+    return None
+
+
+def _check_runs(con: sqlite3.Connection, root: Path) -> None:
+    """Each record against its planned run (in SQL, the rows that differ in text only), its errors."""
+    differ = " OR ".join(f"r.{c} IS NOT p.{c}" for c in (*_SAME_AS_PLANNED, "config"))
+    q = (f"SELECT r.rowid AS rowid_, r.run_id, r.config, {', '.join(f'r.{c}' for c in _SAME_AS_PLANNED)}, "
+         f"p.run_id AS p_run_id, p.config AS p_config, {', '.join(f'p.{c} AS p_{c}' for c in _SAME_AS_PLANNED)} "
+         f"FROM runs r LEFT JOIN planned p USING (run_id) WHERE p.run_id IS NULL OR {differ}")
+    for row in con.execute(q):
+        rowid = row["rowid_"]
+        name = _row_name("runs", row, rowid)
+        if row["p_run_id"] is None:
+            raise _bad_value(root, "runs", name, "run_id", "not a run of the campaign's plan (table 'planned')")
+        for c in _SAME_AS_PLANNED:
+            if row[c] != row[f"p_{c}"]:
+                raise _bad_value(root, "runs", name, c, f"{_clip(row[c])} is not its planned run's "
+                                 f"{_clip(row[f'p_{c}'])}")
+        config = _json_of(root, "runs", row, rowid, "config", dict)
+        if config != json.loads(row["p_config"]):  # (the same JSON in another text passes)
+            raise _bad_value(root, "runs", name, "config", f"{_clip(row['config'], 40)} is not its planned run's "
+                             f"{_clip(row['p_config'], 40)}")
+    for row in con.execute("SELECT rowid AS rowid_, run_id, errors FROM runs WHERE errors IS NOT '[]'"):
+        _json_of(root, "runs", row, row["rowid_"], "errors", list)
+
+
+def _bad_value(root: Path, table: str, row: str, column: str, why: str) -> StoreError:
+    """The one line of a damaged value: table, row (``run_id='...'``), column, what is wrong."""
+    msg = " ".join(str(why).split())[:200]
+    fix = "delete that row and resume to run it again" if table in ("runs", "attempts") else \
+        "run the campaign again into a new -o"
+    return StoreError(f"campaign={str(root)!r} has a corrupt {DB_NAME}: table {table!r}, {row}, column {column!r} "
+                      f"is not valid ({msg}); restore the file from a backup, or {fix}")
 
 
 def _task_json(t: RunTask, root: Path) -> str:

@@ -20,7 +20,7 @@ from typing import Annotated, Any
 import typer
 from rich.table import Table
 
-from navstress import __version__, _files, _json
+from navstress import _files, _json
 from navstress._console import console, literal
 from navstress._percent import percent
 from navstress.campaign.executors import run_campaign
@@ -172,24 +172,22 @@ def export(
     directory: Annotated[Path, typer.Argument(help="Campaign directory.")],
     fmt: Annotated[str, typer.Option("--format", "-f", help="csv or parquet.")] = "csv",
     out: Annotated[Path | None, typer.Option("--output", "-o", help="File to write (default DIR/TABLE.FORMAT).")] = None,
-    table: Annotated[str, typer.Option("--table", help="runs (one row per run) or verdicts (one row per world, "
-                                       "then per configuration: pass probability, exact interval, verdict).")] = "runs",
+    table: Annotated[str, typer.Option("--table", help=(
+        "runs (one row per run), verdicts (one row per world: pass probability, exact interval, verdict) or "
+        "configurations (the same per configuration, its worlds pooled); the same key columns in each."))] = "runs",
 ) -> None:
-    """Write the runs table, or the verdicts table, as CSV or Parquet."""
+    """Write the runs table, the worlds' verdicts or the configurations' verdicts, as CSV or Parquet."""
     if fmt not in ("csv", "parquet"):
         raise SpecError("--format", fmt, "csv or parquet")
-    if table not in ("runs", "verdicts"):
-        raise SpecError("--table", table, "runs or verdicts")
+    if table not in ("runs", "verdicts", "configurations"):
+        raise SpecError("--table", table, "runs, verdicts or configurations")
     if out is not None and out.is_dir():
         raise SpecError("--output", str(out), f"a {fmt} file path, not a directory")
-    if table == "verdicts":
-        from navstress.analysis.verdicts import campaign_verdicts, write_verdicts  # local: scipy
+    if table != "runs":
+        from navstress.analysis.verdicts import export_verdicts  # local: scipy
 
-        v = campaign_verdicts(directory)
-        with Store.open(directory) as store:
-            meta = {"navstress.version": __version__, "navstress.table": "verdicts", "navstress.spec": store.spec_text()}
-        path = write_verdicts(v, fmt, out if out is not None else Path(directory) / f"verdicts.{fmt}", meta)
-        typer.echo(literal(f"wrote {path} ({len(v.worlds)} worlds, {len(v.configurations)} configurations)"))
+        path, n = export_verdicts(directory, table, fmt, out if out is not None else Path(directory) / f"{table}.{fmt}")
+        typer.echo(literal(f"wrote {path} ({n} {'worlds' if table == 'verdicts' else table})"))
         return
     with Store.open(directory) as store:
         path = store.export(fmt, out)  # type: ignore[arg-type]

@@ -92,7 +92,8 @@ class Evaluated:
 
     def to_json(self) -> dict[str, Any]:
         c = self.candidate
-        return {"generation": self.generation, "key": c.key, "map_seed": c.map_seed, "params": c.params,
+        return {"generation": self.generation, "experiment": generation_name(self.generation), "config": c.key,
+                "key": c.key, "map_seed": c.map_seed, "params": c.params,
                 "fitness": self.fitness, "estimate": self.estimate, "events": self.events, "trials": self.trials,
                 "descriptors": list(self.descriptors), "runs": self.runs, "runs_spent": self.runs_spent,
                 "found": self.found}
@@ -110,7 +111,8 @@ class Elite:
 
     def to_json(self) -> dict[str, Any]:
         c = self.candidate
-        return {"key": c.key, "map_seed": c.map_seed, "params": c.params, "world": c.world_overrides,
+        return {"experiment": CONFIRM, "config": c.key, "key": c.key, "map_seed": c.map_seed, "params": c.params,
+                "world": c.world_overrides,
                 "fitness": self.fitness, "descriptors": list(self.descriptors), "generation": self.generation,
                 "confirmed": self.confirmation.confirmed, "confirmation": self.confirmation.to_json()}
 

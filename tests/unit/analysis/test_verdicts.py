@@ -17,8 +17,9 @@ from typer.testing import CliRunner
 from navstress.analysis.analyze import analyze
 from navstress.analysis.report import build_report
 from navstress.analysis.stats import clopper_pearson
-from navstress.analysis.verdicts import (DEFAULT_CONFIDENCE, DEFAULT_THRESHOLD, VERDICT_COLUMNS, VerdictRule,
-                                         read_verdicts, rule_of, rules_of, verdicts, world_verdict, write_verdicts)
+from navstress.analysis.verdicts import (CONFIGURATION_COLUMNS, DEFAULT_CONFIDENCE, DEFAULT_THRESHOLD,
+                                         VERDICT_COLUMNS, VerdictRule, read_verdicts, rule_of, rules_of, verdicts,
+                                         world_verdict, write_verdicts)
 from navstress.campaign.store import Store
 from navstress.cli import app
 from navstress.errors import SpecError
@@ -84,23 +85,33 @@ def test_export_verdicts_table(camp: Path, tmp_path: Path, fmt: str) -> None:
     out = tmp_path / f"v.{fmt}"
     r = CliRunner().invoke(app, ["campaign", "export", str(camp), "--table", "verdicts", "-f", fmt, "-o", str(out)])
     assert r.exit_code == 0, r.output
+    assert r.output.strip().endswith(f"({len(WORLDS) + 1} worlds)")
     rows = read_verdicts(out)
     assert all(list(row) == list(VERDICT_COLUMNS) for row in rows)
     a = analyze(camp)
     assert [(r["scope"], r["config"], r["map_index"], r["fault"], r["runs"], r["successes"], r["verdict"])
             for r in rows] == (
-        [("world", w.config_key, w.map_index, w.fault, w.runs, w.successes, w.verdict) for w in a.verdicts.worlds]
-        + [("configuration", c.config_key, None, c.fault, c.runs, c.successes, c.verdict)
-           for c in a.verdicts.configurations])
+        [("world", w.config_key, w.map_index, w.fault, w.runs, w.successes, w.verdict) for w in a.verdicts.worlds])
     assert rows[0]["ci_low"] == pytest.approx(a.verdicts.worlds[0].ci[0])
-    if fmt == "parquet":  # the spec and version travel with the table
+    # the configurations' verdicts: their own table, keyed the same way less the map
+    out_c = tmp_path / f"c.{fmt}"
+    r = CliRunner().invoke(app, ["campaign", "export", str(camp), "--table", "configurations", "-f", fmt, "-o",
+                                 str(out_c)])
+    assert r.exit_code == 0 and r.output.strip().endswith("(3 configurations)"), r.output
+    rows_c = read_verdicts(out_c, "configurations")
+    assert all(list(row) == list(CONFIGURATION_COLUMNS) for row in rows_c)
+    assert [(r["scope"], r["config"], r["fault"], r["worlds"], r["runs"], r["successes"], r["verdict"])
+            for r in rows_c] == [("configuration", c.config_key, c.fault, c.worlds, c.runs, c.successes, c.verdict)
+                                 for c in a.verdicts.configurations]
+    if fmt == "parquet":  # the spec and version travel with the tables
         import pyarrow.parquet as pq
 
         import navstress
 
-        meta = pq.read_schema(out).metadata
-        assert meta[b"navstress.table"] == b"verdicts" and meta[b"navstress.version"] == navstress.__version__.encode()
-        assert meta[b"navstress.spec"].decode() == (camp / "spec.yaml").read_text()
+        for path, table in ((out, b"verdicts"), (out_c, b"configurations")):
+            meta = pq.read_schema(path).metadata
+            assert meta[b"navstress.table"] == table and meta[b"navstress.version"] == navstress.__version__.encode()
+            assert meta[b"navstress.spec"].decode() == (camp / "spec.yaml").read_text()
     # the runs export is what it was
     r2 = CliRunner().invoke(app, ["campaign", "export", str(camp), "-o", str(tmp_path / "runs.csv")])
     assert r2.exit_code == 0 and (tmp_path / "runs.csv").read_text().startswith("run_id,")
@@ -169,7 +180,8 @@ def test_rule_of_prefers_the_experiments_own_rule() -> None:
     by = {c.experiment: c for c in v.configurations}
     assert (by["trees"].threshold, by["trees"].confidence, by["trees"].verdict) == (0.6, 0.9, "passes")
     assert (by["smooth"].threshold, by["smooth"].verdict) == (0.8, "undecided")  # 12/12 does not prove 0.8
-    assert {r["threshold"] for r in v.rows() if r["experiment"] == "trees"} == {0.6}
+    assert {r["threshold"] for t in ("verdicts", "configurations") for r in v.rows(t) if r["experiment"] == "trees"} \
+        == {0.6}
 
 
 def test_indifference_reaches_every_verdict_and_the_export(tmp_path: Path) -> None:
@@ -183,8 +195,9 @@ def test_indifference_reaches_every_verdict_and_the_export(tmp_path: Path) -> No
     assert [w.verdict for w in zone.worlds] == ["passes", "fails"]
     assert {w.indifference for w in zone.worlds + zone.configurations} == {0.25}
     assert zone.to_json()["indifference"] == 0.25 and zone.to_json()["worlds"][0]["indifference"] == 0.25
-    dest = write_verdicts(zone, "csv", tmp_path / "v.csv")
-    assert {r["indifference"] for r in read_verdicts(dest)} == {0.25}
+    for table in ("verdicts", "configurations"):
+        dest = write_verdicts(zone, "csv", tmp_path / f"{table}.csv", table=table)
+        assert {r["indifference"] for r in read_verdicts(dest, table)} == {0.25}
 
 
 def test_rule_of_the_store_spec_is_the_default(camp: Path) -> None:

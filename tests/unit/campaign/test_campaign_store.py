@@ -142,9 +142,14 @@ def test_export_roundtrip(tmp_path: Path, fmt: str) -> None:
         out = s.export(fmt, tmp_path / f"runs.{fmt}")  # type: ignore[arg-type]
     rows = read_export(out)
     params = list(dict.fromkeys(k for r in recs for k in r.config))
-    # the record's columns, then one typed column per swept parameter (no world is generated here)
-    assert [list(r) for r in rows] == [list(COLUMNS) + [f"param.{k}" for k in params]] * 5
-    back = [RunRecord.from_row(r) for r in rows]
+    # the record's columns (with params after config), then one typed column per swept parameter (no
+    # world is generated here)
+    columns = [c for name in COLUMNS for c in ((name, "params") if name == "config" else (name,))]
+    assert [list(r) for r in rows] == [columns + [f"param.{k}" for k in params]] * 5
+    # the keys are those of every table: config the configuration key, fault "nominal" for none
+    assert [(r["config"], r["fault"]) for r in rows] == [(b.run_id.split("/")[1], b.fault or "nominal") for b in recs]
+    back = [RunRecord.from_row({**r, "config": r["params"], "fault": None if r["fault"] == "nominal" else r["fault"]})
+            for r in rows]
     for a, b, row in zip(back, recs, rows):
         assert a == replace(b, trace=(os.path.relpath(b.trace, tmp_path / "c") if b.trace else None))
         assert {k: row[f"param.{k}"] for k in b.config} == b.config

@@ -266,7 +266,7 @@ def test_extended_records_and_export_keep_plan_order(tmp_path: Path) -> None:
         out = s.export("csv", tmp_path / "runs.csv")
     rows = read_export(out)
     assert [r["run_id"] for r in rows] == [ids[0], ids[len(ids) // 2], ids[-1]]
-    assert json.loads(rows[2]["config"]) == {"obstacles.obstruction.tree": 1}
+    assert json.loads(rows[2]["params"]) == {"obstacles.obstruction.tree": 1} and rows[2]["config"] == "c1"
 
 
 def test_records_of_one_experiment_are_that_experiments_records_in_plan_order(tmp_path: Path) -> None:
