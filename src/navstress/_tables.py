@@ -132,3 +132,17 @@ def read_table(path: str | Path, columns: Mapping[str, Kind], nullable: Collecti
             d.update({c: _guess(v) for c, v in r.items() if c not in columns})
             out.append(d)
     return out
+
+
+def config_key_of(rid: str, experiment: str, config: Mapping[str, Any]) -> str:
+    """The configuration key of run ``rid`` of ``experiment`` (what every table and JSON output
+    calls ``config``): the run id's second part, else (a run id of another form) a stable text of
+    the swept parameters ``config``.
+
+        >>> config_key_of("trees/tree=4/m0/r1/reference-v1/nominal", "trees", {})
+        'tree=4'
+    """
+    parts = rid.split("/")
+    if len(parts) >= 6 and parts[0] == experiment:
+        return "/".join(parts[1:-4])
+    return ",".join(f"{k.rsplit('.', 1)[-1]}={v}" for k, v in sorted(config.items())) or "base"

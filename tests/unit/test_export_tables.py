@@ -246,3 +246,18 @@ def test_the_search_names_its_candidates_with_the_same_keys() -> None:
     for data, experiment in ((ev, generation_name(3)), (el, CONFIRM)):
         assert (data["experiment"], data["config"], data["key"]) == (experiment, "k3", "k3")
         check_json_vocabulary(data)
+
+
+@pytest.mark.parametrize("fault", [None, FAULT])
+@pytest.mark.parametrize("config", [{}, {"obstacles.tree": 4}, {"ground.s": 2, "ground.d": 1.5}])
+def test_a_single_worlds_records_spell_the_keys_the_same_way(fault: str | None, config: dict[str, Any]) -> None:
+    """``navstress run``'s runs.jsonl (and its --json records) use the tables' vocabulary too:
+    ``config`` a key, ``params`` the parameters, ``fault`` "nominal" for the nominal stack."""
+    from navstress.run.batch import failure_record, record_line
+    from navstress.run.record import RunTask
+
+    task = RunTask(run_id="run-002", experiment="single", world_dir="w", run_seed=1, trace_path="t.mcap", fault=fault, config=config)
+    line = json.loads(record_line(failure_record(task, "died")))
+    assert check_json_vocabulary(line) >= 4, line
+    assert line["fault"] == (fault or "nominal") and line["params"] == config
+    assert line["config"] == (",".join(f"{k.rsplit('.', 1)[-1]}={v}" for k, v in sorted(config.items())) or "base")

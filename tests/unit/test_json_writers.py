@@ -108,7 +108,7 @@ def test_runs_jsonl_line_is_strict_json(x: float) -> None:
     assert line.endswith("\n") and line.count("\n") == 1
     rec = strict_loads(line)
     assert [rec[k] for k in ("goal_distance_m", "tortuousness", "duration_s", "first_collision_s")] == [None] * 4
-    assert rec["config"] == {"x": None}
+    assert rec["params"] == {"x": None} and rec["config"] == "x=nan" and rec["fault"] == "nominal"
     assert strict_lines(record_line(failure_record(_task(), "died")))[0]["goal_distance_m"] is None
 
 

@@ -36,6 +36,7 @@ from pathlib import Path
 from typing import Any
 
 from navstress._tables import NOMINAL as NOMINAL  # the fault of the nominal stack
+from navstress._tables import config_key_of as config_key_of  # the configuration key of a run
 from navstress.campaign.spec import CampaignSpec
 from navstress.run.record import RunTask
 from navstress.seeding import derive_seed
@@ -143,20 +144,6 @@ def trace_path(experiment: str, config_key: str, map_index: int, run_index: int,
                fault: str | None) -> str:
     """Where a run's trace lives, relative to the campaign directory."""
     return f"traces/{experiment}/{config_key}/m{map_index}/r{run_index}-{navigator}-{fault or NOMINAL}.mcap"
-
-
-def config_key_of(rid: str, experiment: str, config: Mapping[str, Any]) -> str:
-    """The configuration key of run ``rid`` of ``experiment`` (what every table and JSON output
-    calls ``config``): the run id's second part, else (a run id of another form) a stable text of
-    the swept parameters ``config``.
-
-        >>> config_key_of("trees/tree=4/m0/r1/reference-v1/nominal", "trees", {})
-        'tree=4'
-    """
-    parts = rid.split("/")
-    if len(parts) >= 6 and parts[0] == experiment:
-        return "/".join(parts[1:-4])
-    return ",".join(f"{k.rsplit('.', 1)[-1]}={v}" for k, v in sorted(config.items())) or "base"
 
 
 def map_seed(seed: int, experiment: str, config_key: str, map_index: int) -> int:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import shutil
-from dataclasses import asdict
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -19,7 +18,8 @@ from navstress.cli._common import (MAX_RUNS, MAX_SEED, MAX_TIMEOUT_S, MAX_WALL_S
                                    bounded_int, live_banner, live_settings, load_navigator_config, number)
 from navstress.errors import SpecError, WorldFileError
 from navstress.nav.registry import build_and_close
-from navstress.run.batch import batch_picture, check_buildable, default_wall_limit_s, plan_batch, run_batch
+from navstress._tables import NOMINAL
+from navstress.run.batch import batch_picture, check_buildable, default_wall_limit_s, plan_batch, record_dict, run_batch
 from navstress.world.world import World
 
 app = typer.Typer(rich_markup_mode=None)
@@ -106,10 +106,10 @@ def run_cmd(
     pic = batch_picture(world_dir, records, output / "trajectories.png",
                         f"{navigator}{' + ' + fault if fault else ''}: {n} run(s) on {world_dir.name}")
     if as_json:
-        typer.echo(dumps({"world": str(world_dir), "navigator": navigator, "fault": fault, "runs": len(records),
+        typer.echo(dumps({"world": str(world_dir), "navigator": navigator, "fault": fault or NOMINAL, "runs": len(records),
                           "counts": {o: sum(r.outcome == o for r in records) for o in OUTCOMES},
                           "output": str(output), "records_file": str(output / "runs.jsonl"), "picture": str(pic),
-                          "records": [asdict(r) for r in records]}))
+                          "records": [record_dict(r) for r in records]}))
         return
     table = Table(title=f"{navigator}{' + ' + fault if fault else ''} on {world_dir}")
     for col in ("run", "outcome", "sim s", "wall s", "goal m", "path m", "reason"):

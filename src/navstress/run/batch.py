@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from navstress import _files, _json
+from navstress._tables import NOMINAL, config_key_of
 from navstress.errors import NavstressError
 from navstress.isolate import Worker
 from navstress.run.mission import execute
@@ -129,8 +130,19 @@ def check_buildable(fn: Callable[..., None], *args: Any, wall_limit_s: float = 1
 
 
 def record_line(rec: RunRecord) -> str:
-    """One line of ``runs.jsonl``: the record as strict JSON (an unknown number is ``null``)."""
-    return _json.dumps(asdict(rec), sort_keys=True) + "\n"
+    """One line of ``runs.jsonl``: the record as strict JSON (an unknown number is ``null``), its
+    keys spelled as in every table (navstress._tables.KEYS): ``config`` the configuration key,
+    ``params`` the world's parameters, ``fault`` ``"nominal"`` for the nominal stack."""
+    return _json.dumps(record_dict(rec), sort_keys=True) + "\n"
+
+
+def record_dict(rec: RunRecord) -> dict[str, Any]:
+    """A run's record as ``runs.jsonl`` and ``navstress run --json`` write it (see :func:`record_line`)."""
+    d = asdict(rec)
+    d["params"] = d["config"]
+    d["config"] = config_key_of(rec.run_id, rec.experiment, rec.config)
+    d["fault"] = rec.fault or NOMINAL
+    return d
 
 
 def run_batch(tasks: list[RunTask], out: Path, on_done: Callable[[RunRecord], None] | None = None, *,
