@@ -3,8 +3,9 @@
 (A module of its own, below ``navstress.nav.check``, ``navstress.run`` and
 ``navstress.campaign``, so that all three use it; it needs only ``navstress.nav.registry``.)
 
-``navstress run``, ``navstress nav check`` and the campaign's local executor run the navigator
-in worker processes (spawn context) with a wall-clock limit, so that a navigator that calls
+``navstress run``, ``navstress nav check``, ``navstress replay`` and the campaign's local executor
+(campaigns, searches) run the navigator in worker processes (spawn context) with a wall-clock
+limit, so that a navigator that calls
 ``sys.exit``, ``os._exit``, segfaults, kills itself or loops forever costs its own run (or
 check), never the command:
 

@@ -50,12 +50,13 @@ class CampaignResult:
 BUILD_LIMIT_S = 120.0
 
 
-def check_runnable(spec: CampaignSpec) -> None:
+def check_runnable(spec: CampaignSpec, *, build_limit_s: float = BUILD_LIMIT_S) -> None:
     """Every navigator and fault of ``spec`` exists, every navigator accepts its config and the
     ``sim:`` overrides are a valid SimConfig (SpecError naming the field otherwise). Nothing is
     written and no run is started (navigator factories validate their config, see
     :func:`navstress.nav.registry.validate_config`; one without a ``validate_config`` hook is built
-    to validate it, in a worker process: this process never runs a navigator's code)."""
+    to validate it, in a worker process: this process never runs a navigator's code; at most
+    ``build_limit_s`` seconds, a campaign's per-run limit when it is shorter)."""
     targets = {n.name: n.target for n in spec.navigators if n.target}
     for i, nav in enumerate(spec.navigators):
         if nav.name in targets:
@@ -94,7 +95,7 @@ def check_runnable(spec: CampaignSpec) -> None:
                 raise SpecError(where, nav.target or nav.name, "a navigator that can be loaded",
                                 str(err)) from None
         if built:  # a navigator that exits, crashes or hangs there is left to its runs to classify
-            check_buildable(registry.validate_each, built, wall_limit_s=BUILD_LIMIT_S)
+            check_buildable(registry.validate_each, built, wall_limit_s=build_limit_s)
     finally:
         registry._registered.clear()
         registry._registered.update(saved)
@@ -124,9 +125,9 @@ def run_campaign(spec_path: str | Path, directory: str | Path, *, workers: int |
     if executor not in ("local", "ray"):
         raise SpecError("--executor", executor, "local or ray")
     spec, text = load_campaign(spec_path, max_runs=None if accept_large else MAX_PLANNED_RUNS)
-    check_runnable(spec)
-    t0 = time.perf_counter()
     limit = wall_limit_s if wall_limit_s is not None else default_wall_limit_s(spec.timeout_s)
+    check_runnable(spec, build_limit_s=min(limit, BUILD_LIMIT_S))
+    t0 = time.perf_counter()
     targets = {n.name: n.target for n in spec.navigators if n.target}
     with ExitStack() as stack:
         ex: LocalExecutor | RayExecutor
