@@ -167,6 +167,7 @@ def _sleeper(pidfile: str, spawn: str, sleep_s: float) -> None:
         with open(pidfile, "a") as f:
             f.write(f"{p.pid}\n")
         return
+    before = len(_lines(pidfile))
     pid = os.fork()
     if pid == 0:  # the child: never returns into the navigator
         try:
@@ -182,18 +183,18 @@ def _sleeper(pidfile: str, spawn: str, sleep_s: float) -> None:
             os._exit(0)
     if spawn == "double":
         os.waitpid(pid, 0)
-    else:  # the pid is in the file before the navigator goes on
-        deadline = time.monotonic() + 10.0
-        while time.monotonic() < deadline and not _has_line(pidfile, pid):
-            time.sleep(0.005)
+    # the pid is in the file before the navigator goes on
+    deadline = time.monotonic() + 10.0
+    while pidfile != os.devnull and time.monotonic() < deadline and len(_lines(pidfile)) <= before:
+        time.sleep(0.005)
 
 
-def _has_line(pidfile: str, pid: int) -> bool:
+def _lines(pidfile: str) -> list[str]:
     try:
         with open(pidfile) as f:
-            return str(pid) in f.read().split()
+            return f.read().split()
     except OSError:
-        return False
+        return []
 
 
 class Escapes(_Base):
