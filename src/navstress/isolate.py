@@ -436,6 +436,8 @@ class Child:
     def _unreaped(self) -> bool:
         """The keeper's pid is still this process's child (running, or ended and not reaped):
         its process group id cannot be anyone else's."""
+        if not hasattr(os, "waitid"):  # (not on macOS): as multiprocessing knows it
+            return self.proc._popen is not None and self.proc._popen.returncode is None
         try:
             os.waitid(os.P_PID, self.proc.pid, os.WEXITED | os.WNOHANG | os.WNOWAIT)
         except (ChildProcessError, OSError):
@@ -444,6 +446,8 @@ class Child:
 
     def _running(self) -> bool:
         """The keeper has not ended (it is not reaped here: see :meth:`_unreaped`)."""
+        if not hasattr(os, "waitid"):
+            return bool(self.proc.is_alive())
         try:
             got = os.waitid(os.P_PID, self.proc.pid, os.WEXITED | os.WNOHANG | os.WNOWAIT)
         except (ChildProcessError, OSError):
