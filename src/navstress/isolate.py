@@ -3,13 +3,26 @@
 (A module of its own, below ``navstress.nav.check``, ``navstress.run`` and
 ``navstress.campaign``, so that all three use it; it needs only ``navstress.nav.registry``.)
 
-``navstress run``, ``navstress nav check`` and the campaign's local executor run the navigator
-in worker processes (spawn context) with a wall-clock limit, so that a navigator that calls
+``navstress run``, ``navstress nav check``, ``navstress replay`` and the campaign's local executor
+(campaigns, searches) run the navigator in worker processes (spawn context) with a wall-clock
+limit, so that a navigator that calls
 ``sys.exit``, ``os._exit``, segfaults, kills itself or loops forever costs its own run (or
 check), never the command:
 
 - the worker dies with its parent (Linux ``PR_SET_PDEATHSIG`` plus a watch thread) and ignores
   SIGINT (Ctrl-C is the parent's: it stops the command and kills the worker);
+- what the navigator starts ends with its call: the process the parent starts is a *keeper*
+  (a session and process group of its own, a child subreaper) that forks the worker and
+  never runs the code under test. The worker is a subreaper too and, after each call, kills
+  every process below it (children, grandchildren, ``setsid``/double-forked daemons: with a
+  subreaper, an orphan is reparented to it, never to init). When the worker ends, however it
+  ends (``os._exit``, a signal, killed at the wall-clock limit, the parent gone), the keeper
+  kills what is left below it, then ends with the worker's own exit status, so the parent
+  sees "exit code 7" or "signal SIGSEGV" as before; the parent finally kills the process
+  group. Nothing the navigator started outlives its run, holding the command's stdout or
+  stderr open (:func:`end_descendants`). What escapes: a process that another service starts
+  for it (a container runtime, ``systemd-run``), and anything after the keeper itself is
+  SIGKILLed from outside (its group is still killed; a ``setsid`` daemon is not);
 - the worker's standard output is its standard error (:func:`stdout_to_stderr`): what the
   navigator prints never mixes into the command's standard output (a ``--json`` document);
 - the parent waits for each answer at most the wall-clock limit, then kills the worker;
@@ -33,6 +46,7 @@ import multiprocessing as mp
 import multiprocessing.connection as mpc
 import os
 import pickle
+import resource
 import signal
 import sys
 import threading
@@ -42,10 +56,11 @@ from typing import Any
 
 from navstress.nav import registry
 
-__all__ = ["Child", "Worker", "describe_exit", "die_with_parent", "registered_targets", "report",
-           "stdout_to_stderr"]
+__all__ = ["Child", "Worker", "describe_exit", "die_with_parent", "end_descendants", "registered_targets",
+           "report", "stdout_to_stderr"]
 
 _conn: mpc.Connection | None = None  # the worker's end of its pipe (set in the worker only)
+_worker_pid = 0  # in a keeper: its worker's process id
 
 
 def describe_exit(code: int | None) -> str:
@@ -83,25 +98,131 @@ def report(message: Any) -> None:
         _conn.send(("message", message))
 
 
-def die_with_parent(parent_pid: int) -> None:
+_PR_SET_PDEATHSIG = 1
+_PR_SET_CHILD_SUBREAPER = 36
+
+
+def _prctl(option: int, value: int) -> bool:
+    """Linux ``prctl(option, value)``; False where it is not there or fails."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        libc = ctypes.CDLL("libc.so.6", use_errno=True)
+        return int(libc.prctl(option, value, 0, 0, 0)) == 0
+    except (OSError, AttributeError):
+        return False
+
+
+def die_with_parent(parent_pid: int, sig: int = signal.SIGKILL, *, watch: bool = True) -> None:
     """In a worker process: die when ``parent_pid`` does (PR_SET_PDEATHSIG on Linux, plus a
-    watch thread), so a killed parent leaves no orphan writing files behind it."""
-    if sys.platform.startswith("linux"):
-        try:
-            libc = ctypes.CDLL("libc.so.6", use_errno=True)
-            libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
-        except OSError:
-            pass
+    watch thread), so a killed parent leaves no orphan writing files behind it. ``sig``: the
+    signal this process gets then (the keeper's is SIGTERM: it ends its worker first);
+    ``watch``: start the watch thread now (else call :func:`_watch_parent` later)."""
+    _prctl(_PR_SET_PDEATHSIG, int(sig))
     if os.getppid() != parent_pid:
         os._exit(1)
+    if watch:
+        _watch_parent(parent_pid, sig)
+
+
+def _watch_parent(parent_pid: int, sig: int) -> None:
+    """A thread that sends ``sig`` to this process once ``parent_pid`` is no longer its parent
+    (where PR_SET_PDEATHSIG is not there, or was set too late)."""
 
     def watch() -> None:
         while True:
             time.sleep(0.5)
             if os.getppid() != parent_pid:
-                os._exit(1)
+                if sig == signal.SIGKILL:
+                    os._exit(1)
+                os.kill(os.getpid(), sig)
+                return
 
     threading.Thread(target=watch, daemon=True).start()
+
+
+def _has_children() -> bool:
+    """Whether this process has any child, running or a zombie (no /proc read: one system call)."""
+    try:
+        os.waitid(os.P_ALL, 0, os.WEXITED | os.WNOHANG | os.WNOWAIT)
+    except ChildProcessError:
+        return False
+    except (AttributeError, OSError):  # no waitid here: assume there may be some
+        return True
+    return True
+
+
+def _process_table() -> dict[int, tuple[str, int]]:
+    """Every process's (state, parent pid), from /proc (empty where there is no /proc)."""
+    table: dict[int, tuple[str, int]] = {}
+    try:
+        entries = os.listdir("/proc")
+    except OSError:
+        return table
+    for name in entries:
+        if not name.isdigit():
+            continue
+        try:
+            with open(f"/proc/{name}/stat", "rb") as f:
+                text = f.read()
+        except OSError:  # gone meanwhile
+            continue
+        fields = text[text.rindex(b")") + 2:].split(b" ", 2)  # after "pid (comm) "
+        table[int(name)] = (fields[0].decode("ascii", "replace"), int(fields[1]))
+    return table
+
+
+def _below(root: int, table: dict[int, tuple[str, int]]) -> list[int]:
+    """The processes below ``root`` in ``table`` (children first, then theirs)."""
+    kids: dict[int, list[int]] = {}
+    for pid, (_state, ppid) in table.items():
+        kids.setdefault(ppid, []).append(pid)
+    out: list[int] = []
+    todo = list(kids.get(root, ()))
+    while todo:
+        pid = todo.pop()
+        out.append(pid)
+        todo += kids.get(pid, ())
+    return out
+
+
+def end_descendants(bound_s: float = 5.0) -> list[int]:
+    """In this process: SIGKILL every process below it and reap its children; return those
+    still there after ``bound_s`` seconds (a process stuck in the kernel), normally none.
+
+    Complete in a child subreaper (the worker and its keeper are: an orphan below it is
+    reparented to it, so every process it started, ``setsid`` or double-forked ones included,
+    stays below it); it costs one system call when there is nothing to end."""
+    me = os.getpid()
+    deadline = time.monotonic() + bound_s
+    left: list[int] = []
+    while _has_children():
+        table = _process_table()
+        if not table:  # no /proc: the children are unknown; reap what has ended
+            _reap_ended()
+            return []
+        left = [pid for pid in _below(me, table) if table[pid][0] not in ("Z", "X")]
+        for pid in left:
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except OSError:  # gone, or not ours to kill
+                pass
+        _reap_ended()
+        if not left or time.monotonic() > deadline:
+            break
+        time.sleep(0.002)
+    return left
+
+
+def _reap_ended() -> None:
+    """Reap every child of this process that has ended."""
+    while True:
+        try:
+            pid, _status = os.waitpid(-1, os.WNOHANG)
+        except ChildProcessError:
+            return
+        if pid == 0:
+            return
 
 
 def stdout_to_stderr() -> None:
@@ -117,13 +238,78 @@ def stdout_to_stderr() -> None:
 
 def _worker_main(conn: mpc.Connection, parent_pid: int, targets: dict[str, Any], preload: tuple[str, ...],
                  warm: Callable[[], object] | None) -> None:
+    """The process the parent started: the keeper of one worker (module doc). It takes a session
+    of its own and becomes a child subreaper, forks the worker (which runs :func:`_serve`), then
+    waits for it and ends what it left (:func:`_keep`)."""
+    try:
+        os.setsid()  # its own session and process group: the parent kills the group at the end
+    except OSError:
+        pass
+    _prctl(_PR_SET_CHILD_SUBREAPER, 1)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's business
+    signal.signal(signal.SIGTERM, _keeper_stop)  # from the parent (kill) or when it dies (PDEATHSIG)
+    stdout_to_stderr()  # the keeper holds none of the command's stdout either
+    die_with_parent(parent_pid, signal.SIGTERM, watch=False)  # no thread before the fork
+    keeper = os.getpid()
+    worker = os.fork()
+    if worker == 0:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        _serve(conn, keeper, targets, preload, warm)  # then back to multiprocessing: a normal exit
+        return
+    global _worker_pid
+    _worker_pid = worker
+    conn.close()
+    _watch_parent(parent_pid, signal.SIGTERM)
+    _keep(worker)
+
+
+def _keeper_stop(signum: int, frame: Any) -> None:
+    """The keeper's SIGTERM: kill the worker (:func:`_keep` then ends what is below it, and
+    the keeper); before the worker is forked, end at once."""
+    if _worker_pid == 0:
+        os._exit(1)
+    try:
+        os.kill(_worker_pid, signal.SIGKILL)
+    except OSError:  # ended already: its status stands
+        pass
+
+
+def _keep(worker: int) -> None:
+    """The keeper's loop: reap whatever ends below it until ``worker`` has, end what is left,
+    exit as the worker did. Never returns."""
+    while True:
+        try:
+            pid, status = os.waitpid(-1, 0)
+        except ChildProcessError:
+            status = 0
+            break
+        if pid == worker:
+            break
+    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})  # the worker has ended: finish the cleanup
+    end_descendants()
+    code = os.waitstatus_to_exitcode(status)
+    if code < 0:  # the same signal, so that the parent says "signal SIGSEGV"
+        try:
+            resource.setrlimit(resource.RLIMIT_CORE, (0, resource.getrlimit(resource.RLIMIT_CORE)[1]))
+            if -code not in (signal.SIGKILL, signal.SIGSTOP):
+                signal.signal(-code, signal.SIG_DFL)
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, {-code})
+            os.kill(os.getpid(), -code)
+        except (OSError, ValueError):
+            pass
+        os._exit(128 - code)
+    os._exit(code)
+
+
+def _serve(conn: mpc.Connection, keeper: int, targets: dict[str, Any], preload: tuple[str, ...],
+           warm: Callable[[], object] | None) -> None:
     """The worker loop: get ready (imports, registrations, ``warm``), answer ``("ready", None)``;
     then per ``(fn, args)`` received, ``("started", None)`` and ``("ok", value)`` or
-    ``("raised", exception)``; None (or a closed pipe) ends it."""
+    ``("raised", exception)``, each once every process the call started has been ended;
+    None (or a closed pipe) ends it."""
     global _conn
-    die_with_parent(parent_pid)
-    stdout_to_stderr()
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's business
+    die_with_parent(keeper)
+    _prctl(_PR_SET_CHILD_SUBREAPER, 1)
     for module in preload:  # imports before "ready": the wall-clock limit measures the work
         try:
             importlib.import_module(module)
@@ -136,6 +322,7 @@ def _worker_main(conn: mpc.Connection, parent_pid: int, targets: dict[str, Any],
             pass
     if warm is not None:
         warm()
+        end_descendants()
     _conn = conn
     conn.send(("ready", None))
     while True:
@@ -151,6 +338,7 @@ def _worker_main(conn: mpc.Connection, parent_pid: int, targets: dict[str, Any],
             answer: tuple[str, Any] = ("ok", fn(*args))
         except BaseException as err:  # sys.exit, KeyboardInterrupt... from the code under test
             answer = ("raised", _picklable(err))
+        end_descendants()  # what the call started ends with it
         sys.stdout.flush()
         sys.stderr.flush()
         try:
@@ -218,27 +406,22 @@ class Child:
     def ended(self, *, broken: bool = False) -> str | None:
         """How the worker ended ("exit code 3", "signal SIGSEGV"), or None while it lives; with
         ``broken`` (its pipe broke) a live worker is given 0.5 s, then killed. An ended worker's
-        pipe is closed."""
-        if broken and self.proc.is_alive():
-            self.proc.join(0.5)
-        if self.proc.is_alive() and not broken:
+        pipe is closed, and everything it started is gone."""
+        if broken and self._running():
+            self._exited(0.5)
+        if self._running() and not broken:
             return None
-        if self.proc.is_alive():
-            self.proc.kill()
-        self.proc.join(1.0)
-        self.conn.close()
+        self._end()
         return describe_exit(self.proc.exitcode)
 
     def kill(self) -> None:
-        """Kill the worker now and close its pipe."""
-        self.proc.kill()
-        self.proc.join(5.0)
-        self.conn.close()
+        """Kill the worker now, and everything it started; close its pipe."""
+        self._end()
 
     def stop(self, *, kill: bool = False) -> None:
         """Ask the worker to end (``kill``: kill it first); :meth:`reap` then waits for it."""
         if kill:
-            self.proc.kill()
+            self._terminate()
         try:
             self.conn.send(None)
         except (OSError, ValueError):
@@ -246,10 +429,64 @@ class Child:
 
     def reap(self) -> None:
         """Wait up to 2 s for an ended worker, then kill it; close its pipe. Idempotent."""
-        self.proc.join(2.0)
-        if self.proc.is_alive():
-            self.proc.kill()
-            self.proc.join(2.0)
+        self._exited(2.0)
+        self._end()
+
+    # -- the end of the keeper's process tree (module doc) ------------------------------------------
+    def _unreaped(self) -> bool:
+        """The keeper's pid is still this process's child (running, or ended and not reaped):
+        its process group id cannot be anyone else's."""
+        if not hasattr(os, "waitid"):  # (not on macOS): as multiprocessing knows it
+            return self.proc._popen is not None and self.proc._popen.returncode is None
+        try:
+            os.waitid(os.P_PID, self.proc.pid, os.WEXITED | os.WNOHANG | os.WNOWAIT)
+        except (ChildProcessError, OSError):
+            return False
+        return True
+
+    def _running(self) -> bool:
+        """The keeper has not ended (it is not reaped here: see :meth:`_unreaped`)."""
+        if not hasattr(os, "waitid"):
+            return bool(self.proc.is_alive())
+        try:
+            got = os.waitid(os.P_PID, self.proc.pid, os.WEXITED | os.WNOHANG | os.WNOWAIT)
+        except (ChildProcessError, OSError):
+            return False
+        return got is None
+
+    def _exited(self, timeout_s: float) -> bool:
+        """Wait at most ``timeout_s`` for the keeper to end (not reaping it)."""
+        deadline = time.monotonic() + timeout_s
+        while self._running():
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                return False
+            # the sentinel is ready once every holder of its pipe has ended; poll the keeper too
+            mpc.wait([self.proc.sentinel], timeout=min(remaining, 0.05))
+        return True
+
+    def _terminate(self) -> None:
+        """Ask the keeper to kill the worker and everything below it (SIGTERM), and end."""
+        if self._running():
+            try:
+                os.kill(self.proc.pid, signal.SIGTERM)
+            except OSError:
+                pass
+
+    def _end(self) -> None:
+        """End the worker's whole tree: the keeper's own clean-up first (3 s at most), then
+        SIGKILL to its process group (what is left if the keeper itself was killed); reap the
+        keeper and close the pipe. Idempotent."""
+        self._terminate()
+        self._exited(3.0)
+        if self._unreaped():
+            try:
+                os.killpg(self.proc.pid, signal.SIGKILL)
+            except OSError:  # the group is empty
+                pass
+            if self._running():  # not the group's leader (no session of its own)
+                self.proc.kill()
+        self.proc.join()
         self.conn.close()
 
 
@@ -325,15 +562,19 @@ class Worker:
             self._child.kill()
         self._child = None
 
-    def close(self) -> None:
-        """Ask the worker to end, kill it if it does not. Idempotent."""
+    def close(self, *, now: bool = False) -> None:
+        """Ask the worker to end, kill it if it does not (``now``: kill it at once, as when
+        Ctrl-C stops the command). Idempotent."""
         if self._child is not None:
-            self._child.stop()
-            self._child.reap()
+            if now:
+                self._child.kill()
+            else:
+                self._child.stop()
+                self._child.reap()
         self._child = None
 
     def __enter__(self) -> Worker:
         return self
 
-    def __exit__(self, *exc: object) -> None:
-        self.close()
+    def __exit__(self, exc_type: object, *exc: object) -> None:
+        self.close(now=exc_type is not None)

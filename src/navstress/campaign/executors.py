@@ -16,7 +16,7 @@ from collections.abc import Callable
 from contextlib import ExitStack
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 from navstress.campaign.local import LocalExecutor
 from navstress.campaign.ray_executor import RayExecutor
@@ -27,7 +27,7 @@ from navstress.campaign.work import register_targets
 from navstress.errors import NavigatorError, SpecError
 from navstress.nav import faults as nav_faults
 from navstress.nav import registry
-from navstress.run.batch import default_wall_limit_s
+from navstress.run.batch import check_buildable, default_wall_limit_s
 from navstress.sim.config import SimConfig
 
 
@@ -45,11 +45,18 @@ class CampaignResult:
     unfinished: dict[str, str] = field(default_factory=dict)  # run_id -> last reason (infrastructure failures)
 
 
-def check_runnable(spec: CampaignSpec) -> None:
+#: Longest wait for a navigator built to validate its config (in a worker process) before the
+#: campaign goes on without that check (its runs then say what the navigator does).
+BUILD_LIMIT_S = 120.0
+
+
+def check_runnable(spec: CampaignSpec, *, build_limit_s: float = BUILD_LIMIT_S) -> None:
     """Every navigator and fault of ``spec`` exists, every navigator accepts its config and the
     ``sim:`` overrides are a valid SimConfig (SpecError naming the field otherwise). Nothing is
     written and no run is started (navigator factories validate their config, see
-    :func:`navstress.nav.registry.validate_config`)."""
+    :func:`navstress.nav.registry.validate_config`; one without a ``validate_config`` hook is built
+    to validate it, in a worker process: this process never runs a navigator's code; at most
+    ``build_limit_s`` seconds, a campaign's per-run limit when it is shorter)."""
     targets = {n.name: n.target for n in spec.navigators if n.target}
     for i, nav in enumerate(spec.navigators):
         if nav.name in targets:
@@ -75,13 +82,20 @@ def check_runnable(spec: CampaignSpec) -> None:
     saved = dict(registry._registered)
     try:
         register_targets(targets)
+        built: list[tuple[str, dict[str, Any], str]] = []  # validated by building them: in a worker
         for i, nav in enumerate(spec.navigators):
+            field = f"navigators[{i}].config"
             try:
-                registry.validate_config(nav.name, dict(nav.config), field=f"navigators[{i}].config")
+                if registry.builds_to_validate(nav.name):
+                    built.append((nav.name, dict(nav.config), field))
+                else:
+                    registry.validate_config(nav.name, dict(nav.config), field=field)
             except NavigatorError as err:  # a spec-given target that cannot be imported
                 where = f"navigators[{i}].target" if nav.name in targets else f"navigators[{i}].name"
                 raise SpecError(where, nav.target or nav.name, "a navigator that can be loaded",
                                 str(err)) from None
+        if built:  # a navigator that exits, crashes or hangs there is left to its runs to classify
+            check_buildable(registry.validate_each, built, wall_limit_s=build_limit_s)
     finally:
         registry._registered.clear()
         registry._registered.update(saved)
@@ -111,9 +125,9 @@ def run_campaign(spec_path: str | Path, directory: str | Path, *, workers: int |
     if executor not in ("local", "ray"):
         raise SpecError("--executor", executor, "local or ray")
     spec, text = load_campaign(spec_path, max_runs=None if accept_large else MAX_PLANNED_RUNS)
-    check_runnable(spec)
-    t0 = time.perf_counter()
     limit = wall_limit_s if wall_limit_s is not None else default_wall_limit_s(spec.timeout_s)
+    check_runnable(spec, build_limit_s=min(limit, BUILD_LIMIT_S))
+    t0 = time.perf_counter()
     targets = {n.name: n.target for n in spec.navigators if n.target}
     with ExitStack() as stack:
         ex: LocalExecutor | RayExecutor

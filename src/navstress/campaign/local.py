@@ -3,9 +3,10 @@
 Each worker is a :class:`navstress.isolate.Child` (spawn context; it dies with the driver:
 Linux ``PR_SET_PDEATHSIG`` plus a parent watch, so a killed campaign leaves no orphan writing
 traces behind the resumed one; it ignores Ctrl-C, the driver's business). A worker first runs
-a 0.5 s warm-up mission (JIT, imports) so that the watchdog measures the work only. The pool
-knows which job each worker holds: a worker that dies or is killed costs exactly its own job,
-and is replaced.
+a 0.5 s warm-up mission (JIT, imports) so that the watchdog measures the work only (the folder of
+a warm-up cut short by the pool's end is removed then). The pool knows which job each worker
+holds: a worker that dies or is killed costs exactly its own job, and is replaced. What a run
+starts (a navigator's helper processes) ends with the run (:mod:`navstress.isolate`).
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import multiprocessing.connection as mpc
 from dataclasses import dataclass
 
 from navstress.campaign.scheduler import Event, Job
-from navstress.campaign.work import attempt_run, attempt_world, warm_up
+from navstress.campaign.work import attempt_run, attempt_world, sweep_warm_ups, warm_up
 from navstress.isolate import Child
 
 
@@ -95,6 +96,8 @@ class LocalExecutor:
         for s in self._slots:
             s.child.reap()
         self._slots = []
+        if self.warm:  # a worker ended while it warmed up cannot remove its folder: do it here
+            sweep_warm_ups()
 
     def __repr__(self) -> str:
         return f"LocalExecutor(workers={self.workers})"

@@ -9,12 +9,21 @@ implies the navigator's view), the replay writes the fuller trace of the same ru
 changes nothing of the run: docs/design.md) and, its bytes being others by construction,
 compares the record fields instead: the way to open any run of a campaign in Foxglove with its
 lidar and its navigator's arcs, or to watch it live.
+
+The run is replayed as campaigns run it: in a worker process (:mod:`navstress.isolate`, through
+:func:`navstress.run.batch.run_isolated`) with a wall-clock limit, so that a navigator that
+exits, kills its process or hangs ends the replay with a reason (:attr:`ReplayResult.failure`),
+never the command, and what it started ends with it. A live replay runs in the worker too (the
+worker serves the Foxglove WebSocket, as ``navstress run --live`` does). The scratch folder is
+this process's own (``navstress-replay-<pid>-...``): removed whatever happens to the worker, and
+those of replays killed outright (SIGKILL) are removed by the next replay.
 """
 
 from __future__ import annotations
 
 import hashlib
 import math
+import os
 import shutil
 import tempfile
 from dataclasses import dataclass, replace
@@ -23,8 +32,10 @@ from typing import Any
 
 from navstress import _files
 from navstress.campaign.store import Store
-from navstress.campaign.work import generate_world, register_targets, run_one, with_trace
+from navstress.campaign.work import generate_world, register_targets, with_trace
 from navstress.errors import StoreError
+from navstress.isolate import Worker
+from navstress.run.batch import PRELOAD, default_wall_limit_s, run_isolated
 from navstress.run.record import RunRecord
 
 #: Record fields that must match for a faithful replay (wall time, trace path excluded).
@@ -48,6 +59,44 @@ class ReplayResult:
     #: the replay recorded more than the stored trace (lidar, the navigator's view): its bytes are
     #: not compared, ``identical`` means the same record
     fuller: bool = False
+    #: why the replay did not finish (its navigator's process died, or did not end within the
+    #: wall-clock limit): ``new`` is then a Fail-Other record with this reason and no trace
+    failure: str | None = None
+
+
+SCRATCH_PREFIX = "navstress-replay-"
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # another user's process: alive
+        return True
+    return True
+
+
+def sweep_scratch(parent: Path | None = None) -> list[Path]:
+    """Remove the scratch folders of replays whose process is gone (killed outright: SIGKILL),
+    and return them; each is named with its process id (``navstress-replay-<pid>-...``)."""
+    root = Path(parent if parent is not None else tempfile.gettempdir())
+    gone = []
+    for d in root.glob(SCRATCH_PREFIX + "*-*"):
+        pid = d.name[len(SCRATCH_PREFIX):].split("-", 1)[0]
+        if pid.isdigit() and not d.is_symlink() and d.is_dir() and not _alive(int(pid)):
+            shutil.rmtree(d, ignore_errors=True)
+            gone.append(d)
+    return gone
+
+
+def replay_wall_limit_s(timeout_s: float, live: Any = None) -> float:
+    """The default wall-clock limit of a replay of a run of ``timeout_s`` simulated seconds: a
+    campaign's (``timeout_s * 2 + 120``); a live replay is paced by its ``speed`` and first waits
+    for a client (as ``navstress run --live``)."""
+    if live is None:
+        return default_wall_limit_s(timeout_s)
+    return default_wall_limit_s(timeout_s / float(live.speed)) + float(live.wait_s)
 
 
 def _sha(path: Path) -> str:
@@ -61,10 +110,11 @@ def _same(a: object, b: object) -> bool:
 
 
 def replay(directory: str | Path, run_id: str, *, keep: str | Path | None = None, lidar: bool = False,
-           navigator_view: bool = False, live: Any = None) -> ReplayResult:
+           navigator_view: bool = False, live: Any = None, wall_limit_s: float | None = None) -> ReplayResult:
     """Re-run ``run_id`` of the campaign in ``directory``; ``keep``: where to keep the new trace;
     ``lidar``, ``navigator_view``: record them too (module doc); ``live``: a
-    :class:`~navstress.run.live.LiveSettings` to watch the replay in Foxglove."""
+    :class:`~navstress.run.live.LiveSettings` to watch the replay in Foxglove; ``wall_limit_s``:
+    the replay's wall-clock limit (default :func:`replay_wall_limit_s`)."""
     with Store.open(directory) as store:
         task = store.task(run_id)
         stored = next((r for r in store.records() if r.run_id == run_id), None)
@@ -81,21 +131,24 @@ def replay(directory: str | Path, run_id: str, *, keep: str | Path | None = None
         _files.check_below(store.root, job.world_dir, "campaign", "campaign directory")  # a missing world is generated there
         targets = {n.name: n.target for n in store.spec.navigators if n.target}
     generate_world(job)
-    register_targets(targets)
-    scratch = Path(tempfile.mkdtemp(prefix="navstress-replay-"))
+    register_targets(targets)  # before the worker starts: it registers what this process has
+    sweep_scratch()
+    scratch = Path(tempfile.mkdtemp(prefix=f"{SCRATCH_PREFIX}{os.getpid()}-"))
     fuller_task = replace(task, record_lidar=task.record_lidar or lidar,
                           record_navigator=task.record_navigator or navigator_view or live is not None)
     fuller = fuller_task != task
+    limit = wall_limit_s if wall_limit_s is not None else replay_wall_limit_s(task.timeout_s, live)
     try:
         new_trace = scratch / stored_trace.name
-        if live is None:
-            new = run_one(with_trace(fuller_task, str(new_trace)))
-        else:
-            from navstress.run.live import execute_live
-            new = execute_live(with_trace(fuller_task, str(new_trace)), live)
+        with Worker(limit, preload=PRELOAD) as worker:
+            new = run_isolated(with_trace(fuller_task, str(new_trace)), worker, live)
+        a = _sha(stored_trace)
         if not new_trace.is_file():
-            raise StoreError(f"replay of run_id={run_id!r} wrote no trace ({new.outcome}: {new.reason})")
-        a, b = _sha(stored_trace), _sha(new_trace)
+            # the navigator's process died or hung (or the run raised out of its loop): no trace
+            diffs = tuple(f for f in COMPARED if not _same(getattr(stored, f), getattr(new, f)))
+            return ReplayResult(run_id, False, stored_trace, a, "", stored, new, diffs, None, fuller,
+                                failure=new.reason)
+        b = _sha(new_trace)
         kept = None
         if keep is not None:
             kept = Path(keep)

@@ -29,9 +29,9 @@ from navstress.campaign.progress import CampaignProgress, format_counts
 from navstress.campaign.replay import replay as do_replay
 from navstress.campaign.spec import MAX_WORKERS
 from navstress.campaign.store import OUTCOMES, Store
-from navstress.cli._common import (LidarOpt, LiveHostOpt, LiveOpt, LivePortOpt, LiveWaitOpt, NavigatorViewOpt, SpeedOpt,
-                                   Stopped, bounded_int, check_executor_flags, live_banner,
-                                   live_settings)
+from navstress.cli._common import (MAX_WALL_S, LidarOpt, LiveHostOpt, LiveOpt, LivePortOpt, LiveWaitOpt,
+                                   NavigatorViewOpt, SpeedOpt, Stopped, bounded_int, check_executor_flags,
+                                   live_banner, live_settings, number)
 from navstress.errors import SpecError, WorldFileError
 
 app = typer.Typer(rich_markup_mode=None)
@@ -206,22 +206,52 @@ def replay(
     live_port: LivePortOpt = "8765",
     live_wait: LiveWaitOpt = "30",
     speed: SpeedOpt = "1",
+    wall_limit: Annotated[str | None, typer.Option(metavar="S", help=(
+        "Wall-clock limit of the replay in real seconds, > 0 (a navigator that hangs is killed and the "
+        "replay ends, exit 1). Default: timeout * 2 + 120 (with --live: timeout / speed * 2 + 120 + "
+        "--live-wait).")) ] = None,
 ) -> None:
     """Re-run one run from its recorded seeds; exit 0 if the new trace is byte-identical, 1 if not.
 
+    The run is replayed in a worker process with a wall-clock limit, as campaigns run it: a
+    navigator whose process dies (os._exit, a signal) or that does not end within --wall-limit
+    ends the replay with one line saying which, exit 1 (the replay is not the stored run).
     With --lidar, --navigator-view or --live the replay records more than the campaign did (to
     open the run in Foxglove with its lidar and its navigator's arcs, --keep FILE, or to watch it
     live): its trace differs by construction, so the run's record is compared instead (exit 0 when
-    outcome, reason, duration, distances and collisions are the stored ones)."""
+    outcome, reason, duration, distances and collisions are the stored ones). Exit 2 on bad input,
+    130 on Ctrl-C, 143 on SIGTERM (nothing is left behind)."""
     if (lidar or navigator_view) and keep is None and not live:
         raise SpecError("--keep", None, "a file for the fuller trace that --lidar/--navigator-view record "
                         "(or --live to watch the run)")
     if keep is not None and keep.is_dir():
         raise SpecError("--keep", str(keep), "a file path (this is a directory)")
+    wall_v = None
+    if wall_limit is not None:
+        wall_v = number("--wall-limit", wall_limit, f"a duration in seconds in (0, {MAX_WALL_S:g}]")
+        if not 0 < wall_v <= MAX_WALL_S:
+            raise SpecError("--wall-limit", wall_limit, f"a duration in seconds in (0, {MAX_WALL_S:g}]")
     settings = live_settings(live_host, live_port, live_wait, speed) if live else None
     if settings is not None:
         typer.echo(live_banner(settings), err=True)
-    r = do_replay(directory, run_id, keep=keep, lidar=lidar, navigator_view=navigator_view, live=settings)
+
+    def on_term(signum: int, frame: object) -> None:
+        raise Stopped(signum)
+
+    old = signal.signal(signal.SIGTERM, on_term)
+    try:
+        r = do_replay(directory, run_id, keep=keep, lidar=lidar, navigator_view=navigator_view, live=settings,
+                      wall_limit_s=wall_v)
+    except Stopped as err:  # the worker and the scratch folder are gone already
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
+        typer.echo(f"replay stopped by {signal.Signals(err.signum).name}; nothing was written", err=True)
+        raise typer.Exit(128 + int(err.signum)) from None
+    finally:
+        signal.signal(signal.SIGTERM, old)
+    if r.failure is not None:
+        typer.echo(literal(f"DIFFERENT: {run_id}: stored {r.stored.outcome} ({r.stored.reason}); the replay did not "
+                           f"finish: {r.failure}; no trace to compare"))
+        raise typer.Exit(1)
     typer.echo(literal(f"{run_id}: stored {r.stored.outcome} ({r.stored.reason}); replayed {r.new.outcome} ({r.new.reason})"))
     if r.kept_trace is not None:
         typer.echo(literal(f"kept the new trace at {r.kept_trace}"))

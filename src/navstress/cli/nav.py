@@ -9,10 +9,11 @@ import typer
 
 from navstress._console import console
 from navstress.cli._common import MAX_WALL_S, NAV_CONFIG_HELP, load_navigator_config, number
-from navstress.errors import SpecError
+from navstress.errors import NavstressError, SpecError
+from navstress.isolate import Worker
 from navstress.nav.check import check_in_worker, format_report
 from navstress.nav.faults import list_faults
-from navstress.nav.registry import list_navigators, validate_config
+from navstress.nav.registry import builds_to_validate, list_navigators, validate_config, validate_each
 
 app = typer.Typer(rich_markup_mode=None)
 nav_app = typer.Typer(no_args_is_help=True, rich_markup_mode=None,
@@ -49,10 +50,18 @@ def nav_check(
     if not 0 < wall_v <= MAX_WALL_S:
         raise SpecError("--wall-limit", wall_limit, f"a duration in seconds in (0, {MAX_WALL_S:g}]")
     cfg = load_navigator_config(navigator_config)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        validate_config(name, cfg)  # the same up-front check as `campaign run` (one line, exit 2)
-    report = check_in_worker(name, cfg or None, wall_limit_s=wall_v)
+    with Worker(wall_v) as worker:
+        # the same up-front check as `campaign run` (one line, exit 2); a navigator built to
+        # validate its config is built in the worker (one that exits or hangs there fails `builds`)
+        if builds_to_validate(name):
+            status, value = worker.call(validate_each, [(name, cfg, "navigator-config")])
+            if status == "raised" and isinstance(value, NavstressError):
+                raise value
+        else:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                validate_config(name, cfg)
+        report = check_in_worker(name, cfg or None, worker=worker)
     console().print(format_report(report))
     if not report.passed:
         raise typer.Exit(1)

@@ -31,7 +31,7 @@ import difflib
 import importlib
 import re
 import warnings
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
@@ -45,7 +45,8 @@ from navstress.specfile import load_file, parse_text
 __all__ = [
     "ENTRY_POINT_GROUP", "NavigatorFactory", "NavigatorNote", "NavigatorSpec", "load_config",
     "call_factory", "list_navigators", "load_factory", "make_navigator", "parse_name",
-    "reference_global_v1", "reference_v1", "register", "resolve", "unregister", "validate_config",
+    "reference_global_v1", "reference_v1", "register", "resolve", "unregister", "validate_config", "validate_each",
+    "builds_to_validate",
 ]
 
 ENTRY_POINT_GROUP = "navstress.navigators"
@@ -330,6 +331,23 @@ def validate_config(name: str, config: Mapping[str, Any] | str | Path | None = N
     except Exception as err:
         raise SpecError(field, cfg, f"a configuration that navigator {spec.id!r} accepts",
                         f"{type(err).__name__}: {err}".splitlines()[0]) from None
+
+
+def builds_to_validate(name: str) -> bool:
+    """Whether :func:`validate_config` of ``name`` builds the navigator (its factory has no
+    ``validate_config`` hook): navigator code then runs, which commands do in a worker process
+    (:func:`validate_each` there), never in their own. NavigatorError for an unknown name."""
+    spec, _note = resolve(name)
+    return not callable(getattr(load_factory(spec), "validate_config", None))
+
+
+def validate_each(items: Sequence[tuple[str, Mapping[str, Any], str]]) -> None:
+    """:func:`validate_config` of each ``(name, config, field)`` (run in a worker process for
+    the navigators that :func:`builds_to_validate`)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for name, config, field in items:
+            validate_config(name, config, field=field)
 
 
 def make_navigator(

@@ -38,6 +38,10 @@ WALL_FACTOR = 2.0
 WALL_SLACK_S = 120.0
 
 
+#: Modules a run's worker imports before it takes runs (outside the wall-clock limit).
+PRELOAD = ("navstress.run.mission", "navstress.sim.simulation", "navstress.nav.reference")
+
+
 def default_wall_limit_s(timeout_s: float) -> float:
     """The wall-clock limit of a run of ``timeout_s`` simulated seconds when none is given."""
     return timeout_s * WALL_FACTOR + WALL_SLACK_S
@@ -98,7 +102,7 @@ def run_isolated(task: RunTask, worker: Worker, live: Any = None) -> RunRecord:
             from navstress.run.live import execute_live
             status, value = worker.call(execute_live, task, live)
     except BaseException:  # Ctrl-C: stop the worker, leave nothing partial
-        worker.close()
+        worker.close(now=True)
         drop_partial_trace(task)
         raise
     wall = time.perf_counter() - t0
@@ -155,8 +159,7 @@ def run_batch(tasks: list[RunTask], out: Path, on_done: Callable[[RunRecord], No
     records: list[RunRecord] = []
     limit = wall_limit_s if wall_limit_s is not None else max(
         (default_wall_limit_s(t.timeout_s) for t in tasks), default=WALL_SLACK_S)
-    preload = ("navstress.run.mission", "navstress.sim.simulation", "navstress.nav.reference")
-    with Worker(limit, preload=preload) as worker, _files.open_nofollow(out / "runs.jsonl", "a", encoding="utf-8") as f:
+    with Worker(limit, preload=PRELOAD) as worker, _files.open_nofollow(out / "runs.jsonl", "a", encoding="utf-8") as f:
         for task in tasks:
             rec = run_isolated(task, worker, live)
             f.write(record_line(rec))

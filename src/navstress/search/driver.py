@@ -36,7 +36,7 @@ import numpy as np
 import yaml
 
 from navstress import _files, _json
-from navstress.campaign.executors import check_runnable
+from navstress.campaign.executors import BUILD_LIMIT_S, check_runnable
 from navstress.campaign.local import LocalExecutor
 from navstress.campaign.ray_executor import RayExecutor
 from navstress.campaign.scheduler import Event, Job, RecordCallback, resume
@@ -368,7 +368,7 @@ def run_search(spec_path: str | Path, directory: str | Path, *, budget: int | No
         X = algo.ask()
         first = [space.decode(x) for x in X]
         exp0 = {"name": generation_name(0), "worlds": [_entry(c) for c in {c.key: c for c in first}.values()]}
-        check_runnable(_campaign(spec, [exp0])[0])
+        check_runnable(_campaign(spec, [exp0])[0], build_limit_s=min(limit, BUILD_LIMIT_S))
         ex: _KeptPool | RayExecutor
         if executor == "ray":
             ex = stack.enter_context(RayExecutor(workers, targets, address=ray_address))

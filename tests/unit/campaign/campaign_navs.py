@@ -153,3 +153,97 @@ class Coin:
 
     def close(self) -> None:
         pass
+
+
+def _sleeper(pidfile: str, spawn: str, sleep_s: float) -> None:
+    """Start a process that sleeps ``sleep_s`` holding what it inherited (stdout, stderr, the
+    worker's pipes), writing its pid on a line of ``pidfile``: ``fork`` a plain child, ``double`` a
+    daemon (double fork + setsid: its parent gone at once), ``setsid`` a child in a session of its
+    own, ``popen`` ``sleep`` through subprocess (an exec'd program)."""
+    if spawn == "popen":
+        import subprocess
+
+        p = subprocess.Popen(["sleep", str(sleep_s)])
+        with open(pidfile, "a") as f:
+            f.write(f"{p.pid}\n")
+        return
+    before = len(_lines(pidfile))
+    pid = os.fork()
+    if pid == 0:  # the child: never returns into the navigator
+        try:
+            if spawn == "double" and os.fork() != 0:
+                os._exit(0)
+            if spawn in ("setsid", "double"):
+                os.setsid()
+            fd = os.open(pidfile, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+            os.write(fd, f"{os.getpid()}\n".encode())
+            os.close(fd)
+            time.sleep(sleep_s)
+        finally:
+            os._exit(0)
+    if spawn == "double":
+        os.waitpid(pid, 0)
+    # the pid is in the file before the navigator goes on
+    deadline = time.monotonic() + 10.0
+    while pidfile != os.devnull and time.monotonic() < deadline and len(_lines(pidfile)) <= before:
+        time.sleep(0.005)
+
+
+def _lines(pidfile: str) -> list[str]:
+    try:
+        with open(pidfile) as f:
+            return f.read().split()
+    except OSError:
+        return []
+
+
+class Escapes(_Base):
+    """Starts processes and misbehaves, once ``after_s`` simulated seconds have passed (at build
+    time with ``where: init``), and only when the file ``trigger`` exists if one is given (a
+    campaign recorded without it, a replay with it):
+
+    - ``spawn``: ``none``, ``fork``, ``double``, ``setsid`` or ``popen`` (:func:`_sleeper`; the
+      sleepers' pids go to ``pidfile``, one a line);
+    - ``then``: ``drive`` (on to the goal, as before), ``hang``, ``exit`` (``os._exit(code)``),
+      ``sigkill`` (SIGKILL to itself) or ``raise``.
+    """
+
+    def __init__(self, config: dict[str, Any] | None = None) -> None:
+        cfg = dict(config or {})
+        super().__init__(cfg)
+        self.spawn = str(cfg.get("spawn", "none"))
+        self.then = str(cfg.get("then", "drive"))
+        self.code = int(cfg.get("code", 7))
+        self.pidfile = str(cfg.get("pidfile", os.devnull))
+        self.trigger = cfg.get("trigger")
+        self.sleep_s = float(cfg.get("sleep_s", 120.0))
+        self.done = False
+        if cfg.get("where") == "init":
+            self.misbehave()
+
+    def armed(self) -> bool:
+        return self.trigger is None or os.path.exists(str(self.trigger))
+
+    def misbehave(self) -> Command | Status:
+        if self.done or not self.armed():
+            return Command(0.5, 0.0)
+        self.done = True
+        escape(self.spawn, self.then, code=self.code, pidfile=self.pidfile, sleep_s=self.sleep_s)
+        return Command(0.5, 0.0)
+
+
+def escape(spawn: str, then: str, code: int = 7, pidfile: str = os.devnull, sleep_s: float = 120.0) -> str:
+    """What :class:`Escapes` does (``spawn`` then ``then``), callable on its own in a worker
+    process; returns "drove on" when ``then`` is ``drive``."""
+    if spawn != "none":
+        _sleeper(pidfile, spawn, sleep_s)
+    if then == "hang":
+        while True:
+            time.sleep(0.2)
+    if then == "exit":
+        os._exit(code)
+    if then == "sigkill":
+        os.kill(os.getpid(), 9)
+    if then == "raise":
+        raise RuntimeError("planner exploded")
+    return "drove on"
