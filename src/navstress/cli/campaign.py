@@ -32,7 +32,7 @@ from navstress.campaign.spec import MAX_WORKERS
 from navstress.campaign.store import OUTCOMES, Store
 from navstress.cli._common import (LidarOpt, LiveHostOpt, LiveOpt, LivePortOpt, LiveWaitOpt, NavigatorViewOpt, SpeedOpt,
                                    Stopped, bounded_int, check_executor_flags, live_banner,
-                                   live_settings)
+                                   live_settings, resumable)
 from navstress.errors import SpecError, WorldFileError
 
 app = typer.Typer(rich_markup_mode=None)
@@ -85,7 +85,7 @@ def run(
 
     old = signal.signal(signal.SIGTERM, on_term)
     try:
-        with CampaignProgress(enabled=not quiet) as bar:
+        with resumable(resume, out), CampaignProgress(enabled=not quiet) as bar:
             res = run_campaign(spec, out, workers=workers, executor=executor,  # type: ignore[arg-type]
                                ray_address=ray_address, wall_limit_s=wall_limit, on_start=bar.on_start,
                                on_record=bar.on_record, accept_large=yes, on_planned=bar.on_planned)
@@ -226,8 +226,8 @@ def replay(
     if keep is not None and keep.is_dir():
         raise SpecError("--keep", str(keep), "a file path (this is a directory)")
     settings = live_settings(live_host, live_port, live_wait, speed) if live else None
-    if settings is not None:
-        typer.echo(live_banner(settings), err=True)
+    if settings is not None:  # on standard output, with the result: standard error is for the one error line
+        typer.echo(live_banner(settings))
     r = do_replay(directory, run_id, keep=keep, lidar=lidar, navigator_view=navigator_view, live=settings)
     typer.echo(literal(f"{run_id}: stored {r.stored.outcome} ({r.stored.reason}); replayed {r.new.outcome} ({r.new.reason})"))
     if r.kept_trace is not None:
@@ -282,7 +282,8 @@ def demo(
         tmp.replace(spec_path)
     con = console()
     con.print(f"demo campaign: {spec_path} -> {output / 'campaign'}")
-    with CampaignProgress() as bar:
+    again = f"navstress demo -o {_quote(output)}" + (f" --workers {n_workers}" if n_workers is not None else "")
+    with resumable(again, output / "campaign"), CampaignProgress() as bar:
         res = run_campaign(spec_path, output / "campaign", workers=n_workers, on_start=bar.on_start,
                            on_record=bar.on_record, on_planned=bar.on_planned)
     con.print(f"{res.already_done + res.recorded}/{res.planned} runs recorded in {res.wall_s:.0f} s with "
