@@ -21,7 +21,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, Field, SerializerFunctionWrapHandler, model_serializer, model_validator
 
 from navstress._models import LIST, SPEC_CONFIG, parse
-from navstress.errors import SpecError
+from navstress.errors import MISSING, SpecError
 from navstress.specfile import load_file
 
 _STRICT = SPEC_CONFIG
@@ -140,7 +140,8 @@ class ObstaclesSpec(BaseModel):
                 raise SpecError("obstacles.total", self.total, "either total+mix or obstruction, not both",
                                 "remove one of them")
             if not self.mix:
-                raise SpecError("obstacles.mix", self.mix, "weights per type when total is given",
+                raise SpecError("obstacles.mix", self.mix if self.mix is not None else MISSING,
+                                "weights per type when total is given",
                                 "e.g. --mix trees=1,buildings=1")
         for name, w in (self.mix or {}).items():
             if name not in known:
