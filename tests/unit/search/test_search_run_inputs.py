@@ -47,7 +47,7 @@ CASES: list[tuple[str, dict[str, Any], list[str], str, str]] = [
     ("no obstacle moves", _with(space__moves={"count": 0, "radius_m": 1.0}), [], "new", "space.moves.count=0"),
     ("moves of radius 0", _with(space__moves={"count": 2, "radius_m": 0}), [], "new", "space.moves.radius_m=0"),
     ("bad move in the base world", _with(world={"obstacles": {"moves": [{"at": [1, 2], "by": [0, float("nan")]}]}}),
-     [], "new", "world.obstacles.moves.0.by="),
+     [], "new", "world.obstacles.moves[0].by[1]=nan"),
     ("budget 0", _with(budget={"runs": 0}), [], "new", "budget.runs=0"),
     ("budget negative", _with(budget={"runs": -3}), [], "new", "budget.runs=-3"),
     ("unknown objective", _with(objective={"name": "nope"}), [], "new", "objective.name="),
