@@ -50,7 +50,7 @@ from pydantic import BaseModel, Field, field_validator, model_validator
 
 from navstress import _json
 from navstress._models import SPEC_CONFIG, parse
-from navstress.errors import MISSING, SpecError
+from navstress.errors import SpecError
 from navstress.seeding import MAX_SEED
 from navstress.sequential import AdaptiveRule, check_rule
 from navstress.specfile import parse_text, read_text
