@@ -12,7 +12,7 @@ from types import TracebackType
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, TaskID, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
-from navstress._console import Bar
+from navstress._bar import Bar
 from navstress._console import console as make_console
 from navstress.campaign.store import OUTCOMES
 from navstress.run.record import RunRecord

@@ -17,7 +17,8 @@ import typer
 from rich.progress import BarColumn, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from navstress._console import Bar, console, literal
+from navstress._bar import Bar
+from navstress._console import console, literal
 from navstress._percent import percent, setting
 from navstress.analysis.analyze import Analysis, analyze
 from navstress.analysis.difficulty import DifficultyParams

@@ -11,7 +11,8 @@ import typer
 from rich.progress import BarColumn, TextColumn, TimeRemainingColumn
 from rich.table import Table
 
-from navstress._console import Bar, console
+from navstress._bar import Bar
+from navstress._console import console
 from navstress._json import pretty as dumps
 from navstress.campaign.store import OUTCOMES
 from navstress.cli._common import (MAX_RUNS, MAX_SEED, MAX_TIMEOUT_S, MAX_WALL_S, NAV_CONFIG_HELP, LidarOpt,

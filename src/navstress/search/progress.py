@@ -8,7 +8,7 @@ from types import TracebackType
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, TaskID, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
-from navstress._console import Bar
+from navstress._bar import Bar
 from navstress._console import console as make_console
 from navstress.run.record import RunRecord
 from navstress.search.driver import GenerationReport
