@@ -23,11 +23,39 @@ from rich.text import Text
 
 LOG_WIDTH = 160
 _CONTROL = re.compile(r"[\x00-\x08\x0b-\x1f\x7f-\x9f]")
+#: Every character that is not shown as itself on one line: controls (newline and tab too),
+#: Unicode format characters (bidirectional overrides, zero widths), line and paragraph separators,
+#: surrogates and the byte-order mark.
+_UNPRINTABLE = re.compile("[\x00-\x1f\x7f-\x9f\u00ad\u061c\u180e\u200b-\u200f\u2028-\u202e\u2060-\u206f"
+                          "\ud800-\udfff\ufeff\ufff9-\ufffb]")
+
+
+def _escape(m: re.Match[str]) -> str:
+    c = m.group()
+    return f"\\x{ord(c):02x}" if ord(c) < 0x100 else f"\\u{ord(c):04x}"
 
 
 def literal(text: str) -> str:
     """``text`` with control characters (other than newline and tab) written as escapes."""
     return _CONTROL.sub(lambda m: m.group().encode("unicode_escape").decode("ascii"), text)
+
+
+def one_line(text: str, limit: int = LOG_WIDTH) -> str:
+    """Text someone else sent (a network client), safe to print on one line: every character that
+    could move the cursor, restyle the terminal, break the line or hide text is escaped
+    (``\\x1b``, ``\\n``, ``\\u202e``), and the result is at most ``limit`` characters (a longer one
+    ends with how long it was).
+
+        >>> one_line("a\\x1b[2J\\nb\\u202ec")
+        'a\\\\x1b[2J\\\\x0ab\\\\u202ec'
+        >>> one_line("x" * 500, 40)
+        'xxxxxxxxxxxxxxxxxx... (500 characters)'
+    """
+    out = _UNPRINTABLE.sub(_escape, text)
+    if len(out) <= limit:
+        return out
+    tail = f"... ({len(text):,} characters)"
+    return out[: max(0, limit - len(tail))] + tail
 
 
 class LiteralConsole(Console):
@@ -49,3 +77,4 @@ def console(*, stderr: bool = False, file: IO[str] | None = None) -> Console:
     if not con.is_terminal:
         con = LiteralConsole(**opts, width=LOG_WIDTH, soft_wrap=False)
     return con
+

@@ -13,7 +13,46 @@ Messages name the field, the value, the allowed range and, where possible, the f
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Final
+
+#: Longest text of a value an error message shows (its start and its end are kept).
+MAX_SHOWN = 200
+
+
+class _Missing:
+    """The value of a field that was not given (:data:`MISSING`)."""
+
+    _instance: "_Missing | None" = None
+
+    def __new__(cls) -> "_Missing":
+        if cls._instance is None:
+            cls._instance = super().__new__(cls)
+        return cls._instance
+
+    def __repr__(self) -> str:
+        return "<missing>"
+
+    def __reduce__(self) -> str:
+        return "MISSING"  # one object, also after pickling (worker processes, Ray)
+
+
+#: The value of a required field the user left out: its error reads ``field is missing: ...``
+#: (never the mapping that lacks it).
+MISSING: Final = _Missing()
+
+
+def shown(value: Any) -> str:
+    """``repr(value)``, at most :data:`MAX_SHOWN` characters (a long one keeps its start and end).
+
+        >>> shown("x" * 1000)[:20], len(shown("x" * 1000)) <= MAX_SHOWN
+        ("'xxxxxxxxxxxxxxxxxxx", True)
+    """
+    r = repr(value)
+    if len(r) <= MAX_SHOWN:
+        return r
+    tail = f" ({len(r):,} characters) "
+    keep = MAX_SHOWN - len(tail) - 3
+    return r[: keep - keep // 4] + "..." + tail + r[len(r) - keep // 4:]
 
 
 class NavstressError(Exception):
@@ -28,7 +67,10 @@ class SpecError(NavstressError, ValueError):
         self.value = value
         self.expected = expected
         self.fix = fix
-        msg = f"{field}={value!r} is invalid: expected {expected}"
+        if value is MISSING:
+            msg = f"{field} is missing: expected {expected}"
+        else:
+            msg = f"{field}={shown(value)} is invalid: expected {expected}"
         if fix:
             msg += f"; {fix}"
         super().__init__(msg)

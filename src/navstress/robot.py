@@ -15,13 +15,15 @@ footprint 1.14 m x 0.67 m.
 
 from __future__ import annotations
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, Field
+
+from navstress._models import SPEC_CONFIG
 
 
 class LidarMount(BaseModel):
     """Where the 3D lidar sits on the robot (robot frame: x forward, y left, z up from base)."""
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
+    model_config = SPEC_CONFIG
     x_m: float = 0.35
     y_m: float = 0.0
     z_m: float = 0.75  # above the chassis origin
@@ -30,7 +32,7 @@ class LidarMount(BaseModel):
 class RobotSpec(BaseModel):
     """Geometry, mass and limits of the robot. All lengths in meters, SI units throughout."""
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
+    model_config = SPEC_CONFIG
 
     name: str = "rmp400"
     length_m: float = Field(1.14, gt=0, description="footprint length (x)")

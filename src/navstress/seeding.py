@@ -17,6 +17,10 @@ import hashlib
 
 import numpy as np
 
+#: Largest seed navstress takes anywhere (campaign, search and map seeds, ``--seed``): seeds are
+#: stored as signed 64-bit integers (SQLite INTEGER), and derived seeds are 63-bit.
+MAX_SEED = 2**63 - 1
+
 
 def _key(part: str | int) -> int:
     if isinstance(part, bool):  # bool is an int; refuse the ambiguity

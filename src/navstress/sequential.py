@@ -60,8 +60,8 @@ def check_rule(min_runs: int, max_runs: int, threshold: float, confidence: float
     """Raise :class:`SpecError` naming the first invalid parameter of an adaptive rule. The
     indifference zone ``(threshold - indifference, threshold + indifference)`` must lie inside
     :data:`FLAKY_BAND` (so a world proven inside it is flaky)."""
-    if isinstance(min_runs, bool) or not isinstance(min_runs, int) or min_runs < 1:
-        raise SpecError(f"{field}.min", min_runs, "an integer >= 1")
+    if isinstance(min_runs, bool) or not isinstance(min_runs, int) or not 1 <= min_runs <= 10_000:
+        raise SpecError(f"{field}.min", min_runs, "an integer in [1, 10000]")
     if isinstance(max_runs, bool) or not isinstance(max_runs, int) or max_runs < min_runs or max_runs > 10_000:
         raise SpecError(f"{field}.max", max_runs, f"an integer from min ({min_runs}) to 10000",
                         "make max at least min")

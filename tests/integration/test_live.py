@@ -187,3 +187,29 @@ def test_bad_live_input_is_one_line_and_writes_nothing(world: Path, tmp_path: Pa
     assert code == 2, err
     assert needle in err and err.strip().count("\n") == 0, err
     assert not (tmp_path / "out").exists()
+
+
+def test_garbage_from_clients_reaches_stderr_escaped_bounded_and_counted(world: Path, tmp_path: Path) -> None:
+    """``navstress run --live`` (its server in the run's worker process) while clients send escape
+    sequences and a flood of bad connections: stderr holds only the ``live:`` lines of
+    navstress.run.live.ClientLog, escaped, bounded and counted; the run itself ends as usual."""
+    from live_garbage import UNSAFE, attack
+
+    from navstress.run.live import LOG_BURST, LOG_LINE_CHARS
+
+    port = loopback.free_port()
+    out = tmp_path / "live"
+    proc = subprocess.Popen([*NAVSTRESS, "run", str(world), "-o", str(out), "--timeout", "2", "--live",
+                             "--live-port", str(port), "--live-wait", "4", "--speed", "100"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        attack(port, 40)  # during the wait for a subscriber: nobody subscribes, the run starts anyway
+        stdout, stderr = proc.communicate(timeout=300)
+    finally:
+        proc.kill()
+    assert proc.returncode == 0, stderr
+    lines = stderr.splitlines()
+    assert lines and all(ln.startswith("live: ") for ln in lines), lines
+    assert all(not UNSAFE.search(ln) and len(ln) <= LOG_LINE_CHARS for ln in lines), lines
+    assert len([ln for ln in lines if "not shown" not in ln]) <= LOG_BURST, lines
+    assert any("\\x1b[2J" in ln for ln in lines) and "not shown" in lines[-1], lines

@@ -5,8 +5,10 @@ CLI in process and check the one-line-error contract."""
 from __future__ import annotations
 
 import re
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import yaml
@@ -87,6 +89,22 @@ OUTPUT_COMMANDS = [
 ]
 
 
+def leaf_commands() -> dict[str, Any]:
+    """Every command of the CLI (``"campaign run"``: its click command), from the typer app: a new
+    command is covered by the tests that iterate over them without editing them."""
+    import typer
+
+    def walk(cmd: Any, path: list[str]) -> Iterator[tuple[str, Any]]:
+        subs = getattr(cmd, "commands", None)
+        if subs is None:
+            yield " ".join(path), cmd
+            return
+        for name, sub in sorted(subs.items()):
+            yield from walk(sub, [*path, name])
+
+    return dict(walk(typer.main.get_command(app), []))
+
+
 def invoke(argv: list[str]) -> tuple[int, str, str]:
     r = CliRunner().invoke(app, argv)
     if r.exception is not None and not isinstance(r.exception, SystemExit):
@@ -95,10 +113,11 @@ def invoke(argv: list[str]) -> tuple[int, str, str]:
 
 
 def assert_one_line_error(code: int, out: str, err: str, argv: list[str]) -> str:
-    """Exit 2, exactly one stderr line starting with ``error:``, no traceback anywhere."""
-    lines = [ln for ln in err.splitlines() if ln.strip()]
+    """Exit 2, exactly one stderr line starting with ``error:`` (no blank line either), no
+    traceback anywhere."""
+    lines = err.splitlines()
     assert code == 2, f"{argv}: exit {code}\nstdout: {out}\nstderr: {err}"
-    assert len(lines) == 1 and lines[0].startswith("error: "), f"{argv}: stderr {err!r}"
+    assert len(lines) == 1 and lines[0].startswith("error: ") and err.endswith("\n"), f"{argv}: stderr {err!r}"
     assert not TRACEBACK.search(out + err), f"{argv}: traceback\n{out}\n{err}"
     return lines[0]
 

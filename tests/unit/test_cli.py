@@ -61,7 +61,7 @@ BAD = [
     (["world", "generate", "--trees", "60", "--buildings", "45", "-o", "{tmp}/out"], "obstacles.obstruction", "105"),
     (["world", "generate", "--obstruction", "100", "--mix", "trees=1", "-o", "{tmp}/out"], "--obstruction", "100"),
     (["world", "generate", "--obstruction", "-2", "--mix", "trees=1", "-o", "{tmp}/out"], "--obstruction", "-2"),
-    (["world", "generate", "--obstruction", "10", "-o", "{tmp}/out"], "--mix", "None"),
+    (["world", "generate", "--obstruction", "10", "-o", "{tmp}/out"], "--mix is missing", ""),
     (["world", "generate", "-s", "-1", "-o", "{tmp}/out"], "--subdivisions", "-1"),
     (["world", "generate", "--subdivisions", "2.5", "-o", "{tmp}/out"], "--subdivisions", "2.5"),
     (["world", "generate", "-d", "nan", "-o", "{tmp}/out"], "--deformation", "nan"),

@@ -153,3 +153,35 @@ def test_full_disk_in_every_output_command_is_one_line_and_leaves_nothing(tmp_pa
         assert left == [], (name, left)  # nothing partial
         refused += 1
     assert refused >= 8  # worlds, pictures, meshes, runs and reports do not fit
+
+
+#: What each command that resumes its work says to run again on a full disk: itself.
+_RESUME = {"campaign run": "navstress campaign run {root}/spec.yaml -o {out}",
+           "search": "navstress search {root}/search.yaml -o {out}",
+           "demo": "navstress demo -o {out}"}
+
+
+@pytest.mark.skipif(not _unshare_works(), reason="needs unshare -rm and tmpfs mounts")
+def test_a_full_disk_under_a_resumable_command_says_to_resume_with_that_command(tmp_path: Path) -> None:
+    assert set(_RESUME) == _FULL_SKIP
+    root = tmp_path / "root"
+    prepare(root)
+    base = tmp_path / "full"
+    base.mkdir()
+    tests = Path(__file__).parent
+    only = shlex.quote(",".join(sorted(c.name for c in OUTPUT_COMMANDS if c.name not in _FULL_SKIP)))
+    script = (f"mount -t tmpfs tmpfs {base} && exec {sys.executable} -c '{_FULL_SCRIPT}' {root} {base} "
+              f"{tests}:{tests.parent} {only}")
+    r = subprocess.run(["unshare", "-rm", "sh", "-c", script], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-3000:]
+    results = json.loads(r.stdout.strip().splitlines()[-1])
+    assert set(results) == _FULL_SKIP
+    for i, c in enumerate(OUTPUT_COMMANDS):
+        if c.name not in _FULL_SKIP:
+            continue
+        code, so, se, _left = results[c.name]
+        line = assert_one_line_error(code, so, se, [c.name])
+        want = _RESUME[c.name].replace("{root}", str(root)).replace("{out}", str(base / str(i) / "out"))
+        assert "disk is full" in line and f"resume with: {want} " in line, (c.name, line)
+        if c.name != "campaign run":
+            assert "campaign run" not in line, line

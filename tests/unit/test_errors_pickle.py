@@ -38,3 +38,16 @@ def test_spec_error_keeps_its_fields_through_pickle(field: str, value: object, e
     err = SpecError(field, value, expected, fix)
     back = pickle.loads(pickle.dumps(err))
     assert (back.field, back.value, back.expected, back.fix, str(back)) == (field, value, expected, fix, str(err))
+
+
+def test_a_missing_field_stays_missing_through_pickle() -> None:
+    from navstress.campaign.store import DiskFullError
+    from navstress.errors import MISSING
+
+    err = SpecError("experiments[0].name", MISSING, "a string (this field is required)")
+    back = pickle.loads(pickle.dumps(err))
+    assert back.value is MISSING and str(back) == str(err) == \
+        "experiments[0].name is missing: expected a string (this field is required)"
+    full = DiskFullError("/x/out", "while creating the store").resumed_with("navstress search s.yaml -o /x/out")
+    again = pickle.loads(pickle.dumps(full))
+    assert str(again) == str(full) and again.command == full.command and "resume with: navstress search" in str(again)

@@ -20,7 +20,7 @@ BAD = [
     ({"obstacles": {"obstruction": {"tree": -1}}}, "obstacles.obstruction.tree", "-1"),
     ({"obstacles": {"obstruction": {"rock": 5}}}, "obstacles.obstruction.rock", "rock"),
     ({"obstacles": {"obstruction": {"tree": 60, "building": 45}}}, "obstacles.obstruction", "105"),
-    ({"obstacles": {"total": 20}}, "obstacles.mix", "None"),
+    ({"obstacles": {"total": 20}}, "obstacles.mix", "<missing>"),
     ({"obstacles": {"total": 20, "mix": {"shrub": 1}}}, "obstacles.mix.shrub", "shrub"),
     ({"obstacles": {"total": 120, "mix": {"tree": 1}}}, "obstacles.total", "120"),
     ({"mission": {"goal": [150, 50]}}, "mission.goal", "150"),
@@ -33,8 +33,11 @@ def test_bad_spec_names_field_and_value(data: dict, field: str, value: str) -> N
     with pytest.raises(SpecError) as info:
         parse_spec(data)
     msg = str(info.value)
-    assert msg.startswith(field + "="), msg
-    assert value in msg.split("is invalid")[0], msg
+    if value == "<missing>":
+        assert msg.startswith(field + " is missing: "), msg
+    else:
+        assert msg.startswith(field + "="), msg
+        assert value in msg.split("is invalid")[0], msg
     assert "expected" in msg and "\n" not in msg
 
 

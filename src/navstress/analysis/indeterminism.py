@@ -30,6 +30,29 @@ import numpy as np
 from navstress.errors import SpecError
 
 GROUPS: tuple[str, ...] = ("all", "success", "failure")
+#: Most points of one curve's time grid (a day of simulated time at 1 s is 86,401): a smaller
+#: ``dt`` is refused before the grid is allocated (each run of a map is interpolated onto it).
+MAX_CURVE_POINTS = 200_000
+
+
+def grid(end: float, dt: float) -> np.ndarray:
+    """The time grid 0, dt, 2 dt, ... up to ``end`` (included); SpecError naming ``dt`` when it is
+    not a finite step > 0 or makes more than :data:`MAX_CURVE_POINTS` points.
+
+        >>> grid(2.5, 1.0).tolist()
+        [0.0, 1.0, 2.0, 2.5]
+    """
+    if not (dt > 0 and math.isfinite(dt)):
+        raise SpecError("dt", dt, "a finite time step in seconds > 0")
+    q = end / dt if math.isfinite(end) and end > 0 else 0.0  # inf for a subnormal dt
+    if not q + 1 <= MAX_CURVE_POINTS:
+        raise SpecError("dt", dt, f"a time step giving at most {MAX_CURVE_POINTS:,} points over the runs' "
+                        f"{end:g} s (this one gives about {q:.3g})", f"use dt >= {end / (MAX_CURVE_POINTS - 1):.3g}")
+    n = math.floor(q + 1e-9) + 1
+    t = np.arange(n, dtype=np.float64) * dt
+    if t[-1] < end - 1e-9:
+        t = np.append(t, end)
+    return t
 
 
 def positions_at(traj: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -44,15 +67,10 @@ def positions_at(traj: np.ndarray, t: np.ndarray) -> np.ndarray:
 def max_spread(trajs: Sequence[np.ndarray], dt: float = 1.0, t_end: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(t, D(t)): the max pairwise distance between the runs ``trajs`` on a grid 0, dt, ...
     up to ``t_end`` (default: the last sample of the longest run, included). One run: D = 0."""
-    if not dt > 0:
-        raise SpecError("dt", dt, "a time step in seconds > 0")
     if not trajs:
         raise SpecError("trajectories", 0, "at least one trajectory")
     end = max(float(np.asarray(tr)[-1, 0]) for tr in trajs) if t_end is None else float(t_end)
-    n = int(math.floor(end / dt + 1e-9)) + 1
-    t = np.arange(n, dtype=np.float64) * dt
-    if t[-1] < end - 1e-9:
-        t = np.append(t, end)
+    t = grid(end, dt)
     pos = np.stack([positions_at(tr, t) for tr in trajs])  # (runs, T, 2)
     d = np.zeros(len(t))
     for i in range(len(trajs)):
@@ -93,10 +111,7 @@ class Curve:
 def mean_curve(per_map: Sequence[tuple[np.ndarray, np.ndarray]], dt: float) -> tuple[np.ndarray, np.ndarray]:
     """Mean of map curves on a common grid (each held at its last value past its end)."""
     end = max(float(t[-1]) for t, _ in per_map)
-    n = int(math.floor(end / dt + 1e-9)) + 1
-    t = np.arange(n, dtype=np.float64) * dt
-    if t[-1] < end - 1e-9:
-        t = np.append(t, end)
+    t = grid(end, dt)
     return t, np.mean([np.interp(t, tm, dm) for tm, dm in per_map], axis=0)
 
 

@@ -10,9 +10,9 @@ from __future__ import annotations
 from types import TracebackType
 
 from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TaskID, TextColumn, TimeElapsedColumn, \
-    TimeRemainingColumn
+from rich.progress import BarColumn, MofNCompleteColumn, TaskID, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
+from navstress._bar import Bar
 from navstress._console import console as make_console
 from navstress.campaign.store import OUTCOMES
 from navstress.run.record import RunRecord
@@ -36,7 +36,7 @@ class CampaignProgress:
     def __init__(self, console: Console | None = None, enabled: bool = True) -> None:
         self.console = console if console is not None else make_console(stderr=True)
         self.counts = {o: 0 for o in OUTCOMES}
-        self._progress = Progress(TextColumn("[bold]campaign"), BarColumn(bar_width=24), MofNCompleteColumn(),
+        self._progress = Bar(TextColumn("[bold]campaign"), BarColumn(bar_width=24), MofNCompleteColumn(),
                                   TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
                                   TextColumn("{task.fields[counts]}"), console=self.console,
                                   disable=not enabled, transient=False)

@@ -120,7 +120,8 @@ def replay(directory: str | Path, run_id: str, *, keep: str | Path | None = None
         stored = next((r for r in store.records() if r.run_id == run_id), None)
         if stored is None:
             raise StoreError(f"run_id={run_id!r} has not run yet in {str(directory)!r}; "
-                             "finish the campaign with `navstress campaign run` first")
+                             "finish it first with the command that made it (`navstress campaign run` or "
+                             "`navstress search`, the same spec and -o)")
         if stored.trace is None:
             raise StoreError(f"run_id={run_id!r} has no stored trace (outcome {stored.outcome}: {stored.reason}); "
                              "nothing to compare")

@@ -46,15 +46,17 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import BaseModel, Field, field_validator, model_validator
 
 from navstress import _json
+from navstress._models import SPEC_CONFIG, parse
 from navstress.errors import SpecError
+from navstress.seeding import MAX_SEED
 from navstress.sequential import AdaptiveRule, check_rule
 from navstress.specfile import parse_text, read_text
-from navstress.world.spec import WorldSpec, _pydantic_to_spec_error, parse_spec
+from navstress.world.spec import WorldSpec, parse_spec
 
-_STRICT = ConfigDict(frozen=True, extra="forbid")
+_STRICT = SPEC_CONFIG
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 
 
@@ -71,7 +73,7 @@ MAX_PLANNED_RUNS = 100_000
 #: Most parallel workers a campaign (or the demo) may be given.
 MAX_WORKERS = 1024
 #: Largest map seed of an explicit world (a SQLite INTEGER; what ``navstress world --seed`` accepts).
-MAX_MAP_SEED = 2**63 - 1
+MAX_MAP_SEED = MAX_SEED
 #: Longest key of an explicit world (it becomes a directory name).
 MAX_KEY_LEN = 100
 #: Wall seconds per run assumed by the size estimate of a refused plan (a rough order of magnitude).
@@ -181,15 +183,13 @@ def repetition(value: Any, field: str = "runs_per_map") -> int | AdaptiveRuns:
         check_rule(merged["min"], merged["max"], merged["threshold"], merged["confidence"], field=f"{field}.adaptive",
                    indifference=merged["indifference"])
         return AdaptiveRuns(adaptive=AdaptiveSpec(**merged))
-    if isinstance(value, bool) or not isinstance(value, (int, str)):
+    if isinstance(value, bool) or not isinstance(value, int):
+        fix = ("write it without quotes" if isinstance(value, str) else
+               "true and false are not numbers" if isinstance(value, bool) else None)
+        raise SpecError(field, value, _REPETITION, fix)
+    if not 1 <= value <= 10_000:
         raise SpecError(field, value, _REPETITION)
-    try:
-        n = int(value)
-    except ValueError:
-        raise SpecError(field, value, _REPETITION) from None
-    if not 1 <= n <= 10_000 or (isinstance(value, str) and value.strip() != str(n)):
-        raise SpecError(field, value, _REPETITION)
-    return n
+    return value
 
 
 class NavigatorSpec(BaseModel):
@@ -294,7 +294,7 @@ class CampaignSpec(BaseModel):
 
     model_config = _STRICT
     name: str = "campaign"
-    seed: int = Field(0, ge=0)
+    seed: int = Field(0, ge=0, le=MAX_SEED)
     world: dict[str, Any] = Field(default_factory=dict, description="the base WorldSpec mapping")
     experiments: list[ExperimentSpec] = Field(min_length=1)
     maps_per_config: int = Field(5, ge=1, le=10_000)
@@ -411,21 +411,7 @@ def parse_campaign(data: Any, *, max_runs: int | None = MAX_PLANNED_RUNS) -> Cam
     configuration validates as a WorldSpec, experiment names are unique, no duplicate navigator/fault."""
     if not isinstance(data, dict):
         raise SpecError("campaign", type(data).__name__, "a mapping of fields at the top level")
-    try:
-        spec = CampaignSpec.model_validate(data)
-    except SpecError:
-        raise
-    except ValidationError as err:
-        first = err.errors(include_url=False)[0]
-        inner = (first.get("ctx") or {}).get("error")
-        if isinstance(inner, SpecError) and len(first["loc"]) > 1:  # a nested field's own SpecError: its path
-            loc = first["loc"]  # a field validator's ends with the field (the SpecError names it), a model's not
-            where = ".".join(str(p) for p in (loc if isinstance(loc[-1], int) else loc[:-1]))
-            inner = SpecError(f"{where}.{inner.field}", inner.value, inner.expected, inner.fix)
-            raise SpecError(re.sub(r"\.(\d+)(?=\.|$)", r"[\1]", inner.field), inner.value, inner.expected,
-                            inner.fix) from None
-        e = _pydantic_to_spec_error(err)
-        raise SpecError(re.sub(r"\.(\d+)(?=\.|$)", r"[\1]", e.field), e.value, e.expected, e.fix) from None
+    spec = parse(CampaignSpec, data)
     for i, exp in enumerate(spec.experiments):
         for path, rng in exp.sweep.items():
             try:

@@ -154,15 +154,29 @@ def _attempts_schema(con: sqlite3.Connection) -> None:
 
 
 class DiskFullError(StoreError):
-    """The campaign directory's filesystem is full (or over quota): the campaign stops, resumable."""
+    """The campaign directory's filesystem is full (or over quota): the campaign stops, resumable.
+
+    Its advice names the command that resumes it (``command``, set by the command that ran:
+    :meth:`resumed_with`), else "the same command"."""
+
+    def __init__(self, where: str, detail: str = "", command: str | None = None) -> None:
+        self.where, self.detail, self.command = where, detail, command
+        extra = f" ({detail})" if detail else ""
+        again = f"resume with: {command}" if command else "run the same command again to resume"
+        super().__init__(f"output={str(where)!r} is invalid: expected a filesystem with free space; the disk "
+                         f"is full{extra}: free some space, then {again} (nothing recorded is lost)")
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (type(self), (self.where, self.detail, self.command))
+
+    def resumed_with(self, command: str) -> "DiskFullError":
+        """This error, its advice naming ``command`` (the command line that resumes the work)."""
+        return DiskFullError(self.where, self.detail, command)
 
 
 def disk_full(where: str | Path, detail: str = "") -> DiskFullError:
     """The one-line error of a full disk under campaign directory ``where``."""
-    extra = f" ({detail})" if detail else ""
-    return DiskFullError(f"output={str(where)!r} is invalid: expected a filesystem with free space; the disk "
-                         f"is full{extra}: free some space, then run the same `navstress campaign run` "
-                         "again to resume (nothing recorded is lost)")
+    return DiskFullError(str(where), detail)
 
 
 def is_disk_full(err: BaseException) -> bool:
@@ -322,8 +336,8 @@ class Store:
             fcntl.flock(f.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
             f.close()
-            raise StoreError(f"output={str(d)!r} is in use by another `navstress campaign run`; "
-                             "wait for it to finish or stop it") from None
+            raise StoreError(f"output={str(d)!r} is in use by another navstress command (a `campaign run`, "
+                             "`search` or `demo` writing into it); wait for it to finish or stop it") from None
         return f
 
     def close(self) -> None:

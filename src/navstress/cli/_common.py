@@ -3,6 +3,9 @@ checks of output paths made before any work."""
 
 from __future__ import annotations
 
+import errno
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -10,18 +13,18 @@ import typer
 
 from navstress import _files
 from navstress.campaign.spec import MAX_WORKERS
+from navstress.campaign.store import DiskFullError
 from navstress._flags import bounded_int, integer, number
 from navstress.errors import SpecError, WorldFileError
 from navstress.nav.registry import load_config
+from navstress.seeding import MAX_SEED
 from navstress.world.world import is_world_dir
 
 __all__ = ["MAX_RUNS", "MAX_SEED", "MAX_TIMEOUT_S", "MAX_WALL_S", "MAX_WORKERS", "Stopped", "check_executor_flags", "NAV_CONFIG_HELP", "bounded_int",
            "check_file_out", "check_out_dir", "integer", "load_navigator_config", "number", "probe_writable",
            "LidarOpt", "LiveHostOpt", "LiveOpt", "LivePortOpt", "LiveWaitOpt", "NavigatorViewOpt", "SpeedOpt",
-           "live_banner", "live_settings"]
+           "live_banner", "live_settings", "resumable"]
 
-#: Largest seed a flag takes (seeds are stored as signed 64-bit integers).
-MAX_SEED = 2**63 - 1
 #: Longest simulated run (one day, as a campaign spec's timeout_s) and longest wall-clock limit.
 MAX_TIMEOUT_S = 86_400.0
 MAX_WALL_S = 30 * 86_400.0
@@ -65,6 +68,22 @@ class Stopped(BaseException):
     def __init__(self, signum: int) -> None:
         super().__init__(f"signal {signum}")
         self.signum = signum
+
+
+@contextmanager
+def resumable(command: str, out: Path) -> Iterator[None]:
+    """Around the work of a command that running it again resumes (``campaign run``, ``search``,
+    ``demo``, writing into ``out``): a full disk's one line says to resume with ``command``, that
+    command's own line."""
+    try:
+        yield
+    except DiskFullError as err:
+        raise err.resumed_with(command) from None
+    except OSError as err:
+        if err.errno not in (errno.ENOSPC, errno.EDQUOT):
+            raise
+        where = err.filename if err.filename is not None else out
+        raise DiskFullError(str(where), " ".join(str(err.strerror or err).split()), command) from None
 
 
 def check_executor_flags(executor: str, workers: int | None, wall_limit: float | None) -> None:

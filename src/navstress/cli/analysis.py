@@ -7,21 +7,25 @@ them on one line and exits 2).
 
 from __future__ import annotations
 
+import math
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.progress import BarColumn, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from navstress import _files
+from navstress._bar import Bar
 from navstress._console import console, literal
 from navstress._percent import percent, setting
 from navstress.analysis.analyze import Analysis, analyze
 from navstress.analysis.difficulty import DifficultyParams
 from navstress.analysis.report import build_report
 from navstress.analysis.stats import dumps, params_text
-from navstress.cli._common import probe_writable
+from navstress.cli._common import MAX_TIMEOUT_S, probe_writable
 from navstress.errors import SpecError
 from navstress.search.report import load_search_dir, search_sections
 
@@ -33,17 +37,41 @@ def _zone(indifference: float) -> str:
     return f" +/- {setting(indifference)}" if indifference else ""
 
 
+#: Most k-means clusters (``--k``).
+MAX_K = 1000
+#: The analysis's own names of the options ``analyze`` and ``report`` take.
+_OPTIONS = {"threshold": "--threshold", "k": "--k", "weights": "--weights", "dt": "--dt", "navigator": "--navigator"}
+
+
 def _params(threshold: float, k: int, weights: str, dt: float) -> DifficultyParams:
     """The analysis options both commands take, checked (``--dt`` first)."""
-    if not dt > 0:
-        raise SpecError("--dt", dt, "a time step in seconds > 0")
+    if not (dt > 0 and math.isfinite(dt) and dt <= MAX_TIMEOUT_S):
+        raise SpecError("--dt", dt, f"a time step in seconds in (0, {MAX_TIMEOUT_S:g}]")
+    if not 0.0 <= threshold <= 1.0:
+        raise SpecError("--threshold", threshold, "a success rate in [0, 1], e.g. 0.25")
+    if not 2 <= k <= MAX_K:
+        raise SpecError("--k", k, f"an integer in [2, {MAX_K}] (clusters)")
     try:
         w = tuple(float(v) for v in weights.split(","))
     except ValueError:
         raise SpecError("--weights", weights, "three comma-separated numbers, e.g. 0.5,0.25,0.25") from None
     if len(w) != 3:
         raise SpecError("--weights", weights, "three comma-separated numbers, e.g. 0.5,0.25,0.25")
-    return DifficultyParams(threshold=threshold, k=k, weights=(w[0], w[1], w[2]))
+    with _as_options():
+        return DifficultyParams(threshold=threshold, k=k, weights=(w[0], w[1], w[2]))
+
+
+@contextmanager
+def _as_options() -> Iterator[None]:
+    """An analysis error about one of the options names the option (``dt`` -> ``--dt``): a time step
+    too small for the runs' length, a navigator the campaign did not run."""
+    try:
+        yield
+    except SpecError as err:
+        flag = _OPTIONS.get(err.field)
+        if flag is None:
+            raise
+        raise SpecError(flag, err.value, err.expected, err.fix) from None
 
 
 Threshold = Annotated[float, typer.Option("--threshold", help="Success rate below which a configuration is very difficult.")]
@@ -65,7 +93,8 @@ def analyze_cmd(
     to_stdout = json_out is not None and str(json_out) == "-"
     if json_out is not None and not to_stdout and json_out.is_dir():
         raise SpecError("--json", str(json_out), "a JSON file path, not a directory")
-    a = analyze(directory, params=params, navigator=navigator, dt=dt)
+    with _as_options():
+        a = analyze(directory, params=params, navigator=navigator, dt=dt)
     if to_stdout:
         typer.echo(dumps(a.to_json()))
         return
@@ -166,15 +195,16 @@ def report_cmd(
     sections = search_sections(directory, baseline=baseline)
     # how far it is, on standard error (a paper-sized campaign takes half a minute); gone when done
     err = console(stderr=True)
-    with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
+    with Bar(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
                   TimeElapsedColumn(), console=err, transient=True, disable=not err.is_terminal) as prog:
         bar = prog.add_task("report: reading the campaign", total=2)
 
         def step(what: str, done: int, total: int) -> None:
             prog.update(bar, description=f"report: {what}", completed=done, total=total)
 
-        path = build_report(directory, out, params=params, navigator=navigator, dt=dt, sections=sections,
-                            progress=step)
+        with _as_options():
+            path = build_report(directory, out, params=params, navigator=navigator, dt=dt, sections=sections,
+                                progress=step)
     typer.echo(literal(f"report: {path.resolve()}"))
 
 

@@ -31,7 +31,7 @@ from navstress.campaign.spec import MAX_WORKERS
 from navstress.campaign.store import OUTCOMES, Store
 from navstress.cli._common import (MAX_WALL_S, LidarOpt, LiveHostOpt, LiveOpt, LivePortOpt, LiveWaitOpt,
                                    NavigatorViewOpt, SpeedOpt, Stopped, bounded_int, check_executor_flags,
-                                   live_banner, live_settings, number)
+                                   live_banner, live_settings, number, resumable)
 from navstress.errors import SpecError, WorldFileError
 
 app = typer.Typer(rich_markup_mode=None)
@@ -80,7 +80,7 @@ def run(
 
     old = signal.signal(signal.SIGTERM, on_term)
     try:
-        with CampaignProgress(enabled=not quiet) as bar:
+        with resumable(resume, out), CampaignProgress(enabled=not quiet) as bar:
             res = run_campaign(spec, out, workers=workers, executor=executor,  # type: ignore[arg-type]
                                ray_address=ray_address, wall_limit_s=wall_limit, on_start=bar.on_start,
                                on_record=bar.on_record, accept_large=yes, on_planned=bar.on_planned)
@@ -233,7 +233,7 @@ def replay(
             raise SpecError("--wall-limit", wall_limit, f"a duration in seconds in (0, {MAX_WALL_S:g}]")
     settings = live_settings(live_host, live_port, live_wait, speed) if live else None
     if settings is not None:
-        typer.echo(live_banner(settings), err=True)
+        typer.echo(live_banner(settings))  # on standard output, with the result: standard error is for the one error line
 
     def on_term(signum: int, frame: object) -> None:
         raise Stopped(signum)
@@ -304,7 +304,8 @@ def demo(
         _files.write_atomic(spec_path, text)
     con = console()
     con.print(f"demo campaign: {spec_path} -> {output / 'campaign'}")
-    with CampaignProgress() as bar:
+    again = f"navstress demo -o {_quote(output)}" + (f" --workers {n_workers}" if n_workers is not None else "")
+    with resumable(again, output / "campaign"), CampaignProgress() as bar:
         res = run_campaign(spec_path, output / "campaign", workers=n_workers, on_start=bar.on_start,
                            on_record=bar.on_record, on_planned=bar.on_planned)
     con.print(f"{res.already_done + res.recorded}/{res.planned} runs recorded in {res.wall_s:.0f} s with "

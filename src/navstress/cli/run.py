@@ -7,9 +7,10 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import typer
-from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+from rich.progress import BarColumn, TextColumn, TimeRemainingColumn
 from rich.table import Table
 
+from navstress._bar import Bar
 from navstress._console import console
 from navstress._json import pretty as dumps
 from navstress.campaign.store import OUTCOMES
@@ -90,7 +91,7 @@ def run_cmd(
                            record_navigator=navigator_view or live, map_seed=world_seed)
         if settings is not None:
             con.print(live_banner(settings))
-        with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
+        with Bar(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
                       TimeRemainingColumn(), TextColumn("{task.fields[counts]}"), console=con) as prog:
             bar = prog.add_task("runs", total=n, counts="")
 

@@ -22,7 +22,7 @@ from typer.core import TyperGroup
 from navstress import _files
 from navstress._console import literal
 from navstress.errors import SpecError
-from navstress.cli._common import MAX_WORKERS, Stopped, check_executor_flags
+from navstress.cli._common import MAX_WORKERS, Stopped, check_executor_flags, resumable
 from navstress.search.driver import FOUND_WHAT, run_search
 from navstress.search.presets import template_yaml
 from navstress.search.progress import SearchProgress
@@ -95,7 +95,7 @@ def run(
 
     old = signal.signal(signal.SIGTERM, on_term)
     try:
-        with SearchProgress(enabled=not quiet) as bar:
+        with resumable(again, out), SearchProgress(enabled=not quiet) as bar:
             res = run_search(spec, out, budget=budget, workers=workers, executor=executor,  # type: ignore[arg-type]
                              ray_address=ray_address, wall_limit_s=wall_limit, on_start=bar.on_start,
                              on_record=bar.on_record, on_generation=bar.on_generation)

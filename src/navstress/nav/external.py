@@ -39,7 +39,7 @@ from pathlib import Path
 from typing import IO, Any, Literal
 
 from navstress import _json
-from navstress.errors import NavigatorError, SpecError
+from navstress.errors import MISSING, NavigatorError, SpecError
 from navstress.nav import wire
 from navstress.nav.api import Command, DebugDraw, NavMission, Navigator, Observation, Status, check_debug
 from navstress.nav.registry import make_navigator
@@ -448,7 +448,7 @@ def external_config(config: Mapping[str, Any]) -> tuple[list[str], dict[str, Any
         raise SpecError(f"navigator-config.{unknown[0]}", config[unknown[0]],
                         f"one of the keys {', '.join(_CONFIG_KEYS)}")
     if "command" not in config:
-        raise SpecError("navigator-config.command", None,
+        raise SpecError("navigator-config.command", MISSING,
                         'the command that starts the navigator, e.g. ["python3", "my_nav.py"]')
     command = config["command"]
     if isinstance(command, str):

@@ -17,6 +17,12 @@ topics, schemas and protobuf encoding; log times are simulated time):
   seconds;
 - at the end: the last events (the outcome) and the final map.
 
+What the server logs about its clients (a client that fails the handshake or sends a message the
+protocol does not know) reaches standard error only through :class:`ClientLog`: escaped (a client's
+bytes never move the cursor or restyle the terminal), each line bounded, at most
+:data:`LOG_BURST` lines per :data:`LOG_WINDOW_S` seconds and then one line saying how many more
+there were.
+
 A live run is the same run: it records the navigator's view (``--live`` implies
 ``--navigator-view``) and writes the same trace, byte for byte, as the run without ``--live``
 (tested); pacing only sleeps between steps, outside the simulation's clock.
@@ -24,15 +30,18 @@ A live run is the same run: it records the navigator's view (``--live`` implies
 
 from __future__ import annotations
 
+import logging
 import math
+import sys
 import threading
 import time
 from collections import Counter
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import IO, TYPE_CHECKING, Any
 
 import numpy as np
 
+from navstress._console import one_line
 from navstress.robot import RobotSpec
 from navstress.run.record import RunRecord, RunTask
 from navstress.run.trace import (BELIEF, FRAME, FRAME_LIDAR, FRAME_ROBOT, TOPIC_MAP, TOPIC_PERCEIVED, TOPIC_TRUTH,
@@ -64,6 +73,90 @@ class LiveSettings:
     wait_s: float = 30.0  # longest wait for a client before the run starts anyway
 
 
+#: The logger the Foxglove SDK's server logs to (about its clients: handshakes, bad messages).
+SDK_LOGGER = "foxglove"
+#: Most lines about clients printed per :data:`LOG_WINDOW_S` seconds (the others are counted).
+LOG_BURST = 3
+LOG_WINDOW_S = 10.0
+#: Longest line about a client, in characters (what a client sent is cut to fit).
+LOG_LINE_CHARS = 200
+
+
+class ClientLog(logging.Handler):
+    """Prints what the Foxglove server logs about its clients on standard error, safely: one line
+    per message, ``live: `` and the message with every control character escaped, at most
+    :data:`LOG_LINE_CHARS` characters; at most :data:`LOG_BURST` lines per :data:`LOG_WINDOW_S`
+    seconds, the rest counted and said in one line (when the next window opens, or at
+    :meth:`flush_counts`). Installed on the SDK's logger for the life of a server (:meth:`install`)."""
+
+    def __init__(self, stream: IO[str] | None = None, *, burst: int = LOG_BURST, window_s: float = LOG_WINDOW_S,
+                 width: int = LOG_LINE_CHARS) -> None:
+        super().__init__(logging.WARNING)
+        self._stream = stream
+        self.burst, self.window_s, self.width = burst, window_s, width
+        self._window0 = -math.inf
+        self._shown = 0
+        self.suppressed = 0
+        self._saved: tuple[bool, int] | None = None
+
+    def install(self) -> "ClientLog":
+        """Take the SDK's log lines (they no longer reach Python's last-resort handler raw)."""
+        log = logging.getLogger(SDK_LOGGER)
+        self._saved = (log.propagate, log.level)
+        log.addHandler(self)
+        log.propagate = False
+        if log.level == logging.NOTSET:
+            log.setLevel(logging.WARNING)
+        return self
+
+    def uninstall(self) -> None:
+        """Give the logger back as it was, after saying how many lines were not shown."""
+        self.flush_counts()
+        log = logging.getLogger(SDK_LOGGER)
+        log.removeHandler(self)
+        if self._saved is not None:
+            log.propagate, level = self._saved
+            log.setLevel(level)
+            self._saved = None
+
+    def _write(self, text: str) -> None:
+        stream = self._stream if self._stream is not None else sys.stderr
+        try:
+            stream.write(text + "\n")
+            stream.flush()
+        except (OSError, ValueError):  # a closed or broken standard error: nothing to tell
+            pass
+
+    def _say_suppressed(self) -> None:
+        n, self.suppressed = self.suppressed, 0
+        if n:
+            self._write(f"live: {n} more message(s) about clients not shown (at most {self.burst} lines per "
+                        f"{self.window_s:g} s)")
+
+    def flush_counts(self) -> None:
+        """Say how many lines were not shown since the last time, if any."""
+        self.acquire()
+        try:
+            self._say_suppressed()
+        finally:
+            self.release()
+
+    def emit(self, record: logging.LogRecord) -> None:  # called with the handler's lock held
+        try:
+            text = record.getMessage()
+        except Exception:  # a record whose arguments do not format: its raw text
+            text = str(record.msg)
+        now = time.monotonic()
+        if now - self._window0 >= self.window_s:
+            self._say_suppressed()
+            self._window0, self._shown = now, 0
+        if self._shown >= self.burst:
+            self.suppressed += 1
+            return
+        self._shown += 1
+        self._write("live: " + one_line(text, self.width - len("live: ")))
+
+
 class LivePublisher(TraceMessages):
     """A Foxglove WebSocket server for one run (module doc); a :class:`~navstress.run.mission.RunWatcher`."""
 
@@ -83,9 +176,14 @@ class LivePublisher(TraceMessages):
                 outer._subscribed.set()
                 outer._resend.set()
 
-        self._server = foxglove.start_server(name="navstress", host=settings.host, port=settings.port,
-                                             context=self._ctx, server_listener=Listener(),
-                                             message_backlog_size=BACKLOG)
+        self._log = ClientLog().install()  # before the server: its first client may be a bad one
+        try:
+            self._server = foxglove.start_server(name="navstress", host=settings.host, port=settings.port,
+                                                 context=self._ctx, server_listener=Listener(),
+                                                 message_backlog_size=BACKLOG)
+        except BaseException:
+            self._log.uninstall()
+            raise
         self._statics: list[tuple[str, Any, int]] | None = None
         self._collecting = False
         self._events_sent: Counter[tuple[float, str, str]] = Counter()
@@ -194,7 +292,10 @@ class LivePublisher(TraceMessages):
         messages (the server sends from its own threads, and stopping drops what is queued)."""
         if self._subscribed.is_set():
             time.sleep(LINGER_S)
-        self._server.stop()
+        try:
+            self._server.stop()
+        finally:
+            self._log.uninstall()
 
 
 def unsent(events: list[tuple[float, str, str]], sent: Counter[tuple[float, str, str]]) -> list[tuple[float, str, str]]:

@@ -48,7 +48,7 @@ from navstress.run.record import RunRecord
 from navstress.search.objectives import (Confirmation, by_world, confirm, descriptor_values, evaluate,
                                          get_descriptor, world_feasible)
 from navstress.search.space import Candidate, Space
-from navstress.search.spec import SearchSpec, load_search, with_budget
+from navstress.search.spec import SearchSpec, as_search_error, load_search, with_budget
 from navstress.world.world import World
 
 #: The experiment of the elites' confirmation runs.
@@ -238,7 +238,10 @@ def _entry(c: Candidate) -> dict[str, Any]:
 def _campaign(spec: SearchSpec, experiments: list[dict[str, Any]]) -> tuple[CampaignSpec, str]:
     data = {**spec.campaign_fields(), "experiments": experiments}
     text = yaml.safe_dump(data, sort_keys=False)
-    return parse_campaign(data, max_runs=None), text
+    try:
+        return parse_campaign(data, max_runs=None), text
+    except SpecError as err:
+        raise as_search_error(err, spec) from None
 
 
 def _under_test(spec: SearchSpec) -> str | None:
@@ -368,7 +371,10 @@ def run_search(spec_path: str | Path, directory: str | Path, *, budget: int | No
         X = algo.ask()
         first = [space.decode(x) for x in X]
         exp0 = {"name": generation_name(0), "worlds": [_entry(c) for c in {c.key: c for c in first}.values()]}
-        check_runnable(_campaign(spec, [exp0])[0], build_limit_s=min(limit, BUILD_LIMIT_S))
+        try:
+            check_runnable(_campaign(spec, [exp0])[0], build_limit_s=min(limit, BUILD_LIMIT_S))
+        except SpecError as err:  # named as the search spec names it (navigator, not navigators[0])
+            raise as_search_error(err, spec) from None
         ex: _KeptPool | RayExecutor
         if executor == "ray":
             ex = stack.enter_context(RayExecutor(workers, targets, address=ray_address))

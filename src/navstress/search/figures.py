@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from navstress.analysis.charts import found_chart, illumination_chart
-from navstress.errors import NavstressError, SpecError
+from navstress.errors import MISSING, NavstressError, SpecError
 from navstress.run.figures import RunTrack, draw_tracks, legend, png_bytes
 from navstress.run.figures import new_figure as _figure
 from navstress.run.record import RunRecord
@@ -42,7 +42,7 @@ from navstress.world.world import World
 def _get(obj: Any, name: str) -> Any:
     if isinstance(obj, Mapping):
         if name not in obj:
-            raise SpecError(name, None, f"a value for {name!r} in each entry", f"entry: {dict(obj)!r}")
+            raise SpecError(name, MISSING, f"a value for {name!r} in each entry")
         return obj[name]
     return getattr(obj, name)
 

@@ -6,9 +6,9 @@ from __future__ import annotations
 from types import TracebackType
 
 from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TaskID, TextColumn, TimeElapsedColumn, \
-    TimeRemainingColumn
+from rich.progress import BarColumn, MofNCompleteColumn, TaskID, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
+from navstress._bar import Bar
 from navstress._console import console as make_console
 from navstress.run.record import RunRecord
 from navstress.search.driver import GenerationReport
@@ -21,7 +21,7 @@ class SearchProgress:
 
     def __init__(self, console: Console | None = None, enabled: bool = True) -> None:
         self.console = console if console is not None else make_console(stderr=True)
-        self._progress = Progress(TextColumn("[bold]{task.description}"), BarColumn(bar_width=24),
+        self._progress = Bar(TextColumn("[bold]{task.description}"), BarColumn(bar_width=24),
                                   MofNCompleteColumn(), TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
                                   TextColumn("{task.fields[info]}"), console=self.console, disable=not enabled,
                                   transient=False)

@@ -30,15 +30,17 @@ import typing
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import BaseModel, Field, field_validator, model_validator
 
+from navstress._models import SPEC_CONFIG, parse
 from navstress.campaign.spec import AdaptiveRuns, NavigatorSpec, check_name, deep_merge, repetition
-from navstress.errors import SpecError
+from navstress.errors import MISSING, SpecError
 from navstress.search.objectives import DESCRIPTORS
+from navstress.seeding import MAX_SEED
 from navstress.specfile import parse_text, read_text
-from navstress.world.spec import BUILTIN_TYPES, ObstacleType, WorldSpec, _pydantic_to_spec_error, parse_spec
+from navstress.world.spec import BUILTIN_TYPES, ObstacleType, WorldSpec, parse_spec
 
-_STRICT = ConfigDict(frozen=True, extra="forbid")
+_STRICT = SPEC_CONFIG
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 
 OBJECTIVES = ("failure", "fault-revealing", "boundary", "illumination")
@@ -212,7 +214,7 @@ class SearchSpec(BaseModel):
 
     model_config = _STRICT
     name: str = "search"
-    seed: int = Field(0, ge=0)
+    seed: int = Field(0, ge=0, le=MAX_SEED)
     world: dict[str, Any] = Field(default_factory=dict, description="the base WorldSpec mapping")
     space: SpaceSpec
     navigator: NavigatorSpec = Field(default_factory=NavigatorSpec)
@@ -430,14 +432,14 @@ def _check_descriptors(field: str, descs: list[DescriptorSpec], paths: set[str])
 
 def _check_options(data: dict[str, Any]) -> None:
     """Unknown objective or algorithm names, and options that belong to another one."""
-    obj = data.get("objective")
-    if obj is None:
-        raise SpecError("objective", None, f"a mapping with a name, one of {list(OBJECTIVES)}",
+    obj = data.get("objective", MISSING)
+    if obj is MISSING or obj is None:
+        raise SpecError("objective", obj, f"a mapping with a name, one of {list(OBJECTIVES)}",
                         "`navstress search init --objective NAME` writes a ready spec")
     if not isinstance(obj, dict):
         raise SpecError("objective", obj, f"a mapping with a name, one of {list(OBJECTIVES)}")
-    name = obj.get("name")
-    if name not in OBJECTIVES:
+    name = obj.get("name", MISSING)
+    if not isinstance(name, str) or name not in OBJECTIVES:
         raise SpecError("objective.name", name, f"one of {list(OBJECTIVES)}")
     for k in obj:
         if k != "name" and k not in OBJECTIVE_OPTIONS[name]:
@@ -451,7 +453,7 @@ def _check_options(data: dict[str, Any]) -> None:
     if not isinstance(algo, dict):
         raise SpecError("algorithm", algo, f"a mapping with a name, one of {list(ALGORITHMS)}")
     aname = algo.get("name", AlgorithmSpec.model_fields["name"].default)
-    if aname not in ALGORITHMS:
+    if not isinstance(aname, str) or aname not in ALGORITHMS:
         raise SpecError("algorithm.name", aname, f"one of {list(ALGORITHMS)}")
     for k in algo:
         if k not in ("name", "batch") and k not in ALGORITHM_SETTINGS[aname]:
@@ -460,18 +462,6 @@ def _check_options(data: dict[str, Any]) -> None:
             expected = f"a setting of {' and '.join(owners)}" if owners else "a known setting"
             raise SpecError(f"algorithm.{k}", algo[k], f"{expected} ({aname} takes: {takes})",
                             "remove it or check its spelling")
-
-
-def _to_spec_error(err: ValidationError) -> SpecError:
-    """The first pydantic error as a SpecError naming its field path (``a.b[0].c``)."""
-    first = err.errors(include_url=False)[0]
-    inner = (first.get("ctx") or {}).get("error")
-    if isinstance(inner, SpecError) and len(first["loc"]) > 1:
-        where = ".".join(str(p) for p in first["loc"][:-1])
-        e = SpecError(f"{where}.{inner.field}", inner.value, inner.expected, inner.fix)
-    else:
-        e = _pydantic_to_spec_error(err)
-    return SpecError(re.sub(r"\.(\d+)(?=\.|$)", r"[\1]", e.field), e.value, e.expected, e.fix)
 
 
 def parse_search(data: Any) -> SearchSpec:
@@ -491,12 +481,7 @@ def parse_search(data: Any) -> SearchSpec:
         runs = budget.get("runs")
         if isinstance(runs, (int, float)) and not isinstance(runs, bool) and runs <= 0:
             raise SpecError("budget.runs", runs, "a number of runs > 0")
-    try:
-        spec = SearchSpec.model_validate(data)
-    except SpecError:
-        raise
-    except ValidationError as err:
-        raise _to_spec_error(err) from None
+    spec = parse(SearchSpec, data)
     if spec.budget.runs > MAX_BUDGET_RUNS:
         raise SpecError("budget.runs", spec.budget.runs, f"at most {MAX_BUDGET_RUNS:,} runs")
     try:
@@ -537,7 +522,7 @@ def _check_objective(spec: SearchSpec, paths: set[str]) -> None:
     obj = spec.objective
     if obj.name == "fault-revealing":
         if obj.fault is None:
-            raise SpecError("objective.fault", None, "the name of the fault to reveal, e.g. small-footprint",
+            raise SpecError("objective.fault", MISSING if "fault" not in obj.model_fields_set else None, "the name of the fault to reveal, e.g. small-footprint",
                             "`navstress nav faults` lists them")
         if not _NAME.match(obj.fault):
             raise SpecError("objective.fault", obj.fault, "a fault name of letters, digits, '_', '.', '-'")
@@ -546,7 +531,7 @@ def _check_objective(spec: SearchSpec, paths: set[str]) -> None:
                             "leave faults out to get exactly these two")
     if obj.name == "illumination":
         if obj.descriptors is None:
-            raise SpecError("objective.descriptors", None, "two descriptors, each {name, low, high, cells}",
+            raise SpecError("objective.descriptors", MISSING if "descriptors" not in obj.model_fields_set else None, "two descriptors, each {name, low, high, cells}",
                             "e.g. obstruction and path_ratio")
         _check_descriptors("objective.descriptors", obj.descriptors, paths)
 
@@ -565,6 +550,26 @@ def _check_algorithm(spec: SearchSpec, paths: set[str]) -> None:
                         "each)", "raise batch or lower emitters")
     if algo.name in ("ga", "nsga2") and algo.batch < 2:
         raise SpecError("algorithm.batch", algo.batch, "at least 2 (a population to recombine)")
+
+
+#: The fields of the campaign a search runs (:meth:`SearchSpec.campaign_fields`) that the search
+#: spec names otherwise: an error of that campaign names the search spec's field.
+CAMPAIGN_TO_SEARCH = (("navigators[0]", "navigator"), ("runs_per_map", "runs_per_candidate"),
+                      ("experiments", "space"))
+
+
+def as_search_error(err: SpecError, spec: SearchSpec) -> SpecError:
+    """``err``, raised by the campaign a search runs, naming the search spec's field: ``navigator``
+    (not ``navigators[0]``), ``runs_per_candidate`` (not ``runs_per_map``), the objective's fault
+    when the faults were left out (they are then the nominal stack and that fault)."""
+    field = err.field
+    for theirs, ours in CAMPAIGN_TO_SEARCH:
+        if field == theirs or field.startswith((theirs + ".", theirs + "[")):
+            field = ours + field[len(theirs):]
+            break
+    if field == "faults" and spec.objective.fault is not None and err.value == spec.objective.fault:
+        field = "objective.fault"
+    return err if field == err.field else SpecError(field, err.value, err.expected, err.fix)
 
 
 def load_search(path: str | Path) -> tuple[SearchSpec, str]:

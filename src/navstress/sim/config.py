@@ -106,8 +106,8 @@ class SimConfig:
             raise SpecError("sim.rate_jitter", self.rate_jitter, "a fraction in [0, 0.5)")
         if not (isinstance(self.obstacle_pool, int) and 0 <= self.obstacle_pool <= 4096):
             raise SpecError("sim.obstacle_pool", self.obstacle_pool, "an integer in [0, 4096] (0: no pool)")
-        if self.solver_iterations < 1:
-            raise SpecError("sim.solver_iterations", self.solver_iterations, "an integer >= 1")
+        if not 1 <= self.solver_iterations <= 1000:
+            raise SpecError("sim.solver_iterations", self.solver_iterations, "an integer in [1, 1000]")
 
     @classmethod
     def from_mapping(cls, data: Any) -> "SimConfig":

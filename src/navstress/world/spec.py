@@ -18,12 +18,13 @@ import os
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, SerializerFunctionWrapHandler, ValidationError, model_serializer, model_validator
+from pydantic import BaseModel, Field, SerializerFunctionWrapHandler, model_serializer, model_validator
 
-from navstress.errors import SpecError
+from navstress._models import LIST, SPEC_CONFIG, parse
+from navstress.errors import MISSING, SpecError
 from navstress.specfile import load_file
 
-_STRICT = ConfigDict(frozen=True, extra="forbid")
+_STRICT = SPEC_CONFIG
 
 
 class GroundSpec(BaseModel):
@@ -56,14 +57,14 @@ class ObstacleType(BaseModel):
     """
 
     model_config = _STRICT
-    base_m: tuple[float, float] = Field(description="footprint sides (sx, sy) in meters")
+    base_m: tuple[float, float] = Field(description="footprint sides (sx, sy) in meters", strict=LIST)
     height_m: float = Field(gt=0.0)
     variability: float = Field(0.0, ge=0.0, lt=1.0)
 
     @model_validator(mode="after")
     def _positive_base(self) -> "ObstacleType":
         if self.base_m[0] <= 0 or self.base_m[1] <= 0:
-            raise ValueError("base_m sides must be > 0")
+            raise SpecError("base_m", list(self.base_m), "two footprint sides > 0 (meters)")
         return self
 
 
@@ -86,8 +87,8 @@ class ObstacleMove(BaseModel):
     not applied (the world's ``moves_applied`` descriptor counts the applied ones)."""
 
     model_config = _STRICT
-    at: tuple[float, float]
-    by: tuple[float, float]
+    at: tuple[float, float] = Field(strict=LIST)
+    by: tuple[float, float] = Field(strict=LIST)
 
 
 class ObstaclesSpec(BaseModel):
@@ -103,7 +104,7 @@ class ObstaclesSpec(BaseModel):
     obstruction: dict[str, float] = Field(default_factory=dict)
     total: float | None = Field(None, ge=0.0, lt=100.0)
     mix: dict[str, float] | None = None
-    moves: tuple[ObstacleMove, ...] = ()
+    moves: tuple[ObstacleMove, ...] = Field((), strict=LIST)
 
     @model_serializer(mode="wrap")
     def _dump(self, handler: SerializerFunctionWrapHandler) -> Any:
@@ -139,7 +140,8 @@ class ObstaclesSpec(BaseModel):
                 raise SpecError("obstacles.total", self.total, "either total+mix or obstruction, not both",
                                 "remove one of them")
             if not self.mix:
-                raise SpecError("obstacles.mix", self.mix, "weights per type when total is given",
+                raise SpecError("obstacles.mix", self.mix if self.mix is not None else MISSING,
+                                "weights per type when total is given",
                                 "e.g. --mix trees=1,buildings=1")
         for name, w in (self.mix or {}).items():
             if name not in known:
@@ -153,7 +155,7 @@ class ObstaclesSpec(BaseModel):
         for i, mv in enumerate(self.moves):
             for name, pair in (("at", mv.at), ("by", mv.by)):
                 if not all(math.isfinite(v) for v in pair):
-                    raise SpecError(f"obstacles.moves.{i}.{name}", list(pair), "two finite numbers (meters)")
+                    raise SpecError(f"obstacles.moves[{i}].{name}", list(pair), "two finite numbers (meters)")
         s = sum(self.targets().values())
         if s >= 100.0:
             raise SpecError("obstacles.obstruction", round(s, 3), "a total below 100 percent")
@@ -179,8 +181,8 @@ class MissionSpec(BaseModel):
 
     model_config = _STRICT
     mode: Literal["paper", "random"] = "paper"
-    start: tuple[float, float, float] | None = None
-    goal: tuple[float, float] | None = None
+    start: tuple[float, float, float] | None = Field(None, strict=LIST)
+    goal: tuple[float, float] | None = Field(None, strict=LIST)
     inset_m: float = Field(5.0, ge=0.0)
     free_radius_m: float = Field(5.0, ge=0.0, le=50.0)
     min_distance_m: float = Field(50.0, ge=0.0)
@@ -376,7 +378,7 @@ class WorldSpec(BaseModel):
     """Everything that defines a family of worlds; with a seed, one world."""
 
     model_config = _STRICT
-    size_m: tuple[float, float] = (100.0, 100.0)
+    size_m: tuple[float, float] = Field((100.0, 100.0), strict=LIST)
     cell_m: float = Field(0.4, ge=0.05, le=2.0, description="terrain grid cell size in meters")
     ground: GroundSpec = GroundSpec()
     obstacles: ObstaclesSpec = ObstaclesSpec()
@@ -409,7 +411,7 @@ class WorldSpec(BaseModel):
                 raise SpecError(f"mission.{name}", list(pt), f"a point inside the map [0, {self.size_m[0]:g}] x [0, {self.size_m[1]:g}]")
         for i, mv in enumerate(self.obstacles.moves):
             if not (0 <= mv.at[0] <= self.size_m[0] and 0 <= mv.at[1] <= self.size_m[1]):
-                raise SpecError(f"obstacles.moves.{i}.at", list(mv.at),
+                raise SpecError(f"obstacles.moves[{i}].at", list(mv.at),
                                 f"a point inside the map [0, {self.size_m[0]:g}] x [0, {self.size_m[1]:g}]")
         counts = self.movers.counts(self.size_m)
         total = sum(counts.values())
@@ -479,56 +481,10 @@ def check_memory(spec: WorldSpec) -> WorldSpec:
     return spec
 
 
-def _pydantic_to_spec_error(err: ValidationError, prefix: str = "") -> SpecError:
-    e = err.errors(include_url=False)[0]
-    loc = ".".join(str(p) for p in e["loc"] if not isinstance(p, int) or True)
-    field = f"{prefix}{loc}" if loc else prefix.rstrip(".") or "spec"
-    ctx = e.get("ctx") or {}
-    inner = ctx.get("error")
-    if isinstance(inner, SpecError):
-        return inner
-    expected = str(e["msg"]).removeprefix("Input should be ").removeprefix("Value error, ")
-    bounds = {k: ctx[k] for k in ("ge", "gt", "le", "lt") if k in ctx}
-    kind = e["type"]
-    value = e.get("input")
-    if isinstance(value, float) and math.isnan(value):
-        expected = "a number (not NaN)"
-    elif bounds:
-        sym = {"ge": ">=", "gt": ">", "le": "<=", "lt": "<"}
-        expected = "a value " + " and ".join(f"{sym[k]} {v}" for k, v in bounds.items())
-    elif kind == "extra_forbidden":
-        expected = "a known field (this one is not part of the spec; check its spelling)"
-    elif kind in _EXPECTED:
-        expected = _EXPECTED[kind]
-    elif kind == "literal_error":
-        expected = f"one of {ctx.get('expected', '')}"
-    elif kind == "missing" and e["loc"] and isinstance(e["loc"][-1], int):
-        field = field.rsplit(".", 1)[0]
-        expected = f"a list with an item at index {e['loc'][-1]} (the list is too short)"
-    elif kind == "missing":
-        expected = "a value (this field is required)"
-    return SpecError(field, value, expected)
-
-
-_EXPECTED = {
-    "float_parsing": "a number", "float_type": "a number", "finite_number": "a finite number",
-    "int_parsing": "an integer", "int_type": "an integer", "int_from_float": "an integer (no fractional part)",
-    "bool_parsing": "true or false", "bool_type": "true or false",
-    "tuple_type": "a list", "list_type": "a list", "too_long": "a shorter list",
-    "dict_type": "a mapping of fields", "model_type": "a mapping of fields", "model_attributes_type": "a mapping of fields",
-    "string_type": "a string",
-}
-
-
 def parse_spec(data: dict[str, Any]) -> WorldSpec:
     """Validate a mapping into a WorldSpec, raising :class:`SpecError` on bad input (including a
     world too large for memory, see :func:`check_memory`)."""
-    try:
-        return check_memory(WorldSpec.model_validate(data))
-    except SpecError:
-        raise
-    except ValidationError as err:
-        raise _pydantic_to_spec_error(err) from None
+    return check_memory(parse(WorldSpec, data))
 
 
 def load_spec(path: str | Path) -> WorldSpec:

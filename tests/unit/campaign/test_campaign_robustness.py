@@ -133,7 +133,7 @@ BAD_NAVIGATORS: list[tuple[dict[str, Any], str]] = [
     ({"name": "reference-global-v1", "config": {"bogus": [1]}}, "bogus=[1]"),
     ({"name": "external-v1", "config": {"command": ["/no/such/bin"]}}, "command=['/no/such/bin']"),
     ({"name": "external-v1", "config": {"command": "NOT_EXECUTABLE"}}, "command="),
-    ({"name": "external-v1", "config": {}}, "command=None"),
+    ({"name": "external-v1", "config": {}}, "command is missing"),
     ({"name": "external-v1", "config": {"command": []}}, "command=[]"),
     ({"name": "external-v1", "config": {"command": ["sleep", "1"], "step_budget_s": 0}}, "step_budget_s=0"),
     ({"name": "external-v1", "config": {"command": ["sleep", "1"], "reset_budget_s": math.nan}}, "reset_budget_s=nan"),

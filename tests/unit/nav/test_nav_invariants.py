@@ -8,7 +8,8 @@ from pathlib import Path
 import navstress.nav.reference as ref
 
 ALLOWED = {"navstress.nav.api", "navstress.robot", "navstress.errors", "navstress.seeding",
-           "navstress._jit"}  # numba's cache directory, imported by every compiled module (no world data)
+           "navstress._jit",  # numba's cache directory, imported by every compiled module (no world data)
+           "navstress._models", "navstress.specfile"}  # the config's strict model and bounded file reader
 
 
 def test_reference_stack_sees_no_ground_truth() -> None:

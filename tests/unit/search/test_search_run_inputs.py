@@ -47,7 +47,7 @@ CASES: list[tuple[str, dict[str, Any], list[str], str, str]] = [
     ("no obstacle moves", _with(space__moves={"count": 0, "radius_m": 1.0}), [], "new", "space.moves.count=0"),
     ("moves of radius 0", _with(space__moves={"count": 2, "radius_m": 0}), [], "new", "space.moves.radius_m=0"),
     ("bad move in the base world", _with(world={"obstacles": {"moves": [{"at": [1, 2], "by": [0, float("nan")]}]}}),
-     [], "new", "world.obstacles.moves.0.by="),
+     [], "new", "world.obstacles.moves[0].by[1]=nan"),
     ("budget 0", _with(budget={"runs": 0}), [], "new", "budget.runs=0"),
     ("budget negative", _with(budget={"runs": -3}), [], "new", "budget.runs=-3"),
     ("unknown objective", _with(objective={"name": "nope"}), [], "new", "objective.name="),
@@ -57,6 +57,27 @@ CASES: list[tuple[str, dict[str, Any], list[str], str, str]] = [
     ("--workers 0", SEARCH, ["--workers", "0"], "new", "--workers=0"),
     ("--executor foo", SEARCH, ["--executor", "foo"], "new", "--executor="),
     ("--wall-limit 0", SEARCH, ["--wall-limit", "0"], "new", "--wall-limit="),
+    # the search spec's own names, never those of the campaign it runs (navigators[0], runs_per_map)
+    ("unknown navigator", _with(navigator={"name": "no-such-nav-v1"}), [], "new", "error: navigator.name="),
+    ("navigator config: text for an integer", _with(navigator={"name": "reference-v1", "config": {"n_arcs": "21"}}),
+     [], "new", "error: navigator.config.n_arcs='21'"),
+    ("navigator config: a boolean for an integer", _with(navigator={"name": "reference-v1",
+                                                                    "config": {"n_arcs": True}}),
+     [], "new", "error: navigator.config.n_arcs=True"),
+    ("navigator config: unknown key", _with(navigator={"name": "reference-v1", "config": {"colour": 1}}), [], "new",
+     "error: navigator.config.colour=1"),
+    ("navigator target that cannot be imported", _with(navigator={"name": "mine-v1", "target": "no_such_mod:f"}), [],
+     "new", "error: navigator.target="),
+    ("unknown fault", _with(faults=[None, "no-such-fault"], budget={"runs": 4}), [], "new",
+     "error: faults='no-such-fault'"),
+    ("unknown fault to reveal, faults left out", _with(objective={"name": "fault-revealing", "fault": "nofault"},
+                                                       budget={"runs": 4}), [], "new",
+     "error: objective.fault='nofault'"),
+    ("a bad sim override", _with(sim={"timestep_s": 0}), [], "new", "error: sim.timestep_s=0"),
+    ("runs_per_candidate as text", _with(runs_per_candidate="2"), [], "new", "error: runs_per_candidate='2'"),
+    ("budget as text", _with(budget={"runs": "10"}), [], "new", "error: budget.runs='10'"),
+    ("seed true", _with(seed=True), [], "new", "error: seed=True"),
+    ("seed over 2^63 - 1", _with(seed=2**63), [], "new", "error: seed=9223372036854775808"),
     ("output is a file", SEARCH, [], "file", "exists and is not a directory"),
     ("output holds a campaign", SEARCH, [], "campaign", "which is not a search"),
     ("output holds another search", _with(seed=2), [], "other-search", "different spec"),
@@ -97,7 +118,7 @@ def test_bad_input_is_one_line_exit_2_and_nothing_written(root: Path, tmp_path: 
     before, mine = snapshot(root), snapshot(tmp_path)
     full = ["search", str(path), "-o", str(out), "-q", *argv]
     line = assert_one_line_error(*invoke(full), full)
-    assert names in line, line
+    assert names in line and "navigators[" not in line and "runs_per_map" not in line, line
     assert snapshot(root) == before and snapshot(tmp_path) == mine
     # the same through the subcommand's own name
     full = ["search", "run", str(path), "-o", str(out), "-q", *argv]

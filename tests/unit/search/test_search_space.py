@@ -215,7 +215,7 @@ def test_bad_moves_in_a_space_are_one_line_errors_naming_the_field(moves: dict[s
     with pytest.raises(SpecError) as err:
         _spec([], map_seed=False, moves=moves)
     text = str(err.value)
-    assert "\n" not in text and text.startswith(field + "="), text
+    assert "\n" not in text and text.startswith((field + "=", field + " is missing: ")), text
 
 
 def test_a_space_of_moves_alone_is_a_space() -> None:

@@ -154,7 +154,7 @@ def test_bad_input_is_one_spec_error_naming_its_field(what: str, mod: Callable[[
         parse_search(_with(mod))
     err = info.value
     assert err.field == field, str(err)
-    assert "\n" not in str(err) and str(err).startswith(f"{field}=")
+    assert "\n" not in str(err) and str(err).startswith((f"{field}=", f"{field} is missing: "))
 
 
 def test_the_base_spec_and_its_defaults() -> None:

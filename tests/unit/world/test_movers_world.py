@@ -60,7 +60,7 @@ def test_bad_mover_specs_are_one_line_spec_errors(movers: dict[str, Any], field:
     msg = str(e.value)
     assert "\n" not in msg
     assert e.value.field == field, msg
-    assert f"{field}=" in msg and value in msg and "expected" in msg, msg
+    assert (f"{field}=" in msg or f"{field} is missing: " in msg) and value in msg and "expected" in msg, msg
 
 
 def test_no_movers_by_default_and_the_dump_has_no_movers_key() -> None:

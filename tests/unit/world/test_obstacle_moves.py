@@ -108,13 +108,13 @@ def test_a_world_without_moves_keeps_its_files(tmp_path) -> None:
 
 
 @pytest.mark.parametrize("moves, field", [
-    ([{"at": [1.0, float("nan")], "by": [0, 0]}], "obstacles.moves.0.at"),
-    ([{"at": [1.0, 1.0], "by": [float("inf"), 0]}], "obstacles.moves.0.by"),
-    ([{"at": [31.0, 1.0], "by": [0, 0]}], "obstacles.moves.0.at"),
-    ([{"at": [1.0, -0.5], "by": [0, 0]}], "obstacles.moves.0.at"),
-    ([{"at": [1.0, 1.0], "by": [0, 0]}, {"at": [1.0], "by": [0, 0]}], "obstacles.moves.1.at"),
-    ([{"at": [1.0, 1.0]}], "obstacles.moves.0.by"),
-    ([{"at": [1.0, 1.0], "by": [0, 0], "index": 3}], "obstacles.moves.0.index"),
+    ([{"at": [1.0, float("nan")], "by": [0, 0]}], "obstacles.moves[0].at"),
+    ([{"at": [1.0, 1.0], "by": [float("inf"), 0]}], "obstacles.moves[0].by"),
+    ([{"at": [31.0, 1.0], "by": [0, 0]}], "obstacles.moves[0].at"),
+    ([{"at": [1.0, -0.5], "by": [0, 0]}], "obstacles.moves[0].at"),
+    ([{"at": [1.0, 1.0], "by": [0, 0]}, {"at": [1.0], "by": [0, 0]}], "obstacles.moves[1].at"),
+    ([{"at": [1.0, 1.0]}], "obstacles.moves[0].by"),
+    ([{"at": [1.0, 1.0], "by": [0, 0], "index": 3}], "obstacles.moves[0].index"),
     ([{"at": [1.0, 1.0], "by": [0, 0]}] * (MAX_MOVES + 1), "obstacles.moves"),
     ("here", "obstacles.moves"),
 ])

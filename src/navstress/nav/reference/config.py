@@ -19,15 +19,15 @@ by ``footprint_margin_m``. The goal tolerance comes from the mission (``NavMissi
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 from typing import Any, Literal
 
-import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, Field, model_validator
 
+from navstress._models import SPEC_CONFIG, parse
 from navstress.errors import SpecError
+from navstress.specfile import load_file
 
 __all__ = ["GlobalConfig", "ReferenceConfig", "load_config", "parse_config"]
 
@@ -44,7 +44,7 @@ class ReferenceConfig(BaseModel):
     with ``Status("error", "no arc elected")``.
     """
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
+    model_config = SPEC_CONFIG
 
     # --- loop ---
     control_rate_hz: float = Field(10.0, gt=0.0, le=100.0, description="control cycle rate (the framework calls step at this rate)")
@@ -65,7 +65,7 @@ class ReferenceConfig(BaseModel):
     roughness_weight: float = Field(1.0, ge=0.0, description="cost per node at the max roughness")
     goal_weight: float = Field(1.0, gt=0.0, description="cost per meter of remaining distance to the goal from an arc's end")
     election_threshold: float = Field(15.0, gt=0.0, description="an arc whose summed node cost exceeds this is not electable (15 = 15 nodes at the max slope; 12, a mean of ~20 deg, refused the way out of pits the robot had driven down into at 19 deg)")
-    unknown_cell_cost: float = Field(math.inf, description="cost of a node whose footprint touches a never-seen cell (infinite: the paper's P3D)")
+    unknown_cell_cost: float = Field(math.inf, allow_inf_nan=True, description="cost of a node whose footprint touches a never-seen cell (infinite: the paper's P3D)")
     obstacle_height_m: float = Field(0.3, gt=0.0, description="a cell is an obstacle when it rises this much (plus the max-slope allowance) above its 3x3 neighbourhood's ground")
     exempt_current_footprint: bool = Field(True, description="cells under the robot's current (margined) footprint are not checked at the nodes: an obstacle cell dilated into the margin does not forbid driving away from it")
     footprint_margin_m: float = Field(0.0, ge=0.0, le=2.0, description="added on every side of the believed RobotSpec footprint (hard: a node whose margined footprint touches an obstacle is infinite)")
@@ -132,56 +132,17 @@ class GlobalConfig(ReferenceConfig):
     carrot_m: float = Field(4.0, gt=0.0, description="look-ahead along the global path that sets the turn-in-place direction")
 
 
-_TYPE_WORDS = {
-    "float_parsing": "a number", "float_type": "a number", "finite_number": "a finite number",
-    "int_parsing": "an integer", "int_type": "an integer", "int_from_float": "an integer",
-    "bool_parsing": "true or false", "bool_type": "true or false",
-}
-
-
-def _to_spec_error(err: ValidationError) -> SpecError:
-    e = err.errors(include_url=False)[0]
-    field = ".".join(str(p) for p in e["loc"]) or "config"
-    ctx = e.get("ctx") or {}
-    inner = ctx.get("error")
-    if isinstance(inner, SpecError):
-        return inner
-    bounds = {k: ctx[k] for k in ("ge", "gt", "le", "lt") if k in ctx}
-    if bounds:
-        sym = {"ge": ">=", "gt": ">", "le": "<=", "lt": "<"}
-        expected = "a value " + " and ".join(f"{sym[k]} {v}" for k, v in bounds.items())
-    elif e["type"] == "extra_forbidden":
-        expected = "a known parameter (check its spelling)"
-    elif e["type"] in _TYPE_WORDS:
-        expected = _TYPE_WORDS[e["type"]]
-    else:
-        expected = str(e["msg"])
-    return SpecError(field, e.get("input"), expected)
-
-
 def parse_config(data: dict[str, Any], *, cls: type[ReferenceConfig] = ReferenceConfig) -> ReferenceConfig:
     """Validate a mapping into ``cls`` (ReferenceConfig or GlobalConfig); SpecError on bad input."""
     if not isinstance(data, dict):
         raise SpecError("config", data, "a mapping of parameters")
-    try:
-        return cls.model_validate(data)
-    except SpecError:
-        raise
-    except ValidationError as err:
-        raise _to_spec_error(err) from None
+    return parse(cls, data)
 
 
 def load_config(path: str | Path, *, cls: type[ReferenceConfig] = ReferenceConfig) -> ReferenceConfig:
     """Read a config from a YAML (``.yaml``/``.yml``) or JSON file."""
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except OSError as err:
-        raise SpecError("config", str(p), "a readable YAML or JSON file", str(err.strerror)) from None
-    try:
-        data = json.loads(text) if p.suffix == ".json" else yaml.safe_load(text)
-    except (json.JSONDecodeError, yaml.YAMLError) as err:
-        raise SpecError("config", str(p), "valid YAML/JSON", str(err).splitlines()[0]) from None
+    data = load_file(p, field="config")  # bounded: size, nesting, aliases (navstress.specfile)
     if data is None:
         data = {}
     if not isinstance(data, dict):
