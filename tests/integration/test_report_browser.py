@@ -349,7 +349,7 @@ def _wide_campaign(root: Path) -> Path:
         outcomes = ["success", "fail-collision", "fail-error", "fail-timeout"]
         n = 0
         for exp, keys in (("trees", ["tree=0", "tree=4", "tree=8", "tree=16"]),
-                          ("smooth", ["deformation=0.5", "deformation=1.0", "deformation=1.5"])):
+                          ("smooth", ["deformation=0.5", "deformation=1", "deformation=1.5"])):
             for j, key in enumerate(keys):
                 for fault in (None, "small-footprint") if exp == "trees" else (None,):
                     for i in range(4):

@@ -198,7 +198,7 @@ def test_registered_as_external_v1(example_package: Path, no_leftover_process: l
     assert isinstance(nav.step(approach(1)[0]), Command)
     nav.close()
     assert isinstance(make_navigator("external-v1", {"command": "sleep 5"}), ExternalNavigator)
-    with pytest.raises(SpecError, match=r"navigator-config.command=None is invalid"):
+    with pytest.raises(SpecError, match=r"navigator-config.command is missing: expected the command"):
         make_navigator("external-v1", {})
     with pytest.raises(SpecError, match=r"navigator-config.budget=1 is invalid: expected one of the keys"):
         make_navigator("external-v1", {"command": ["sleep"], "budget": 1})
