@@ -282,3 +282,29 @@ def copy_atomic(src: str | os.PathLike[str], dest: str | os.PathLike[str]) -> No
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+def _alive(pid: int) -> bool:
+    """Whether process ``pid`` runs (another user's process counts as running)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # another user's process: alive
+        return True
+    return True
+
+
+def sweep_dead_scratch(prefix: str, parent: str | os.PathLike[str] | None = None) -> list[Path]:
+    """Remove the scratch folders ``<prefix><pid>-...`` in ``parent`` (the temporary directory by
+    default) whose process ``pid`` no longer runs, and return them. A process killed outright
+    (SIGKILL) cannot remove its own scratch folder; naming it with the process id lets the next
+    one do it. A folder of a live process (or a reused pid) and a link are left alone."""
+    root = Path(parent if parent is not None else tempfile.gettempdir())
+    gone = []
+    for d in sorted(root.glob(prefix + "*-*")):
+        pid = d.name[len(prefix):].split("-", 1)[0]
+        if pid.isdigit() and not d.is_symlink() and d.is_dir() and not _alive(int(pid)):
+            shutil.rmtree(d, ignore_errors=True)
+            gone.append(d)
+    return gone

@@ -45,7 +45,7 @@ from pydantic import BaseModel, ConfigDict, ValidationError
 
 from navstress.errors import MISSING, SpecError
 
-__all__ = ["LIST", "SPEC_CONFIG", "describe", "parse", "path_text", "spec_error"]
+__all__ = ["LIST", "SPEC_CONFIG", "describe", "parse", "path_text", "spec_error", "unoptional"]
 
 #: The configuration of every spec model: frozen, no unknown key, strict types, finite numbers.
 SPEC_CONFIG = ConfigDict(frozen=True, extra="forbid", strict=True, allow_inf_nan=False)
@@ -126,7 +126,7 @@ def _fix(kind: str, value: Any) -> str | None:
 
 def describe(annotation: Any) -> str:
     """What a value of ``annotation`` is, in words (``int`` -> "an integer")."""
-    ann = _unoptional(annotation)
+    ann = unoptional(annotation)
     origin = typing.get_origin(ann)
     if ann is bool:
         return "true or false"
@@ -150,7 +150,8 @@ def describe(annotation: Any) -> str:
     return "a value"
 
 
-def _unoptional(ann: Any) -> Any:
+def unoptional(ann: Any) -> Any:
+    """``X`` for an annotation ``X | None`` (the annotation itself otherwise)."""
     if typing.get_origin(ann) in (typing.Union, types.UnionType):
         args = [a for a in typing.get_args(ann) if a is not type(None)]
         if len(args) == 1:
@@ -162,7 +163,7 @@ def _annotation_at(model: type[BaseModel] | None, parts: list[str | int]) -> Any
     """The annotation of the field ``parts`` names under ``model`` (None when unknown)."""
     ann: Any = model
     for p in parts:
-        ann = _unoptional(ann)
+        ann = unoptional(ann)
         if typing.get_origin(ann) is typing.Annotated:
             ann = typing.get_args(ann)[0]
         origin = typing.get_origin(ann)

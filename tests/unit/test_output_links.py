@@ -513,11 +513,8 @@ REVIEWED = {
     ("campaign/store.py", 'Path(e.path).unlink(missing_ok=True)'): "cleanup_partials: exact names, no link",
     ("campaign/store.py", 'shutil.rmtree(e.path, ignore_errors=True)'): "cleanup_partials: exact names, no link",
     ("campaign/replay.py", 'shutil.rmtree(scratch, ignore_errors=True)'): "its own mkdtemp scratch folder",
-    ("campaign/replay.py", 'for d in root.glob(SCRATCH_PREFIX + "*-*"):'): "replay's own scratch names, in the temp directory",
-    ("campaign/replay.py", 'shutil.rmtree(d, ignore_errors=True)'):
-        "a scratch folder of a replay whose process is gone (its pid in the name), never a link",
-    ("campaign/work.py", 'for d in root.glob(WARM_UP_PREFIX + "*-*"):'): "warm-up folders in the temp directory",
-    ("campaign/work.py", 'shutil.rmtree(d, ignore_errors=True)'): "a dead process's warm-up folder (rmtree refuses links)",
+    ("_files.py", 'for d in sorted(root.glob(prefix + "*-*")):'): "scratch folders named by navstress, in the temp directory",
+    ("_files.py", 'shutil.rmtree(d, ignore_errors=True)'): "sweep_dead_scratch: a dead process's scratch folder, never a link",
     ("world/world.py", 'with open(tmp / WORLD_JSON, "w", encoding="utf-8") as f:'): "inside its new mkdtemp folder",
     ("world/world.py", 'with open(tmp / TERRAIN_NPZ, "wb") as f:'): "inside its new mkdtemp folder",
     ("world/world.py", 'shutil.rmtree(old, ignore_errors=True)'): "the world it just renamed away (a real folder)",

@@ -67,27 +67,10 @@ class ReplayResult:
 SCRATCH_PREFIX = "navstress-replay-"
 
 
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except OSError:  # another user's process: alive
-        return True
-    return True
-
-
 def sweep_scratch(parent: Path | None = None) -> list[Path]:
     """Remove the scratch folders of replays whose process is gone (killed outright: SIGKILL),
     and return them; each is named with its process id (``navstress-replay-<pid>-...``)."""
-    root = Path(parent if parent is not None else tempfile.gettempdir())
-    gone = []
-    for d in root.glob(SCRATCH_PREFIX + "*-*"):
-        pid = d.name[len(SCRATCH_PREFIX):].split("-", 1)[0]
-        if pid.isdigit() and not d.is_symlink() and d.is_dir() and not _alive(int(pid)):
-            shutil.rmtree(d, ignore_errors=True)
-            gone.append(d)
-    return gone
+    return _files.sweep_dead_scratch(SCRATCH_PREFIX, parent)
 
 
 def replay_wall_limit_s(timeout_s: float, live: Any = None) -> float:

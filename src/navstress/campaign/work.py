@@ -9,12 +9,12 @@ scheduler retries, see :mod:`navstress.campaign.scheduler`).
 from __future__ import annotations
 
 import os
-import shutil
 import tempfile
 import time
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+from navstress import _files
 from navstress.campaign.plan import MapJob
 from navstress.campaign.store import is_disk_full
 from navstress.errors import GenerationError, OutputPathError, SpecError, WorldFileError
@@ -117,16 +117,6 @@ def with_trace(task: RunTask, trace_path: str) -> RunTask:
 WARM_UP_PREFIX = "navstress-warmup-"
 
 
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except OSError:  # another user's process: alive
-        return True
-    return True
-
-
 def sweep_warm_ups(parent: Path | None = None) -> list[Path]:
     """Remove the warm-up directories of processes that are gone, and return them.
 
@@ -134,14 +124,7 @@ def sweep_warm_ups(parent: Path | None = None) -> list[Path]:
     a kill), and a killed process cannot remove its temporary directory: each is named with its
     process id (``navstress-warmup-<pid>-...``), so the next warm-up removes those whose process
     no longer runs. A directory of a live process (or a reused pid) is left alone."""
-    root = Path(parent if parent is not None else tempfile.gettempdir())
-    gone = []
-    for d in root.glob(WARM_UP_PREFIX + "*-*"):
-        pid = d.name[len(WARM_UP_PREFIX):].split("-", 1)[0]
-        if pid.isdigit() and d.is_dir() and not _alive(int(pid)):
-            shutil.rmtree(d, ignore_errors=True)
-            gone.append(d)
-    return gone
+    return _files.sweep_dead_scratch(WARM_UP_PREFIX, parent)
 
 
 def warm_up() -> float:

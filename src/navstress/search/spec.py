@@ -32,7 +32,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, Field, field_validator, model_validator
 
-from navstress._models import SPEC_CONFIG, parse
+from navstress._models import SPEC_CONFIG, parse, unoptional
 from navstress.campaign.spec import AdaptiveRuns, NavigatorSpec, check_name, deep_merge, repetition
 from navstress.errors import MISSING, SpecError
 from navstress.search.objectives import DESCRIPTORS
@@ -321,7 +321,7 @@ def _leaf(model: type[BaseModel], parts: list[str]) -> Any:
     field = model.model_fields.get(parts[0])
     if field is None:
         return None
-    ann: Any = _unoptional(field.annotation)
+    ann: Any = unoptional(field.annotation)
     rest = parts[1:]
     if isinstance(ann, type) and issubclass(ann, BaseModel):
         return _leaf(ann, rest)
@@ -333,18 +333,9 @@ def _leaf(model: type[BaseModel], parts: list[str]) -> Any:
     return ann if not rest else None
 
 
-def _unoptional(ann: Any) -> Any:
-    """``X`` for an annotation ``X | None`` (the annotation itself otherwise)."""
-    if typing.get_origin(ann) in (typing.Union, types.UnionType):
-        args = [a for a in typing.get_args(ann) if a is not type(None)]
-        if len(args) == 1:
-            return args[0]
-    return ann
-
-
 def _numeric_kind(ann: Any) -> str | None:
     """"int", "float" or None (not a number) for a field annotation (``X | None`` counts as X)."""
-    ann = _unoptional(ann)
+    ann = unoptional(ann)
     return "int" if ann is int else "float" if ann is float else None
 
 
