@@ -205,6 +205,14 @@ def _pty_read(master: int) -> str:
     return raw.decode()
 
 
+def _stream(mode: str) -> tuple[Any, int, int]:
+    """Where a bar draws: a pseudo-terminal's writing end (with its reading end), or a file."""
+    if mode == "pty":
+        master, slave = pty.openpty()
+        return open(slave, "w", encoding="utf-8", closefd=False), master, slave
+    return io.StringIO(), -1, -1
+
+
 @pytest.mark.parametrize("kind", ["campaign", "search"])
 @pytest.mark.parametrize("mode", ["file", "pty"])
 def test_a_bar_shown_before_an_error_leaves_nothing_behind(kind: str, mode: str,
@@ -214,12 +222,7 @@ def test_a_bar_shown_before_an_error_leaves_nothing_behind(kind: str, mode: str,
     from navstress.search.progress import SearchProgress
 
     monkeypatch.setenv("COLUMNS", "200")
-    master = slave = -1
-    if mode == "pty":
-        master, slave = pty.openpty()
-        stream: Any = open(slave, "w", encoding="utf-8", closefd=False)
-    else:
-        stream = io.StringIO()
+    stream, master, slave = _stream(mode)
     con = console(file=stream)
     assert con.is_terminal == (mode == "pty")
     bar: Any = CampaignProgress(console=con) if kind == "campaign" else SearchProgress(console=con)
@@ -245,12 +248,7 @@ def test_a_bar_that_ends_normally_keeps_its_last_frame(mode: str, monkeypatch: p
     from navstress.run.record import RunRecord
 
     monkeypatch.setenv("COLUMNS", "200")
-    master = slave = -1
-    if mode == "pty":
-        master, slave = pty.openpty()
-        stream: Any = open(slave, "w", encoding="utf-8", closefd=False)
-    else:
-        stream = io.StringIO()
+    stream, master, slave = _stream(mode)
     bar = CampaignProgress(console=console(file=stream))
     rec = RunRecord(run_id="r", experiment="e", config={}, map_index=0, run_index=0, map_seed=1, run_seed=2,
                     navigator="n", fault=None, outcome="success", reason="", duration_s=1.0, wall_s=1.0,
