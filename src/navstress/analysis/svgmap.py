@@ -1,7 +1,7 @@
 """The report's map pictures as inline SVG: a world drawn once, its runs drawn over it as vectors.
 
 A campaign's report shows every map with the runs of each navigator and fault over it (the
-paper preset: 345 maps, about 500 pictures, 2,475 runs). Drawn with matplotlib and embedded as
+paper preset: 345 maps, about 500 pictures, 2,375 runs). Drawn with matplotlib and embedded as
 PNGs, those pictures weighed about 115 kB and took about half a second each. Here a world is
 drawn once per map, as an SVG ``<g>`` in a hidden ``<defs>`` block: its terrain as one small
 hillshaded PNG (one pixel per terrain cell, the same colours and light as ``draw_world``), its

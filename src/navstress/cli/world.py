@@ -42,8 +42,7 @@ def _descriptor_table(world: Any, title: str) -> Any:
     rows: list[tuple[str, str]] = [
         ("size", f"{spec.size_m[0]:g} m x {spec.size_m[1]:g} m (cell {spec.cell_m:g} m)"),
         ("seed", str(world.seed)),
-        ("ground", f"subdivide s={g.subdivisions} d={g.deformation:g} m" if g.model == "subdivide"
-         else f"fractal amp={g.amplitude_m:g} m wavelength={g.wavelength_m:g} m octaves={g.octaves}"),
+        ("ground", g.label()),
         ("obstruction", f"{obstruction_pct(world):.2f} %"),
     ]
     ms = world.mission
@@ -99,14 +98,16 @@ def world_generate(
     cell: Annotated[str | None, typer.Option(metavar=_M, help=(
         "Terrain cell size in meters, in [0.05, 2]. Default 0.4."))] = None,
     subdivisions: Annotated[str | None, typer.Option("--subdivisions", "-s", metavar="S", help=(
-        "Ground subdivisions s, an integer in [0, 10]: 2**s+1 control vertices per side "
-        "(small s: large smooth bumps; large s: small sharp ones). Default 0."))] = None,
+        "Ground subdivisions s: with --ground subdivide an integer in [0, 10], 2**s+1 control "
+        "vertices per side; with --ground blender the cuts per edge in [1, 100], s+1 flat-faced "
+        "segments per side (small s: large bumps; large s: small ones). Default 0."))] = None,
     deformation: Annotated[str | None, typer.Option("--deformation", "-d", metavar=_M, help=(
-        "Ground deformation d in meters, in [0, 50]: scale of the vertical displacement of the "
-        "control vertices. Default 0 (flat)."))] = None,
-    ground: Annotated[str | None, typer.Option(metavar="subdivide|fractal", help=(
-        "Ground model: 'subdivide' (the paper's, uses -s/-d) or 'fractal' (multi-octave "
-        "noise; set its parameters in a --spec file). Default subdivide."))] = None,
+        "Ground deformation d in [0, 50]: scale of the vertical displacement of the vertices "
+        "(subdivide: meters peak to peak; blender: Blender's Fractal value). Default 0 (flat)."))] = None,
+    ground: Annotated[str | None, typer.Option(metavar="subdivide|blender|fractal", help=(
+        "Ground model: 'blender' (the paper's tool: Blender's Subdivide with Fractal, uses -s/-d), "
+        "'subdivide' (a smooth surface, uses -s/-d) or 'fractal' (multi-octave noise; set its "
+        "parameters in a --spec file). Default subdivide."))] = None,
     trees: Annotated[str | None, typer.Option(metavar=_PCT, help=(
         "Percent of the map area covered by trees (1 m x 1 m x 5 m boxes), in [0, 100). Default 0."))] = None,
     buildings: Annotated[str | None, typer.Option(metavar=_PCT, help=(

@@ -1,6 +1,6 @@
 """Pose trajectories decoded straight from a trace's chunk bytes (numba), for the report's thousands of reads.
 
-A report reads the trajectory of every run of a campaign (2,475 for the paper preset; about 1,500
+A report reads the trajectory of every run of a campaign (2,375 for the paper preset; about 1,500
 ``foxglove.PoseInFrame`` messages each). Decoding them one by one with protobuf and converting each
 quaternion in Python was most of a report's time. :func:`pose_rows` does the same work in one
 compiled loop over the decompressed chunk: it reads each MCAP Message record at the offsets the

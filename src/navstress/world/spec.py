@@ -30,23 +30,63 @@ _STRICT = SPEC_CONFIG
 class GroundSpec(BaseModel):
     """The ground surface.
 
-    ``model="subdivide"`` (the paper's): a flat plane subdivided ``subdivisions`` times
-    (``2**s + 1`` control vertices per side), each control vertex displaced along z by a
-    random amount scaled by ``deformation`` (meters), the surface between vertices a smooth
-    interpolation (see ``navstress.world.terrain`` for the exact definition).
+    ``model="blender"`` (the paper's tool, reproduced): Blender's Subdivide operator with its
+    Fractal option on a plane of side ``plane_m`` (Blender's default plane: 2 m) cut
+    ``subdivisions`` times per edge (``s + 1`` flat-faced segments per side), each vertex moved
+    along z by Blender's fractal rule scaled by ``deformation`` (the operator's Fractal value),
+    then scaled to the map in x and y only (see ``navstress.world.blender``).
+
+    ``model="subdivide"``: a plane subdivided ``subdivisions`` times (``2**s + 1`` control
+    vertices per side), each control vertex displaced along z by ``deformation * U(-1/2, 1/2)``
+    meters, the surface between them a smooth interpolation (``navstress.world.terrain``). The
+    default, so that every spec written before the ``blender`` model keeps its worlds.
 
     ``model="fractal"``: multi-octave fractal noise (``octaves``, ``persistence``,
     ``wavelength_m`` of the first octave, ``amplitude_m`` of the first octave).
     """
 
     model_config = _STRICT
-    model: Literal["subdivide", "fractal"] = "subdivide"
-    subdivisions: int = Field(0, ge=0, le=10, description="s: number of subdivisions (>= 0)")
-    deformation: float = Field(0.0, ge=0.0, le=50.0, description="d: displacement scale in meters")
+    model: Literal["subdivide", "blender", "fractal"] = "subdivide"
+    subdivisions: int = Field(0, ge=0, le=100, description=(
+        "s: subdivisions (subdivide: 0..10, 2**s segments per side; blender: cuts per edge, "
+        "s + 1 segments per side)"))
+    deformation: float = Field(0.0, ge=0.0, le=50.0, description=(
+        "d: displacement scale (subdivide: meters, peak to peak; blender: the Fractal value)"))
+    plane_m: float = Field(2.0, gt=0.0, le=1000.0, description=(
+        "blender: the plane's side in meters when it is subdivided (Blender's default plane: 2 m)"))
     octaves: int = Field(5, ge=1, le=12)
     persistence: float = Field(0.5, gt=0.0, le=1.0)
     wavelength_m: float = Field(40.0, gt=0.0)
     amplitude_m: float = Field(1.0, ge=0.0, le=50.0)
+
+    @model_validator(mode="after")
+    def _check_model(self) -> "GroundSpec":
+        if self.model == "subdivide" and self.subdivisions > 10:
+            raise SpecError("ground.subdivisions", self.subdivisions,
+                            "an integer in [0, 10] for model subdivide (2**s segments per side)",
+                            "model blender takes up to 100 cuts")
+        if self.model == "blender" and self.subdivisions == 0 and self.deformation > 0:
+            raise SpecError("ground.subdivisions", self.subdivisions,
+                            "at least 1 cut for model blender with deformation > 0 (Blender's Subdivide "
+                            "makes 1 to 100 cuts)", "set subdivisions >= 1, or deformation 0 for flat ground")
+        return self
+
+    def label(self) -> str:
+        """One line naming the model and its parameters."""
+        if self.model == "fractal":
+            return (f"fractal amp={self.amplitude_m:g} m wavelength={self.wavelength_m:g} m "
+                    f"octaves={self.octaves}")
+        if self.model == "blender":
+            return f"blender s={self.subdivisions} d={self.deformation:g} plane={self.plane_m:g} m"
+        return f"subdivide s={self.subdivisions} d={self.deformation:g} m"
+
+    @model_serializer(mode="wrap")
+    def _dump(self, handler: SerializerFunctionWrapHandler) -> Any:
+        """``plane_m`` only for the blender model: the files of every other world keep their bytes."""
+        data = handler(self)
+        if isinstance(data, dict) and self.model != "blender":
+            data.pop("plane_m", None)
+        return data
 
 
 class ObstacleType(BaseModel):

@@ -1,9 +1,10 @@
-"""Ground height fields: the paper's ``subdivide`` model and a ``fractal`` noise model.
+"""Ground height fields: ``subdivide`` (a smooth reading of the paper's), ``blender`` (the paper's
+tool reproduced, in :mod:`navstress.world.blender`) and a ``fractal`` noise model.
 
-Both models are pure functions of (GroundSpec, grid shape, cell size, Generator): all draws
+All models are pure functions of (GroundSpec, grid shape, cell size, Generator): all draws
 come from the generator passed in (the ``"terrain"`` sub-stream of the world seed).
 
-``subdivide`` (the paper's Blender Subdivide + Fractal, along z only). A plane over the whole
+``subdivide`` (the paper's s and d read as "subdivided s times", smoothly). A plane over the whole
 map is subdivided ``s`` times, giving ``n = 2**s + 1`` control vertices per side, spaced
 ``L = size / 2**s`` meters. Each control vertex (a, b) is displaced along z by
 
@@ -32,6 +33,7 @@ from __future__ import annotations
 import numpy as np
 
 from navstress.errors import SpecError
+from navstress.world.blender import blender_heights
 from navstress.world.spec import GroundSpec
 
 
@@ -43,6 +45,8 @@ def make_heights(ground: GroundSpec, shape: tuple[int, int], cell_m: float,
         raise SpecError("grid_shape", shape, "at least 2 x 2 vertices")
     if ground.model == "subdivide":
         return subdivide_heights(ground.subdivisions, ground.deformation, shape, gen)
+    if ground.model == "blender":
+        return blender_heights(ground.subdivisions, ground.deformation, ground.plane_m, shape, cell_m, gen)
     return fractal_heights(ground.octaves, ground.persistence, ground.wavelength_m, ground.amplitude_m,
                            shape, cell_m, gen)
 

@@ -264,7 +264,7 @@ def test_accepted_large_plan_and_fast_paper_plan() -> None:
         parse_campaign(data)
     t0 = time.perf_counter()
     paper = parse_campaign_text(preset_yaml("paper"))
-    assert len(plan(paper, "/tmp/p").tasks) == planned_runs(paper) == 2475
+    assert len(plan(paper, "/tmp/p").tasks) == planned_runs(paper) == 2375
     assert time.perf_counter() - t0 < 3.0
 
 

@@ -128,10 +128,14 @@ def test_paper_preset_design() -> None:
     assert [e.name for e in spec.experiments] == ["buildings", "trees", "smooth-s2", "smooth-s4", "smooth-s6"]
     assert spec.maps_per_config == 5 and spec.runs_per_map == 5
     n_cfg = {e.name: len(e.configurations(spec.world)) for e in spec.experiments}
-    assert n_cfg == {"buildings": 15, "trees": 15, "smooth-s2": 13, "smooth-s4": 13, "smooth-s6": 13}
-    for s in (2, 4, 6):
+    assert n_cfg == {"buildings": 15, "trees": 15, "smooth-s2": 15, "smooth-s4": 12, "smooth-s6": 8}
+    # the paper's Table I: the ground classes on Blender's Subdivide, d from 0 in steps of 0.5
+    for s, top in ((2, 7.0), (4, 5.5), (6, 3.5)):
         cfgs = spec.experiments[[e.name for e in spec.experiments].index(f"smooth-s{s}")].configurations(spec.world)
-        assert {c.world_spec().ground.subdivisions for c in cfgs} == {s}
+        grounds = [c.world_spec().ground for c in cfgs]
+        assert {(g.model, g.subdivisions, g.plane_m) for g in grounds} == {("blender", s, 2.0)}
+        assert [g.deformation for g in grounds] == [0.5 * k for k in range(int(top / 0.5) + 1)]
+        assert len(cfgs) * 25 == {2: 375, 4: 300, 6: 200}[s]  # the paper's runs per ground class
 
 
 def test_movers_in_the_demo_and_dynamic_presets() -> None:

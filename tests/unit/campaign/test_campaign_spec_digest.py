@@ -33,6 +33,18 @@ DEMO_BEFORE_MOVERS: dict[str, Any] = {
     "maps_per_config": 2, "runs_per_map": 3, "navigators": [{"name": "reference-v1", "config": {}}],
     "faults": [None, "small-footprint"], "timeout_s": 120.0, "goal_tolerance_m": 2.0}
 
+#: The paper preset as it was before its ground classes moved to ``model: blender`` (issue 33).
+PAPER_BEFORE_BLENDER: dict[str, Any] = {
+    "name": "paper", "seed": 2016, "world": {"size_m": [100.0, 100.0], "cell_m": 0.4},
+    "experiments": [
+        {"name": "buildings", "sweep": {"obstacles.obstruction.building": {"start": 0, "stop": 28, "step": 2}}},
+        {"name": "trees", "sweep": {"obstacles.obstruction.tree": {"start": 0, "stop": 14, "step": 1}}},
+        *({"name": f"smooth-s{s}", "overrides": {"ground": {"subdivisions": s}},
+           "sweep": {"ground.deformation": {"start": 0.0, "stop": 3.0, "step": 0.25}}, "faults": [None]}
+          for s in (2, 4, 6))],
+    "maps_per_config": 5, "runs_per_map": 5, "navigators": [{"name": "reference-v1", "config": {}}],
+    "faults": [None, "small-footprint"], "timeout_s": 400.0, "goal_tolerance_m": 2.0}
+
 #: The canonical text of FULL as stored by navstress before explicit-world experiments existed.
 FULL_JSON = (
     '{"experiments":[{"faults":[null],"name":"a","overrides":{"ground":{"subdivisions":3}},"runs_per_map":2,'
@@ -43,10 +55,16 @@ FULL_JSON = (
     '"seed":5,"sim":{"physics_hz":500},"timeout_s":50.0,"world":{"size_m":[30,30]}}')
 
 
-@pytest.mark.parametrize("data,digest", [(DEMO_BEFORE_MOVERS, "9423f7840da77591"), (paper(), "59e25e1a2a87f2fb"),
-                                         (FULL, "67b728d246383c1b")])
+@pytest.mark.parametrize("data,digest", [(DEMO_BEFORE_MOVERS, "9423f7840da77591"),
+                                         (PAPER_BEFORE_BLENDER, "59e25e1a2a87f2fb"), (FULL, "67b728d246383c1b")])
 def test_digest_of_existing_specs_is_unchanged(data: dict[str, Any], digest: str) -> None:
     assert parse_campaign(data, max_runs=None).digest() == digest
+
+
+def test_the_paper_preset_changed_with_its_ground() -> None:
+    """A campaign stored from the preset before issue 33 is another spec: it resumes as it was
+    (above), and the new preset starts a new campaign (the store refuses to mix them)."""
+    assert parse_campaign(paper(), max_runs=None).digest() != "59e25e1a2a87f2fb"
 
 
 def test_recording_the_navigators_view_is_another_spec_and_reaches_every_run() -> None:

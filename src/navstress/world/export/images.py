@@ -127,6 +127,10 @@ def world_title(world: World) -> str:
     g = world.spec.ground
     if g.model == "fractal":
         ground = f"fractal ground (amp {g.amplitude_m:g} m, \u03bb {g.wavelength_m:g} m, {g.octaves} oct.)"
+    elif g.model == "blender":
+        ground = f"Blender s = {g.subdivisions}, d = {g.deformation:g}"
+        if g.deformation == 0:
+            ground += " (flat)"
     else:
         ground = f"s = {g.subdivisions}, d = {g.deformation:g} m"
         if g.deformation == 0:
