@@ -14,6 +14,12 @@ colour-coded by outcome, one real-vs-perceived picture, the final perceived map,
 its runs with seeds, reason and a link to each trace; a click on a run opens its own view: its
 facts and, for a failing run, its trajectories and its final perceived map).
 
+Runs on maps the world generator refused (:func:`navstress.run.record.ungenerated`) are in no
+figure: the summary counts them apart (``refused-runs``, ``refused-maps``), the difficulty table
+gives each configuration's refused maps (``refused-maps``), the verdicts table its refused worlds
+and the configurations with none generated (``verdicts-refused``); the runs tables list them as
+recorded.
+
 Every figure and table says which navigator (and fault) it shows: per-configuration pictures
 are drawn per map and per (navigator, fault), never mixing runs of two navigators, and their
 titles and captions name both; figures carry ``data-navigator`` and ``data-fault``. With
