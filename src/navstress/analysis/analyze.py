@@ -6,7 +6,10 @@
 
 Works on a finished, partial (still running) or empty campaign: configurations without a
 run are listed with ``runs == 0`` and level ``"no data"``; :attr:`Analysis.missing` says
-what is not done yet. Difficulty, indeterminism and descriptor correlations use the nominal
+what is not done yet. Runs on maps the world generator refused
+(:func:`navstress.run.record.ungenerated`) are counted apart (:attr:`Analysis.refused`, each
+configuration's ``refused``) and left out of every statistic: a configuration whose every
+recorded map was refused has level ``"no generated maps"``. Difficulty, indeterminism and descriptor correlations use the nominal
 runs of one navigator (``navigator``, default: the spec's first); fault power compares each
 fault with that navigator's nominal runs on the same maps. Given explicitly, ``navigator``
 also restricts what is drawn and listed per run (:meth:`Analysis.shows`): the report then
@@ -28,13 +31,14 @@ from navstress.analysis.difficulty import (LEVEL_RANK, LEVELS, Difficulty, Diffi
                                            assign_levels, level_ranges, reference_keys)
 from navstress.analysis.fault_power import FaultPower, LevelPower, by_level, fault_power
 from navstress.analysis.indeterminism import Curve, config_curves
-from navstress.analysis.stats import (NOMINAL, ConfigStats, config_key, config_stats, fault_name, planned_configs)
+from navstress.analysis.stats import (NOMINAL, OUTCOMES, ConfigStats, Refused, config_key, config_stats, fault_name,
+                                      planned_configs, split_refused)
 from navstress.analysis.trajectories import TrajectoryCache
 from navstress.analysis.verdicts import Verdicts, VerdictRule, rule_of, rules_of, verdicts
 from navstress.campaign.store import Store
 from navstress.errors import SpecError
 from navstress.run.outcome import Outcome
-from navstress.run.record import RunRecord
+from navstress.run.record import RunRecord, ungenerated
 
 
 @dataclass
@@ -46,9 +50,9 @@ class Analysis:
     navigator: str
     done: int
     planned: int
-    outcome_counts: dict[str, int]
-    per_experiment: list[tuple[str, int, int, dict[str, int]]]
-    records: list[RunRecord]
+    outcome_counts: dict[str, int]  # of the runs on generated maps (every navigator and fault)
+    per_experiment: list[tuple[str, int, int, dict[str, int]]]  # (experiment, recorded, planned, outcome counts)
+    records: list[RunRecord]  # every record, as stored (those of refused maps included)
     stats: list[ConfigStats]  # every (config, navigator, fault)
     nominal: list[ConfigStats]  # the difficulty navigator's nominal runs, one per configuration
     difficulty: Difficulty
@@ -73,6 +77,30 @@ class Analysis:
     verdicts: Verdicts = field(default_factory=lambda: Verdicts(VerdictRule(), [], []))
     #: the experiments of explicit worlds (levelled, but no swept parameter: no level ranges)
     explicit: frozenset[str] = frozenset()
+    #: per configuration with a map the world generator refused: those maps, their runs (every
+    #: navigator and fault) and the first reason; their runs are in no statistic
+    refused: dict[tuple[str, str], Refused] = field(default_factory=dict)
+
+    @property
+    def refused_runs(self) -> int:
+        """Recorded runs on refused maps (in no statistic)."""
+        return sum(r.runs for r in self.refused.values())
+
+    @property
+    def refused_maps(self) -> int:
+        """Maps the world generator refused, over every configuration."""
+        return sum(len(r.maps) for r in self.refused.values())
+
+    def refused_by_experiment(self) -> dict[str, int]:
+        """Runs on refused maps per experiment."""
+        out: dict[str, int] = {}
+        for (e, _k), r in self.refused.items():
+            out[e] = out.get(e, 0) + r.runs
+        return out
+
+    def maps_of(self, key: tuple[str, str]) -> int:
+        """The maps a configuration plans."""
+        return len(self.world_dirs.get(key, []))
 
     def shows(self, navigator: str) -> bool:
         """Whether runs of ``navigator`` are drawn and listed (all, unless one was asked for)."""
@@ -90,7 +118,7 @@ class Analysis:
         acc: dict[tuple[str, str], list[int]] = {}
         for s in self.stats:
             v = acc.setdefault(s.key, [0, 0])
-            v[0] += s.runs
+            v[0] += s.recorded
             v[1] += s.planned
         return [(e, k, d, p) for (e, k), (d, p) in acc.items() if p and d < p]
 
@@ -103,6 +131,9 @@ class Analysis:
             "campaign": self.name, "navigator": self.navigator, "navigators": self.shown_navigators,
             "done": self.done, "planned": self.planned,
             "outcomes": self.outcome_counts,
+            "refused": {"runs": self.refused_runs, "maps": self.refused_maps,
+                        "configurations": [{"experiment": e, "config": k, "maps_planned": self.maps_of((e, k)),
+                                            **r.to_json()} for (e, k), r in self.refused.items()]},
             "difficulty": {"threshold": self.difficulty.params.threshold, "k": self.difficulty.params.k,
                            "weights": list(self.difficulty.params.weights), "notes": list(self.difficulty.notes),
                            "reference": ["/".join(r) for r in self.difficulty.reference]},
@@ -159,19 +190,35 @@ def analyze(directory: str | Path, *, params: DifficultyParams | None = None, na
         spec = store.spec
         records = store.records()
         done, planned = store.progress()
-        counts = store.outcome_counts()
-        per_exp = store.per_experiment()
+        per_exp_all = store.per_experiment()
         maps = store.plan().maps
         planned_runs = store.planned_by_config()
     navs = [n.name for n in spec.navigators]
     nav = navigator or navs[0]
     if nav not in navs:
         raise SpecError("navigator", nav, f"one of the campaign's navigators {navs}")
+    generated, _ = split_refused(records)
+    counts = {o: 0 for o in OUTCOMES}
+    for r in generated:
+        counts[r.outcome] = counts.get(r.outcome, 0) + 1
+    per_exp = []
+    for e, d, p, _c in per_exp_all:
+        c = {o: 0 for o in OUTCOMES}
+        for r in generated:
+            if r.experiment == e:
+                c[r.outcome] = c.get(r.outcome, 0) + 1
+        per_exp.append((e, d, p, c))
+    by_key: dict[tuple[str, str], list[RunRecord]] = {}
+    for r in records:
+        if ungenerated(r):
+            by_key.setdefault((r.experiment, config_key(r)), []).append(r)
     try:
         # the trajectories Q2 reads: read by worker processes (when there are many) while the rest is computed
-        cache.prefetch([trace_path(root, r) for r in records if r.navigator == nav and fault_name(r.fault) == NOMINAL],
+        cache.prefetch([trace_path(root, r) for r in generated if r.navigator == nav and fault_name(r.fault) == NOMINAL],
                        wait=False)
         stats = config_stats(records, planned_configs(spec, planned_runs), confidence=confidence, interval=interval)
+        refused = {k: split_refused(by_key[k])[1] for k in dict.fromkeys([s.key for s in stats] + list(by_key))
+                   if k in by_key}
         nominal = [s for s in stats if s.navigator == nav and s.fault == NOMINAL]
         refs = reference_keys(spec)
         diff = assign_levels(nominal, is_reference or (lambda s: s.key in refs), params)
@@ -202,7 +249,7 @@ def analyze(directory: str | Path, *, params: DifficultyParams | None = None, na
             cache.close()  # (its reading processes; a caller's cache keeps them for its next reads)
     # Q2: nominal runs of the navigator, grouped per configuration and map
     by_cfg: dict[tuple[str, str], dict[int, list[tuple[bool, np.ndarray]]]] = {}
-    for r in records:
+    for r in generated:
         if r.navigator != nav or fault_name(r.fault) != NOMINAL:
             continue
         tr = cache.get(trace_path(root, r))
@@ -216,4 +263,4 @@ def analyze(directory: str | Path, *, params: DifficultyParams | None = None, na
                     per_experiment=per_exp, records=records, stats=stats, nominal=nominal, difficulty=diff,
                     ranges=ranges, overlaps=overlaps, indeterminism=indet, power=power, power_levels=power_levels,
                     correlations=corr, world_dirs=world_dirs, dt=dt, infeasible=infeasible, navigators=navs,
-                    only_navigator=navigator, verdicts=verd, explicit=explicit)
+                    only_navigator=navigator, verdicts=verd, explicit=explicit, refused=refused)

@@ -43,6 +43,7 @@ LEVEL_STYLE: dict[str, tuple[str, str]] = {
     "challenging": ("square", "#f08a24"),
     "very difficult": ("cross", "#d7191c"),
     "no data": ("circle", "#bbbbbb"),
+    "no generated maps": ("diamond", "#8c6d31"),
 }
 VERDICT_COLOURS: dict[str, str] = {
     "passes": "#1a9641", "fails": "#d7191c", "flaky": "#7b3294", "undecided": "#999999",

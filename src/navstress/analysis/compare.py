@@ -7,6 +7,10 @@ Two campaign directories may be compared (version 1 of a stack against version 2
 were made from the same spec and seed: the worlds, seeds, timeout, goal tolerance and
 simulation settings of every paired configuration must match.
 
+A pair where either side's map was refused by the world generator
+(:func:`navstress.run.record.ungenerated`: nothing ran there) is no comparison of the stacks: it
+is left out and counted (``refused_pairs``, with the first reason, in the notes and the JSON).
+
 Per configuration and overall, for the success (outcome ``success``) of each run:
 
 - the success rates of A and B and the difference ``B - A`` with **Newcombe's hybrid score
@@ -45,12 +49,12 @@ from scipy import stats as _st
 
 from navstress._percent import percent, setting
 from navstress.analysis.fault_power import collided
-from navstress.analysis.stats import NOMINAL, _check, config_key, fault_name, params_text, wilson
+from navstress.analysis.stats import NOMINAL, _check, config_key, fault_name, params_text, reason_line, wilson
 from navstress.campaign.spec import CampaignSpec
 from navstress.campaign.store import Store
 from navstress.errors import SpecError, StoreError
 from navstress.run.outcome import Outcome
-from navstress.run.record import RunRecord
+from navstress.run.record import RunRecord, ungenerated
 
 #: (experiment, configuration key, map index, run index): what makes two runs a pair.
 PairKey = tuple[str, str, int, int]
@@ -313,6 +317,9 @@ class Comparison:
     unpaired_a: int  # A's runs without a B partner (left out)
     unpaired_b: int
     notes: list[str] = field(default_factory=list)
+    #: pairs left out because either side's map was refused by the world generator, and the first reason
+    refused_pairs: int = 0
+    refused_reason: str | None = None
 
     @property
     def significant(self) -> list[PairedStats]:
@@ -374,6 +381,7 @@ class Comparison:
                 "collision_line": self.collision_line(),
                 "significant": [c.label for c in self.significant],
                 "width_ratio": self.width_ratio, "runs_factor": self.runs_factor, "unpaired_runs": {"a": self.unpaired_a, "b": self.unpaired_b},
+                "refused_pairs": self.refused_pairs, "refused_reason": self.refused_reason,
                 "configurations": [c.to_json() for c in self.configs], "overall": self.overall.to_json(),
                 "notes": list(self.notes)}
 
@@ -461,20 +469,30 @@ def compare(dir_a: str | Path, a: Arm, b: Arm, dir_b: str | Path | None = None, 
             raise StoreError(f"campaign={str(d)!r} is invalid: expected recorded runs, it has none yet; "
                              "run it with `navstress campaign run SPEC -o DIR`")
     ia, ib = _index(rec_a, a), _index(rec_b, b)
-    keys = [k for k in ia if k in ib]
-    if not keys:
+    common = [k for k in ia if k in ib]
+    if not common:
         raise StoreError(f"pairs=0 is invalid: expected runs of {a.label} ({len(ia)} recorded) and {b.label} "
                          f"({len(ib)} recorded) on the same maps and run indices; run both on the same "
                          "configurations (same spec), or wait for the campaign to record them")
     if not same:
-        _check_same_design(spec_a, spec_b, pa, pb, {(k[0], k[1]) for k in keys})
-    for k in keys:
+        _check_same_design(spec_a, spec_b, pa, pb, {(k[0], k[1]) for k in common})
+    for k in common:
         ra, rb = ia[k], ib[k]
         for name in ("map_seed", "run_seed"):
             if getattr(ra, name) != getattr(rb, name):
                 raise StoreError(f"{name}={getattr(rb, name)} is invalid: expected the same {name} for B as for A "
                                  f"({getattr(ra, name)}) on {k[0]}/{k[1]}/m{k[2]}/r{k[3]}; compare runs of "
                                  "campaigns made from the same spec and seed")
+    refused = [k for k in common if ungenerated(ia[k]) or ungenerated(ib[k])]
+    why = None
+    if refused:
+        k0 = min(refused)
+        why = reason_line((ia[k0] if ungenerated(ia[k0]) else ib[k0]).reason)
+    keys = [k for k in common if not (ungenerated(ia[k]) or ungenerated(ib[k]))]
+    if not keys:
+        raise StoreError(f"pairs=0 is invalid: expected runs of {a.label} and {b.label} on maps the world generator "
+                         f"made; every one of the {len(common)} pairs is on a map it refused (first: {why}); "
+                         "fix the world spec or compare other configurations")
     groups: dict[tuple[str, str], list[tuple[RunRecord, RunRecord]]] = {}
     for k in keys:
         groups.setdefault((k[0], k[1]), []).append((ia[k], ib[k]))
@@ -483,7 +501,12 @@ def compare(dir_a: str | Path, a: Arm, b: Arm, dir_b: str | Path | None = None, 
     configs = [dataclasses.replace(c, p_adjusted=p) for c, p in zip(configs, adjusted)]
     overall = paired_stats("", "all", {}, [p for ps in groups.values() for p in ps], confidence)
     notes = []
-    if len(ia) > len(keys) or len(ib) > len(keys):
-        notes.append(f"left out, without a partner: {len(ia) - len(keys)} runs of A, {len(ib) - len(keys)} of B")
+    lone_a, lone_b = len(ia) - len(common), len(ib) - len(common)
+    if lone_a or lone_b:
+        notes.append(f"left out, without a partner: {lone_a} runs of A, {lone_b} of B")
+    if refused:
+        notes.append(f"left out, on maps the world generator refused: {len(refused)} pair{'s' if len(refused) != 1 else ''}"
+                     f" (first: {why})")
     return Comparison(a=a, b=b, dir_a=pa, dir_b=pb, confidence=confidence, alpha=alpha, configs=configs,
-                      overall=overall, unpaired_a=len(ia) - len(keys), unpaired_b=len(ib) - len(keys), notes=notes)
+                      overall=overall, unpaired_a=lone_a, unpaired_b=lone_b, notes=notes,
+                      refused_pairs=len(refused), refused_reason=why)

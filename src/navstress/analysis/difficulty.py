@@ -1,7 +1,9 @@
 """Difficulty levels (the paper's Q1), assigned a posteriori per configuration.
 
 1. A configuration whose success rate is below ``threshold`` (default 0.25) is
-   **very difficult**; one without any run has no level (``"no data"``).
+   **very difficult**; one without any run has no level (``"no data"``), nor has one whose every
+   recorded run is on a map the world generator refused (``"no generated maps"``: its spec
+   measures the generator, not the navigation; :class:`~navstress.analysis.stats.Refused`).
 2. The others are clustered by k-means (``k`` = 2 by default, scikit-learn, ``n_init=10``,
    fixed ``random_state``) on three features: success rate, median duration of successful
    runs, median tortuousness of successful runs. Each feature is min-max normalised to
@@ -41,6 +43,10 @@ EASY = "easy"
 CHALLENGING = "challenging"
 VERY_DIFFICULT = "very difficult"
 NO_DATA = "no data"
+#: The level of a configuration whose every recorded run is on a map the world generator refused.
+NO_MAPS = "no generated maps"
+#: The "levels" of a configuration that has none.
+NO_LEVEL: tuple[str, ...] = (NO_DATA, NO_MAPS)
 LEVELS: tuple[str, ...] = (EASY, CHALLENGING, VERY_DIFFICULT)
 #: Ordinal of each level (for correlations): easy 0, challenging 1, very difficult 2.
 LEVEL_RANK = {EASY: 0, CHALLENGING: 1, VERY_DIFFICULT: 2}
@@ -104,7 +110,7 @@ def assign_levels(stats: list[ConfigStats], is_reference: Callable[[ConfigStats]
     for cs in stats:
         rate = cs.success_rate
         if rate is None:
-            levels[cs.key] = NO_DATA
+            levels[cs.key] = NO_MAPS if cs.refused.runs else NO_DATA
         elif rate < p.threshold:
             levels[cs.key] = VERY_DIFFICULT
         else:
@@ -206,7 +212,7 @@ def level_ranges(stats: list[ConfigStats], diff: Difficulty,
     """Per experiment class: the swept values per level and the overlapping ranges.
 
     The swept parameter is the first key of ``params`` (experiments sweeping several
-    parameters are reported along the first one). Configurations without data are left out,
+    parameters are reported along the first one). Configurations without a level are left out,
     and so are the experiments named in ``explicit`` (explicit worlds: no swept parameter; their
     configurations still get levels)."""
     by_exp: dict[str, list[ConfigStats]] = {}
@@ -220,7 +226,7 @@ def level_ranges(stats: list[ConfigStats], diff: Difficulty,
         per: dict[str, list[Any]] = {}
         for cs in items:
             lev = diff.level(cs.experiment, cs.config_key)
-            if lev == NO_DATA:
+            if lev in NO_LEVEL:
                 continue
             per.setdefault(lev, []).append(cs.params.get(param, cs.config_key))
         spans: dict[str, tuple[float, float]] = {}

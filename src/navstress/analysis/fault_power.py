@@ -10,6 +10,10 @@ on the **same maps** (same map index, hence the same world):
   when no nominal run timed out there; ...), and their share;
 - the nominal figures beside them (runs, collisions, share) over the maps the faulty runs used.
 
+Runs on maps the world generator refused (:func:`navstress.run.record.ungenerated`) are left out
+on both sides: ``refused`` counts the faulty ones; a configuration whose every faulty run is on a
+refused map has no entry (nothing ran to reveal anything; the difficulty table counts its maps).
+
 :func:`by_level` sums these per difficulty level (levels from the nominal analysis).
 """
 
@@ -19,7 +23,7 @@ from dataclasses import dataclass
 
 from navstress.analysis.stats import NOMINAL, config_key, fault_name
 from navstress.run.outcome import Outcome
-from navstress.run.record import RunRecord
+from navstress.run.record import RunRecord, ungenerated
 
 
 def collided(r: RunRecord) -> bool:
@@ -40,6 +44,7 @@ class FaultPower:
     nominal_runs: int
     nominal_collisions: int
     level: str = ""
+    refused: int = 0  # faulty runs on refused maps, left out
 
     @property
     def collision_share(self) -> float | None:
@@ -59,17 +64,22 @@ class FaultPower:
                 "collision_share": self.collision_share, "new_failures": self.new_failures,
                 "new_failure_share": self.new_failure_share, "nominal_runs": self.nominal_runs,
                 "nominal_collisions": self.nominal_collisions,
-                "nominal_collision_share": self.nominal_collision_share}
+                "nominal_collision_share": self.nominal_collision_share, "refused_runs": self.refused}
 
 
 def fault_power(records: list[RunRecord], levels: dict[tuple[str, str], str] | None = None) -> list[FaultPower]:
     """One :class:`FaultPower` per (configuration, navigator, fault != nominal), in first-seen order."""
     nominal: dict[tuple[str, str, str, int], list[RunRecord]] = {}
     faulty: dict[tuple[str, str, str, str], list[RunRecord]] = {}
+    refused: dict[tuple[str, str, str, str], int] = {}
     for r in records:
         key = config_key(r)
         if fault_name(r.fault) == NOMINAL:
-            nominal.setdefault((r.experiment, key, r.navigator, r.map_index), []).append(r)
+            if not ungenerated(r):
+                nominal.setdefault((r.experiment, key, r.navigator, r.map_index), []).append(r)
+        elif ungenerated(r):
+            g = (r.experiment, key, r.navigator, fault_name(r.fault))
+            refused[g] = refused.get(g, 0) + 1
         else:
             faulty.setdefault((r.experiment, key, r.navigator, fault_name(r.fault)), []).append(r)
     out: list[FaultPower] = []
@@ -87,7 +97,7 @@ def fault_power(records: list[RunRecord], levels: dict[tuple[str, str], str] | N
                 new += not any(n.outcome == r.outcome for n in seen)
         out.append(FaultPower(exp, key, nav, fault, len(runs), sum(collided(r) for r in runs), new,
                               len(nom), sum(collided(n) for n in nom),
-                              (levels or {}).get((exp, key), "")))
+                              (levels or {}).get((exp, key), ""), refused.get((exp, key, nav, fault), 0)))
     return out
 
 

@@ -17,6 +17,13 @@ of it: a run that is not a success (when the success bar is missed) or a Fail-Co
 run in any world (too few runs to prove the bar, or none recorded) fails all its worlds, with
 "not enough runs" as the reason. So the JUnit file has a failure exactly when the gate fails.
 
+Maps the world generator refused (:func:`navstress.run.record.ungenerated`: nothing ran there)
+are no evidence either way: their runs count in no figure above, the configuration's evidence
+line and JSON count them apart, and they are no test case (their runs are listed in the suite's
+``system-out``). A gated configuration with no run on a generated map but with refused maps
+**fails** ("no generated map"), whatever the bar: it measured nothing, and a gate must not pass
+what it could not test; then each refused map is a failed test case naming the generator's reason.
+
     >>> round(lower_bound(12, 20, 0.95), 4)
     0.3936
     >>> round(lower_bound(20, 20, 0.95), 4)  # 0.05 ** (1 / 20)
@@ -38,11 +45,11 @@ from scipy import stats as _st
 
 from navstress import _files
 from navstress._percent import percent, percent_vs, setting
-from navstress.analysis.stats import NOMINAL, config_key, fault_name
+from navstress.analysis.stats import MAX_REASON_CHARS, NOMINAL, config_key, fault_name, reason_line
 from navstress.campaign.store import Store
 from navstress.errors import SpecError, StoreError
 from navstress.run.outcome import Outcome
-from navstress.run.record import RunRecord
+from navstress.run.record import RunRecord, ungenerated
 
 SUCCESS = Outcome.SUCCESS.value
 COLLISION = Outcome.FAIL_COLLISION.value
@@ -109,6 +116,7 @@ class RunEvidence:
     wall_s: float = 0.0
     sim_s: float = 0.0
     started: float | None = None
+    refused: bool = False  # the world generator refused its map: it never ran
 
 
 @dataclass(frozen=True)
@@ -163,10 +171,29 @@ class ConfigResult:
     success_ok: bool
     collisions_ok: bool
     worlds: tuple[WorldCase, ...] = field(default_factory=tuple)
+    #: the maps the world generator refused (left out of every figure), their runs, the first one's reason
+    refused_maps: tuple[int, ...] = ()
+    refused_runs: int = 0
+    refused_reason: str | None = None
+    #: the refused maps that are no test case (all of them unless the configuration has no generated map)
+    refused_worlds: tuple[WorldCase, ...] = ()
 
     @property
     def passed(self) -> bool:
         return self.success_ok and self.collisions_ok
+
+    @property
+    def no_generated_map(self) -> bool:
+        """No run on a generated map, and some on refused ones: the configuration fails."""
+        return self.runs == 0 and self.refused_runs > 0
+
+    def refused_text(self) -> str:
+        """``2 maps refused by the world generator (first: ...)`` ('' without a refused map)."""
+        if not self.refused_runs:
+            return ""
+        n = len(self.refused_maps)
+        why = reason_line(self.refused_reason)
+        return f"{n} map{'s' if n != 1 else ''} refused by the world generator (first: {why})"
 
     @property
     def label(self) -> str:
@@ -175,7 +202,10 @@ class ConfigResult:
         return f"{self.experiment}/{self.config_key} {who}"
 
     def evidence(self, rule: GateRule) -> str:
-        """``success 12/20 = 60%, lower 95% bound 39% < 80%`` (and the collisions when checked)."""
+        """``success 12/20 = 60%, lower 95% bound 39% < 80%`` (and the collisions when checked; the
+        maps the world generator refused, left out)."""
+        if self.no_generated_map:
+            return f"no generated map: {self.refused_text()}, so nothing was measured"
         if self.runs:
             cmp = ">=" if self.success_ok else "<"
             s = (f"success {self.successes}/{self.runs} = {percent(self.successes / self.runs)}, "
@@ -186,6 +216,8 @@ class ConfigResult:
                 f"{setting(rule.min_success)}"
         if rule.max_collisions is not None:
             s += f", collision runs {self.collisions} {'<=' if self.collisions_ok else '>'} {rule.max_collisions}"
+        if self.refused_runs:
+            s += f"; left out: {self.refused_text()}"
         return s
 
     def line(self, rule: GateRule) -> str:
@@ -196,6 +228,8 @@ class ConfigResult:
                 "fault": self.fault, "runs": self.runs, "successes": self.successes,
                 "success_rate": self.successes / self.runs if self.runs else None, "lower_bound": self.lower,
                 "collisions": self.collisions, "passed": self.passed, "evidence": self.evidence(rule),
+                "refused_maps": len(self.refused_maps), "refused_map_indices": list(self.refused_maps),
+                "refused_runs": self.refused_runs, "refused_reason": self.refused_reason,
                 "worlds": [{"world": f"{w.classname}/m{w.map_index}", "map_index": w.map_index, "runs": len(w.runs),
                             "successes": w.successes, "failed": w.failed} for w in self.worlds]}
 
@@ -229,6 +263,10 @@ class GateResult:
         tail = f"{self.recorded}/{self.planned} runs recorded"
         if self.recorded < self.planned:
             tail += f", {self.planned - self.recorded} pending"
+        refused = sum(len(c.refused_maps) for c in self.configs)
+        if refused:
+            tail += (f"; {refused} map{'s' if refused != 1 else ''} refused by the world generator, left out"
+                     f" ({sum(c.no_generated_map for c in self.configs)} configuration(s) without a generated map)")
         return f"{head} the bar ({self.rule.text()}); campaign {self.campaign}: {tail}"
 
     def to_json(self) -> dict[str, Any]:
@@ -329,21 +367,36 @@ def _evidence(r: RunRecord, root: Path, recorded_at: float | None = None) -> Run
     wall = _seconds(r.wall_s)
     started = recorded_at - wall if recorded_at is not None and recorded_at - wall > 0.0 else None
     return RunEvidence(r.run_id, r.outcome, r.reason, r.map_seed, r.run_seed, trace, wall, _seconds(r.duration_s),
-                       started)
+                       started, ungenerated(r))
 
 
-def _judge(k: tuple[str, str, str, str], by_map: dict[int, list[RunEvidence]], rule: GateRule) -> ConfigResult:
+def _judge(k: tuple[str, str, str, str], by_map_all: dict[int, list[RunEvidence]], rule: GateRule) -> ConfigResult:
+    refused = {m: rs for m, rs in by_map_all.items() if any(r.refused for r in rs)}
+    by_map = {m: rs for m, rs in by_map_all.items() if m not in refused}
     runs = [r for m in sorted(by_map) for r in by_map[m]]
+    gone = [r for m in sorted(refused) for r in refused[m] if r.refused]
+    first = min((r for r in refused[min(refused)] if r.refused), key=lambda r: r.run_id).reason if refused else None
     n, s = len(runs), sum(r.outcome == SUCCESS for r in runs)
     col = sum(r.outcome == COLLISION for r in runs)
     lo = lower_bound(s, n, rule.confidence)
-    success_ok = lo >= rule.min_success
+    blind = n == 0 and bool(gone)  # nothing ran on a generated map: nothing proves the bar
+    success_ok = lo >= rule.min_success and not blind
     collisions_ok = rule.max_collisions is None or col <= rule.max_collisions
-    cfg = ConfigResult(k[0], k[1], k[2], k[3], n, s, col, lo, success_ok, collisions_ok)
+    apart = () if blind else tuple(WorldCase(k[0], k[1], m, k[2], k[3], tuple(refused[m])) for m in sorted(refused))
+    more: dict[str, Any] = dict(refused_maps=tuple(sorted(refused)), refused_runs=len(gone), refused_reason=first,
+                                refused_worlds=apart)
+    cfg = ConfigResult(k[0], k[1], k[2], k[3], n, s, col, lo, success_ok, collisions_ok, **more)
     evidence = cfg.line(rule)
     no_failed_run = all(r.outcome == SUCCESS for r in runs)
     cases = []
+    if blind:  # each refused map a failed case: the generator's reason is why nothing ran
+        by_map = {**by_map, **refused}
     for m in sorted(by_map):
+        if m in refused:
+            told = reason_line(next(r.reason for r in refused[m] if r.refused), MAX_REASON_CHARS * 2)
+            cases.append(WorldCase(k[0], k[1], m, k[2], k[3], tuple(refused[m]), True,
+                                   f"the world generator refused this map: {told}; configuration {evidence}"))
+            continue
         w = WorldCase(k[0], k[1], m, k[2], k[3], tuple(by_map[m]))
         why = []
         if not success_ok and (no_failed_run or w.failed_runs()):
@@ -356,7 +409,7 @@ def _judge(k: tuple[str, str, str, str], by_map: dict[int, list[RunEvidence]], r
         if why:
             w = replace(w, failed=True, reason=f"{'; '.join(why)}; configuration {evidence}")
         cases.append(w)
-    return ConfigResult(k[0], k[1], k[2], k[3], n, s, col, lo, success_ok, collisions_ok, tuple(cases))
+    return ConfigResult(k[0], k[1], k[2], k[3], n, s, col, lo, success_ok, collisions_ok, tuple(cases), **more)
 
 
 # ---- JUnit XML -------------------------------------------------------------------------------
@@ -400,7 +453,7 @@ def junit_xml(result: GateResult, *, hostname: str | None = None, now: float | N
         props = ET.SubElement(suite, "properties")
         for name, value in (("campaign", result.campaign), ("directory", result.directory), ("bar", rule.text()),
                             ("evidence", c.evidence(rule)), ("passed", str(c.passed).lower()),
-                            ("simulated_s", f"{sim:.3f}")):
+                            ("simulated_s", f"{sim:.3f}"), ("refused_maps", str(len(c.refused_maps)))):
             ET.SubElement(props, "property", name=name, value=value)
         tolerated = []
         for w in c.worlds:
@@ -412,6 +465,9 @@ def junit_xml(result: GateResult, *, hostname: str | None = None, now: float | N
             elif w.failed_runs():
                 tolerated.append(f"{w.classname}/{w.name}: tolerated by the bar:\n"
                                  + _runs_text(w, result.directory, only_failed=True))
+        for w in c.refused_worlds:
+            tolerated.append(f"{w.classname}/{w.name}: refused by the world generator, left out of the gate:\n"
+                             + _runs_text(w, result.directory, only_failed=True))
         ET.SubElement(suite, "system-out").text = "\n".join(tolerated)
         ET.SubElement(suite, "system-err").text = ""
     ET.indent(top)

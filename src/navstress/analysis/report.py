@@ -14,6 +14,12 @@ colour-coded by outcome, one real-vs-perceived picture, the final perceived map,
 its runs with seeds, reason and a link to each trace; a click on a run opens its own view: its
 facts and, for a failing run, its trajectories and its final perceived map).
 
+Runs on maps the world generator refused (:func:`navstress.run.record.ungenerated`) are in no
+figure: the summary counts them apart (``refused-runs``, ``refused-maps``), the difficulty table
+gives each configuration's refused maps (``refused-maps``), the verdicts table its refused worlds
+and the configurations with none generated (``verdicts-refused``); the runs tables list them as
+recorded.
+
 Every figure and table says which navigator (and fault) it shows: per-configuration pictures
 are drawn per map and per (navigator, fault), never mixing runs of two navigators, and their
 titles and captions name both; figures carry ``data-navigator`` and ``data-fault``. With
@@ -51,16 +57,16 @@ from navstress import _files
 from navstress._percent import percent, setting
 from navstress.analysis.analyze import Analysis, analyze, trace_path
 from navstress.analysis.trajectories import TrajectoryCache
-from navstress.analysis.difficulty import NO_DATA, DifficultyParams
+from navstress.analysis.difficulty import NO_DATA, NO_MAPS, DifficultyParams
 from navstress.analysis import svgmap
 from navstress.analysis import charts
 from navstress.analysis.charts import (LEVEL_STYLE, VERDICT_COLOURS, chart_html, class_chart, fault_power_chart,
                                        indeterminism_chart, verdict_chart)
-from navstress.analysis.stats import NOMINAL, ConfigStats, config_key, fault_name, params_text
+from navstress.analysis.stats import NOMINAL, ConfigStats, config_key, fault_name, params_text, reason_line
 from navstress.analysis.verdicts import WorldVerdict
 from navstress.run.figures import OUTCOME_COLOURS, OUTCOME_LABELS, RunTrack
 from navstress.run.outcome import Outcome
-from navstress.run.record import RunRecord
+from navstress.run.record import RunRecord, ungenerated
 from navstress.run.trace import TOPIC_MAP, TOPIC_PERCEIVED, TOPIC_TRUTH, read_grid, read_movers
 from navstress.sequential import FLAKY_BAND
 from navstress.world.world import World
@@ -97,6 +103,9 @@ details.runs summary{cursor:pointer;margin:.4em 0}
 .runview dt{color:#555}.runview dd{margin:0;min-width:0;overflow-wrap:anywhere}
 .runview .pair{display:flex;flex-wrap:wrap;gap:.6em}.runview .pair svg.map{width:380px;max-width:100%;cursor:default}
 """
+
+#: The column of the runs on maps the world generator refused, beside the outcomes.
+REFUSED = "refused"
 
 #: Tables a reader sorts by clicking a column's header (then again for the other direction):
 #: they are written with ``class="sortable"`` (as is every runs table).
@@ -312,28 +321,43 @@ def _summary(a: Analysis) -> str:
     rows = "".join(f'<tr><td class="l"><span style="color:{OUTCOME_COLOURS.get(o, "#000")}">&#9632;</span> '
                    f'{_e(OUTCOME_LABELS.get(o, o))}</td><td id="outcome-{_e(o)}" data-value="{n}">{n}</td></tr>'
                    for o, n in a.outcome_counts.items())
+    rows += (f'<tr><td class="l">on maps the world generator refused (never run)</td>'
+             f'<td id="refused-runs" data-value="{a.refused_runs}">{a.refused_runs}</td></tr>')
     out.append(f'<table id="outcome-counts"><tr><th class="l">outcome (all navigators and faults)</th>'
                f'<th>runs</th></tr>{rows}</table>')
+    if a.refused_runs:
+        items = "".join(f'<li data-experiment="{_e(e)}" data-config="{_e(k)}" data-value="{len(r.maps)}">{_e(e)} / '
+                        f'{_e(k)}: {len(r.maps)} of {a.maps_of((e, k))} maps ({_e(", ".join(f"m{m}" for m in r.maps))})'
+                        f'; first reason: {_e(reason_line(r.reason))}</li>' for (e, k), r in list(a.refused.items())[:200])
+        more = f"<li>... and {len(a.refused) - 200} more</li>" if len(a.refused) > 200 else ""
+        out.append(f'<div class="warn" id="refused-maps" data-value="{a.refused_maps}"><p>The world generator refused '
+                   f'{a.refused_maps} map{"s" if a.refused_maps != 1 else ""}: their {a.refused_runs} runs never ran, '
+                   'so they measure the world spec, not the navigation, and every figure of this report leaves them '
+                   'out (the runs tables list them as recorded). A configuration with no generated map has no level '
+                   f'(<i>{_e(NO_MAPS)}</i>).</p><ul>{items}{more}</ul></div>')
     by_nav: dict[tuple[str, str], dict[str, int]] = {}
     for r in a.records:
         if a.shows(r.navigator):
-            c = by_nav.setdefault((r.navigator, fault_name(r.fault)), dict.fromkeys(a.outcome_counts, 0))
-            c[r.outcome] = c.get(r.outcome, 0) + 1
+            c = by_nav.setdefault((r.navigator, fault_name(r.fault)), dict.fromkeys([*a.outcome_counts, REFUSED], 0))
+            o = REFUSED if ungenerated(r) else r.outcome
+            c[o] = c.get(o, 0) + 1
     order = {n: i for i, n in enumerate(a.navigators)}
     nav_rows = "".join(
         f'<tr data-navigator="{_e(n)}" data-fault="{_e(f)}">{_first(n, f)}'
-        + "".join(_cell(o, c.get(o, 0)) for o in a.outcome_counts) + "</tr>"
+        + "".join(_cell(o, c.get(o, 0)) for o in [*a.outcome_counts, REFUSED]) + "</tr>"
         for (n, f), c in sorted(by_nav.items(), key=lambda kv: (order.get(kv[0][0], len(order)), kv[0][1] != NOMINAL,
                                                               kv[0][1])))
     key = ' class="key"'
     heads = "".join(f'<th{key if o == Outcome.SUCCESS.value else ""}>{_e(OUTCOME_LABELS.get(o, o))}</th>'
-                    for o in a.outcome_counts)
+                    for o in a.outcome_counts) + "<th>on refused maps</th>"
     out.append(f'<table id="outcome-counts-by-navigator" class="keyed"><tr><th class="l">navigator and fault</th>'
                f'{heads}</tr>{nav_rows}</table>')
+    gone = a.refused_by_experiment()
     exp_rows = "".join(
         f'<tr data-experiment="{_e(e)}"><td class="l">{_e(e)}</td><td data-field="done" data-value="{d}">{d}</td>'
         f'<td data-field="planned" data-value="{p}">{p}</td>'
-        + "".join(f'<td data-field="{_e(o)}" data-value="{n}">{n}</td>' for o, n in c.items()) + "</tr>"
+        + "".join(f'<td data-field="{_e(o)}" data-value="{n}">{n}</td>' for o, n in c.items())
+        + _cell(REFUSED, gone.get(e, 0)) + "</tr>"
         for e, d, p, c in a.per_experiment)
     out.append(f'<table id="per-experiment" class="keyed"><tr><th class="l">experiment class</th><th>done</th><th>planned</th>'
                f'{heads}</tr>{exp_rows}</table>')
@@ -350,7 +374,9 @@ def _difficulty(a: Analysis) -> str:
            'Success intervals: 95% Wilson score. Tortuousness: mean absolute heading change between positions '
            'resampled every 0.5 m of travelled distance (moves under 0.1 m dropped), in radians per step. '
            '<i>Maps infeasible a priori</i>: maps on which the world generator found no traversable path for '
-           'the nominal robot (slope limit 25 deg, obstacles inflated by its half-width) before any run.</p>']
+           'the nominal robot (slope limit 25 deg, obstacles inflated by its half-width) before any run. '
+           '<i>Maps refused</i>: maps the world generator could not make (their runs never ran: left out of '
+           f'every figure; the reason on hovering); a configuration with none generated is <i>{_e(NO_MAPS)}</i>.</p>']
     for n in a.difficulty.notes:
         out.append(f'<p class="note">Note: {_e(n)}</p>')
     rows = []
@@ -372,6 +398,7 @@ def _difficulty(a: Analysis) -> str:
             + _cell("mean-goal-distance", s.mean_goal_distance_m, _fmt(s.mean_goal_distance_m, 2))
             + _cell("infeasible-maps", a.infeasible.get(s.key, (0, 0))[0],
                     "{}/{}".format(*a.infeasible.get(s.key, (0, 0))))
+            + _refused_cell(a, s)
             + "".join(_cell(f"n-{o}", n) for o, n in s.outcomes.items())
             + f'<td class="l">{_e(s.experiment)}</td><td class="l">{_e(s.navigator)}</td><td class="l">{_e(s.fault)}</td>'
             + f'<td class="l"><a href="#{_slug(s.experiment, s.config_key)}">maps</a></td></tr>')
@@ -379,7 +406,7 @@ def _difficulty(a: Analysis) -> str:
     out.append('<table id="difficulty-table" class="sortable keyed"><tr><th class="l">parameters</th>'
                '<th class="l key">level</th><th class="key">success</th><th>CI low</th><th>CI high</th><th>runs</th>'
                '<th>successes</th><th>median duration [s]</th><th>median tortuousness</th><th>mean end distance [m]</th>'
-               f'<th>maps infeasible a priori</th>{heads}<th class="l">class</th><th class="l">navigator</th>'
+               f'<th>maps infeasible a priori</th><th>maps refused</th>{heads}<th class="l">class</th><th class="l">navigator</th>'
                '<th class="l">fault</th><th></th></tr>'
                + "".join(rows) + "</table>")
     # level ranges and overlaps
@@ -396,6 +423,15 @@ def _difficulty(a: Analysis) -> str:
     else:
         out.append('<p id="level-overlaps" class="note">No overlap between the levels\' ranges in any class.</p>')
     return "\n".join(out)
+
+
+def _refused_cell(a: Analysis, s: ConfigStats) -> str:
+    """A configuration's maps the world generator refused, of its maps (the first reason as the
+    cell's title), and the runs on them (``data-runs``)."""
+    n = len(s.refused.maps)
+    title = f' title="{_e(reason_line(s.refused.reason))}"' if s.refused.runs else ""
+    return (f'<td data-field="refused-maps" data-value="{n}" data-runs="{s.refused.runs}"{title}>'
+            f'{n}/{a.maps_of(s.key)}</td>')
 
 
 def _config_cell(a: Analysis, s: ConfigStats, who: bool) -> str:
@@ -470,8 +506,17 @@ def _verdicts(a: Analysis, max_worlds: int = 2000) -> str:
             for e, x in own) + ".</p>")
     cfgs = [c for c in v.configurations if a.shows(c.navigator)]
     worlds = [w for w in v.worlds if a.shows(w.navigator)]
+    gone = [g for g in v.refused if a.shows(g.navigator)]
+    if gone:
+        items = "".join(f'<li data-experiment="{_e(g.experiment)}" data-config="{_e(g.config_key)}" '
+                        f'data-navigator="{_e(g.navigator)}" data-fault="{_e(g.fault)}" data-value="{g.worlds}">'
+                        f'{_e(g.experiment)} / {_e(g.config_key)} ({_e(g.navigator)}, {_e(g.fault)}): {g.worlds} '
+                        f'map{"s" if g.worlds != 1 else ""} refused, first: {_e(reason_line(g.reason))}</li>'
+                        for g in gone)
+        out.append('<div class="note" id="verdicts-refused"><p>No verdict (every recorded map refused by the world '
+                   f'generator: nothing ran):</p><ul>{items}</ul></div>')
     if not cfgs:
-        out.append('<p class="note">No run recorded yet.</p>')
+        out.append('<p class="note">No run recorded yet.</p>' if not gone else '')
         return "\n".join(out)
     heads = ('<th class="l key">verdict</th><th class="key">pass probability</th><th>low</th><th>high</th>'
              '<th>runs</th><th>successes</th>')
@@ -480,11 +525,12 @@ def _verdicts(a: Analysis, max_worlds: int = 2000) -> str:
     rows = "".join(
         f'<tr {_verdict_attrs(c)}>' + _first(c.config_key, _sub(c.experiment, c.navigator, c.fault, who))
         + _verdict_cells(c) + _cell("worlds", c.worlds) + "".join(_cell(f"worlds_{k}", n) for k, n in c.world_verdicts)
+        + _cell("refused_worlds", c.refused_worlds)
         + f'<td class="l">{_e(c.experiment)}</td><td class="l">{_e(c.navigator)}</td><td class="l">{_e(c.fault)}</td>'
         + "</tr>" for c in cfgs)
     wheads = "".join(f"<th>worlds {k}</th>" for k, _ in cfgs[0].world_verdicts)
     out.append(f'<table id="verdicts-configurations" class="sortable keyed"><tr><th class="l">configuration</th>'
-               f'{heads}<th>worlds</th>{wheads}{ids}</tr>{rows}</table>')
+               f'{heads}<th>worlds</th>{wheads}<th>worlds refused</th>{ids}</tr>{rows}</table>')
     groups = list(dict.fromkeys((c.experiment, c.navigator, c.fault) for c in cfgs))
     for e, n, f in groups:
         cs = [c for c in cfgs if (c.experiment, c.navigator, c.fault) == (e, n, f)]
@@ -697,6 +743,11 @@ def _configs(a: Analysis, cache: TrajectoryCache, max_points: int, link_base: Pa
         groups = _groups(recs, a.navigators)
         for m, wdir in a.world_dirs.get(key, []):
             if not any(r.map_index == m for r in recs):
+                continue
+            told = next((r.reason for r in recs if r.map_index == m and ungenerated(r)), None)
+            if told is not None:
+                figs.append(f'<p class="note" data-refused-map="{m}">map m{m}: refused by the world generator, '
+                            f'its runs never ran: {_e(reason_line(told))}</p>')
                 continue
             try:
                 worlds[m] = World.load(wdir)

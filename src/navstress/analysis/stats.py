@@ -13,6 +13,11 @@ A *configuration* is one point of an experiment's sweep; its runs are grouped by
 - ``mean_goal_distance_m``: mean final real distance to the goal over every run (NaN values,
   which SQLite stores as NULL, are left out; None if none is finite).
 
+Runs on a map the world generator refused (:func:`navstress.run.record.ungenerated`: the map's
+spec could not be generated, so nothing ran) are no navigation result: every figure above leaves
+them out, and ``refused`` counts them apart (:class:`Refused`: the refused maps, their runs and
+the first map's reason).
+
     >>> round(wilson(8, 10)[0], 4), round(wilson(8, 10)[1], 4)
     (0.4902, 0.9433)
 """
@@ -32,7 +37,7 @@ from navstress._tables import NOMINAL as NOMINAL  # the fault of the nominal sta
 from navstress.campaign.plan import config_key_of
 from navstress.errors import SpecError
 from navstress.run.outcome import Outcome
-from navstress.run.record import RunRecord
+from navstress.run.record import RunRecord, cap_message, ungenerated
 
 OUTCOMES: tuple[str, ...] = tuple(o.value for o in Outcome)
 
@@ -81,6 +86,44 @@ def fault_name(fault: str | None) -> str:
 
 
 @dataclass(frozen=True)
+class Refused:
+    """The maps of a configuration (for one navigator and fault) that the world generator refused:
+    their indices, the runs recorded on them (left out of every statistic) and the reason of the
+    lowest refused map."""
+
+    maps: tuple[int, ...] = ()
+    runs: int = 0
+    reason: str | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        return {"maps": len(self.maps), "map_indices": list(self.maps), "runs": self.runs,
+                "first_reason": self.reason}
+
+
+def split_refused(records: Iterable[RunRecord]) -> tuple[list[RunRecord], Refused]:
+    """``records`` less those of refused maps (:func:`~navstress.run.record.ungenerated`), and
+    what was left out (:class:`Refused`)."""
+    kept: list[RunRecord] = []
+    out: list[RunRecord] = []
+    for r in records:
+        (out if ungenerated(r) else kept).append(r)
+    if not out:
+        return kept, Refused()
+    first = min(out, key=lambda r: (r.map_index, r.run_index, r.run_id))
+    return kept, Refused(tuple(sorted({r.map_index for r in out})), len(out), first.reason)
+
+
+#: Most characters of a refused map's reason where a line quotes it (the records keep it whole).
+MAX_REASON_CHARS = 300
+
+
+def reason_line(reason: str | None, limit: int = MAX_REASON_CHARS) -> str:
+    """A refused map's reason as one line of at most ``limit`` characters (white space collapsed,
+    head and tail kept)."""
+    return cap_message(" ".join(str(reason or "").split()), limit)
+
+
+@dataclass(frozen=True)
 class ConfigStats:
     """Statistics of one configuration for one navigator and fault (see module doc)."""
 
@@ -98,11 +141,17 @@ class ConfigStats:
     median_tortuousness: float | None
     mean_goal_distance_m: float | None
     planned: int = 0
-    maps: tuple[int, ...] = field(default_factory=tuple)
+    maps: tuple[int, ...] = field(default_factory=tuple)  # the generated maps with runs
+    refused: Refused = field(default_factory=Refused)
 
     @property
     def key(self) -> tuple[str, str]:
         return self.experiment, self.config_key
+
+    @property
+    def recorded(self) -> int:
+        """Every recorded run: ``runs`` and those on refused maps."""
+        return self.runs + self.refused.runs
 
     @property
     def success_rate(self) -> float | None:
@@ -115,7 +164,7 @@ class ConfigStats:
                 "successes": self.successes, "success_rate": self.success_rate, "ci": [self.ci_low, self.ci_high],
                 "outcomes": self.outcomes, "median_duration_s": self.median_duration_s,
                 "median_tortuousness": self.median_tortuousness, "mean_goal_distance_m": self.mean_goal_distance_m,
-                "maps": list(self.maps)}
+                "maps": list(self.maps), "refused": self.refused.to_json()}
 
 
 def _finite(xs: Iterable[float | None]) -> list[float]:
@@ -125,9 +174,11 @@ def _finite(xs: Iterable[float | None]) -> list[float]:
 def summarise(experiment: str, key: str, params: dict[str, Any], navigator: str, fault: str,
               records: list[RunRecord], *, planned: int = 0, confidence: float = 0.95,
               interval: str = "wilson") -> ConfigStats:
-    """The :class:`ConfigStats` of ``records`` (all of one configuration, navigator and fault)."""
+    """The :class:`ConfigStats` of ``records`` (all of one configuration, navigator and fault; those
+    of refused maps counted apart)."""
     if interval not in ("wilson", "clopper-pearson"):
         raise SpecError("interval", interval, "wilson or clopper-pearson")
+    records, refused = split_refused(records)
     n = len(records)
     ok = [r for r in records if r.outcome == Outcome.SUCCESS.value]
     counts = {o: 0 for o in OUTCOMES}
@@ -143,7 +194,7 @@ def summarise(experiment: str, key: str, params: dict[str, Any], navigator: str,
         median_duration_s=statistics.median(dur) if dur else None,
         median_tortuousness=statistics.median(tort) if tort else None,
         mean_goal_distance_m=statistics.fmean(dist) if dist else None,
-        planned=planned, maps=tuple(sorted({r.map_index for r in records})))
+        planned=planned, maps=tuple(sorted({r.map_index for r in records})), refused=refused)
 
 
 @dataclass(frozen=True)

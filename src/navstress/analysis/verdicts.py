@@ -12,6 +12,12 @@ pools every map of a configuration (same navigator and fault). For each:
   The verdict stays valid however the number of runs was chosen (an adaptive campaign stops a
   world as soon as it is decided), which the fixed-sample exact interval does not.
 
+Runs on maps the world generator refused (:func:`navstress.run.record.ungenerated`) are no
+navigation result: such a map gets no world verdict and its runs count in no pass probability; a
+configuration's verdict counts its refused maps apart (``refused_worlds``, with the first map's
+reason), and a configuration whose every recorded map was refused has no verdict at all (there is
+nothing to judge), only its count in :attr:`Verdicts.refused`.
+
 The rule (threshold, confidence) is the adaptive rule of the world's experiment when the campaign
 spec gives it one (the experiment's own, else the campaign's), else :data:`DEFAULT_THRESHOLD` and
 :data:`DEFAULT_CONFIDENCE` (docs/statistics.md).
@@ -39,7 +45,7 @@ from navstress.analysis.stats import config_key, fault_name
 from navstress.campaign.store import Store
 from navstress.errors import SpecError
 from navstress.run.outcome import Outcome
-from navstress.run.record import RunRecord
+from navstress.run.record import RunRecord, ungenerated
 from navstress.sequential import FLAKY_BAND, VERDICTS, Verdict, check_rule, confidence_sequence, verdict
 
 DEFAULT_THRESHOLD = 0.8
@@ -52,14 +58,16 @@ VERDICT_COLUMNS: tuple[str, ...] = (
     "pass_probability", "ci_low", "ci_high", "seq_low", "seq_high", "verdict", "threshold", "confidence",
     "indifference")
 #: Columns of ``campaign export --table configurations``: one row per configuration (its worlds
-#: pooled), the same without ``map_index`` (a configuration has none); ``scope`` is ``"configuration"``.
-CONFIGURATION_COLUMNS: tuple[str, ...] = tuple(c for c in VERDICT_COLUMNS if c != "map_index")
+#: pooled), the same without ``map_index`` (a configuration has none) and with ``refused_worlds``
+#: (its maps the world generator refused, left out of the counts); ``scope`` is ``"configuration"``.
+CONFIGURATION_COLUMNS: tuple[str, ...] = tuple(c for c in VERDICT_COLUMNS if c != "map_index") + ("refused_worlds",)
 #: The tables of verdicts ``campaign export --table`` writes, and their columns.
 TABLES: dict[str, tuple[str, ...]] = {"verdicts": VERDICT_COLUMNS, "configurations": CONFIGURATION_COLUMNS}
-_INTS = {"map_index", "worlds", "runs", "successes"}
+_INTS = {"map_index", "worlds", "runs", "successes", "refused_worlds"}
 _FLOATS = {"pass_probability", "ci_low", "ci_high", "seq_low", "seq_high", "threshold", "confidence",
            "indifference"}
-_KINDS: dict[str, Kind] = {c: "int" if c in _INTS else "float" if c in _FLOATS else "str" for c in VERDICT_COLUMNS}
+_KINDS: dict[str, Kind] = {c: "int" if c in _INTS else "float" if c in _FLOATS else "str"
+                           for c in VERDICT_COLUMNS + CONFIGURATION_COLUMNS}
 
 
 @dataclass(frozen=True)
@@ -148,6 +156,9 @@ class WorldVerdict:
     threshold: float = DEFAULT_THRESHOLD
     confidence: float = DEFAULT_CONFIDENCE
     indifference: float = 0.0
+    #: per configuration: its maps the world generator refused (left out), and the first one's reason
+    refused_worlds: int = 0
+    refused_reason: str | None = None
 
     @property
     def pass_probability(self) -> float | None:
@@ -165,6 +176,8 @@ class WorldVerdict:
         if self.map_index is None:
             d["worlds"] = self.worlds
             d["world_verdicts"] = dict(self.world_verdicts)
+            d["refused_worlds"] = self.refused_worlds
+            d["refused_reason"] = self.refused_reason
         return d
 
     def row(self) -> dict[str, Any]:
@@ -178,13 +191,15 @@ class WorldVerdict:
              "threshold": self.threshold, "confidence": self.confidence, "indifference": self.indifference}
         if self.map_index is None:
             del d["map_index"]
+            d["refused_worlds"] = self.refused_worlds
         return d
 
 
 def world_verdict(experiment: str, key: str, map_index: int | None, navigator: str, fault: str, *,
                   successes: int, runs: int, threshold: float = DEFAULT_THRESHOLD,
                   confidence: float = DEFAULT_CONFIDENCE, worlds: int = 1,
-                  world_verdicts: tuple[tuple[str, int], ...] = (), indifference: float = 0.0) -> WorldVerdict:
+                  world_verdicts: tuple[tuple[str, int], ...] = (), indifference: float = 0.0,
+                  refused_worlds: int = 0, refused_reason: str | None = None) -> WorldVerdict:
     """The :class:`WorldVerdict` of ``successes`` of ``runs`` (see module doc)."""
     if runs < 0 or not 0 <= successes <= runs:
         raise SpecError("successes", f"{successes} of {runs}", "0 <= successes <= runs")
@@ -192,18 +207,38 @@ def world_verdict(experiment: str, key: str, map_index: int | None, navigator: s
     v: Verdict = verdict(*seq, threshold, indifference) if runs else "undecided"
     return WorldVerdict(experiment, key, map_index, navigator, fault, runs, successes,
                         exact_interval(successes, runs, confidence), seq, v, worlds, world_verdicts, threshold,
-                        confidence, indifference)
+                        confidence, indifference, refused_worlds, refused_reason)
+
+
+@dataclass(frozen=True)
+class RefusedConfig:
+    """A configuration (for one navigator and fault) whose every recorded map the world generator
+    refused: no verdict, its maps counted here."""
+
+    experiment: str
+    config_key: str
+    navigator: str
+    fault: str
+    worlds: int
+    runs: int
+    reason: str
+
+    def to_json(self) -> dict[str, Any]:
+        return {"experiment": self.experiment, "config": self.config_key, "navigator": self.navigator,
+                "fault": self.fault, "refused_worlds": self.worlds, "runs": self.runs, "reason": self.reason}
 
 
 @dataclass(frozen=True)
 class Verdicts:
     """Every world's and every configuration's verdict; ``rule`` is the campaign's, ``rules`` an
-    experiment's own where it has one (each verdict carries its threshold and confidence)."""
+    experiment's own where it has one (each verdict carries its threshold and confidence);
+    ``refused``: the configurations whose every recorded map was refused (no verdict)."""
 
     rule: VerdictRule
     worlds: list[WorldVerdict]
     configurations: list[WorldVerdict]
     rules: dict[str, VerdictRule] = field(default_factory=dict)
+    refused: list[RefusedConfig] = field(default_factory=list)
 
     def rule_for(self, experiment: str) -> VerdictRule:
         return self.rules.get(experiment, self.rule)
@@ -215,7 +250,8 @@ class Verdicts:
                                     "indifference": r.indifference} for e, r in self.rules.items()},
                 "flaky_band": list(FLAKY_BAND), "interval": "clopper-pearson",
                 "worlds": [w.to_json() for w in self.worlds],
-                "configurations": [c.to_json() for c in self.configurations]}
+                "configurations": [c.to_json() for c in self.configurations],
+                "refused_configurations": [c.to_json() for c in self.refused]}
 
     def rows(self, table: str = "verdicts") -> list[dict[str, Any]]:
         """The rows of export ``table`` (:data:`TABLES`): the worlds' or the configurations'."""
@@ -228,15 +264,27 @@ def verdicts(records: Iterable[RunRecord], rule: VerdictRule | None = None,
     (an experiment's entry of ``rules`` where it has one).
 
     Configurations follow ``order`` ((experiment, config, navigator, fault), e.g. the plan's),
-    then first-seen; worlds follow their configuration, by map index."""
+    then first-seen; worlds follow their configuration, by map index. Records of refused maps are
+    counted apart (see module doc)."""
     rule = rule or VerdictRule()
     rules = dict(rules or {})
     counts: dict[tuple[str, str, str, str], dict[int, list[int]]] = {}
+    refused: dict[tuple[str, str, str, str], dict[int, list[RunRecord]]] = {}
     for r in records:
         g = (r.experiment, config_key(r), r.navigator, fault_name(r.fault))
+        if ungenerated(r):
+            refused.setdefault(g, {}).setdefault(r.map_index, []).append(r)
+            continue
         c = counts.setdefault(g, {}).setdefault(r.map_index, [0, 0])
         c[0] += r.outcome == Outcome.SUCCESS.value
         c[1] += 1
+
+    def first_reason(g: tuple[str, str, str, str]) -> str | None:
+        by_map = refused.get(g)
+        if not by_map:
+            return None
+        return min(by_map[min(by_map)], key=lambda r: (r.run_index, r.run_id)).reason
+
     keys = list(dict.fromkeys([g for g in order if g in counts] + list(counts)))
     worlds: list[WorldVerdict] = []
     configs: list[WorldVerdict] = []
@@ -249,8 +297,12 @@ def verdicts(records: Iterable[RunRecord], rule: VerdictRule | None = None,
         configs.append(world_verdict(g[0], g[1], None, g[2], g[3], successes=sum(w.successes for w in ws),
                                      runs=sum(w.runs for w in ws), threshold=gr.threshold,
                                      confidence=gr.confidence, worlds=len(ws), world_verdicts=tally,
-                                     indifference=gr.indifference))
-    return Verdicts(rule, worlds, configs, rules)
+                                     indifference=gr.indifference, refused_worlds=len(refused.get(g, {})),
+                                     refused_reason=first_reason(g)))
+    gone = [g for g in dict.fromkeys([g for g in order if g in refused] + list(refused)) if g not in counts]
+    out = [RefusedConfig(g[0], g[1], g[2], g[3], len(refused[g]), sum(map(len, refused[g].values())),
+                         first_reason(g) or "") for g in gone]
+    return Verdicts(rule, worlds, configs, rules, out)
 
 
 def write_verdicts(v: Verdicts, fmt: str, dest: Path, metadata: dict[str, str] | None = None,

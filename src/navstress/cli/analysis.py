@@ -24,7 +24,7 @@ from navstress._percent import percent, setting
 from navstress.analysis.analyze import Analysis, analyze
 from navstress.analysis.difficulty import DifficultyParams
 from navstress.analysis.report import build_report
-from navstress.analysis.stats import dumps, params_text
+from navstress.analysis.stats import dumps, params_text, reason_line
 from navstress.cli._common import MAX_TIMEOUT_S, probe_writable
 from navstress.errors import SpecError
 from navstress.search.report import load_search_dir, search_sections
@@ -99,13 +99,15 @@ def analyze_cmd(
         typer.echo(dumps(a.to_json()))
         return
     con = console()
-    con.print(f"campaign {a.name}: {a.done}/{a.planned} runs recorded; "
-              + ", ".join(f"{n} {o}" for o, n in a.outcome_counts.items()))
+    refused = (f"; {a.refused_runs} runs on {a.refused_maps} map{'s' if a.refused_maps != 1 else ''} the world "
+               "generator refused, left out of every statistic") if a.refused_runs else ""
+    con.print(literal(f"campaign {a.name}: {a.done}/{a.planned} runs recorded; "
+                      + ", ".join(f"{n} {o}" for o, n in a.outcome_counts.items()) + refused))
     if not a.done:
         con.print("no run recorded yet: nothing to analyse")
     t = Table(title=f"Difficulty (nominal runs of {a.navigator})")
     for c in ("class", "parameters", "runs", "success [95% CI]", "med. duration s", "med. tortuousness",
-              "infeasible maps", "level"):
+              "infeasible maps", "refused maps", "level"):
         t.add_column(c)
     for s in a.nominal:
         r = s.success_rate
@@ -113,8 +115,13 @@ def analyze_cmd(
                   "-" if r is None else f"{percent(r)} [{percent(s.ci_low)}, {percent(s.ci_high)}]",
                   "-" if s.median_duration_s is None else f"{s.median_duration_s:.1f}",
                   "-" if s.median_tortuousness is None else f"{s.median_tortuousness:.4f}",
-                  "{}/{}".format(*a.infeasible.get(s.key, (0, 0))), a.level(s.experiment, s.config_key))
+                  "{}/{}".format(*a.infeasible.get(s.key, (0, 0))), f"{len(s.refused.maps)}/{a.maps_of(s.key)}",
+                  a.level(s.experiment, s.config_key))
     con.print(t)
+    for (e, key), rf in a.refused.items():
+        n = len(rf.maps)
+        con.print(literal(f"refused maps in {e} {key}: {n} of {a.maps_of((e, key))} (runs left out: {rf.runs}); "
+                          f"first: {reason_line(rf.reason)}"))
     for o in a.overlaps:
         con.print(f"fuzzy threshold in {o.experiment}: {o.a} and {o.b} overlap over {o.lo:g}..{o.hi:g}")
     verdict_table = _verdict_table(a)
@@ -152,7 +159,7 @@ def _verdict_table(a: Analysis) -> Table | None:
     interval, verdict, and how many of its worlds fail, are flaky or are undecided."""
     v = a.verdicts
     cfgs = [c for c in v.configurations if a.shows(c.navigator)]
-    if not cfgs:
+    if not cfgs and not any(a.shows(c.navigator) for c in v.refused):
         return None
     own = any(v.rule_for(c.experiment) != v.rule for c in cfgs)
     title = (f"Verdicts per configuration: pass probability [exact {setting(v.rule.confidence)} interval]; "
@@ -161,17 +168,23 @@ def _verdict_table(a: Analysis) -> Table | None:
     if own:
         title = "Verdicts per configuration: pass probability [exact interval]; verdict by each experiment's rule"
     t = Table(title=title)
+    gone = [c for c in v.refused if a.shows(c.navigator)]
+    refused = any(c.refused_worlds for c in cfgs) or bool(gone)
     cols = ["class", "configuration", "navigator", "fault", "runs", "pass probability", "verdict",
-            *(["rule"] if own else []), "worlds", "failing", "flaky", "undecided"]
+            *(["rule"] if own else []), "worlds", "failing", "flaky", "undecided", *(["refused"] if refused else [])]
     for col in cols:
-        t.add_column(col, justify="right" if col in ("runs", "worlds", "failing", "flaky", "undecided") else "left")
+        t.add_column(col, justify="right" if col in ("runs", "worlds", "failing", "flaky", "undecided", "refused")
+                     else "left")
     for c in cfgs:
         tally = dict(c.world_verdicts)
         rule = [f">= {setting(c.threshold)}{_zone(c.indifference)} at {setting(c.confidence)}"] if own else []
         t.add_row(c.experiment, c.config_key, c.navigator, c.fault, str(c.runs),
                   f"{percent(c.pass_probability)} [{percent(c.ci[0])}, {percent(c.ci[1])}]", c.verdict, *rule,
                   str(c.worlds), str(tally.get("fails", 0)), str(tally.get("flaky", 0)),
-                  str(tally.get("undecided", 0)))
+                  str(tally.get("undecided", 0)), *([str(c.refused_worlds)] if refused else []))
+    for g in gone:  # every recorded map refused: no verdict
+        t.add_row(g.experiment, g.config_key, g.navigator, g.fault, "0", "-", "no generated maps",
+                  *(["-"] if own else []), "0", "0", "0", "0", str(g.worlds))
     return t
 
 

@@ -19,10 +19,11 @@ from dataclasses import asdict, dataclass, field, fields
 from typing import Any
 
 from navstress import _json
+from navstress.run.outcome import Outcome
 
 
-#: The start of the reason of every record of a run whose world could not be generated (the
-#: search's objectives leave such records out: they say nothing about the stack).
+#: The start of the reason of every record of a run whose world could not be generated: the world
+#: generator refused the map's spec (:func:`ungenerated`).
 GENERATION_FAILED = "world generation failed"
 
 
@@ -131,3 +132,21 @@ class RunRecord:
         d["config"] = json.loads(d["config"]) if isinstance(d["config"], str) else d["config"]
         d["errors"] = json.loads(d["errors"]) if isinstance(d["errors"], str) else d["errors"]
         return cls(**d)
+
+
+def ungenerated(r: RunRecord) -> bool:
+    """Whether ``r`` is the record of a run that never ran because the world generator refused its
+    map (a :class:`~navstress.errors.GenerationError`: an obstruction target with no room, a start
+    or goal that cannot be made drivable): Fail-Other with a reason starting with
+    :data:`GENERATION_FAILED`, recorded for each run of the map. Such a record says something about
+    the world spec, not about the stack: every statistic of the navigation (success rates, levels,
+    indeterminism, fault power, verdicts, comparisons, the gate, the search's objectives) leaves it
+    out and counts it apart; the per-run tables and exports keep it as recorded.
+
+        >>> r = RunRecord("e/k/m0/r0/nav/nominal", "e", {}, 0, 0, 1, 2, "nav", None, "fail-other",
+        ...               GENERATION_FAILED + ": obstruction of 'building' reached 9.00% of the map", 0.0, 0.0,
+        ...               float("nan"), 0.0, 0.0, 0, None, [], None)
+        >>> ungenerated(r), ungenerated(RunRecord(**{**r.__dict__, "reason": "robot flipped"}))
+        (True, False)
+    """
+    return r.outcome == Outcome.FAIL_OTHER.value and r.reason.startswith(GENERATION_FAILED)

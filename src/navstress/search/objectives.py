@@ -58,7 +58,8 @@ from typing import Any, Literal
 from navstress.errors import SpecError
 from navstress.nav.faults import list_faults
 from navstress.run.outcome import Outcome
-from navstress.run.record import GENERATION_FAILED, RunRecord
+from navstress.run.record import RunRecord
+from navstress.run.record import ungenerated as ungenerated  # (here too: the search's name for it)
 from navstress.sequential import FLAKY_BAND, confidence_sequence
 from navstress.world.descriptors import describe_world
 from navstress.world.spec import WorldSpec
@@ -83,12 +84,6 @@ DEFAULT_TARGET = 0.5
 #: A world confirmed near the boundary has its success probability proven within target +- band
 #: (0.5 +- 0.4: the flaky band).
 DEFAULT_BAND = 0.4
-
-
-def ungenerated(r: RunRecord) -> bool:
-    """Whether ``r`` is the record of a run that never ran because its world could not be
-    generated: a result about the world spec, not about the stack, so no objective counts it."""
-    return r.outcome == Outcome.FAIL_OTHER.value and r.reason.startswith(GENERATION_FAILED)
 
 
 def fault_names() -> tuple[str, ...]:

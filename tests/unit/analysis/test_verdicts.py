@@ -66,7 +66,8 @@ def test_analyze_json_gains_verdicts_and_keeps_its_keys(camp: Path) -> None:
     old = {"campaign", "navigator", "navigators", "done", "planned", "outcomes", "difficulty", "configurations",
            "level_ranges", "overlaps", "indeterminism", "fault_power", "fault_power_by_level",
            "descriptor_correlations", "missing"}
-    assert old < set(j) and set(j) - old == {"verdicts"}
+    assert old < set(j) and set(j) - old == {"verdicts", "refused"}
+    assert j["refused"] == {"runs": 0, "maps": 0, "configurations": []}  # (tests/unit/analysis/test_refused_maps.py)
     v = j["verdicts"]
     assert (v["threshold"], v["confidence"], v["flaky_band"], v["interval"]) == (0.8, 0.95, [0.1, 0.9],
                                                                                    "clopper-pearson")
