@@ -14,27 +14,36 @@ goal free discs (radius ``R = mission.free_radius_m``) of the raw terrain, befor
 * **Transition.** A vertex at distance ``u`` beyond ``R+`` gets ``h + W (z - h)`` with
   ``W = 1 - smoothstep(u / B)`` (``W = 0`` from ``u = B`` on): a smooth (C1) return to the raw
   terrain, as obstacle levelling blends (:mod:`navstress.world.placement`).
-* **Width** ``B``: the smallest width >= :data:`MIN_TRANSITION_M` (and two cells) with
-  ``1.5 D(B) / B <= tan(ADDED_SLOPE_DEG)``, where ``D(B)`` is the largest ``|z - h|`` over the
-  vertices of the transition ring ``0 < u < B`` (found exactly from the sorted ring vertices;
-  ``1.5 / B`` is the steepest slope of ``W``). Hence, by construction, along every edge
-  ``(a, b)`` of the grid (x, y and the triangulation's diagonal) the levelled heights satisfy
-
-      |h'(b) - h'(a)| <= |h(b) - h(a)| + tan(ADDED_SLOPE_DEG) * |ab|
-
-  (``h'(b) - h'(a) = (1 - W_b)(h_b - h_a) + (W_b - W_a)(z - h_a)`` with ``a`` taken in the ring,
-  and ``W`` is 1.5/B-Lipschitz): levelling adds at most ``tan(20 deg)`` = 0.36 m of rise per metre
-  to any edge, so at most ``sqrt(2)`` times that to a triangle's gradient. A ground that differs
-  from the level by ``D`` around the disc gets a transition ``1.5 D / tan(20 deg)`` = 4.1 D m wide.
-* **Refusal.** When no width up to :data:`MAX_TRANSITION_M` keeps that bound (the ground around
-  the disc departs from its level so far that the transition would need to be wider, e.g. a disc
-  on a long steep slope), the world is refused: :class:`~navstress.errors.GenerationError` with a
-  one-line reason naming the start or goal, its position and the height difference. A disc that
-  reaches outside the map is refused too (:func:`check_inside`; :class:`~navstress.world.spec.WorldSpec`
-  already refuses such specs, this covers a spec built without validation).
-* **Start and goal together.** When the two zones (disc + transition) overlap, the two discs are
-  levelled as one area: one level (the mean over both flat sets), ``u`` the distance to the
-  nearer flat set, one width from the union of their rings (the same bound holds).
+* **Added slope.** What levelling does to the steepness of the ground is measured on every
+  edge ``(a, b)`` of the grid (along x, along y and the triangulation's diagonal): the slope it
+  adds is ``(|h'(b) - h'(a)| - |h(b) - h(a)|) / |ab|``, a rise per metre (given in degrees as its
+  angle, atan). A triangle's gradient grows by at most sqrt(2) times the largest added slope of
+  its edges.
+* **Width** ``B`` (tried from ``MIN_TRANSITION_M`` = 2 m, or two cells, up to
+  ``MAX_TRANSITION_M`` = 25 m in steps of 10 %): the narrowest width whose levelling adds at most
+  ``GENTLE_SLOPE_DEG`` = 10 deg to every edge; when none does, the width that adds the least, if
+  that is at most ``MAX_ADDED_SLOPE_DEG`` = 20 deg. So a transition is as narrow as a gentle ramp
+  allows and no wider: on ground within 0.2 m of the level around the disc, 2 m; on a 10 deg slope
+  (1 m of height every 5.7 m), about 20 m.
+* **Bounded by construction.** ``h'(b) - h'(a) = (1 - W_b)(h_b - h_a) + (W_b - W_a)(z - h_a)`` (a
+  taken in the transition ring), and ``W`` is ``1.5 / B``-Lipschitz, so the added slope is at most
+  ``1.5 D(B) / B`` with ``D(B)`` the largest ``|z - h|`` over the ring ``0 < u < B``. The smallest
+  ``B`` meeting ``1.5 D(B) / B <= tan(limit)`` is found exactly from the sorted ring vertices; it
+  ends the search for either limit (so the search never misses a width that the bound proves
+  good). Every levelled area thus adds at most 20 deg to any edge: the tests check it on families
+  of rough worlds against the raw heights.
+* **Refusal.** When no width up to 25 m adds at most 20 deg (the ground around the disc departs
+  from the level so far, e.g. a disc on a long slope of 25 deg, that no transition returns to
+  it gently), the world is refused: :class:`~navstress.errors.GenerationError` with a one-line
+  reason naming the start or goal, its position, the level, the least slope a transition would
+  add and the height difference. A disc that reaches outside the map is refused too
+  (:func:`check_inside`; :class:`~navstress.world.spec.WorldSpec` already refuses such specs, this
+  covers a spec built without validation).
+* **Start and goal together.** When the two zones (flat set + transition) come closer than two
+  cells, the two discs are levelled as one area: one level (the mean over both flat sets), ``u``
+  the distance to the nearer flat set, one width from the union of their rings.
+* **Obstacles** come after and keep out of the free discs; their levelling keeps the flat sets as
+  they are (:func:`~navstress.world.placement.level_terrain` with :meth:`FreeAreas.pins`).
 
 Nothing is done when ``R = 0`` (no free area asked for) or when the raw terrain is flat (every
 height equal): such worlds keep their heights and descriptors byte for byte.
@@ -288,9 +297,9 @@ def level_free_areas(heights: np.ndarray, cell_m: float, mission: Mission, size_
             names = " and ".join(f"{n} at ({x:g}, {y:g})" for n, (x, y) in group)
             far = float(dev[(u > 0.0) & (u < max_transition_m)].max(initial=0.0))
             raise GenerationError(
-                f"the {names} cannot be made drivable: levelling its {r:g} m free disc to {z:.3g} m would steepen "
-                f"the ground by {math.degrees(math.atan(worst)):.1f} deg, more than {max_slope_deg:g} deg, even with the "
-                f"best transition up to {max_transition_m:g} m wide (the "
+                f"the {names} cannot be made drivable: levelling its {r:g} m free disc to {z:.3g} m would add "
+                f"{math.degrees(math.atan(worst)):.1f} deg of slope (the angle of the rise added per metre), more than "
+                f"{max_slope_deg:g} deg, even with the best transition up to {max_transition_m:g} m wide (the "
                 f"ground within {max_transition_m:g} m of the disc departs from that level by up to {far:.3g} m); use "
                 "a gentler ground (lower ground.deformation or amplitude_m), another map seed or a smaller "
                 "mission.free_radius_m")

@@ -439,8 +439,6 @@ class WorldSpec(BaseModel):
         every mission mode: a drivable area the generator can level (navstress.world.freearea)."""
         m, (sx, sy) = self.mission, self.size_m
         r = m.free_radius_m
-        if r == 0:
-            return
         inside = f"the start and goal free discs of mission.free_radius_m={r:g} must lie inside the {sx:g}x{sy:g} m map"
         if 2 * r > min(sx, sy):
             raise SpecError("mission.free_radius_m", r, f"a radius <= {min(sx, sy) / 2:g} m, half the map's shorter side "
