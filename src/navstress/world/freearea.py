@@ -43,7 +43,10 @@ goal free discs (radius ``R = mission.free_radius_m``) of the raw terrain, befor
   cells, the two discs are levelled as one area: one level (the mean over both flat sets), ``u``
   the distance to the nearer flat set, one width from the union of their rings.
 * **Obstacles** come after and keep out of the free discs; their levelling keeps the flat sets as
-  they are (:func:`~navstress.world.placement.level_terrain` with :meth:`FreeAreas.pins`).
+  they are (:func:`~navstress.world.placement.level_terrain` with :meth:`FreeAreas.pins`). A
+  cluster of obstacles (one levelled base) that touches both flat sets cannot stand at two
+  heights: the generator then levels start and goal together (``together=True``) and levels the
+  obstacles again.
 
 Nothing is done when ``R = 0`` (no free area asked for) or when the raw terrain is flat (every
 height equal): such worlds keep their heights and descriptors byte for byte.
@@ -123,7 +126,7 @@ class FreeAreas:
         or None when nothing was levelled."""
         if not self.areas:
             return None
-        mask = np.full(shape, -1, np.int64)
+        mask = np.full(shape, -1, np.int8)
         discs = []
         for k, a in enumerate(self.areas):
             for cx, cy in a.centres:
@@ -137,7 +140,7 @@ class FreeAreas:
 
 @dataclass(frozen=True)
 class Pins:
-    """Levelled flat sets that obstacle levelling must keep: ``mask`` (int64 grid: -1, or the index of
+    """Levelled flat sets that obstacle levelling must keep: ``mask`` (int8 grid: -1, or the index of
     the area whose flat set holds the vertex), ``levels`` (per area) and ``discs`` (rows: area index,
     centre x, centre y, flat-set radius)."""
 
@@ -237,9 +240,10 @@ def _triangle_slope_deg(h: np.ndarray, cell: float) -> np.ndarray:
 
 
 def level_free_areas(heights: np.ndarray, cell_m: float, mission: Mission, size_m: tuple[float, float],
-                     *, gentle_slope_deg: float = GENTLE_SLOPE_DEG, max_slope_deg: float = MAX_ADDED_SLOPE_DEG,
-                     max_transition_m: float = MAX_TRANSITION_M) -> FreeAreas:
-    """Level the start and goal free discs of ``heights`` (see the module docstring).
+                     *, together: bool = False, gentle_slope_deg: float = GENTLE_SLOPE_DEG,
+                     max_slope_deg: float = MAX_ADDED_SLOPE_DEG, max_transition_m: float = MAX_TRANSITION_M) -> FreeAreas:
+    """Level the start and goal free discs of ``heights`` (see the module docstring); ``together``:
+    as one area, whatever the distance between them.
 
     Raises :class:`GenerationError` when a disc reaches outside the map, or when a disc cannot be
     levelled within a transition of at most ``max_transition_m`` adding at most
@@ -306,11 +310,11 @@ def level_free_areas(heights: np.ndarray, cell_m: float, mission: Mission, size_
         step = float(dev[(u > 0.0) & (u < b)].max(initial=0.0))
         return win, u, z, b, step
 
-    solved = [solve((d,)) for d in discs]
+    solved = [] if together else [solve((d,)) for d in discs]
     (sx, sy), (gx, gy) = discs[0][1], discs[1][1]
     # zones (flat set + transition) closer than two cells are levelled together: no grid edge
     # then joins two zones of different levels
-    if math.hypot(gx - sx, gy - sy) < 2 * r_flat + solved[0][3] + solved[1][3] + 2 * math.sqrt(2.0) * cell:
+    if together or math.hypot(gx - sx, gy - sy) < 2 * r_flat + solved[0][3] + solved[1][3] + 2 * math.sqrt(2.0) * cell:
         groups: list[tuple[tuple[str, tuple[float, float]], ...]] = [discs]
         solved = [solve(discs)]
     else:

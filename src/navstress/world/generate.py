@@ -10,7 +10,8 @@ nothing else). Order: raw terrain, mission, levelling of the start and goal free
 cannot be made drivable raises GenerationError; a world that levels them has a ``free_areas``
 descriptor), obstacles (which keep out of the mission's free discs), the spec's obstacle moves
 (:func:`~navstress.world.placement.apply_moves`; a world with moves has a ``moves_applied``
-descriptor), levelling of the ground under each obstacle (which keeps the free areas flat), movers
+descriptor), levelling of the ground under each obstacle (which keeps the free areas flat; when one
+obstacle base touches both free areas, they are levelled again at one height first), movers
 (:mod:`navstress.world.movers`), descriptors (with the movers' only when the spec has a ``movers`` field).
 
     >>> from navstress.world.spec import WorldSpec
@@ -50,7 +51,10 @@ def generate(spec: WorldSpec, seed: int, *, robot: RobotSpec | None = None) -> W
     free = level_free_areas(raw, spec.cell_m, mission, spec.size_m)
     placement = place_obstacles(spec, mission, seed)
     placed, moved = apply_moves(placement.obstacles, spec, mission)
-    lev = level_terrain(free.heights, spec.cell_m, placed, pins=free.pins(spec.grid_shape, spec.cell_m))
+    lev = level_terrain(free.heights, spec.cell_m, placed, pins=free.pins(spec.grid_shape, spec.cell_m) if placed else None)
+    if lev.joined >= 0:  # one obstacle base touches both free areas: they are levelled at one height
+        free = level_free_areas(raw, spec.cell_m, mission, spec.size_m, together=True)
+        lev = level_terrain(free.heights, spec.cell_m, placed, pins=free.pins(spec.grid_shape, spec.cell_m))
     obstacles = lev.obstacles
     terrain = Terrain(lev.heights, spec.cell_m)
     desc = describe(spec, terrain, tuple(obstacles), mission, robot=robot, placement=placement)

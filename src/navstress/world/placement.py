@@ -323,9 +323,9 @@ def _level(h: np.ndarray, cell: float, x0s: np.ndarray, x1s: np.ndarray, y0s: np
     """Level the vertex boxes of all obstacles (clusters sharing a vertex get one z), then blend.
 
     ``pin`` (-1 or an area index per vertex): vertices kept as they are (the free areas' flat sets);
-    a cluster holding one takes that area's level ``pin_z``; ``discs`` (area, x, y, radius) are
-    extra sources of the blend's z*. ``bad_out[0]``: an obstacle whose cluster holds vertices of two
-    areas of different levels, else -1."""
+    a cluster holding one takes that area's level ``pin_z`` (the first area's when it holds two);
+    ``discs`` (area, x, y, radius) are extra sources of the blend's z*. ``bad_out[0]``: an obstacle
+    whose cluster holds vertices of two areas of different levels, else -1."""
     rows, cols = h.shape
     n = x0s.shape[0]
     bj0 = np.empty(n, np.int64)
@@ -423,6 +423,9 @@ class Levelled:
     obstacles: list[Obstacle]  # with z set
     n_clusters: int  # groups of obstacles sharing a levelled base
     largest_cluster: int
+    #: an obstacle whose cluster holds vertices of two pinned areas of different levels (it stands at
+    #: the first one's, and the other area is not flat there), else -1
+    joined: int = -1
 
 
 def level_terrain(heights: np.ndarray, cell_m: float, obstacles: list[Obstacle],
@@ -432,8 +435,9 @@ def level_terrain(heights: np.ndarray, cell_m: float, obstacles: list[Obstacle],
 
     ``pins``: the free areas' flat sets (:mod:`navstress.world.freearea`), kept as they are: an
     obstacle cluster whose vertex boxes hold one of their vertices stands at that area's level, and
-    the blend near them tends to it. Raises :class:`GenerationError` when one cluster holds vertices
-    of two areas levelled at different heights."""
+    the blend near them tends to it. A cluster holding vertices of two areas levelled at different
+    heights is reported in ``Levelled.joined`` (:func:`navstress.world.generate` then levels the two
+    areas at one height and levels again)."""
     h = np.asarray(heights, dtype=np.float64)
     if not obstacles:
         return Levelled(h.astype(np.float32), [], 0, 0)
@@ -442,17 +446,11 @@ def level_terrain(heights: np.ndarray, cell_m: float, obstacles: list[Obstacle],
     zs = np.zeros(len(obstacles))
     roots = np.zeros(len(obstacles), np.int64)
     if pins is None:
-        pins = Pins(np.full(h.shape, -1, np.int64), np.zeros(0), np.zeros((0, 4)))
-    bad = np.zeros(1, np.int64)
+        pins = Pins(np.full(h.shape, -1, np.int8), np.zeros(0), np.zeros((0, 4)))
+    joined = np.zeros(1, np.int64)
     out = _level(h, float(cell_m), lo[:, 0].copy(), hi[:, 0].copy(), lo[:, 1].copy(), hi[:, 1].copy(),
-                 float(blend_m), zs, roots, pins.mask, pins.levels, pins.discs, bad)
-    if bad[0] >= 0:
-        o = obstacles[int(bad[0])]
-        raise GenerationError(
-            f"the obstacles around the {o.kind} at ({o.x:.2f}, {o.y:.2f}) stand on one levelled base that touches "
-            f"both free areas of start and goal, levelled at different heights ({pins.levels.min():.3g} and "
-            f"{pins.levels.max():.3g} m); use a lower obstruction, another map seed or a smaller mission.free_radius_m")
+                 float(blend_m), zs, roots, pins.mask, pins.levels, pins.discs, joined)
     placed = [Obstacle(kind=o.kind, x=o.x, y=o.y, yaw=o.yaw, size=o.size, z=float(z))
               for o, z in zip(obstacles, zs)]
     sizes = np.bincount(roots)
-    return Levelled(out.astype(np.float32), placed, int(np.count_nonzero(sizes)), int(sizes.max()))
+    return Levelled(out.astype(np.float32), placed, int(np.count_nonzero(sizes)), int(sizes.max()), int(joined[0]))
