@@ -245,9 +245,8 @@ def level_free_areas(heights: np.ndarray, cell_m: float, mission: Mission, size_
     """Level the start and goal free discs of ``heights`` (see the module docstring); ``together``:
     as one area, whatever the distance between them.
 
-    Raises :class:`GenerationError` when a disc reaches outside the map, or when a disc cannot be
-    levelled within a transition of at most ``max_transition_m`` adding at most
-    ``added_slope_deg`` of slope."""
+    Raises :class:`GenerationError` when a disc reaches outside the map, or when no transition up
+    to ``max_transition_m`` wide levels a disc adding at most ``max_slope_deg`` to any edge."""
     check_inside(mission, size_m)
     h = np.asarray(heights, dtype=np.float64)
     r = float(mission.free_radius_m)
