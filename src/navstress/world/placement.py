@@ -50,6 +50,7 @@ import numpy as np
 import navstress._jit  # noqa: F401  (numba's cache directory, before any @njit(cache=True))
 from navstress.errors import GenerationError
 from navstress.seeding import rng
+from navstress.world.freearea import Pins
 from navstress.world.spec import ObstacleType, WorldSpec
 from navstress.world.world import Mission, Obstacle
 
@@ -317,8 +318,14 @@ def _find(parent: np.ndarray, k: int) -> int:
 
 @numba.njit(cache=True)
 def _level(h: np.ndarray, cell: float, x0s: np.ndarray, x1s: np.ndarray, y0s: np.ndarray, y1s: np.ndarray,
-           blend: float, zs_out: np.ndarray, root_out: np.ndarray) -> np.ndarray:
-    """Level the vertex boxes of all obstacles (clusters sharing a vertex get one z), then blend."""
+           blend: float, zs_out: np.ndarray, root_out: np.ndarray, pin: np.ndarray, pin_z: np.ndarray,
+           discs: np.ndarray, bad_out: np.ndarray) -> np.ndarray:
+    """Level the vertex boxes of all obstacles (clusters sharing a vertex get one z), then blend.
+
+    ``pin`` (-1 or an area index per vertex): vertices kept as they are (the free areas' flat sets);
+    a cluster holding one takes that area's level ``pin_z`` (the first area's when it holds two);
+    ``discs`` (area, x, y, radius) are extra sources of the blend's z*. ``bad_out[0]``: an obstacle
+    whose cluster holds vertices of two areas of different levels, else -1."""
     rows, cols = h.shape
     n = x0s.shape[0]
     bj0 = np.empty(n, np.int64)
@@ -344,6 +351,8 @@ def _level(h: np.ndarray, cell: float, x0s: np.ndarray, x1s: np.ndarray, y0s: np
                         parent[max(ra, rb)] = min(ra, rb)
     acc = np.zeros(n)
     cnt = np.zeros(n, np.int64)
+    rpin = np.full(n, -1, np.int64)
+    bad_out[0] = -1
     for i in range(rows):
         for j in range(cols):
             o = owner[i, j]
@@ -351,9 +360,17 @@ def _level(h: np.ndarray, cell: float, x0s: np.ndarray, x1s: np.ndarray, y0s: np
                 r = _find(parent, o)
                 acc[r] += h[i, j]
                 cnt[r] += 1
+                a = pin[i, j]
+                if a >= 0:
+                    if rpin[r] < 0:
+                        rpin[r] = a
+                    elif rpin[r] != a and pin_z[rpin[r]] != pin_z[a] and bad_out[0] < 0:
+                        bad_out[0] = o
     zr = np.zeros(n)
     for k in range(n):
-        if cnt[k] > 0:
+        if rpin[k] >= 0:
+            zr[k] = pin_z[rpin[k]]  # a free area's level (float32-exact)
+        elif cnt[k] > 0:
             zr[k] = np.float32(acc[k] / cnt[k])  # exactly representable in the float32 output
     for k in range(n):
         root_out[k] = _find(parent, k)
@@ -382,9 +399,18 @@ def _level(h: np.ndarray, cell: float, x0s: np.ndarray, x1s: np.ndarray, y0s: np
                 smz[i, j] += m * zs_out[k]
     for i in range(rows):
         for j in range(cols):
+            if pin[i, j] >= 0:
+                continue
             if owner[i, j] >= 0:
                 out[i, j] = zr[_find(parent, owner[i, j])]
             elif wmax[i, j] > 0.0:
+                for d in range(discs.shape[0]):  # a free area near: a source of z* too
+                    dx, dy = j * cell - discs[d, 1], i * cell - discs[d, 2]
+                    e = math.sqrt(dx * dx + dy * dy) - discs[d, 3]
+                    if 0.0 < e < blend:
+                        m = 1.0 / (e * e)
+                        sm[i, j] += m
+                        smz[i, j] += m * pin_z[int(discs[d, 0])]
                 out[i, j] = h[i, j] + wmax[i, j] * (smz[i, j] / sm[i, j] - h[i, j])
     return out
 
@@ -397,12 +423,21 @@ class Levelled:
     obstacles: list[Obstacle]  # with z set
     n_clusters: int  # groups of obstacles sharing a levelled base
     largest_cluster: int
+    #: an obstacle whose cluster holds vertices of two pinned areas of different levels (it stands at
+    #: the first one's, and the other area is not flat there), else -1
+    joined: int = -1
 
 
 def level_terrain(heights: np.ndarray, cell_m: float, obstacles: list[Obstacle],
-                  blend_m: float = BLEND_M) -> Levelled:
+                  blend_m: float = BLEND_M, *, pins: Pins | None = None) -> Levelled:
     """Level the ground under every obstacle (see the module docstring); any yaw is accepted
-    (the levelled box is the axis-aligned bounding box of the footprint)."""
+    (the levelled box is the axis-aligned bounding box of the footprint).
+
+    ``pins``: the free areas' flat sets (:mod:`navstress.world.freearea`), kept as they are: an
+    obstacle cluster whose vertex boxes hold one of their vertices stands at that area's level, and
+    the blend near them tends to it. A cluster holding vertices of two areas levelled at different
+    heights is reported in ``Levelled.joined`` (:func:`navstress.world.generate` then levels the two
+    areas at one height and levels again)."""
     h = np.asarray(heights, dtype=np.float64)
     if not obstacles:
         return Levelled(h.astype(np.float32), [], 0, 0)
@@ -410,9 +445,12 @@ def level_terrain(heights: np.ndarray, cell_m: float, obstacles: list[Obstacle],
     lo, hi = corners.min(axis=1), corners.max(axis=1)
     zs = np.zeros(len(obstacles))
     roots = np.zeros(len(obstacles), np.int64)
+    if pins is None:
+        pins = Pins(np.full(h.shape, -1, np.int8), np.zeros(0), np.zeros((0, 4)))
+    joined = np.zeros(1, np.int64)
     out = _level(h, float(cell_m), lo[:, 0].copy(), hi[:, 0].copy(), lo[:, 1].copy(), hi[:, 1].copy(),
-                 float(blend_m), zs, roots)
+                 float(blend_m), zs, roots, pins.mask, pins.levels, pins.discs, joined)
     placed = [Obstacle(kind=o.kind, x=o.x, y=o.y, yaw=o.yaw, size=o.size, z=float(z))
               for o, z in zip(obstacles, zs)]
     sizes = np.bincount(roots)
-    return Levelled(out.astype(np.float32), placed, int(np.count_nonzero(sizes)), int(sizes.max()))
+    return Levelled(out.astype(np.float32), placed, int(np.count_nonzero(sizes)), int(sizes.max()), int(joined[0]))

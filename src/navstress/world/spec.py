@@ -214,9 +214,12 @@ class MissionSpec(BaseModel):
     corner, each ``inset_m`` from both edges (100 m map: (5, 5) -> (95, 95), 127 m apart).
     Explicit ``start`` (x, y, yaw) / ``goal`` (x, y) override. ``mode="random"``: a start/goal
     pair drawn from the map seed, at least ``min_distance_m`` apart, satisfying the same
-    constraints. ``free_radius_m`` is kept free of obstacles around start and goal:
-    5 m = the robot's initial scanning manoeuvre (turn on the spot, ~3 m forward) plus its
-    half-diagonal (0.66 m) plus a margin of about 1 m.
+    constraints. ``free_radius_m`` is kept free of obstacles around start and goal, and the ground
+    there is levelled (``navstress.world.freearea``): 5 m = the robot's initial scanning manoeuvre
+    (turn on the spot, ~3 m forward) plus its half-diagonal (0.66 m) plus a margin of about 1 m.
+    Both free discs lie inside the map in every mode (the world spec refuses an ``inset_m``, a
+    ``start`` or ``goal`` closer than ``free_radius_m`` to an edge, and a radius over half the
+    map's shorter side).
     """
 
     model_config = _STRICT
@@ -449,6 +452,7 @@ class WorldSpec(BaseModel):
         for name, pt in (("start", m.start), ("goal", m.goal)):
             if pt is not None and not (0 <= pt[0] <= self.size_m[0] and 0 <= pt[1] <= self.size_m[1]):
                 raise SpecError(f"mission.{name}", list(pt), f"a point inside the map [0, {self.size_m[0]:g}] x [0, {self.size_m[1]:g}]")
+        self._check_free_discs()
         for i, mv in enumerate(self.obstacles.moves):
             if not (0 <= mv.at[0] <= self.size_m[0] and 0 <= mv.at[1] <= self.size_m[1]):
                 raise SpecError(f"obstacles.moves[{i}].at", list(mv.at),
@@ -469,6 +473,28 @@ class WorldSpec(BaseModel):
                                 f"footprint, {diameter:.3g} m across, must be under half the map's side)",
                                 "use a smaller type or a larger map")
         return self
+
+    def _check_free_discs(self) -> None:
+        """The start and goal free discs (radius ``mission.free_radius_m``) lie inside the map, in
+        every mission mode: a drivable area the generator can level (navstress.world.freearea)."""
+        m, (sx, sy) = self.mission, self.size_m
+        r = m.free_radius_m
+        inside = f"the start and goal free discs of mission.free_radius_m={r:g} must lie inside the {sx:g}x{sy:g} m map"
+        if 2 * r > min(sx, sy):
+            raise SpecError("mission.free_radius_m", r, f"a radius <= {min(sx, sy) / 2:g} m, half the map's shorter side "
+                            f"({inside})", "lower free_radius_m or enlarge the map")
+        if m.mode == "random":  # drawn in the map shrunk by the radius: inside
+            return
+        if m.start is None or m.goal is None:  # (inset, inset) and (sx - inset, sy - inset)
+            hi = min(sx, sy) - r
+            if not (r <= m.inset_m <= hi):
+                raise SpecError("mission.inset_m", m.inset_m, f"an inset in [{r:g}, {hi:g}] m ({inside})",
+                                "raise inset_m or lower free_radius_m" if m.inset_m < r else "lower inset_m")
+        for name, pt in (("start", m.start), ("goal", m.goal)):
+            if pt is not None and not (r <= pt[0] <= sx - r and r <= pt[1] <= sy - r):
+                raise SpecError(f"mission.{name}", list(pt), f"a point at least mission.free_radius_m={r:g} m from every "
+                                f"edge, in [{r:g}, {sx - r:g}] x [{r:g}, {sy - r:g}] ({inside})",
+                                f"move the {name} or lower free_radius_m")
 
     @property
     def grid_shape(self) -> tuple[int, int]:

@@ -133,7 +133,8 @@ def test_impossible_target_raises_with_achieved_value() -> None:
 
 
 def test_free_disc_too_large_for_any_obstacle_raises() -> None:
-    spec = WorldSpec(size_m=(20.0, 20.0), mission={"free_radius_m": 14.0},
+    # the largest disc inside the map (start = goal at its centre): no 9 m building fits a corner
+    spec = WorldSpec(size_m=(20.0, 20.0), mission={"free_radius_m": 10.0, "start": (10, 10, 0), "goal": (10, 10)},
                      obstacles={"obstruction": {"building": 10}})
     with pytest.raises(GenerationError, match="reached 0.00%"):
         generate(spec, 0)
