@@ -18,6 +18,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from navstress.errors import SpecError
+from navstress.seeding import rng
 from navstress.world import WorldSpec, generate
 from navstress.world.blender import (UI_FRACTAL_DIVISOR, facet_surface, flipped, improved_perlin, turbulence,
                                      vertex_heights)
@@ -86,8 +87,13 @@ def test_s_cuts_give_s_plus_one_flat_faced_segments(s: int, d: float, seed: int,
 def test_s6_d35_on_the_default_map_shows_7_by_7_segments() -> None:
     """The issue's case: 100 m map, 0.4 m cells, s = 6, d = 3.5: the second differences of the
     heights vanish (flat faces) except along 6 + 6 segment borders and the 13 diagonals."""
-    w = generate(WorldSpec(ground={"model": "blender", "subdivisions": 6, "deformation": 3.5}), seed=3)
-    h = w.terrain.heights.astype(np.float64)
+    spec = WorldSpec(ground={"model": "blender", "subdivisions": 6, "deformation": 3.5})
+    w = generate(spec, seed=3)
+    h = make_heights(spec.ground, spec.grid_shape, spec.cell_m, rng(3, "terrain"))  # the world's raw ground
+    # the world is that ground but for its levelled start and goal areas (test_freearea.py)
+    far = np.hypot(*np.meshgrid(np.arange(251) * CELL - 5.0, np.arange(251) * CELL - 5.0)) > 40.0
+    far &= np.hypot(*np.meshgrid(np.arange(251) * CELL - 95.0, np.arange(251) * CELL - 95.0)) > 40.0
+    np.testing.assert_array_equal(w.terrain.heights[far], h.astype(np.float32)[far])
     seg = 100.0 / 7
     xs = np.arange(h.shape[1]) * CELL
     # columns whose second difference along x is non-zero somewhere: within a cell of a border
