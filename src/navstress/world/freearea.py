@@ -24,9 +24,9 @@ goal free discs (radius ``R = mission.free_radius_m``) of the raw terrain, befor
   ``GENTLE_SLOPE_DEG`` = 5 deg to every edge; when none does, the width that adds the least, if
   that is at most ``MAX_ADDED_SLOPE_DEG`` = 20 deg. So a transition is as narrow as a gentle ramp
   allows and no wider: on ground within 0.15 m of the level around the disc, 3 m; 0.26 m off it,
-  about 4.5 m; on a 2 deg tilt, about 8 m. Gentle, because a narrow ramp traps: with 10 deg and 2 m, a start disc 0.26 m
-  above or below the ground around it held ``reference-v1`` inside it for 400 s on 3 of 875 runs
-  of the paper preset's ground classes (it took the ramp's rim for a wall).
+  about 4.5 m; on a 2 deg tilt, about 8 m. Gentle, because a narrow ramp traps: with 10 deg and
+  2 m, a start disc 0.26 m above or below the ground around it held ``reference-v1`` inside it
+  for 400 s on 3 of 875 runs of the paper preset's ground classes (it took the ramp for a wall).
 * **Bounded by construction.** ``h'(b) - h'(a) = (1 - W_b)(h_b - h_a) + (W_b - W_a)(z - h_a)`` (a
   taken in the transition ring), and ``W`` is ``1.5 / B``-Lipschitz, so the added slope is at most
   ``1.5 D(B) / B`` with ``D(B)`` the largest ``|z - h|`` over the ring ``0 < u < B``. The smallest
