@@ -20,7 +20,7 @@ it ran 900 building and 570 tree runs where this preset runs 375 + 375 nominal).
 apart), 4 tree configurations (0-14 %: dense enough for the footprint fault to collide),
 2 maps x 3 runs, nominal plus the fault (48 runs); 3 terrain configurations whose maps are
 repeated adaptively (2 to 5 runs each, until the map is proven to pass, or to fail, at least
-half the time with 75 % confidence: 4 runs when every run agrees; at most 30 runs, 24 on
+half the time with 75 % confidence: 4 runs when every run agrees; at most 30 runs, 25 on
 the preset's seed); a ``movers`` class, 1 and 4 intercepting pedestrians on open ground
 (:data:`DEMO_MOVERS`), 2 maps x 3 runs, nominal (12 runs); sized to finish in under a minute
 on 2 cores and still feed every analysis (difficulty needs several configurations incl. the

@@ -43,7 +43,7 @@ app.add_typer(campaign_app, name="campaign")
 @campaign_app.command("init")
 def init(
     out: Annotated[Path, typer.Option("--output", "-o", help="Spec file to write (YAML).")],
-    preset: Annotated[str, typer.Option("--preset", help="demo (84 runs: trees, terrain with adaptive repetition, movers; under a minute on 2 cores), paper (the paper's five classes, 2,375 runs) or dynamic (intercepting pedestrians: their count and how close they aim, 90 runs).")] = "demo",
+    preset: Annotated[str, typer.Option("--preset", help="demo (85 runs: trees, terrain with adaptive repetition, movers; under a minute on 2 cores), paper (the paper's five classes, 2,375 runs) or dynamic (intercepting pedestrians: their count and how close they aim, 90 runs).")] = "demo",
     force: Annotated[bool, typer.Option("--force", help="Overwrite an existing file.")] = False,
 ) -> None:
     """Write a ready campaign spec from a preset."""
