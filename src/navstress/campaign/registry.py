@@ -96,9 +96,9 @@ def executor_names() -> list[str]:
 
 
 def executor_help() -> str:
-    """The ``--executor`` option's help: every known name, what a built-in one is, the default."""
+    """The ``--executor`` option's help: every known name, and what a built-in one is."""
     names = [f"{n} ({BUILTIN[n].what})" if n in BUILTIN else n for n in executor_names()]
-    return f"Where the runs run: {', '.join(names)}. Default {DEFAULT_EXECUTOR}."
+    return f"Where the runs run: {', '.join(names)}."
 
 
 def check_executor(name: str, field: str = "--executor") -> str:
