@@ -1,26 +1,29 @@
-"""Running a campaign: the driver, and the choice of executor.
+"""The campaign engine: one runner for everything that runs a campaign's runs.
 
-:func:`run_campaign` validates the spec (every navigator, fault and ``sim:`` override, before
-anything is written), joins or starts the executor's machines, opens (or resumes) the store and
-hands the pending work to the scheduling core (:func:`navstress.campaign.scheduler.resume`),
-which alone writes records (single writer). The executors are thin:
-:class:`~navstress.campaign.local.LocalExecutor` (a process pool on this machine) and
-:class:`~navstress.campaign.ray_executor.RayExecutor`; see docs/campaigns.md, "Executors".
+:func:`open_runner` takes a validated :class:`CampaignSpec` (read from a file by ``campaign run``
+and ``demo``, made in code by a search), the name of an executor and the directory of its store:
+it checks that the spec can run (every navigator, fault and ``sim:`` override, before anything is
+written), makes the executor from the registry (:mod:`navstress.campaign.registry`: ``local``,
+``ray``, a plug-in's), joining or starting its machines, and opens (or resumes) the store. The
+:class:`CampaignRunner` it gives runs sessions: each hands the store's pending runs to the
+scheduling core (:func:`navstress.campaign.scheduler.resume`), which alone writes records (single
+writer); a search grows the campaign between sessions (:meth:`CampaignRunner.extend`) and keeps the
+executor's workers from one session to the next (``keep``). :func:`run_campaign` is one session of
+the campaign of a spec file. See docs/campaigns.md, "Executors".
 """
 
 from __future__ import annotations
 
-import os
 import time
-from collections.abc import Callable
-from contextlib import ExitStack
+from collections.abc import Iterator
+from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
-from navstress.campaign.local import LocalExecutor
-from navstress.campaign.ray_executor import RayExecutor
-from navstress.campaign.scheduler import MAX_ATTEMPTS, PlannedCallback, RecordCallback, StartCallback, resume
+from navstress.campaign.registry import DEFAULT_EXECUTOR, ExecutorOptions, check_executor, make_executor
+from navstress.campaign.scheduler import (MAX_ATTEMPTS, Executor, PlannedCallback, RecordCallback, Session,
+                                          StartCallback, resume)
 from navstress.campaign.spec import MAX_PLANNED_RUNS, CampaignSpec, load_campaign
 from navstress.campaign.store import Store
 from navstress.campaign.work import register_targets
@@ -101,43 +104,99 @@ def check_runnable(spec: CampaignSpec, *, build_limit_s: float = BUILD_LIMIT_S) 
         registry._registered.update(saved)
 
 
+class CampaignRunner:
+    """The store of a campaign and the executor that runs its runs, for one command: each
+    :meth:`run` is a session (the pending runs of the store, recorded by the scheduling core);
+    :meth:`extend` grows the campaign between sessions. Made by :func:`open_runner`."""
+
+    def __init__(self, store: Store, executor: Executor, *, wall_limit_s: float,
+                 max_attempts: int = MAX_ATTEMPTS, opened: float | None = None) -> None:
+        self.store = store
+        self.executor = executor
+        self.wall_limit_s = wall_limit_s
+        self.max_attempts = max_attempts
+        #: when the command's work began (time.perf_counter: after the spec's checks, before the
+        #: executor's start): a result's wall_s counts from here
+        self.opened = opened if opened is not None else time.perf_counter()
+
+    @property
+    def workers(self) -> int:
+        return self.executor.workers
+
+    def extend(self, spec: CampaignSpec) -> int:
+        """Grow the campaign to ``spec``, made in code (:meth:`Store.extend`); its new runs run at
+        the next :meth:`run`. Returns the runs added."""
+        return self.store.extend(spec)
+
+    def run(self, *, on_record: RecordCallback | None = None, on_start: StartCallback | None = None,
+            on_planned: PlannedCallback | None = None) -> Session:
+        """Run the store's pending runs (:func:`~navstress.campaign.scheduler.resume`)."""
+        return resume(self.store, self.executor, wall_limit_s=self.wall_limit_s, on_record=on_record,
+                      on_start=on_start, max_attempts=self.max_attempts, on_planned=on_planned)
+
+
+def check_workers(workers: int | None) -> None:
+    """``--workers``: None (the executor's default) or an integer >= 1 (SpecError naming it)."""
+    if workers is not None and workers < 1:
+        raise SpecError("--workers", workers, "an integer >= 1")
+
+
+@contextmanager
+def open_runner(spec: CampaignSpec, directory: str | Path, *, text: str | None = None,
+                executor: str = DEFAULT_EXECUTOR, workers: int | None = None, address: str | None = None,
+                wall_limit_s: float | None = None, keep: bool = False,
+                max_attempts: int = MAX_ATTEMPTS) -> Iterator[CampaignRunner]:
+    """The runner of the validated ``spec`` in ``directory``: the spec checked runnable
+    (:func:`check_runnable`; nothing written yet), the executor made (``executor``: a registered
+    name; ``workers``, ``address``: its :class:`~navstress.campaign.registry.ExecutorOptions`;
+    ``keep``: its workers kept between sessions), joined or started before the store is made (a
+    cluster error writes nothing), then the store created or reopened to resume (``text``: the
+    text ``spec`` was read from, its ``spec.yaml``; None for a spec made in code). On the way out
+    the store is closed and the executor ended, whatever ended the block.
+
+    ``wall_limit_s``: per-run wall-clock limit (default ``timeout_s * 2 + 120``). SpecError /
+    StoreError before anything runs when the spec, a navigator, the executor or the directory is
+    unusable."""
+    check_workers(workers)
+    check_executor(executor)
+    limit = wall_limit_s if wall_limit_s is not None else default_wall_limit_s(spec.timeout_s)
+    check_runnable(spec, build_limit_s=min(limit, BUILD_LIMIT_S))
+    targets = {n.name: n.target for n in spec.navigators if n.target}
+    with ExitStack() as stack:
+        opened = time.perf_counter()
+        ex = make_executor(executor, ExecutorOptions(workers, targets, address, keep))
+        stack.callback(ex.close)
+        store = stack.enter_context(Store.create(directory, spec, text))
+        yield CampaignRunner(store, ex, wall_limit_s=limit, max_attempts=max_attempts, opened=opened)
+
+
 def run_campaign(spec_path: str | Path, directory: str | Path, *, workers: int | None = None,
-                 executor: Literal["local", "ray"] = "local", ray_address: str | None = None,
+                 executor: str = DEFAULT_EXECUTOR, ray_address: str | None = None,
                  wall_limit_s: float | None = None, on_record: RecordCallback | None = None,
                  on_start: StartCallback | None = None,
                  accept_large: bool = False, max_attempts: int = MAX_ATTEMPTS,
                  on_planned: PlannedCallback | None = None) -> CampaignResult:
-    """Run (or resume) the campaign of ``spec_path`` into ``directory``.
+    """Run (or resume) the campaign of ``spec_path`` into ``directory``: one session of
+    :func:`open_runner`'s runner (``campaign run`` and ``demo``).
 
     ``workers``: processes (local, default ``os.cpu_count()``) or concurrent Ray tasks (default:
-    the cluster's CPUs). ``wall_limit_s``: per-run wall-clock limit (default
-    ``timeout_s * 2 + 120``). ``on_start(done, planned, counts)`` and ``on_record(record)``
+    the cluster's CPUs). ``executor``: a name of :mod:`navstress.campaign.registry`.
+    ``wall_limit_s``: per-run wall-clock limit (default ``timeout_s * 2 + 120``).
+    ``on_start(done, planned, counts)`` and ``on_record(record)``
     feed progress displays; with adaptive repetition ``planned`` is an upper bound (each undecided
     stream counts its rule's max), lowered through ``on_planned(planned)`` as streams stop, and
     ``CampaignResult.planned`` is the final count. ``accept_large``: plan more than ``MAX_PLANNED_RUNS`` runs.
     Raises SpecError / StoreError before running anything when the spec, a navigator or sim
-    config, or the directory is unusable; DiskFullError (nothing lost: resume later) when the
-    disk fills. An interrupted campaign (KeyboardInterrupt, or the CLI's SIGTERM) leaves no
+    config, the executor or the directory is unusable; DiskFullError (nothing lost: resume later)
+    when the disk fills. An interrupted campaign (KeyboardInterrupt, or the CLI's SIGTERM) leaves no
     partial file behind. Runs whose machinery failed ``max_attempts`` times stay pending
     (``CampaignResult.unfinished``)."""
-    if workers is not None and workers < 1:
-        raise SpecError("--workers", workers, "an integer >= 1")
-    if executor not in ("local", "ray"):
-        raise SpecError("--executor", executor, "local or ray")
+    check_workers(workers)
+    check_executor(executor)
     spec, text = load_campaign(spec_path, max_runs=None if accept_large else MAX_PLANNED_RUNS)
-    limit = wall_limit_s if wall_limit_s is not None else default_wall_limit_s(spec.timeout_s)
-    check_runnable(spec, build_limit_s=min(limit, BUILD_LIMIT_S))
-    t0 = time.perf_counter()
-    targets = {n.name: n.target for n in spec.navigators if n.target}
-    with ExitStack() as stack:
-        ex: LocalExecutor | RayExecutor
-        if executor == "ray":  # joined (or started) before the store is made: a cluster error writes nothing
-            ex = stack.enter_context(RayExecutor(workers, targets, address=ray_address))
-        else:
-            ex = LocalExecutor(workers if workers is not None else (os.cpu_count() or 1), targets)
-        store = stack.enter_context(Store.create(directory, spec, text))
-        s = resume(store, ex, wall_limit_s=limit, on_record=on_record, on_start=on_start, max_attempts=max_attempts,
-                   on_planned=on_planned)
-        result = CampaignResult(Path(directory), s.planned, s.already_done, s.recorded, store.outcome_counts(),
-                                time.perf_counter() - t0, ex.workers, s.unfinished)
+    with open_runner(spec, directory, text=text, executor=executor, workers=workers, address=ray_address,
+                     wall_limit_s=wall_limit_s, max_attempts=max_attempts) as runner:
+        s = runner.run(on_record=on_record, on_start=on_start, on_planned=on_planned)
+        result = CampaignResult(Path(directory), s.planned, s.already_done, s.recorded, runner.store.outcome_counts(),
+                                time.perf_counter() - runner.opened, runner.workers, s.unfinished)
     return result

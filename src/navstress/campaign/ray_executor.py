@@ -37,6 +37,7 @@ import time
 from typing import Any
 
 from navstress.campaign.plan import MapJob
+from navstress.campaign.registry import ExecutorOptions
 from navstress.campaign.scheduler import Event, Job
 from navstress.campaign.work import Infra, attempt_run, attempt_world, register_targets
 from navstress.errors import SpecError
@@ -233,6 +234,12 @@ def _world_task(job: MapJob, targets: dict[str, str]) -> str | Infra | None:
 def _run_task(task: RunTask, targets: dict[str, str]) -> RunRecord | Infra:
     register_targets(targets)
     return attempt_run(task)
+
+
+def open_ray(options: ExecutorOptions) -> "RayExecutor":
+    """The ``ray`` executor (:mod:`navstress.campaign.registry`): joins ``options.address``, or
+    starts a Ray instance of its own; Ray keeps its workers between sessions itself."""
+    return RayExecutor(options.workers, options.targets, address=options.address)
 
 
 class RayExecutor:

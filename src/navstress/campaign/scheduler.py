@@ -88,9 +88,12 @@ class Executor(Protocol):
     """Where jobs run: the local process pool, Ray, a batch scheduler.
 
     ``worker`` names the thing a job runs in, for reasons ("worker process", "Ray worker"):
-    "run killed its worker process (signal SIGSEGV)"."""
+    "run killed its worker process (signal SIGSEGV)". ``workers``: the most jobs it runs at once.
+    An executor is made by its factory (:mod:`navstress.campaign.registry`) and lives for one
+    command: :meth:`shutdown` ends a session, :meth:`close` the executor."""
 
     worker: str
+    workers: int
 
     def start(self, jobs: int) -> int:
         """Get ready for at most ``jobs`` jobs; returns how many may run at once (>= 1)."""
@@ -109,7 +112,12 @@ class Executor(Protocol):
         ...
 
     def shutdown(self, *, now: bool) -> None:
-        """End every worker (``now``: kill them, the campaign was interrupted). Idempotent."""
+        """End a session: end every worker (``now``: kill them, the campaign was interrupted),
+        or, when it keeps them for the next session, only when ``now``. Idempotent."""
+        ...
+
+    def close(self) -> None:
+        """End whatever the executor still holds (kept workers, a cluster it started). Idempotent."""
         ...
 
 

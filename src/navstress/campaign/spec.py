@@ -46,6 +46,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import yaml
 from pydantic import BaseModel, Field, field_validator, model_validator
 
 from navstress import _json
@@ -60,12 +61,42 @@ _STRICT = SPEC_CONFIG
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 
 
+def is_name(v: str) -> bool:
+    """Whether ``v`` is a name of letters, digits, '_', '.', '-' starting with a letter or digit
+    (a campaign's, a search's, an experiment's, a fault's)."""
+    return _NAME.match(v) is not None
+
+
 def check_name(v: str) -> str:
     """``v`` when it is a name of letters, digits, '_', '.', '-' (a campaign's or a search's),
     else ValueError (pydantic turns it into the field's SpecError)."""
-    if not _NAME.match(v):
+    if not is_name(v):
         raise ValueError("a name of letters, digits, '_', '.', '-'")
     return v
+
+
+def check_faults(faults: list[str | None], field: str = "faults", *, names: bool = True) -> None:
+    """A list of faults (a campaign's, an experiment's, a search's): no duplicate and (``names``)
+    each a fault name or null, the nominal stack (:func:`check_fault_names`); SpecError naming ``field``."""
+    if len(set(faults)) != len(faults):
+        raise SpecError(field, faults, "a list without duplicates")
+    if names:
+        check_fault_names(faults, field)
+
+
+def check_fault_names(faults: list[str | None], field: str = "faults") -> None:
+    """Each of ``faults`` a name of letters, digits, '_', '.', '-' or null (SpecError naming ``field``)."""
+    for f in faults:
+        if f is not None and not is_name(f):
+            raise SpecError(field, f, "a fault name of letters, digits, '_', '.', '-' (or null for nominal)")
+
+
+def check_base_world(world: dict[str, Any]) -> WorldSpec:
+    """The base ``world`` of a campaign or a search as a WorldSpec (SpecError naming ``world.FIELD``)."""
+    try:
+        return parse_spec(world)
+    except SpecError as err:
+        raise SpecError(f"world.{err.field}", err.value, err.expected, err.fix) from None
 #: Most values a single experiment may expand to (guards against a typo'd step of 1e-9).
 MAX_CONFIGS_PER_EXPERIMENT = 10_000
 #: Most runs a campaign may plan unless the user accepts more (``campaign run --yes``).
@@ -214,7 +245,7 @@ class WorldEntry(BaseModel):
     @field_validator("key")
     @classmethod
     def _key(cls, v: str) -> str:
-        if not _NAME.match(v) or len(v) > MAX_KEY_LEN:
+        if not is_name(v) or len(v) > MAX_KEY_LEN:
             raise ValueError(f"a key of at most {MAX_KEY_LEN} letters, digits, '_', '.', '-', starting with a "
                              "letter or digit (it becomes a directory name)")
         return v
@@ -235,7 +266,7 @@ class ExperimentSpec(BaseModel):
     @field_validator("name")
     @classmethod
     def _name(cls, v: str) -> str:
-        if not _NAME.match(v):
+        if not is_name(v):
             raise ValueError("a name of letters, digits, '_', '.', '-' (it becomes a directory name)")
         return v
 
@@ -411,7 +442,13 @@ def parse_campaign(data: Any, *, max_runs: int | None = MAX_PLANNED_RUNS) -> Cam
     configuration validates as a WorldSpec, experiment names are unique, no duplicate navigator/fault."""
     if not isinstance(data, dict):
         raise SpecError("campaign", type(data).__name__, "a mapping of fields at the top level")
-    spec = parse(CampaignSpec, data)
+    return check_campaign(parse(CampaignSpec, data), max_runs=max_runs)
+
+
+def check_campaign(spec: CampaignSpec, *, max_runs: int | None = MAX_PLANNED_RUNS) -> CampaignSpec:
+    """``spec`` (made from a file by :func:`parse_campaign`, or in code from its parts, as a
+    search makes its campaign) when every check of :func:`parse_campaign` beyond the fields'
+    own passes, else SpecError naming the field."""
     for i, exp in enumerate(spec.experiments):
         for path, rng in exp.sweep.items():
             try:
@@ -419,10 +456,7 @@ def parse_campaign(data: Any, *, max_runs: int | None = MAX_PLANNED_RUNS) -> Cam
             except ValueError as e:
                 raise SpecError(f"experiments[{i}].sweep.{path}", rng.model_dump(exclude_none=True), str(e)) from None
     check_plan_size(spec, max_runs)
-    try:
-        base = parse_spec(spec.world)
-    except SpecError as err:
-        raise SpecError(f"world.{err.field}", err.value, err.expected, err.fix) from None
+    check_base_world(spec.world)
     base_data = spec.world
     seen: set[str] = set()
     for i, exp in enumerate(spec.experiments):
@@ -449,20 +483,38 @@ def parse_campaign(data: Any, *, max_runs: int | None = MAX_PLANNED_RUNS) -> Cam
             except SpecError as err:
                 at = f"{where}.worlds[{j}].world" if exp.worlds is not None else f"{where}.sweep[{cfg.key}]"
                 raise SpecError(f"{at}.{err.field}", err.value, err.expected, err.fix) from None
-        faults = spec.faults_of(exp)
-        if len(set(faults)) != len(faults):
-            raise SpecError(f"{where}.faults" if exp.faults is not None else "faults", faults,
-                            "a list without duplicates")
+        check_faults(spec.faults_of(exp), f"{where}.faults" if exp.faults is not None else "faults", names=False)
     names = [n.name for n in spec.navigators]
     if len(set(names)) != len(names):
         raise SpecError("navigators", names, "navigator names without duplicates")
-    if len(set(spec.faults)) != len(spec.faults):
-        raise SpecError("faults", spec.faults, "a list without duplicates")
-    for f in [f for e in spec.experiments for f in spec.faults_of(e)]:
-        if f is not None and not _NAME.match(f):
-            raise SpecError("faults", f, "a fault name of letters, digits, '_', '.', '-' (or null for nominal)")
-    del base
+    check_faults(spec.faults, names=False)
+    check_fault_names([f for e in spec.experiments for f in spec.faults_of(e)])
     return spec
+
+
+#: The order of the fields in the text of a spec made in code (:func:`spec_yaml`).
+TEXT_ORDER = ("name", "seed", "world", "navigators", "faults", "maps_per_config", "runs_per_map", "timeout_s",
+              "goal_tolerance_m", "record_lidar", "record_navigator", "sim", "experiments")
+
+
+def spec_yaml(spec: CampaignSpec) -> str:
+    """The YAML text of a spec made in code from its parts (a search's campaign), which its store
+    writes as ``spec.yaml``: the fields it was given (the others have their defaults), in
+    :data:`TEXT_ORDER`; each navigator without a null ``target``; each experiment with the fields
+    it was given. It reads back as ``spec`` (the same digest); nothing reads it back to run."""
+    given = spec.model_fields_set
+    plain = spec.model_dump(mode="json", include=given - {"navigators", "experiments"})
+    data: dict[str, Any] = {}
+    for name in TEXT_ORDER:
+        if name not in given:
+            continue
+        if name == "navigators":
+            data[name] = [n.model_dump(mode="json", exclude_none=True) for n in spec.navigators]
+        elif name == "experiments":
+            data[name] = [e.model_dump(mode="json", include=e.model_fields_set) for e in spec.experiments]
+        else:
+            data[name] = plain[name]
+    return yaml.safe_dump(data, sort_keys=False)
 
 
 def load_campaign(path: str | Path, *, max_runs: int | None = MAX_PLANNED_RUNS) -> tuple[CampaignSpec, str]:

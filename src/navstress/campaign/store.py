@@ -58,7 +58,7 @@ from typing import IO, Any, Literal
 from navstress import __version__, _files, _json
 from navstress._tables import FORMATS, Kind, read_table, write_table
 from navstress.campaign.plan import NOMINAL, Plan, config_key_of, plan, trace_path, world_path
-from navstress.campaign.spec import CampaignSpec, parse_campaign_text
+from navstress.campaign.spec import CampaignSpec, parse_campaign_text, spec_yaml
 from navstress.errors import SpecError, StoreError
 from navstress.run.outcome import Outcome
 from navstress.run.record import RunRecord, RunTask
@@ -197,9 +197,12 @@ class Store:
 
     # ---- opening ---------------------------------------------------------------------
     @classmethod
-    def create(cls, root: str | Path, spec: CampaignSpec, spec_text: str, *, extend: bool = False) -> "Store":
+    def create(cls, root: str | Path, spec: CampaignSpec, spec_text: str | None = None, *,
+               extend: bool = False) -> "Store":
         """Create the store for ``spec`` in ``root``, or reopen it to resume (same spec only;
         with ``extend``, also a spec that extends the stored one: see :meth:`extend`).
+        ``spec_text``: the text the spec was read from (``spec.yaml``); None for a spec made in
+        code, whose own text (:func:`~navstress.campaign.spec.spec_yaml`) is written.
 
         Takes the directory's write lock; raises StoreError if another run holds it, if the
         directory holds a different campaign, or is a non-empty directory of something else."""
@@ -228,7 +231,7 @@ class Store:
                 return store
             cls._refuse_foreign(d)
             try:
-                cls._build(d, spec, spec_text)
+                cls._build(d, spec, spec_text if spec_text is not None else spec_yaml(spec))
             except (OSError, sqlite3.Error) as err:
                 if is_disk_full(err):
                     raise disk_full(d, "while creating the store") from None
@@ -353,7 +356,7 @@ class Store:
         self.close()
 
     # ---- growing a campaign ----------------------------------------------------------
-    def extend(self, spec: CampaignSpec, spec_text: str) -> int:
+    def extend(self, spec: CampaignSpec, spec_text: str | None = None) -> int:
         """Grow the campaign to ``spec``, whose experiments list extends the stored one: the
         stored experiments first, unchanged, then new ones; every other field unchanged
         (StoreError saying what differs otherwise). Returns the number of runs added (0 when
@@ -361,15 +364,18 @@ class Store:
 
         In ONE SQLite transaction: the new experiments' planned runs, the stored spec (text,
         digest, name) and ``spec_text``. Then ``spec.yaml`` is rewritten atomically with
-        ``spec_text``: the database is the truth, a kill between the two leaves the old file,
-        restored from the database when the store is next opened for writing (or extended).
+        ``spec_text`` (checked against ``spec``; None for a spec made in code: its own text,
+        :func:`~navstress.campaign.spec.spec_yaml`, which needs no check): the database is the
+        truth, a kill between the two leaves the old file, restored from the database when the
+        store is next opened for writing (or extended).
         The new runs run at the next :func:`~navstress.campaign.scheduler.resume`. Needs the
         write lock (a store from :meth:`create`)."""
         if self._lock is None:
             raise StoreError(f"campaign={str(self.root)!r} is open for reading only; open it with "
                              "Store.create (the write lock) to extend it")
-        given = parse_campaign_text(spec_text, "spec_text", max_runs=None)
-        if given.digest() != spec.digest():
+        if spec_text is None:
+            spec_text = spec_yaml(spec)
+        elif parse_campaign_text(spec_text, "spec_text", max_runs=None).digest() != spec.digest():
             raise SpecError("spec_text", spec_text[:60] + ("..." if len(spec_text) > 60 else ""),
                             "the text of the spec given with it (it becomes spec.yaml)")
         why = extension_error(self.spec, spec)

@@ -12,6 +12,7 @@ from typing import Annotated, Any
 import typer
 
 from navstress import _files
+from navstress.campaign.registry import check_executor
 from navstress.campaign.spec import MAX_WORKERS
 from navstress.campaign.store import DiskFullError
 from navstress._flags import bounded_int, integer, number
@@ -89,8 +90,7 @@ def resumable(command: str, out: Path) -> Iterator[None]:
 def check_executor_flags(executor: str, workers: int | None, wall_limit: float | None) -> None:
     """The flags of a command that runs a campaign's runs (``campaign run``, ``search``):
     ``--executor``, ``--workers`` and ``--wall-limit`` (SpecError naming the flag)."""
-    if executor not in ("local", "ray"):
-        raise SpecError("--executor", executor, "local or ray")
+    check_executor(executor)
     if workers is not None and not 1 <= workers <= MAX_WORKERS:
         raise SpecError("--workers", workers, f"an integer in [1, {MAX_WORKERS}]")
     if wall_limit is not None and not 0 < wall_limit <= MAX_WALL_S:

@@ -26,6 +26,7 @@ from navstress._percent import percent
 from navstress.campaign.executors import run_campaign
 from navstress.campaign.presets import PRESETS, preset_yaml
 from navstress.campaign.progress import CampaignProgress, format_counts
+from navstress.campaign.registry import DEFAULT_EXECUTOR, executor_help
 from navstress.campaign.replay import replay as do_replay
 from navstress.campaign.spec import MAX_WORKERS
 from navstress.campaign.store import OUTCOMES, Store
@@ -60,7 +61,7 @@ def run(
     spec: Annotated[Path, typer.Argument(help="Campaign spec (YAML).")],
     out: Annotated[Path, typer.Option("--output", "-o", help="Campaign directory (created, or resumed).")],
     workers: Annotated[int | None, typer.Option("--workers", "-j", help="Parallel runs, in [1, 1024] (default: all cores).")] = None,
-    executor: Annotated[str, typer.Option("--executor", help="local (process pool) or ray.")] = "local",
+    executor: Annotated[str, typer.Option("--executor", help=executor_help())] = DEFAULT_EXECUTOR,
     ray_address: Annotated[str | None, typer.Option("--ray-address", help="Ray cluster to join: HOST:PORT or auto (default: start a local one on 127.0.0.1). Joined within 60 s, or refused in one line with Ray's reason.")] = None,
     wall_limit: Annotated[float | None, typer.Option("--wall-limit", help="Per-run wall-clock limit in seconds (default timeout_s*2+120).")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
@@ -81,7 +82,7 @@ def run(
     old = signal.signal(signal.SIGTERM, on_term)
     try:
         with resumable(resume, out), CampaignProgress(enabled=not quiet) as bar:
-            res = run_campaign(spec, out, workers=workers, executor=executor,  # type: ignore[arg-type]
+            res = run_campaign(spec, out, workers=workers, executor=executor,
                                ray_address=ray_address, wall_limit_s=wall_limit, on_start=bar.on_start,
                                on_record=bar.on_record, accept_large=yes, on_planned=bar.on_planned)
     except (KeyboardInterrupt, Stopped) as err:

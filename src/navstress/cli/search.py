@@ -21,6 +21,7 @@ from typer.core import TyperGroup
 
 from navstress import _files
 from navstress._console import literal
+from navstress.campaign.registry import DEFAULT_EXECUTOR, executor_help
 from navstress.errors import SpecError
 from navstress.cli._common import MAX_WORKERS, Stopped, check_executor_flags, resumable
 from navstress.search.driver import FOUND_WHAT, run_search
@@ -71,7 +72,7 @@ def run(
     out: Annotated[Path, typer.Option("--output", "-o", help="Search directory (created, or resumed).")],
     budget: Annotated[int | None, typer.Option("--budget", help="Run budget, replacing the spec's budget.runs.")] = None,
     workers: Annotated[int | None, typer.Option("--workers", "-j", help=f"Parallel runs, in [1, {MAX_WORKERS}] (default: all cores).")] = None,
-    executor: Annotated[str, typer.Option("--executor", help="local (process pool) or ray.")] = "local",
+    executor: Annotated[str, typer.Option("--executor", help=executor_help())] = DEFAULT_EXECUTOR,
     ray_address: Annotated[str | None, typer.Option("--ray-address", help="Ray cluster to join: HOST:PORT or auto (default: start a local one on 127.0.0.1). Joined within 60 s, or refused in one line with Ray's reason.")] = None,
     wall_limit: Annotated[float | None, typer.Option("--wall-limit", help="Per-run wall-clock limit in seconds (default timeout_s*2+120).")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
@@ -96,7 +97,7 @@ def run(
     old = signal.signal(signal.SIGTERM, on_term)
     try:
         with resumable(again, out), SearchProgress(enabled=not quiet) as bar:
-            res = run_search(spec, out, budget=budget, workers=workers, executor=executor,  # type: ignore[arg-type]
+            res = run_search(spec, out, budget=budget, workers=workers, executor=executor,
                              ray_address=ray_address, wall_limit_s=wall_limit, on_start=bar.on_start,
                              on_record=bar.on_record, on_generation=bar.on_generation)
     except (KeyboardInterrupt, Stopped) as err:

@@ -1,11 +1,14 @@
 """The generation loop of a search: ``navstress search SPEC -o DIR`` (docs/search.md, "Running").
 
-A search directory is a campaign directory. Generation ``g`` is the experiment ``gNNNN`` of
-explicit worlds (one entry per distinct candidate of the generation), appended to the campaign
-spec with :meth:`Store.extend`; the elites' confirmation is the experiment ``confirm`` (fresh run
-seeds: run seeds derive from the experiment's name). So every evaluated world and every run is in
-the store, and ``campaign status``, ``analyze``, ``replay`` and ``export`` read a search as they
-read any campaign.
+A search directory is a campaign directory, and a search runs through the campaign engine as
+``campaign run`` does (:func:`navstress.campaign.executors.open_runner`: the same checks, executor
+registry and store; the executor's workers kept from one generation to the next). Generation ``g``
+is the experiment ``gNNNN`` of explicit worlds (one entry per distinct candidate of the
+generation), appended to the search's :class:`~navstress.campaign.spec.CampaignSpec`, made in code
+(never read back from a text), with :meth:`CampaignRunner.extend`; the elites' confirmation is the
+experiment ``confirm`` (fresh run seeds: run seeds derive from the experiment's name). So every
+evaluated world and every run is in the store, and ``campaign status``, ``analyze``, ``replay`` and
+``export`` read a search as they read any campaign.
 
 Determinism. A generation is a barrier: all its runs are recorded before the algorithm is told,
 and the algorithm's draws derive from the search's seed alone. So the points it asks depend on the
@@ -14,7 +17,7 @@ which runs finish; and every run's outcome depends on its world and run seed onl
 
 Resume is replay: each stored generation is asked again, checked against the stored experiment
 (a different spec, seed or navstress version gives other points: refused), its missing runs are
-run by the campaign scheduler (:func:`navstress.campaign.scheduler.resume`), its records told. A
+run by the campaign runner (:meth:`CampaignRunner.run`), its records told. A
 search killed at any moment therefore resumes with no evaluation lost or doubled, and ends with
 the same result as one never interrupted.
 """
@@ -26,24 +29,23 @@ import os
 import re
 import shutil
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from contextlib import ExitStack
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 import yaml
 
 from navstress import _files, _json
-from navstress.campaign.executors import BUILD_LIMIT_S, check_runnable
-from navstress.campaign.local import LocalExecutor
-from navstress.campaign.ray_executor import RayExecutor
-from navstress.campaign.scheduler import Event, Job, RecordCallback, resume
-from navstress.campaign.spec import AdaptiveRuns, CampaignSpec, parse_campaign
+from navstress._models import parse
+from navstress.campaign.executors import CampaignRunner, check_workers, open_runner
+from navstress.campaign.registry import DEFAULT_EXECUTOR, check_executor
+from navstress.campaign.scheduler import RecordCallback
+from navstress.campaign.spec import AdaptiveRuns, CampaignSpec, ExperimentSpec, WorldEntry, check_campaign, parse_campaign
 from navstress.campaign.store import DB_NAME, Store
 from navstress.errors import NavstressError, SpecError, StoreError
-from navstress.run.batch import default_wall_limit_s
 from navstress.run.record import RunRecord
 from navstress.search.objectives import (Confirmation, by_world, confirm, descriptor_values, evaluate,
                                          get_descriptor, world_feasible)
@@ -191,55 +193,26 @@ GenerationCallback = Callable[[GenerationReport], None]
 StartCallback = Callable[[int, int], None]  # (runs already spent, run budget)
 
 
-class _KeptPool:
-    """The local pool kept from one generation to the next. The campaign scheduler ends its
-    executor's workers when a session ends, and a search runs one session per generation (and
-    one for the confirmation): each would start fresh workers (an interpreter, the imports, the
-    warm-up mission: seconds each, more than a small generation's runs). This executor keeps
-    them between sessions; an interrupted session (``shutdown(now=True)``) still kills them, and
-    :meth:`close` ends them when the search ends."""
-
-    def __init__(self, pool: LocalExecutor) -> None:
-        self.pool = pool
-        self.worker = pool.worker
-        self.workers = pool.workers
-        self._slots = 0
-
-    def start(self, jobs: int) -> int:
-        if self._slots < max(1, min(self.workers, jobs)):  # none yet, or fewer than this session can use
-            if self._slots:
-                self.pool.shutdown(now=False)
-            self._slots = self.pool.start(jobs)
-        return self._slots
-
-    def submit(self, job: Job) -> None:
-        self.pool.submit(job)
-
-    def wait(self, timeout_s: float) -> list[Event]:
-        return self.pool.wait(timeout_s)
-
-    def kill(self, job: Job) -> None:
-        self.pool.kill(job)
-
-    def shutdown(self, *, now: bool) -> None:
-        if now:
-            self.pool.shutdown(now=True)
-            self._slots = 0
-
-    def close(self) -> None:
-        self.pool.shutdown(now=False)
-        self._slots = 0
+def _entry(c: Candidate) -> WorldEntry:
+    """The explicit world of candidate ``c`` in the search's campaign."""
+    return WorldEntry(key=c.key, map_seed=c.map_seed, world=c.world_overrides)
 
 
-def _entry(c: Candidate) -> dict[str, Any]:
-    return {"key": c.key, "map_seed": c.map_seed, "world": c.world_overrides}
+def _experiment(name: str, cands: Iterable[Candidate], runs_per_map: int | None = None) -> ExperimentSpec:
+    """The experiment ``name`` of the candidates ``cands`` (a generation; the confirmation, with its
+    ``runs_per_map``)."""
+    worlds = [_entry(c) for c in cands]
+    if runs_per_map is None:
+        return ExperimentSpec(name=name, worlds=worlds)
+    return ExperimentSpec(name=name, worlds=worlds, runs_per_map=runs_per_map)
 
 
-def _campaign(spec: SearchSpec, experiments: list[dict[str, Any]]) -> tuple[CampaignSpec, str]:
-    data = {**spec.campaign_fields(), "experiments": experiments}
-    text = yaml.safe_dump(data, sort_keys=False)
+def _campaign(spec: SearchSpec, experiments: list[ExperimentSpec]) -> CampaignSpec:
+    """The campaign a search runs: its fields (:meth:`SearchSpec.campaign_fields`) and ``experiments``,
+    checked as a campaign spec file is (an error names the search spec's field)."""
     try:
-        return parse_campaign(data, max_runs=None), text
+        return check_campaign(parse(CampaignSpec, {**spec.campaign_fields(), "experiments": experiments}),
+                              max_runs=None)
     except SpecError as err:
         raise as_search_error(err, spec) from None
 
@@ -286,49 +259,47 @@ def _found(spec: SearchSpec, events: int, trials: int, fitness: float) -> bool:
     return fitness > 0.0
 
 
-def _stored(root: Path) -> tuple[list[dict[str, Any]], list[dict[str, Any]], list[int]]:
-    """The generations and the confirmation stored in ``root`` (empty when there is no store), and
-    the runs recorded in each generation; StoreError when ``root`` holds a campaign that is no search."""
+def _stored(root: Path) -> tuple[list[ExperimentSpec], list[ExperimentSpec], list[int]]:
+    """The generations and the confirmation stored in ``root`` (empty when there is no store), as a
+    search makes them (name and worlds; the confirmation's runs_per_map), and the runs recorded in
+    each generation; StoreError when ``root`` holds a campaign that is no search."""
     if not (root / DB_NAME).exists():
         return [], [], []
     with Store.open(root) as s:
         exps = s.spec.experiments
-        gens: list[dict[str, Any]] = []
-        conf: list[dict[str, Any]] = []
+        gens: list[ExperimentSpec] = []
+        conf: list[ExperimentSpec] = []
         recorded = s.recorded_by_experiment()
         for e in exps:
-            worlds = [w.model_dump(mode="json") for w in e.worlds or []]
+            worlds = list(e.worlds or [])
             if e.name == CONFIRM:
-                conf.append({"name": CONFIRM, "worlds": worlds, "runs_per_map": _runs_json(e.runs_per_map)})
+                conf.append(ExperimentSpec(name=CONFIRM, worlds=worlds, runs_per_map=e.runs_per_map))
             elif _GENERATION.match(e.name) and e.worlds:
-                gens.append({"name": e.name, "worlds": worlds})
+                gens.append(ExperimentSpec(name=e.name, worlds=worlds))
             else:
                 raise StoreError(f"output={str(root)!r} holds campaign {s.spec.name!r}, which is not a search "
                                  f"(experiment {e.name!r}); choose a new -o")
-    return gens, conf, [recorded[g["name"]] for g in gens]
-
-
-def _runs_json(r: int | AdaptiveRuns | None) -> Any:
-    return r.model_dump(mode="json") if isinstance(r, AdaptiveRuns) else r
+    return gens, conf, [recorded[g.name] for g in gens]
 
 
 def run_search(spec_path: str | Path, directory: str | Path, *, budget: int | None = None,
-               workers: int | None = None, executor: Literal["local", "ray"] = "local",
+               workers: int | None = None, executor: str = DEFAULT_EXECUTOR,
                ray_address: str | None = None, wall_limit_s: float | None = None,
                on_record: RecordCallback | None = None, on_generation: GenerationCallback | None = None,
                on_start: StartCallback | None = None) -> SearchResult:
     """Run (or resume) the search of ``spec_path`` into ``directory``; ``budget`` replaces the
-    spec's ``budget.runs``. Writes ``search.json``, ``search.yaml`` and the suite of confirmed worlds
-    (``suite/``) at the end. Raises SpecError / StoreError before running anything when the spec, its
-    navigator or the directory is unusable. When some runs stay pending after repeated failures of
-    the machinery, returns early with ``unfinished`` set (run again to retry them)."""
+    spec's ``budget.runs``; ``executor``: a name of :mod:`navstress.campaign.registry`. The runs go
+    through the campaign engine (:func:`~navstress.campaign.executors.open_runner`, the executor's
+    workers kept from one generation to the next). Writes ``search.json``, ``search.yaml`` and the
+    suite of confirmed worlds (``suite/``) at the end. Raises SpecError / StoreError before running
+    anything when the spec, its navigator, the executor or the directory is unusable. When some runs
+    stay pending after repeated failures of the machinery, returns early with ``unfinished`` set (run
+    again to retry them)."""
     spec, _ = load_search(spec_path)
     if budget is not None:
         spec = with_budget(spec, budget)
-    if workers is not None and workers < 1:
-        raise SpecError("--workers", workers, "an integer >= 1")
-    if executor not in ("local", "ray"):
-        raise SpecError("--executor", executor, "local or ray")
+    check_workers(workers)
+    check_executor(executor)
     # here: pyribs and pymoo take 1-3 s to import, and the report and analysis commands, which
     # import this module for its file names and readers, never run an algorithm
     from navstress.search.algorithms import make_algorithm
@@ -341,10 +312,10 @@ def run_search(spec_path: str | Path, directory: str | Path, *, budget: int | No
     if root.is_dir():  # before its files are read: a planted link is refused (Store.create checks again)
         _files.refuse_links(root)
     stored, stored_confirm, stored_runs = _stored(root)
-    if stored_confirm and stored_confirm[0]["runs_per_map"] != spec.confirm_runs:
+    if stored_confirm and stored_confirm[0].runs_per_map != spec.confirm_runs:
         raise StoreError(f"output={str(root)!r} holds this search's confirmation, run with confirm_runs="
-                         f"{stored_confirm[0]['runs_per_map']}, not {spec.confirm_runs}; resume with the spec it was "
-                         "made with, or choose a new -o")
+                         f"{_runs_text(stored_confirm[0].runs_per_map)}, not {spec.confirm_runs}; resume with the spec "
+                         "it was made with, or choose a new -o")
     t0 = time.monotonic()
     ended = _ended_budget(root) if stored_confirm else None
     unused = None
@@ -353,110 +324,37 @@ def run_search(spec_path: str | Path, directory: str | Path, *, budget: int | No
         # follows them in the campaign), and the result says the budget they ended with
         unused, spec = spec.budget.runs, with_budget(spec, ended)
     result = SearchResult(root, spec, ended_before=bool(stored_confirm), budget_unused=unused)
-    limit = wall_limit_s if wall_limit_s is not None else default_wall_limit_s(spec.timeout_s)
     per_candidate = spec.max_runs_per_candidate() * len(spec.faults)
     # the least budget that makes every stored generation (the loop's test before each one)
-    need = max((sum(stored_runs[:g]) + len(gen["worlds"]) * per_candidate for g, gen in enumerate(stored)), default=0)
+    need = max((sum(stored_runs[:g]) + len(gen.worlds or []) * per_candidate for g, gen in enumerate(stored)),
+               default=0)
     if need > spec.budget.runs:
         raise StoreError(f"output={str(root)!r} holds {len(stored)} generations of this search, more than a budget of "
                          f"{spec.budget.runs} runs makes; resume it with the budget it was run with (--budget {need} "
                          "holds them), or choose a new -o")
-    fault = _under_test(spec)
-    obj = spec.objective
-    experiments: list[dict[str, Any]] = []
-    sim_s = 0.0  # simulated seconds of the generations' runs so far, summed in plan order
-    targets = {n.name: n.target for n in [spec.navigator] if n.target}
+    X = algo.ask()
+    first = [space.decode(x) for x in X]
+    exp0 = _experiment(generation_name(0), {c.key: c for c in first}.values())
+    # resume: the store as it is (the same search spec gives the same campaign); a new search: its
+    # store with the first generation, before anything is shown or run
+    opened = _campaign(spec, [*stored, *stored_confirm] if stored else [exp0])
     with ExitStack() as stack:
-        # the first generation's campaign is checked before anything is written or started
-        X = algo.ask()
-        first = [space.decode(x) for x in X]
-        exp0 = {"name": generation_name(0), "worlds": [_entry(c) for c in {c.key: c for c in first}.values()]}
-        try:
-            check_runnable(_campaign(spec, [exp0])[0], build_limit_s=min(limit, BUILD_LIMIT_S))
+        try:  # checked (navigator, faults, sim) before anything is written or started
+            runner = stack.enter_context(open_runner(opened, root, executor=executor, workers=workers,
+                                                     address=ray_address, wall_limit_s=wall_limit_s, keep=True))
         except SpecError as err:  # named as the search spec names it (navigator, not navigators[0])
             raise as_search_error(err, spec) from None
-        ex: _KeptPool | RayExecutor
-        if executor == "ray":
-            ex = stack.enter_context(RayExecutor(workers, targets, address=ray_address))
-        else:
-            ex = _KeptPool(LocalExecutor(workers if workers is not None else (os.cpu_count() or 1), targets))
-            stack.callback(ex.close)
-        result.workers = ex.workers
-        if stored:  # resume: the store as it is (the same search spec gives the same campaign text)
-            store = stack.enter_context(Store.create(root, *_campaign(spec, stored + stored_confirm)))
-        else:  # a new search: its store, with the first generation, before anything is shown or run
-            store = stack.enter_context(Store.create(root, *_campaign(spec, [exp0])))
-            stored = [exp0]
+        result.workers = runner.workers
+        stored = stored or [exp0]
         if on_start is not None:
-            on_start(store.progress()[0], spec.budget.runs)
-        g = 0
-        while True:
-            if g > 0:
-                X = algo.ask()
-            cands = [space.decode(x) for x in X]
-            uniq = {c.key: c for c in cands}
-            name = generation_name(g)
-            exp = {"name": name, "worlds": [_entry(c) for c in uniq.values()]}
-            if g < len(stored):
-                if [w["key"] for w in stored[g]["worlds"]] != list(uniq):
-                    raise StoreError(f"output={str(root)!r}: generation {g} of the stored search differs from this "
-                                     "spec's (another spec, seed or navstress version); run it with the spec it was "
-                                     "made with, or choose a new -o")
-            elif result.runs + len(uniq) * per_candidate > spec.budget.runs:
-                result.stopped = "budget.runs"
-                break
-            elif stored_confirm:
-                # the generations ended in an earlier call, neither at budget.runs nor at
-                # budget.sim_hours (both checked again, as then): at budget.wall_s
-                result.stopped = "budget.wall_s" if spec.budget.wall_s is not None else _previous_stop(root)
-                break
-            experiments.append(exp)
-            if g >= len(stored):
-                store.extend(*_campaign(spec, experiments))
-            session = resume(store, ex, wall_limit_s=limit, on_record=on_record)
-            result.recorded += session.recorded
-            if session.unfinished:
-                result.unfinished = dict(session.unfinished)
-                result.wall_s = time.monotonic() - t0
-                return result
-            recs = store.records(name)
-            groups = by_world(recs)
-            result.runs += len(recs)
-            for r in recs:
-                sim_s += r.duration_s
-            fit: dict[str, float] = {}
-            desc: dict[str, tuple[float, ...]] = {}
-            for key, c in uniq.items():
-                wdir = root / "worlds" / name / key / "m0"
-                rs = groups.get((name, key, 0), [])
-                world = World.load(wdir) if wdir.exists() else None  # read once: feasibility and descriptors
-                feasible = world_feasible(world) if world is not None else None
-                ev = evaluate(obj.name, rs, fault=fault, failure_class=obj.outcome, target=obj.target,
-                              feasible=feasible)
-                fit[key] = ev.fitness
-                desc[key] = _descriptors(spec, c, world)
-                result.evaluated.append(Evaluated(g, c, ev.fitness, ev.estimate, ev.events, ev.trials, desc[key],
-                                                  len(rs), result.runs, _found(spec, ev.events, ev.trials, ev.fitness)))
-            algo.tell(X, _objectives(spec, [fit[c.key] for c in cands], [desc[c.key] for c in cands]),
-                      np.array([desc[c.key] for c in cands]))
-            g += 1
-            result.generations = g
-            result.sim_hours = sim_s / 3600.0
-            if on_generation is not None:
-                on_generation(GenerationReport(g - 1, result.runs, spec.budget.runs,
-                                               max(e.fitness for e in result.evaluated),
-                                               len(result.found_keys),
-                                               len(result.evaluated)))
-            if g < len(stored):
-                continue
-            if spec.budget.sim_hours is not None and result.sim_hours >= spec.budget.sim_hours:
-                result.stopped = "budget.sim_hours"
-                break
-            if spec.budget.wall_s is not None and time.monotonic() - t0 >= spec.budget.wall_s:
-                result.stopped = "budget.wall_s"
-                break
+            on_start(runner.store.progress()[0], spec.budget.runs)
+        experiments = _generations(spec, space, algo, runner, stored, X=X, confirm_stored=bool(stored_confirm),
+                                   result=result, on_record=on_record, on_generation=on_generation, t0=t0)
+        if result.unfinished:
+            result.wall_s = time.monotonic() - t0
+            return result
         _write_spec(root, spec)  # before the confirmation: the budget the generations ended with
-        _confirm(spec, space, algo, store, ex, limit, experiments, result, on_record)
+        _confirm(spec, space, algo, runner, experiments, result, on_record=on_record)
         if result.unfinished:
             result.wall_s = time.monotonic() - t0
             return result
@@ -469,6 +367,91 @@ def run_search(spec_path: str | Path, directory: str | Path, *, budget: int | No
         _files.write_atomic(root / RESULT_NAME, _json.dumps(result.to_json(), indent=1, sort_keys=True) + "\n")
     result.wall_s = time.monotonic() - t0
     return result
+
+
+def _runs_text(r: int | AdaptiveRuns | None) -> Any:
+    return r.model_dump(mode="json") if isinstance(r, AdaptiveRuns) else r
+
+
+def _generations(spec: SearchSpec, space: Space, algo: Any, runner: CampaignRunner, stored: list[ExperimentSpec],
+                 *, X: np.ndarray, confirm_stored: bool, result: SearchResult,
+                 on_record: RecordCallback | None, on_generation: GenerationCallback | None,
+                 t0: float) -> list[ExperimentSpec]:
+    """The generations: each asked of ``algo`` (the first, ``X``, asked already), checked against the
+    ``stored`` one or added to the campaign, its runs run by ``runner``, its candidates evaluated and
+    told; until the budget (or unfinished runs: ``result.unfinished``). Returns the generations'
+    experiments (for the confirmation's campaign)."""
+    root, store = runner.store.root, runner.store
+    fault = _under_test(spec)
+    obj = spec.objective
+    per_candidate = spec.max_runs_per_candidate() * len(spec.faults)
+    experiments: list[ExperimentSpec] = []
+    sim_s = 0.0  # simulated seconds of the generations' runs so far, summed in plan order
+    g = 0
+    while True:
+        if g > 0:
+            X = algo.ask()
+        cands = [space.decode(x) for x in X]
+        uniq = {c.key: c for c in cands}
+        name = generation_name(g)
+        if g < len(stored):
+            if [w.key for w in stored[g].worlds or []] != list(uniq):
+                raise StoreError(f"output={str(root)!r}: generation {g} of the stored search differs from this "
+                                 "spec's (another spec, seed or navstress version); run it with the spec it was "
+                                 "made with, or choose a new -o")
+        elif result.runs + len(uniq) * per_candidate > spec.budget.runs:
+            result.stopped = "budget.runs"
+            break
+        elif confirm_stored:
+            # the generations ended in an earlier call, neither at budget.runs nor at
+            # budget.sim_hours (both checked again, as then): at budget.wall_s
+            result.stopped = "budget.wall_s" if spec.budget.wall_s is not None else _previous_stop(root)
+            break
+        experiments.append(_experiment(name, uniq.values()))
+        if g >= len(stored):
+            runner.extend(_campaign(spec, experiments))
+        session = runner.run(on_record=on_record)
+        result.recorded += session.recorded
+        if session.unfinished:
+            result.unfinished = dict(session.unfinished)
+            return experiments
+        recs = store.records(name)
+        groups = by_world(recs)
+        result.runs += len(recs)
+        for r in recs:
+            sim_s += r.duration_s
+        fit: dict[str, float] = {}
+        desc: dict[str, tuple[float, ...]] = {}
+        for key, c in uniq.items():
+            wdir = root / "worlds" / name / key / "m0"
+            rs = groups.get((name, key, 0), [])
+            world = World.load(wdir) if wdir.exists() else None  # read once: feasibility and descriptors
+            feasible = world_feasible(world) if world is not None else None
+            ev = evaluate(obj.name, rs, fault=fault, failure_class=obj.outcome, target=obj.target,
+                          feasible=feasible)
+            fit[key] = ev.fitness
+            desc[key] = _descriptors(spec, c, world)
+            result.evaluated.append(Evaluated(g, c, ev.fitness, ev.estimate, ev.events, ev.trials, desc[key],
+                                              len(rs), result.runs, _found(spec, ev.events, ev.trials, ev.fitness)))
+        algo.tell(X, _objectives(spec, [fit[c.key] for c in cands], [desc[c.key] for c in cands]),
+                  np.array([desc[c.key] for c in cands]))
+        g += 1
+        result.generations = g
+        result.sim_hours = sim_s / 3600.0
+        if on_generation is not None:
+            on_generation(GenerationReport(g - 1, result.runs, spec.budget.runs,
+                                           max(e.fitness for e in result.evaluated),
+                                           len(result.found_keys),
+                                           len(result.evaluated)))
+        if g < len(stored):
+            continue
+        if spec.budget.sim_hours is not None and result.sim_hours >= spec.budget.sim_hours:
+            result.stopped = "budget.sim_hours"
+            break
+        if spec.budget.wall_s is not None and time.monotonic() - t0 >= spec.budget.wall_s:
+            result.stopped = "budget.wall_s"
+            break
+    return experiments
 
 
 def _write_spec(root: Path, spec: SearchSpec) -> None:
@@ -493,9 +476,8 @@ def _previous_stop(root: Path) -> str:
         return ""
 
 
-def _confirm(spec: SearchSpec, space: Space, algo: Any, store: Store, ex: _KeptPool | RayExecutor,
-             limit: float, experiments: list[dict[str, Any]], result: SearchResult,
-             on_record: RecordCallback | None) -> None:
+def _confirm(spec: SearchSpec, space: Space, algo: Any, runner: CampaignRunner, experiments: list[ExperimentSpec],
+             result: SearchResult, *, on_record: RecordCallback | None) -> None:
     """Re-run the elites (best first, those whose runs showed what the objective looks for) with
     fresh run seeds in the experiment ``confirm``, and judge each with the confirmation rule."""
     found = {e.candidate.key: e for e in result.evaluated if e.found}
@@ -509,15 +491,16 @@ def _confirm(spec: SearchSpec, space: Space, algo: Any, store: Store, ex: _KeptP
             break
     if not elites:
         return
-    conf = {"name": CONFIRM, "worlds": [_entry(c) for c, *_ in elites.values()], "runs_per_map": spec.confirm_runs}
+    store = runner.store
     if CONFIRM not in {e.name for e in store.spec.experiments}:
-        store.extend(*_campaign(spec, [*experiments, conf]))
+        conf = _experiment(CONFIRM, [c for c, *_ in elites.values()], spec.confirm_runs)
+        runner.extend(_campaign(spec, [*experiments, conf]))
     else:
         stored = next(e for e in store.spec.experiments if e.name == CONFIRM)
         if [w.key for w in stored.worlds or []] != list(elites):
             raise StoreError(f"output={str(store.root)!r}: the stored confirmation differs from this search's elites "
                              "(another spec or navstress version); choose a new -o")
-    session = resume(store, ex, wall_limit_s=limit, on_record=on_record)
+    session = runner.run(on_record=on_record)
     result.recorded += session.recorded
     if session.unfinished:
         result.unfinished = dict(session.unfinished)
@@ -578,7 +561,7 @@ def write_suite(spec: SearchSpec, result: SearchResult, root: Path) -> Path | No
     tmp.mkdir()
     ok, same = distinct_worlds(result.confirmed, root)
     data = {"name": f"{spec.name}-suite", "seed": spec.seed, "world": spec.world,
-            "experiments": [{"name": "suite", "worlds": [_entry(e.candidate) for e in ok]}],
+            "experiments": [{"name": "suite", "worlds": [_entry(e.candidate).model_dump(mode="json") for e in ok]}],
             "runs_per_map": spec.confirm_runs,
             "navigators": [spec.navigator.model_dump(mode="json", exclude_none=True)],
             "faults": list(spec.faults), "timeout_s": spec.timeout_s, "goal_tolerance_m": spec.goal_tolerance_m,

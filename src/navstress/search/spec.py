@@ -24,7 +24,6 @@ from __future__ import annotations
 import copy
 import itertools
 import math
-import re
 import types
 import typing
 from pathlib import Path
@@ -33,7 +32,8 @@ from typing import Any, Literal
 from pydantic import BaseModel, Field, field_validator, model_validator
 
 from navstress._models import SPEC_CONFIG, parse, unoptional
-from navstress.campaign.spec import AdaptiveRuns, NavigatorSpec, check_name, deep_merge, repetition
+from navstress.campaign.spec import (AdaptiveRuns, NavigatorSpec, check_base_world, check_faults, check_name, deep_merge,
+                                    is_name, repetition)
 from navstress.errors import MISSING, SpecError
 from navstress.search.objectives import DESCRIPTORS
 from navstress.seeding import MAX_SEED
@@ -41,7 +41,6 @@ from navstress.specfile import parse_text, read_text
 from navstress.world.spec import BUILTIN_TYPES, ObstacleType, WorldSpec, parse_spec
 
 _STRICT = SPEC_CONFIG
-_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 
 OBJECTIVES = ("failure", "fault-revealing", "boundary", "illumination")
 ALGORITHMS = ("random", "map-elites", "cma-me", "ga", "nsga2")
@@ -269,14 +268,12 @@ class SearchSpec(BaseModel):
 
     def campaign_fields(self) -> dict[str, Any]:
         """The fields of the search's campaign spec besides its experiments (name, seed, base world,
-        one navigator, faults, repetition, timeout, tolerance, simulation overrides)."""
-        r = self.runs_per_candidate
+        one navigator, faults, repetition, timeout, tolerance, simulation overrides), as values of
+        :class:`~navstress.campaign.spec.CampaignSpec`'s fields, in the order its text shows them."""
         return {"name": self.name, "seed": self.seed, "world": copy.deepcopy(self.world),
-                "navigators": [self.navigator.model_dump(mode="json", exclude_none=True)],
-                "faults": list(self.faults), "maps_per_config": 1,
-                "runs_per_map": r.model_dump(mode="json") if isinstance(r, AdaptiveRuns) else r,
-                "timeout_s": self.timeout_s, "goal_tolerance_m": self.goal_tolerance_m,
-                "sim": copy.deepcopy(self.sim)}
+                "navigators": [self.navigator], "faults": list(self.faults), "maps_per_config": 1,
+                "runs_per_map": self.runs_per_candidate, "timeout_s": self.timeout_s,
+                "goal_tolerance_m": self.goal_tolerance_m, "sim": copy.deepcopy(self.sim)}
 
 
 # ---- the space's values as WorldSpec overrides -----------------------------------------------
@@ -475,10 +472,7 @@ def parse_search(data: Any) -> SearchSpec:
     spec = parse(SearchSpec, data)
     if spec.budget.runs > MAX_BUDGET_RUNS:
         raise SpecError("budget.runs", spec.budget.runs, f"at most {MAX_BUDGET_RUNS:,} runs")
-    try:
-        parse_spec(spec.world)
-    except SpecError as err:
-        raise SpecError(f"world.{err.field}", err.value, err.expected, err.fix) from None
+    check_base_world(spec.world)
     params = spec.space.parameters
     if not params and not spec.space.map_seed and spec.space.moves is None:
         raise SpecError("space", "no parameters and map_seed: false",
@@ -490,7 +484,7 @@ def parse_search(data: Any) -> SearchSpec:
         seen.add(p.path)
         _check_parameter(i, p, spec.world)
     _check_corners(spec)
-    _check_faults(spec)
+    check_faults(spec.faults)
     _check_objective(spec, seen)
     _check_algorithm(spec, seen)
     need = spec.generation_runs()
@@ -501,21 +495,13 @@ def parse_search(data: Any) -> SearchSpec:
     return spec
 
 
-def _check_faults(spec: SearchSpec) -> None:
-    if len(set(spec.faults)) != len(spec.faults):
-        raise SpecError("faults", spec.faults, "a list without duplicates")
-    for f in spec.faults:
-        if f is not None and not _NAME.match(f):
-            raise SpecError("faults", f, "a fault name of letters, digits, '_', '.', '-' (or null for nominal)")
-
-
 def _check_objective(spec: SearchSpec, paths: set[str]) -> None:
     obj = spec.objective
     if obj.name == "fault-revealing":
         if obj.fault is None:
             raise SpecError("objective.fault", MISSING if "fault" not in obj.model_fields_set else None, "the name of the fault to reveal, e.g. small-footprint",
                             "`navstress nav faults` lists them")
-        if not _NAME.match(obj.fault):
+        if not is_name(obj.fault):
             raise SpecError("objective.fault", obj.fault, "a fault name of letters, digits, '_', '.', '-'")
         if obj.fault not in spec.faults or None not in spec.faults:
             raise SpecError("faults", spec.faults, f"a list holding null (the nominal stack) and {obj.fault!r}",

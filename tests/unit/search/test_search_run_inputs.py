@@ -17,7 +17,7 @@ import yaml
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # tests/unit: the CLI input helpers
 from cli_inputs import SEARCH, assert_one_line_error, invoke, prepare, snapshot  # noqa: E402
 from navstress.campaign.store import Store  # noqa: E402
-from navstress.search.driver import _campaign, _entry, generation_name  # noqa: E402
+from navstress.search.driver import _campaign, _experiment, generation_name  # noqa: E402
 from navstress.search.algorithms import make_algorithm  # noqa: E402
 from navstress.search.space import Space  # noqa: E402
 from navstress.search.spec import parse_search  # noqa: E402
@@ -99,11 +99,9 @@ def root(tmp_path_factory: pytest.TempPathFactory) -> Path:
     spec = parse_search(SEARCH)
     space = Space.from_spec(spec)
     first = [space.decode(x) for x in make_algorithm(spec, space).ask()]
-    cspec, text = _campaign(spec, [{"name": generation_name(0), "worlds": [_entry(c) for c in first]}])
-    Store.create(r / "s", cspec, text).close()
-    conf = {"name": "confirm", "worlds": [_entry(first[0])], "runs_per_map": 3}
-    cspec, text = _campaign(spec, [{"name": generation_name(0), "worlds": [_entry(c) for c in first]}, conf])
-    Store.create(r / "sc", cspec, text).close()
+    Store.create(r / "s", _campaign(spec, [_experiment(generation_name(0), first)])).close()
+    conf = _experiment("confirm", first[:1], 3)
+    Store.create(r / "sc", _campaign(spec, [_experiment(generation_name(0), first), conf])).close()
     return r
 
 

@@ -229,7 +229,7 @@ def test_a_candidate_with_moves_is_the_same_world_through_the_campaign_store(tmp
     unchanged: each planned world is the one generated straight from the candidate."""
     from navstress.campaign.store import Store
     from navstress.campaign.work import generate_world
-    from navstress.search.driver import _campaign, _entry, generation_name
+    from navstress.search.driver import _campaign, _experiment, generation_name
     from navstress.world.generate import generate
 
     spec = parse_search({"seed": 9, "world": {"size_m": [20.0, 20.0], "obstacles": {"obstruction": {"tree": 10}}},
@@ -238,8 +238,7 @@ def test_a_candidate_with_moves_is_the_same_world_through_the_campaign_store(tmp
     space = Space.from_spec(spec)
     g = np.random.default_rng(1)
     cands = [space.decode(g.random(space.dimension)) for _ in range(4)]
-    cspec, text = _campaign(spec, [{"name": generation_name(0), "worlds": [_entry(c) for c in cands]}])
-    with Store.create(tmp_path / "s", cspec, text) as store:
+    with Store.create(tmp_path / "s", _campaign(spec, [_experiment(generation_name(0), cands)])) as store:
         jobs = {j.config_key: j for j in store.plan().maps}
     assert sorted(jobs) == sorted(c.key for c in cands)
     applied = 0
