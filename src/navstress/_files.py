@@ -14,17 +14,27 @@ there is replaced, its target untouched); a file kept under a fixed name is open
 (:func:`remove_tree`); and a directory navstress keeps working in (a campaign, a search, a demo)
 is refused when a symbolic link is planted anywhere inside it (:func:`refuse_links`). The
 directory the user names may itself be a link: that is the user's choice, followed once.
+
+Every temporary-file-and-rename of navstress is written here, once (``tests/unit/test_rules.py``
+refuses an ``os.replace``, ``os.rename``, ``Path.replace`` or ``Path.rename`` anywhere else):
+
+- bytes or text: :func:`write_atomic`, :func:`write_atomic_group`, :func:`copy_atomic`;
+- a file a library or a program writes by name (SQLite, a compiler): :func:`replaced_on_success`;
+- a file or directory finished under its own temporary name (a trace's ``.NAME.partial``, a bag
+  built inside :func:`temp_dir_beside`): :func:`rename_into_place`;
+- a directory built beside the one it replaces (a world, a search's suite): :func:`replace_dir`.
 """
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import os
 import shutil
 import stat
 import tempfile
 import threading
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import IO, Any
 
@@ -67,30 +77,58 @@ def apply_file_mode(path: str | os.PathLike[str]) -> None:
     os.chmod(path, file_mode())
 
 
-def _write_temp(dest: Path, raw: bytes) -> Path:
-    """``raw`` in a unique temporary file beside ``dest`` (fsynced, the umask's mode); removed
-    again on failure."""
+def _new_temp(dest: Path, temp: Path | None = None) -> tuple[int, Path]:
+    """A new empty temporary file beside ``dest`` with the umask's mode, open for writing: a unique
+    name (``O_EXCL``), or the fixed name ``temp`` in the same folder (a link there refused)."""
     dest.parent.mkdir(parents=True, exist_ok=True)
+    if temp is not None:
+        _check_beside(temp, dest)
+        return _open_nofollow_fd(temp, "wb"), Path(temp)  # the OS applies the umask
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{dest.name}.", suffix=".tmp", dir=dest.parent)
     except OSError as e:  # name the file the user asked for, not our temporary one
         raise OSError(e.errno, e.strerror, str(dest)) from None
     try:
         os.fchmod(fd, file_mode())
+    except BaseException:
+        os.close(fd)
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return fd, Path(tmp)
+
+
+def _write_temp(dest: Path, raw: bytes, temp: Path | None = None) -> Path:
+    """``raw`` in a temporary file beside ``dest`` (:func:`_new_temp`; fsynced); removed again on
+    failure."""
+    fd, tmp = _new_temp(dest, temp)
+    try:
         with os.fdopen(fd, "wb") as f:
             f.write(raw)
             f.flush()
             os.fsync(f.fileno())
     except BaseException:
-        Path(tmp).unlink(missing_ok=True)
+        tmp.unlink(missing_ok=True)
         raise
-    return Path(tmp)
+    return tmp
 
 
-def write_atomic(path: str | os.PathLike[str], data: bytes | str) -> None:
+def write_atomic(path: str | os.PathLike[str], data: bytes | str, *,
+                 temp: str | os.PathLike[str] | None = None) -> None:
     """Write ``data`` to ``path`` via a unique temporary file in the same folder (fsynced, with
-    the umask's mode), then rename it into place; nothing is left behind on failure."""
-    write_atomic_group({Path(path): data})
+    the umask's mode), then rename it into place; nothing is left behind on failure.
+
+    ``temp``: a fixed temporary name in ``path``'s folder instead of a unique one, for a file whose
+    leftover a later run removes by name (a campaign's ``.spec.yaml.tmp``); a link there is refused."""
+    dest = Path(path)
+    if temp is None:
+        write_atomic_group({dest: data})
+        return
+    tmp = _write_temp(dest, data.encode("utf-8") if isinstance(data, str) else data, Path(temp))
+    try:
+        os.replace(tmp, dest)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
 
 
 def write_atomic_group(files: Mapping[Path, bytes | str]) -> None:
@@ -110,6 +148,68 @@ def write_atomic_group(files: Mapping[Path, bytes | str]) -> None:
         for tmp, _ in temps:
             tmp.unlink(missing_ok=True)
         raise
+
+
+def _check_beside(tmp: str | os.PathLike[str], dest: str | os.PathLike[str]) -> None:
+    """ValueError unless ``tmp`` lies inside ``dest``'s folder (lexically): a rename from there
+    stays on one file system and inside the directory navstress was given."""
+    folder = os.path.dirname(os.path.normpath(os.path.abspath(dest)))
+    t = os.path.normpath(os.path.abspath(tmp))
+    if os.path.dirname(t) != folder and not t.startswith(folder.rstrip(os.sep) + os.sep):
+        raise ValueError(f"temporary {str(tmp)!r} is not beside {str(dest)!r}")
+
+
+def rename_into_place(tmp: str | os.PathLike[str], dest: str | os.PathLike[str]) -> None:
+    """Rename the finished file or directory ``tmp`` (made by the caller inside ``dest``'s folder:
+    a ``.NAME.partial`` file, a bag built in :func:`temp_dir_beside`) onto ``dest`` in one step: a
+    file or link at ``dest`` is replaced (a link's target untouched). ValueError when ``tmp`` is
+    not in ``dest``'s folder."""
+    _check_beside(tmp, dest)
+    os.replace(tmp, dest)
+
+
+@contextlib.contextmanager
+def replaced_on_success(dest: str | os.PathLike[str], temp: str | os.PathLike[str] | None = None, *,
+                        durable: bool = False) -> Iterator[Path]:
+    """A temporary file beside ``dest`` for a library or a program that writes a file by name
+    (SQLite, a compiler): a new empty file with the umask's mode, under a unique name (``O_EXCL``)
+    or, with ``temp``, under that fixed name in ``dest``'s folder (a link there refused). When the
+    block ends normally the file is fsynced and renamed onto ``dest`` (``durable``: the folder is
+    fsynced too, so that the rename survives a power cut); when it raises, the file is removed."""
+    d = Path(dest)
+    fd, tmp = _new_temp(d, None if temp is None else Path(temp))
+    os.close(fd)
+    try:
+        yield tmp
+        fd = os.open(tmp, os.O_RDONLY | os.O_NOFOLLOW | os.O_CLOEXEC)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+        os.replace(tmp, d)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    if durable:
+        fsync_dir(d.parent)
+
+
+def replace_dir(tmp: str | os.PathLike[str], dest: str | os.PathLike[str]) -> None:
+    """Rename the finished directory ``tmp`` (built inside ``dest``'s folder) onto ``dest``. An
+    existing ``dest`` is first renamed to ``.NAME.old`` beside it (whatever a killed replacement
+    left there is removed first; a link there is refused, never followed) and removed after, so
+    that ``dest`` is at every moment the old directory, or the new one. ValueError when ``tmp``
+    is not in ``dest``'s folder."""
+    t, d = Path(tmp), Path(dest)
+    _check_beside(t, d)
+    if d.exists():
+        old = d.with_name(f".{d.name}.old")
+        remove_tree(old)
+        os.replace(d, old)
+        os.replace(t, d)
+        shutil.rmtree(old, ignore_errors=True)
+    else:
+        os.replace(t, d)
 
 
 def temp_dir_beside(dest: str | os.PathLike[str]) -> Path:
@@ -176,16 +276,21 @@ def link_error(link: str | os.PathLike[str], root: str | os.PathLike[str] | None
         f"choose another {flag}")
 
 
-def open_nofollow(path: str | os.PathLike[str], mode: str = "wb", **kw: Any) -> IO[Any]:
-    """``open(path, mode)`` for writing (``w``, ``wb``, ``a``, ``ab``, ``a+``) that refuses a symbolic
-    link at ``path`` (OutputPathError) instead of writing into its target; new files get the umask's
-    mode. For files kept under a fixed name (a lock, a partial trace, a log appended to)."""
+def _open_nofollow_fd(path: str | os.PathLike[str], mode: str) -> int:
+    """The descriptor of :func:`open_nofollow`."""
     try:
-        fd = os.open(path, _MODES[mode] | os.O_NOFOLLOW | os.O_CLOEXEC, 0o666)  # the OS applies the umask
+        return os.open(path, _MODES[mode] | os.O_NOFOLLOW | os.O_CLOEXEC, 0o666)  # the OS applies the umask
     except OSError as e:
         if e.errno == errno.ELOOP and Path(path).is_symlink():
             raise link_error(path) from None
         raise
+
+
+def open_nofollow(path: str | os.PathLike[str], mode: str = "wb", **kw: Any) -> IO[Any]:
+    """``open(path, mode)`` for writing (``w``, ``wb``, ``a``, ``ab``, ``a+``) that refuses a symbolic
+    link at ``path`` (OutputPathError) instead of writing into its target; new files get the umask's
+    mode. For files kept under a fixed name (a lock, a partial trace, a log appended to)."""
+    fd = _open_nofollow_fd(path, mode)
     try:
         return os.fdopen(fd, mode, **kw)
     except BaseException:

@@ -80,7 +80,7 @@ def registered_targets() -> dict[str, Any]:
     ``module:attr`` strings, and factories that can be pickled (others are left out: the
     worker then reports the name as unknown)."""
     out: dict[str, Any] = {}
-    for name, spec in registry._registered.items():
+    for name, spec in registry.registered().items():
         if isinstance(spec.target, str):
             out[name] = spec.target
             continue

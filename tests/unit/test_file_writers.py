@@ -17,8 +17,8 @@ from navstress import _files
 
 SRC = Path(navstress.__file__).parent
 OWNER_ONLY = re.compile(r"\b(mkstemp|mkdtemp|NamedTemporaryFile|TemporaryDirectory)\b|os\.open\(")
-# scratch space deleted after use, never read by anyone else; the compiled-library cache
-ALLOWED = {"_files.py", "campaign/replay.py", "campaign/work.py", "sim/native.py"}
+# scratch space deleted after use, never read by anyone else
+ALLOWED = {"_files.py", "campaign/replay.py", "campaign/work.py"}
 
 
 def test_no_owner_only_writers_outside_the_helper() -> None:

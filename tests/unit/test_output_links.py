@@ -508,6 +508,7 @@ REVIEWED = {
     ("_files.py", 'shutil.rmtree(p, ignore_errors=True)'): "remove_tree: a real directory, links refused",
     ("_files.py", 'p.unlink(missing_ok=True)'): "remove_tree: a file, links refused",
     ("_files.py", 'with os.fdopen(fd, "wb") as f, open(src, "rb") as s:'): "copy_atomic: reads src",
+    ("_files.py", 'shutil.rmtree(old, ignore_errors=True)'): "replace_dir: the directory it just renamed away",
     ("_jit.py", 'for p in sorted(root.rglob("*")):'): "reads navstress's own sources",
     ("campaign/store.py", '(d / name).unlink(missing_ok=True)'): "exact creation leftovers, after refuse_links",
     ("campaign/store.py", 'Path(e.path).unlink(missing_ok=True)'): "cleanup_partials: exact names, no link",
@@ -517,7 +518,6 @@ REVIEWED = {
     ("_files.py", 'shutil.rmtree(d, ignore_errors=True)'): "sweep_dead_scratch: a dead process's scratch folder, never a link",
     ("world/world.py", 'with open(tmp / WORLD_JSON, "w", encoding="utf-8") as f:'): "inside its new mkdtemp folder",
     ("world/world.py", 'with open(tmp / TERRAIN_NPZ, "wb") as f:'): "inside its new mkdtemp folder",
-    ("world/world.py", 'shutil.rmtree(old, ignore_errors=True)'): "the world it just renamed away (a real folder)",
     ("world/world.py", 'shutil.rmtree(tmp, ignore_errors=True)'): "its own mkdtemp folder",
     ("world/export/images.py", 'fig.savefig(buf, format="png", dpi=dpi)'): "into memory",
     ("world/export/images.py", 'shutil.rmtree(out, ignore_errors=True)'): "the world folder it made just now",
@@ -526,8 +526,6 @@ REVIEWED = {
     ("search/driver.py", 'shutil.copytree(src, tmp / "worlds" / e.candidate.key)'): "into .suite.tmp",
     ("search/driver.py", '(tmp / "suite.json").write_text(_json.dumps(info, indent=1, sort_keys=True) + "\\n", encoding="utf-8")'):
         "inside .suite.tmp",
-    ("search/driver.py", 'shutil.rmtree(old, ignore_errors=True)'): "the suite it just renamed away (a real folder)",
-    ("sim/native.py", 'os.unlink(tmp)'): "its own mkstemp file in the cache directory",
     ("sim/mjabi.py", 'LIBS = sorted(glob.glob(os.path.join(os.path.dirname(mujoco.__file__), "libmujoco.so*")))'):
         "reads MuJoCo's libraries",
     ("cli/run.py", 'shutil.rmtree(output, ignore_errors=True)'): "the -o folder it created, nothing recorded",

@@ -27,13 +27,16 @@ import functools
 import hashlib
 import json
 import math
-from html import escape
 from collections.abc import Iterable, Mapping, Sequence
+from html import escape
+from importlib import metadata
 from typing import Any, Final
 
 import altair as alt
+import vl_convert
 
-from navstress import _json
+from navstress import _files, _json
+from navstress._paths import cache_dir
 from navstress.analysis.difficulty import finite_number as _finite  # None: left out of a continuous scale
 from navstress.errors import SpecError
 
@@ -388,14 +391,7 @@ def _bundle() -> str:
     """The libraries' bundle: made by vl-convert (2-4 s, holding the GIL) once per installed
     version and kept in navstress's cache folder (``navstress.cache_dir()``); a cache that cannot
     be read or written is only slower."""
-    from importlib.metadata import version
-
-    import vl_convert
-
-    from navstress import _files
-    from navstress._paths import cache_dir
-
-    path = cache_dir() / f"vega-bundle-{version('vl-convert-python')}-vl{VL_VERSION}.js"
+    path = cache_dir() / f"vega-bundle-{metadata.version('vl-convert-python')}-vl{VL_VERSION}.js"
     try:
         kept = path.read_text(encoding="utf-8")
         if _WHOLE in kept[-4000:]:  # else damaged: made again

@@ -4,7 +4,8 @@ A *configuration* is one point of an experiment's sweep; its runs are grouped by
 ``(experiment, config_key, navigator, fault)``. For each group:
 
 - ``runs``, ``successes``, ``success_rate`` with a Wilson score interval (95 % by default;
-  Clopper-Pearson available with :func:`clopper_pearson`);
+  Clopper-Pearson available with :func:`clopper_pearson`; why not scipy's ``binomtest``
+  intervals: docs/statistics.md, "Intervals and scipy");
 - ``outcomes``: counts per outcome (every outcome listed, zeros included);
 - ``median_duration_s`` and ``median_tortuousness``: medians over *successful* runs only
   (None without a success). Tortuousness is the record's ``tortuousness`` column

@@ -24,11 +24,15 @@ import math
 from typing import Any
 
 import numpy as np
+from matplotlib import colormaps
+from PIL import Image
 
+from navstress.analysis.polyline import rdp_keep
 from navstress.run.figures import MOVER_COLOUR, OUTCOME_COLOURS, RunTrack, movers_at
 from navstress.world.colours import GOAL_COLOUR as _GOAL
 from navstress.world.colours import START_COLOUR as _START
 from navstress.world.colours import kind_colour
+from navstress.world.export.images import ground_norm, shaded_ground, terrain_cmap
 from navstress.world.world import World
 
 #: Colour steps of a perceived map's height.
@@ -58,8 +62,6 @@ CSS = "".join(
 
 def _png(img: Any) -> str:
     """A PIL image (or an (rows, cols, 3|4) uint8 array, row 0 at the top) as a PNG data URI."""
-    from PIL import Image
-
     buf = io.BytesIO()
     (img if isinstance(img, Image.Image) else Image.fromarray(img)).save(buf, format="PNG", compress_level=6)
     return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
@@ -70,8 +72,6 @@ def _terrain_uri(rgb: np.ndarray) -> str:
     stores it in about a sixth of the PNG's bytes, each channel within 1 level of 255 on average
     and 4 at the 99th percentile (measured on the paper preset's rough maps). One colour (flat
     ground) is a PNG of a few hundred bytes."""
-    from PIL import Image
-
     if (rgb == rgb[0, 0]).all():
         return _png(rgb)
     buf = io.BytesIO()
@@ -82,12 +82,10 @@ def _terrain_uri(rgb: np.ndarray) -> str:
 def terrain_rgb(world: World) -> np.ndarray:
     """The hillshaded terrain, one pixel per cell, row 0 at the top (largest y), uint8 RGB:
     the colours and light of ``draw_world`` (flat ground in one light tone)."""
-    from navstress.world.export.images import _terrain_cmap, ground_norm, shaded_ground
-
     rgb = shaded_ground(world.terrain)
     if rgb is None:
         h = world.terrain.heights.astype(np.float64)
-        rgb = _terrain_cmap()(ground_norm(h)(h))
+        rgb = terrain_cmap()(ground_norm(h)(h))
     return np.asarray(np.clip(rgb[::-1, :, :3] * 255 + 0.5, 0, 255), dtype=np.uint8)
 
 
@@ -136,8 +134,6 @@ def simplify(xy: np.ndarray, tol: float) -> np.ndarray:
     """Ramer-Douglas-Peucker: the points of the polyline ``xy`` (N, 2) to keep so that no dropped
     point is farther than ``tol`` from the simplified line; first and last always kept (compiled:
     :func:`navstress.analysis.polyline.rdp_keep`)."""
-    from navstress.analysis.polyline import rdp_keep
-
     a = np.ascontiguousarray(xy, dtype=np.float64)
     if len(a) <= 2:
         return xy
@@ -280,8 +276,6 @@ def perceived_svg(world: World, grid: np.ndarray, origin_xy: tuple[float, float]
     obstacles' outlines (``outlines``: the markup that draws them, e.g. a ``<use>`` of
     :func:`outline_defs`; by default drawn here) and the run's real trajectory; returns the SVG and
     the unknown share of the map (cells inside it that were never seen)."""
-    from matplotlib import colormaps
-
     sx, sy = world.size_m
     g = np.asarray(grid, dtype=np.float64)
     rows, cols = g.shape
@@ -290,8 +284,6 @@ def perceived_svg(world: World, grid: np.ndarray, origin_xy: tuple[float, float]
     cy = origin_xy[1] + (np.arange(rows) + 0.5) * cell_m
     inside = ((cy >= 0) & (cy <= sy))[:, None] & ((cx >= 0) & (cx <= sx))[None, :]
     share = float(unknown[inside].mean()) if inside.any() else 1.0
-    from PIL import Image
-
     # a palette picture: index 0 the unknown pink, 1..LEVELS the viridis colours of the height
     # in LEVELS equal steps between the lowest and the highest known cell (a picture: the exact
     # heights are in the trace)

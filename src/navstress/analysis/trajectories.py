@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from navstress.errors import NavstressError
+from navstress.isolate import Worker
 from navstress.run.trace import TOPIC_TRUTH, read_poses_of
 
 #: How many trajectories make :meth:`TrajectoryCache.prefetch` read in worker processes.
@@ -136,8 +137,6 @@ class TrajectoryCache:
         """At least ``n`` worker processes (navstress's one worker loop, :mod:`navstress.isolate`:
         spawned, they die with this process), each with a thread here that feeds it chunks of
         traces from the queue and waits on its pipe while it decodes."""
-        from navstress.isolate import Worker
-
         while len(self._drivers) < n:
             w = Worker(600.0, preload=(__name__,))
             t = threading.Thread(target=self._drive, args=(w,), daemon=True)

@@ -64,7 +64,7 @@ def check_runnable(spec: CampaignSpec, *, build_limit_s: float = BUILD_LIMIT_S) 
     for i, nav in enumerate(spec.navigators):
         if nav.name in targets:
             try:
-                registry._make_spec(nav.name, targets[nav.name], "campaign spec")
+                registry.make_spec(nav.name, targets[nav.name], "campaign spec")
             except NavigatorError as err:
                 raise SpecError(f"navigators[{i}].target", nav.target, "a 'module:attr' navigator factory",
                                 str(err)) from None
@@ -82,7 +82,7 @@ def check_runnable(spec: CampaignSpec, *, build_limit_s: float = BUILD_LIMIT_S) 
             except NavigatorError as err:
                 raise SpecError("faults", f, "a known fault or null (nominal)", str(err)) from None
     SimConfig.from_mapping(dict(spec.sim))
-    saved = dict(registry._registered)
+    saved = registry.registered()
     try:
         register_targets(targets)
         built: list[tuple[str, dict[str, Any], str]] = []  # validated by building them: in a worker
@@ -100,8 +100,7 @@ def check_runnable(spec: CampaignSpec, *, build_limit_s: float = BUILD_LIMIT_S) 
         if built:  # a navigator that exits, crashes or hangs there is left to its runs to classify
             check_buildable(registry.validate_each, built, wall_limit_s=build_limit_s)
     finally:
-        registry._registered.clear()
-        registry._registered.update(saved)
+        registry.set_registered(saved)
 
 
 class CampaignRunner:

@@ -249,23 +249,20 @@ class Store:
             (d / name).unlink(missing_ok=True)
         _atomic_write(d / SPEC_NAME, spec_text)
         p = plan(spec, d)
-        tmp = d / _TMP_DB
         try:
-            _files.create_file(tmp)  # SQLite's own 0644 ignores the umask; its -wal/-shm copy this mode
-            con = sqlite3.connect(tmp, isolation_level=None)
-            try:
-                _schema(con)
-                con.execute("BEGIN")
-                con.executemany("INSERT INTO meta VALUES (?, ?)", [
-                    ("schema", SCHEMA_VERSION), ("spec_digest", spec.digest()),
-                    ("spec_json", spec.canonical_json()), ("name", spec.name)])
-                _insert_planned(con, p.tasks, 0, d)
-                con.execute("COMMIT")
-            finally:
-                con.close()
-            _fsync_path(tmp)
-            os.replace(tmp, d / DB_NAME)
-            _files.fsync_dir(d)
+            # created first with the umask's mode (SQLite's own 0644 ignores it; its -wal/-shm copy it)
+            with _files.replaced_on_success(d / DB_NAME, d / _TMP_DB, durable=True) as tmp:
+                con = sqlite3.connect(tmp, isolation_level=None)
+                try:
+                    _schema(con)
+                    con.execute("BEGIN")
+                    con.executemany("INSERT INTO meta VALUES (?, ?)", [
+                        ("schema", SCHEMA_VERSION), ("spec_digest", spec.digest()),
+                        ("spec_json", spec.canonical_json()), ("name", spec.name)])
+                    _insert_planned(con, p.tasks, 0, d)
+                    con.execute("COMMIT")
+                finally:
+                    con.close()
         finally:
             for name in _CREATION_LEFTOVERS[1:]:
                 (d / name).unlink(missing_ok=True)
@@ -981,14 +978,6 @@ def _spec_from_json(text: str) -> CampaignSpec:
 
 
 def _atomic_write(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.tmp")
-    with _files.open_nofollow(tmp, "w", encoding="utf-8") as f:
-        f.write(text)
-        f.flush()
-        os.fsync(f.fileno())
-    os.replace(tmp, path)
-
-
-def _fsync_path(path: Path) -> None:
-    with open(path, "rb") as f:
-        os.fsync(f.fileno())
+    """``text`` into ``path`` via ``.NAME.tmp`` (a fixed name: a killed creation's leftover is
+    found by it, ``_CREATION_LEFTOVERS``)."""
+    _files.write_atomic(path, text, temp=path.with_name(f".{path.name}.tmp"))

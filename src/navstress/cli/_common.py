@@ -4,6 +4,7 @@ checks of output paths made before any work."""
 from __future__ import annotations
 
 import errno
+import socket
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -121,9 +122,7 @@ SpeedOpt = Annotated[str, typer.Option(metavar="X", help=(
 
 def live_settings(host: str, port: str, wait: str, speed: str) -> Any:
     """The live view's settings, checked: a one-line error for a bad value or a port in use."""
-    import socket
-
-    from navstress.run.live import LiveSettings
+    from navstress.run.live import LiveSettings  # local: the live view imports the mission loop (MuJoCo, numba)
 
     port_v = bounded_int("--live-port", port, 1, 65535)
     wait_v = number("--live-wait", wait, "a duration in seconds in [0, 3600]")

@@ -9,6 +9,7 @@ import typer
 
 from navstress._console import literal
 from navstress.errors import SpecError
+from navstress.run.ros2 import export_ros2
 
 app = typer.Typer(rich_markup_mode=None)
 trace_app = typer.Typer(no_args_is_help=True, rich_markup_mode=None,
@@ -34,7 +35,5 @@ def trace_export(
         raise SpecError("--format", fmt, f"one of {', '.join(FORMATS)}")
     if output.exists() or output.is_symlink():
         raise SpecError("--output", str(output), "a path that does not exist yet (a ROS 2 bag is a new directory)")
-    from navstress.run.ros2 import export_ros2
-
     counts = export_ros2(trace, output)
     typer.echo(literal(f"wrote {output} ({sum(counts.values())} messages on {len(counts)} topics)"))

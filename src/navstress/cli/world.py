@@ -12,12 +12,12 @@ import typer
 from rich.table import Table
 from typer import _click as click
 
+from navstress import _files
 from navstress._console import console, literal
 from navstress.cli._common import (MAX_SEED, bounded_int, check_file_out, check_out_dir, probe_writable)
 from navstress.errors import SpecError
 from navstress.run.drive import DEFAULT_COURSE, drive, drive_picture, parse_course
 from navstress.sim.model import world_to_mjcf
-from navstress.world.export._grid import write_atomic
 from navstress.world.export.images import PREVIEW, obstruction_pct, save_with_preview, write_heightmap_png, write_preview
 from navstress.world.export.mesh import write_mesh
 from navstress.world.export.sdf import write_sdf
@@ -191,7 +191,7 @@ def world_export(
     check_file_out(output)
     world = World.load(world_dir)
     if f == "mjcf":
-        write_atomic(output, world_to_mjcf(world).encode("utf-8"))
+        _files.write_atomic(output, world_to_mjcf(world).encode("utf-8"))
         written = [output]
     elif f == "sdf":
         r = write_sdf(world, output, heightmap_bits=bits or 8)

@@ -46,7 +46,7 @@ __all__ = [
     "ENTRY_POINT_GROUP", "NavigatorFactory", "NavigatorNote", "NavigatorSpec", "load_config",
     "call_factory", "list_navigators", "load_factory", "make_navigator", "parse_name",
     "reference_global_v1", "reference_v1", "register", "resolve", "unregister", "validate_config", "validate_each",
-    "builds_to_validate",
+    "builds_to_validate", "make_spec", "registered", "set_registered",
 ]
 
 ENTRY_POINT_GROUP = "navstress.navigators"
@@ -95,7 +95,10 @@ def parse_name(name: str) -> tuple[str, int | None]:
     return m.group("base"), None if v is None else int(v)
 
 
-def _make_spec(name: str, target: str | NavigatorFactory, source: str) -> NavigatorSpec:
+def make_spec(name: str, target: str | NavigatorFactory, source: str) -> NavigatorSpec:
+    """The :class:`NavigatorSpec` of ``name`` ("name-vN") bound to ``target`` ("module:attr" or a
+    factory), found in ``source``; NavigatorError naming what is wrong (no version, a malformed
+    target). Nothing is registered or imported."""
     base, version = parse_name(name)
     if version is None:
         raise NavigatorError(
@@ -116,7 +119,7 @@ def register(name: str, target: str | NavigatorFactory, *, override: bool = Fals
 
     Registering the same target again is a no-op; another target needs ``override=True``.
     """
-    spec = _make_spec(name, target, "register()")
+    spec = make_spec(name, target, "register()")
     old = _registered.get(spec.id)
     if old is not None and old.target != spec.target and not override:
         raise NavigatorError(
@@ -124,6 +127,19 @@ def register(name: str, target: str | NavigatorFactory, *, override: bool = Fals
             "override=True to replace it"
         )
     _registered[spec.id] = spec
+
+
+def registered() -> dict[str, NavigatorSpec]:
+    """A copy of the navigators registered in this process with :func:`register` (entry points not
+    included), by id."""
+    return dict(_registered)
+
+
+def set_registered(specs: dict[str, NavigatorSpec]) -> None:
+    """Make ``specs`` (what :func:`registered` returned) this process's registrations again, undoing
+    any :func:`register` since."""
+    _registered.clear()
+    _registered.update(specs)
 
 
 def unregister(name: str) -> None:
@@ -138,7 +154,7 @@ def _entry_point_specs() -> dict[str, NavigatorSpec]:
     for ep in metadata.entry_points(group=ENTRY_POINT_GROUP):
         dist = getattr(ep.dist, "name", None) or "an unknown distribution"
         try:
-            spec = _make_spec(ep.name, ep.value, f"entry point of {dist}")
+            spec = make_spec(ep.name, ep.value, f"entry point of {dist}")
         except NavigatorError:
             continue  # a malformed third-party entry must not break every other navigator
         old = found.get(spec.id)

@@ -27,6 +27,7 @@ from navstress import _files, _json
 from navstress._tables import NOMINAL, config_key_of
 from navstress.errors import NavstressError
 from navstress.isolate import Worker
+from navstress.run.live import execute_live
 from navstress.run.mission import execute
 from navstress.run.record import RunRecord, RunTask
 from navstress.run.trace import TOPIC_PERCEIVED, read_movers, read_poses
@@ -99,7 +100,6 @@ def run_isolated(task: RunTask, worker: Worker, live: Any = None) -> RunRecord:
         if live is None:
             status, value = worker.call(execute, task)
         else:
-            from navstress.run.live import execute_live
             status, value = worker.call(execute_live, task, live)
     except BaseException:  # Ctrl-C: stop the worker, leave nothing partial
         worker.close(now=True)

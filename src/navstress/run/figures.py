@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from matplotlib.patches import Circle, Polygon
 
 from navstress import _files
 from navstress.world.export.images import draw_world
@@ -78,8 +79,6 @@ def draw_movers(ax: Any, world: World, times: np.ndarray, poses: np.ndarray, at:
                 seen: set[str], *, paths: bool = True) -> None:
     """The movers' paths (``paths``: thin lines, a dot where each ended) and, at time ``at`` (a
     collision), their footprints where they were then (interpolated between samples)."""
-    from matplotlib.patches import Circle, Polygon
-
     if not len(times):
         return
     for i in range(poses.shape[1] if paths else 0):

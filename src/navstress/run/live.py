@@ -40,15 +40,24 @@ from dataclasses import dataclass
 from typing import IO, TYPE_CHECKING, Any
 
 import numpy as np
+from foxglove_schemas_protobuf.FrameTransform_pb2 import FrameTransform
+from foxglove_schemas_protobuf.Grid_pb2 import Grid
+from foxglove_schemas_protobuf.Log_pb2 import Log
+from foxglove_schemas_protobuf.PointCloud_pb2 import PointCloud
+from foxglove_schemas_protobuf.PoseInFrame_pb2 import PoseInFrame
+from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
+from mcap_protobuf.schema import build_file_descriptor_set
 
 from navstress._console import one_line
 from navstress.robot import RobotSpec
+from navstress.run.mission import NavigatorView, RunResult, attr_through_wrappers, execute, true_pose, world_messages
 from navstress.run.record import RunRecord, RunTask
-from navstress.run.trace import (BELIEF, FRAME, FRAME_LIDAR, FRAME_ROBOT, TOPIC_MAP, TOPIC_PERCEIVED, TOPIC_TRUTH,
-                                 TraceMessages)
+from navstress.run.trace import (BELIEF, FRAME, FRAME_LIDAR, FRAME_ROBOT, TOPIC_CMD, TOPIC_DEBUG, TOPIC_EVENTS,
+                                 TOPIC_LIDAR, TOPIC_MAP, TOPIC_MOVERS, TOPIC_PERCEIVED, TOPIC_ROBOT, TOPIC_SCENE,
+                                 TOPIC_TERRAIN, TOPIC_TERRAIN_MESH, TOPIC_TF, TOPIC_TRUTH, TraceMessages,
+                                 command_class)
 
 if TYPE_CHECKING:
-    from navstress.run.mission import NavigatorView, RunResult
     from navstress.sim.simulation import Simulation
     from navstress.world.world import World
 
@@ -199,8 +208,6 @@ class LivePublisher(TraceMessages):
     def _channel(self, topic: str, cls: Any) -> Any:
         ch = self._channels.get(topic)
         if ch is None:
-            from mcap_protobuf.schema import build_file_descriptor_set
-
             fds = build_file_descriptor_set(cls)
             schema = self._fg.Schema(name=cls.DESCRIPTOR.full_name, encoding="protobuf", data=fds.SerializeToString())
             ch = self._channels[topic] = self._fg.Channel(topic, schema=schema, message_encoding="protobuf",
@@ -219,8 +226,6 @@ class LivePublisher(TraceMessages):
         subscribes when it learns of a channel, and a message sent before that is lost to it.)"""
         for topic, cls in _topics().items():
             self._channel(topic, cls)
-        from navstress.run.mission import world_messages
-
         self._statics, self._collecting = [], True
         world_messages(self, world)
         mount = robot.lidar
@@ -239,13 +244,11 @@ class LivePublisher(TraceMessages):
                events: list[tuple[float, str, str]], view: NavigatorView | None) -> None:
         """After a control step: send what changed (module doc), then sleep until the wall clock
         catches up with the simulated one."""
-        from navstress.run.mission import _attr_through_wrappers, _true_pose
-
         self._resend_statics()
-        truth = np.array([_true_pose(sim)])
+        truth = np.array([true_pose(sim)])
         self.poses(TOPIC_TRUTH, truth)
         self.transforms(FRAME, FRAME_ROBOT, truth)
-        perceived = _attr_through_wrappers(navigator, "perceived_trajectory")
+        perceived = attr_through_wrappers(navigator, "perceived_trajectory")
         if callable(perceived):
             try:
                 rows = np.asarray(perceived(), dtype=np.float64).reshape(-1, 7)
@@ -317,26 +320,15 @@ def unsent(events: list[tuple[float, str, str]], sent: Counter[tuple[float, str,
 
 def _topics() -> dict[str, Any]:
     """Every topic a live run sends, with its protobuf message class."""
-    from foxglove_schemas_protobuf.FrameTransform_pb2 import FrameTransform
-    from foxglove_schemas_protobuf.Grid_pb2 import Grid
-    from foxglove_schemas_protobuf.Log_pb2 import Log
-    from foxglove_schemas_protobuf.PointCloud_pb2 import PointCloud
-    from foxglove_schemas_protobuf.PoseInFrame_pb2 import PoseInFrame
-    from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
-
-    from navstress.run import trace as tr
-
-    return {tr.TOPIC_TF: FrameTransform, tr.TOPIC_TRUTH: PoseInFrame, tr.TOPIC_PERCEIVED: PoseInFrame,
-            tr.TOPIC_EVENTS: Log, tr.TOPIC_SCENE: SceneUpdate, tr.TOPIC_ROBOT: SceneUpdate,
-            tr.TOPIC_TERRAIN_MESH: SceneUpdate, tr.TOPIC_MOVERS: SceneUpdate, tr.TOPIC_DEBUG: SceneUpdate,
-            tr.TOPIC_TERRAIN: Grid, tr.TOPIC_MAP: Grid, tr.TOPIC_LIDAR: PointCloud, tr.TOPIC_CMD: tr.command_class()}
+    return {TOPIC_TF: FrameTransform, TOPIC_TRUTH: PoseInFrame, TOPIC_PERCEIVED: PoseInFrame,
+            TOPIC_EVENTS: Log, TOPIC_SCENE: SceneUpdate, TOPIC_ROBOT: SceneUpdate,
+            TOPIC_TERRAIN_MESH: SceneUpdate, TOPIC_MOVERS: SceneUpdate, TOPIC_DEBUG: SceneUpdate,
+            TOPIC_TERRAIN: Grid, TOPIC_MAP: Grid, TOPIC_LIDAR: PointCloud, TOPIC_CMD: command_class()}
 
 
 def execute_live(task: RunTask, settings: LiveSettings) -> RunRecord:
     """:func:`navstress.run.mission.execute` with the run shown live (module doc); the server
     stops when the run ends."""
-    from navstress.run.mission import execute
-
     if not (math.isfinite(settings.speed) and settings.speed > 0):
         raise ValueError(f"speed={settings.speed!r}: expected a number > 0")
     pub = LivePublisher(settings)

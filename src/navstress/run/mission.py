@@ -78,7 +78,7 @@ class RunResult:
     maps: list[tuple[float, np.ndarray, tuple[float, float], float]] = field(default_factory=list)
 
 
-def _attr_through_wrappers(nav: Any, name: str) -> Any:
+def attr_through_wrappers(nav: Any, name: str) -> Any:
     """``nav.name``, looking through fault wrappers (``.inner``)."""
     seen = 0
     while nav is not None and seen < 8:
@@ -134,8 +134,8 @@ class NavigatorView:
 
     def __init__(self, navigator: Navigator, events: list[tuple[float, str, str]]) -> None:
         self._events = events
-        self._debug = _attr_through_wrappers(navigator, "debug")
-        self._map = _attr_through_wrappers(navigator, "final_map")
+        self._debug = attr_through_wrappers(navigator, "debug")
+        self._map = attr_through_wrappers(navigator, "final_map")
         self._next_map = 0.0
         self.map_dropped = False
         self.drawings: list[tuple[float, DebugDraw]] = []
@@ -182,9 +182,9 @@ class RunWatcher(Protocol):
 def control_rate_hz(nav: Navigator) -> float:
     """The rate at which the framework calls ``step``: ``nav.control_rate_hz`` or
     ``nav.config.control_rate_hz`` if the navigator declares one, else 10 Hz."""
-    rate = _attr_through_wrappers(nav, "control_rate_hz")
+    rate = attr_through_wrappers(nav, "control_rate_hz")
     if rate is None:
-        cfg = _attr_through_wrappers(nav, "config")
+        cfg = attr_through_wrappers(nav, "config")
         rate = getattr(cfg, "control_rate_hz", None)
     rate = float(rate) if rate is not None else DEFAULT_CONTROL_RATE_HZ
     return rate if math.isfinite(rate) and rate > 0 else DEFAULT_CONTROL_RATE_HZ
@@ -199,7 +199,7 @@ def mission_bounds(world: World, sim_config: Any = None) -> tuple[float, float, 
     return (m, m, float(sx) - m, float(sy) - m)
 
 
-def _true_pose(sim: Any) -> tuple[float, float, float, float, float, float, float]:
+def true_pose(sim: Any) -> tuple[float, float, float, float, float, float, float]:
     """The chassis pose now, from the free joint's qpos (what the observer records)."""
     q = sim.data.qpos
     rot = np.zeros(9)
@@ -241,7 +241,7 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
         period = 1.0 / control_rate_hz(navigator)
         jitter = rng(run_seed, "loop", "control")
         view = NavigatorView(navigator, events) if record_navigator else None
-        want = _attr_through_wrappers(navigator, "want_debug")
+        want = attr_through_wrappers(navigator, "want_debug")
         try:
             if callable(want):
                 want(bool(record_navigator))
@@ -325,7 +325,7 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
         goal_d = float("inf")
         collisions, collisions_hit, first_col = 0, 0, None
     else:
-        final = _true_pose(sim)
+        final = true_pose(sim)
         obs_poses = sim.observer.poses
         truth = np.array(obs_poses)
         if not len(truth) or sim.t > truth[-1, 0] + 1e-9:
@@ -358,8 +358,8 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Rob
                      collisions=collisions, collisions_hit=collisions_hit, first_collision_s=first_col, error=error,
                      navigator_failure=nav_failure, timed_out=timed_out, other=tuple(other), left_area=left_area)
     cls = classify(facts)
-    perceived = _attr_through_wrappers(navigator, "perceived_trajectory")
-    final_map = _attr_through_wrappers(navigator, "final_map")
+    perceived = attr_through_wrappers(navigator, "perceived_trajectory")
+    final_map = attr_through_wrappers(navigator, "final_map")
     try:
         perceived_arr = np.asarray(perceived(), dtype=np.float64).reshape(-1, 7) if callable(perceived) else None
     except BaseException as err:

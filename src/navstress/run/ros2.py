@@ -243,7 +243,7 @@ def export_ros2(trace: str | os.PathLike[str], out: str | os.PathLike[str]) -> d
             bag = _Bag(w, get_typestore(Stores.ROS2_HUMBLE))
             for topic, t_ns, m in messages:
                 _convert(bag, topic, t_ns, m)
-        os.replace(bag_dir, dest)
+        _files.rename_into_place(bag_dir, dest)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return dict(sorted(bag.counts.items()))

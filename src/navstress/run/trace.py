@@ -32,12 +32,14 @@ from __future__ import annotations
 
 import math
 import os
+import struct
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
 import numpy as np
+import zstandard
 from foxglove_schemas_protobuf.Color_pb2 import Color
 from foxglove_schemas_protobuf.CubePrimitive_pb2 import CubePrimitive
 from foxglove_schemas_protobuf.CylinderPrimitive_pb2 import CylinderPrimitive
@@ -60,7 +62,9 @@ from foxglove_schemas_protobuf.TriangleListPrimitive_pb2 import TriangleListPrim
 from foxglove_schemas_protobuf.Vector2_pb2 import Vector2
 from foxglove_schemas_protobuf.Vector3_pb2 import Vector3
 from google.protobuf.timestamp_pb2 import Timestamp
+from mcap.data_stream import ReadDataStream
 from mcap.reader import make_reader
+from mcap.records import Chunk
 from mcap.writer import CompressionType
 from mcap_protobuf.decoder import DecoderFactory
 from mcap_protobuf.writer import Writer
@@ -142,7 +146,7 @@ def terrain_mesh(heights: np.ndarray, cell_m: float, max_cells: int = MESH_MAX_C
     keeps at most ``max_cells`` cells along the longer side (the last row and column always kept);
     between them the surface is linear, so with k > 1 it is the terrain seen at k * cell_m (a
     picture, not the simulated surface). Flat ground is its four corners."""
-    from navstress.world.export._grid import terrain_faces  # (local: the world package imports numba)
+    from navstress.world.world import terrain_faces  # (local: the world package imports numba)
 
     h = np.asarray(heights, dtype=np.float64)
     rows, cols = h.shape
@@ -327,7 +331,7 @@ class TraceMessages:
         """The ground as a 3D surface (:func:`terrain_mesh`), coloured by height, on
         :data:`TOPIC_TERRAIN_MESH` (one ``foxglove.SceneUpdate``, entity ``terrain``), so that
         the robot and the obstacles stand on it in a 3D view."""
-        from navstress.world.colours import terrain_colours
+        from navstress.world.colours import terrain_colours  # (local: as terrain_faces)
 
         verts, tris = terrain_mesh(heights, cell_m)
         z = verts[:, 2]
@@ -392,7 +396,7 @@ class TraceWriter(TraceMessages):
         self._f.flush()
         os.fsync(self._f.fileno())
         self._f.close()
-        os.replace(self._tmp, self.path)
+        _files.rename_into_place(self._tmp, self.path)
         return self.path
 
     def abort(self) -> None:
@@ -444,12 +448,6 @@ def _index_chunks(path: str | os.PathLike[str], topics: Sequence[str], schema: s
     is decompressed once, whatever the number of topics in it. None when the file has no summary
     or index, or a topic's schema is not ``schema`` (the caller reads it the general way then);
     errors as :func:`_messages`."""
-    import struct
-
-    import zstandard
-    from mcap.data_stream import ReadDataStream
-    from mcap.records import Chunk
-
     try:
         with open(path, "rb") as f:
             summary = make_reader(f).get_summary()
@@ -497,8 +495,6 @@ def _indexed(path: str | os.PathLike[str], topic: str, schema: str) -> list[tupl
     MCAP message indexes (:func:`_index_chunks`): only the topic's message records are parsed
     (the library's reader parses every record of a chunk). None and errors as
     :func:`_index_chunks`."""
-    import struct
-
     chunks = _index_chunks(path, [topic], schema)
     if chunks is None:
         return None
@@ -525,7 +521,7 @@ def _poses_indexed(path: str | os.PathLike[str], topics: Sequence[str]) -> dict[
     chunks = _index_chunks(path, topics, PoseInFrame.DESCRIPTOR.full_name)
     if chunks is None:
         return None
-    from navstress.run.posewire import pose_rows
+    from navstress.run.posewire import pose_rows  # (local: numba, which the trace's writers never need)
 
     def decoded(parts: list[tuple[int, bytes, np.ndarray]]) -> np.ndarray | None:
         rows, keys = [np.zeros((0, 7))], [np.zeros((0, 3), dtype=np.uint64)]

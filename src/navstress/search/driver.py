@@ -583,14 +583,7 @@ def write_suite(spec: SearchSpec, result: SearchResult, root: Path) -> Path | No
                  **({"same_world_as": same[e.candidate.key]} if e.candidate.key in same else {})}
                 for e in result.elites]}
     (tmp / "suite.json").write_text(_json.dumps(info, indent=1, sort_keys=True) + "\n", encoding="utf-8")
-    if final.exists():
-        old = root / f".{SUITE_DIR}.old"
-        _files.remove_tree(old)
-        os.replace(final, old)
-        os.replace(tmp, final)
-        shutil.rmtree(old, ignore_errors=True)
-    else:
-        os.replace(tmp, final)
+    _files.replace_dir(tmp, final)  # the old suite via .suite.old
     _files.fsync_dir(root)
     return path
 

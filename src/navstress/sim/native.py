@@ -23,11 +23,10 @@ import os
 import shlex
 import shutil
 import subprocess
-import tempfile
 from pathlib import Path
 from typing import NamedTuple
 
-from navstress import cache_dir
+from navstress import _files, cache_dir
 
 SOURCE = Path(__file__).with_name("_march_avx512.c")
 FLAGS = ("-O3", "-ffp-contract=off", "-fno-math-errno", "-fPIC", "-shared")
@@ -56,16 +55,11 @@ def build(cc: str | None = None, out_dir: Path | None = None) -> Path:
     if lib.exists():
         return lib
     d.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=lib.name + ".", suffix=".tmp", dir=d)
-    os.close(fd)
-    try:
-        r = subprocess.run([*cmd, *FLAGS, "-o", tmp, str(SOURCE)], capture_output=True, text=True, timeout=120)
+    # renamed onto lib when built (atomic: a concurrent build of the same key writes the same bytes)
+    with _files.replaced_on_success(lib) as tmp:
+        r = subprocess.run([*cmd, *FLAGS, "-o", str(tmp), str(SOURCE)], capture_output=True, text=True, timeout=120)
         if r.returncode != 0:
             raise OSError(f"{cc} failed to build {SOURCE.name}: {(r.stderr or r.stdout).strip()[-500:]}")
-        os.replace(tmp, lib)  # atomic: a concurrent build of the same key writes the same bytes
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
     return lib
 
 

@@ -204,6 +204,20 @@ class Terrain:
         return h00 + v * (h01 - h00) + u * (h11 - h01)  # upper-left (i,j) (i+1,j) (i+1,j+1)
 
 
+def terrain_faces(rows: int, cols: int) -> np.ndarray:
+    """Faces (2*(rows-1)*(cols-1), 3) of a height grid of ``rows`` x ``cols`` vertices, split as
+    :meth:`Terrain.height_at` splits each cell; vertex index of (i, j) is i*cols + j (the meshes the
+    exports write and the traces draw)."""
+    i, j = np.meshgrid(np.arange(rows - 1), np.arange(cols - 1), indexing="ij")
+    v00 = (i * cols + j).ravel()
+    v01 = v00 + 1          # (i, j+1): +x
+    v10 = v00 + cols       # (i+1, j): +y
+    v11 = v10 + 1          # (i+1, j+1)
+    lower = np.stack([v00, v01, v11], axis=1)  # u >= v half of the cell
+    upper = np.stack([v00, v11, v10], axis=1)
+    return np.concatenate([lower, upper]).astype(np.int64)
+
+
 @dataclass(frozen=True, eq=False)
 class World:
     """A generated world: terrain, obstacles, mission, movers (none by default), and where it came from."""
@@ -281,14 +295,7 @@ class World:
                 f.write("\n")
             with open(tmp / TERRAIN_NPZ, "wb") as f:
                 np.savez_compressed(f, heights=self.terrain.heights, cell_m=np.float64(self.terrain.cell_m))
-            if dest.exists():
-                old = dest.with_name(f".{dest.name}.old")
-                _files.remove_tree(old)  # a link there is refused, never followed
-                dest.rename(old)
-                tmp.rename(dest)
-                shutil.rmtree(old, ignore_errors=True)
-            else:
-                tmp.rename(dest)
+            _files.replace_dir(tmp, dest)  # the world it replaces via .NAME.old (a link there refused)
         except BaseException:
             shutil.rmtree(tmp, ignore_errors=True)
             raise

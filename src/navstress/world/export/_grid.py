@@ -1,26 +1,13 @@
 """Vectorised sampling of the triangulated terrain surface (the same surface as
-:meth:`navstress.world.world.Terrain.height_at`), and small file-writing helpers."""
+:meth:`navstress.world.world.Terrain.height_at`, its faces :func:`navstress.world.world.terrain_faces`),
+and the exports' mission markers."""
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 
-from navstress import _files
 from navstress.world.world import Terrain
-
-
-def terrain_faces(rows: int, cols: int) -> np.ndarray:
-    """Faces (2*(rows-1)*(cols-1), 3) of the grid; vertex index of (i, j) is i*cols + j."""
-    i, j = np.meshgrid(np.arange(rows - 1), np.arange(cols - 1), indexing="ij")
-    v00 = (i * cols + j).ravel()
-    v01 = v00 + 1          # (i, j+1): +x
-    v10 = v00 + cols       # (i+1, j): +y
-    v11 = v10 + 1          # (i+1, j+1)
-    lower = np.stack([v00, v01, v11], axis=1)  # u >= v half of the cell
-    upper = np.stack([v00, v11, v10], axis=1)
-    return np.concatenate([lower, upper]).astype(np.int64)
 
 
 def surface_heights(terrain: Terrain, x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -69,8 +56,3 @@ def next_pow2_plus1(n: int) -> int:
 MARKER = {"radius": 0.5, "thickness": 0.04, "arrow_length": 1.2, "arrow_width": 0.15, "pole_height": 2.5}
 #: Their colours (RGBA, 0-255).
 MARKER_RGBA = {"start": (26, 191, 51, 255), "goal": (217, 26, 26, 255)}
-
-
-def write_atomic(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` atomically, with the mode the umask gives (see ``navstress._files``)."""
-    _files.write_atomic(path, data)

@@ -35,7 +35,7 @@ from matplotlib.patches import Circle, FancyArrow, Patch
 from PIL import Image
 from PIL.PngImagePlugin import PngInfo
 
-from navstress.world.export._grid import write_atomic
+from navstress import _files
 from navstress.world.colours import GOAL_COLOUR as _GOAL
 from navstress.world.colours import START_COLOUR as _START
 from navstress.world.colours import TERRAIN_STOPS, kind_colour
@@ -91,7 +91,7 @@ def write_heightmap_png(terrain: Terrain, path: str | Path, *, bits: int = 16) -
     """Write the terrain as a ``bits``-bit grayscale PNG (one pixel per vertex), atomically."""
     p = Path(path)
     data, z_min, z_max = heightmap_png_bytes(terrain.heights, terrain.cell_m, bits=bits)
-    write_atomic(p, data)
+    _files.write_atomic(p, data)
     rows, cols = terrain.heights.shape
     return HeightmapInfo(path=p, z_min=z_min, z_max=z_max, width=cols, height=rows)
 
@@ -110,8 +110,9 @@ def read_heightmap_png(path: str | Path) -> tuple[np.ndarray, float, float]:
 
 # ---- preview ------------------------------------------------------------------------------
 
-def _terrain_cmap() -> Any:
-    # light sand (low) -> olive -> brown (high): quiet enough for the obstacles to stand out
+def terrain_cmap() -> Any:
+    """The ground's colour map (matplotlib) of previews, meshes and the report's maps: light sand
+    (low) -> olive -> brown (high), quiet enough for the obstacles to stand out."""
     return LinearSegmentedColormap.from_list("navstress_ground", list(TERRAIN_STOPS))
 
 
@@ -161,7 +162,7 @@ def shaded_ground(terrain: Terrain) -> np.ndarray | None:
     ls = LightSource(azdeg=315, altdeg=40)
     # LightSource assumes row 0 at the top; our row 0 is y = 0 (origin="lower"), so the light
     # would come from the south-east: shade the flipped grid and flip back instead.
-    rgb: np.ndarray = ls.shade(h[::-1], cmap=_terrain_cmap(), norm=ground_norm(h), blend_mode="soft", vert_exag=1.0,
+    rgb: np.ndarray = ls.shade(h[::-1], cmap=terrain_cmap(), norm=ground_norm(h), blend_mode="soft", vert_exag=1.0,
                                dx=terrain.cell_m, dy=terrain.cell_m)[::-1]
     return rgb
 
@@ -173,7 +174,7 @@ def draw_world(ax: Axes, world: World, *, legend: bool = True, hillshade: bool =
     h = terrain.heights.astype(np.float64)
     sx, sy = terrain.size_m
     norm = ground_norm(h)
-    cmap = _terrain_cmap()
+    cmap = terrain_cmap()
     half = terrain.cell_m / 2
     extent = (-half, sx + half, -half, sy + half)
     rgb = shaded_ground(terrain) if hillshade else None
@@ -251,7 +252,7 @@ def preview_png_bytes(world: World, *, dpi: int = 110) -> bytes:
 def write_preview(world: World, path: str | Path, *, dpi: int = 110) -> Path:
     """Write the top-down preview PNG of ``world`` to ``path`` (atomically); returns the path."""
     p = Path(path)
-    write_atomic(p, preview_png_bytes(world, dpi=dpi))
+    _files.write_atomic(p, preview_png_bytes(world, dpi=dpi))
     return p
 
 
@@ -266,7 +267,7 @@ def save_with_preview(world: World, out: Path) -> None:
     existed = out.exists()
     try:
         world.save(out)
-        write_atomic(out / PREVIEW, png)
+        _files.write_atomic(out / PREVIEW, png)
     except BaseException:
         if not existed:  # a world without its preview is partial output: take it back
             shutil.rmtree(out, ignore_errors=True)

@@ -39,9 +39,8 @@ from trimesh.visual.material import SimpleMaterial
 
 from navstress._files import write_atomic_group
 from navstress.world.export._grid import MARKER, MARKER_RGBA
-from navstress.world.export._grid import terrain_faces as terrain_faces  # the triangulation, shared with traces
-from navstress.world.export.images import _terrain_cmap
-from navstress.world.world import Obstacle, Terrain, World
+from navstress.world.export.images import terrain_cmap
+from navstress.world.world import Obstacle, Terrain, World, terrain_faces
 
 #: The root transform of y-up exports (rotation of -90 degrees about x): (x, y, z) -> (x, z, -y).
 Z_UP_TO_Y_UP: np.ndarray = np.array(
@@ -72,7 +71,7 @@ def terrain_texture(terrain: Terrain) -> Any:
     h = terrain.heights.astype(np.float64)
     span = float(h.max() - h.min())
     t = (h - h.min()) / span if span > 0 else np.full(h.shape, 0.3)
-    rgb = (np.asarray(_terrain_cmap()(t))[..., :3] * 255).round().astype(np.uint8)
+    rgb = (np.asarray(terrain_cmap()(t))[..., :3] * 255).round().astype(np.uint8)
     return Image.fromarray(np.ascontiguousarray(rgb[::-1]), mode="RGB")
 
 

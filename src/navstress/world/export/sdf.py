@@ -61,13 +61,14 @@ def _sub(parent: ET.Element, tag: str, text: str | None = None, **attrs: str) ->
     return el
 
 
-def _f(v: float) -> str:
+def _number_text(v: float) -> str:
+    """``v`` as SDF text: 9 significant digits (``%.9g``)."""
     return f"{v:.9g}"
 
 
 def _material(parent: ET.Element, rgb: tuple[float, float, float]) -> None:
     mat = _sub(parent, "material")
-    c = " ".join(_f(v) for v in rgb) + " 1"
+    c = " ".join(_number_text(v) for v in rgb) + " 1"
     _sub(mat, "ambient", c)
     _sub(mat, "diffuse", c)
     _sub(mat, "specular", "0.1 0.1 0.1 1")
@@ -107,20 +108,20 @@ def _mission_models(w: ET.Element, world: World) -> None:
     sx, sy, yaw = ms.start
     start = _sub(w, "model", name="mission_start")
     _sub(start, "static", "true")
-    _sub(start, "pose", f"{_f(sx)} {_f(sy)} {_f(t.height_at(sx, sy))} 0 0 {_f(yaw)}")
+    _sub(start, "pose", f"{_number_text(sx)} {_number_text(sy)} {_number_text(t.height_at(sx, sy))} 0 0 {_number_text(yaw)}")
     link = _sub(start, "link", name="link")
-    disc = ("cylinder", {"radius": _f(_MARK_R), "length": _f(_MARK_T)})
-    _visual(link, "disc", f"0 0 {_f(_MARK_T / 2)} 0 0 0", disc, _START_RGB)
-    _visual(link, "heading", f"{_f(_ARROW_L / 2)} 0 {_f(_MARK_T * 1.5)} 0 0 0",
-            ("box", {"size": f"{_f(_ARROW_L)} {_f(_ARROW_W)} {_f(_MARK_T)}"}), _START_RGB)
+    disc = ("cylinder", {"radius": _number_text(_MARK_R), "length": _number_text(_MARK_T)})
+    _visual(link, "disc", f"0 0 {_number_text(_MARK_T / 2)} 0 0 0", disc, _START_RGB)
+    _visual(link, "heading", f"{_number_text(_ARROW_L / 2)} 0 {_number_text(_MARK_T * 1.5)} 0 0 0",
+            ("box", {"size": f"{_number_text(_ARROW_L)} {_number_text(_ARROW_W)} {_number_text(_MARK_T)}"}), _START_RGB)
     gx, gy = ms.goal
     goal = _sub(w, "model", name="mission_goal")
     _sub(goal, "static", "true")
-    _sub(goal, "pose", f"{_f(gx)} {_f(gy)} {_f(t.height_at(gx, gy))} 0 0 0")
+    _sub(goal, "pose", f"{_number_text(gx)} {_number_text(gy)} {_number_text(t.height_at(gx, gy))} 0 0 0")
     link = _sub(goal, "link", name="link")
-    _visual(link, "disc", f"0 0 {_f(_MARK_T / 2)} 0 0 0", disc, _GOAL_RGB)
-    _visual(link, "pole", f"0 0 {_f(_POLE_H / 2)} 0 0 0",
-            ("cylinder", {"radius": "0.05", "length": _f(_POLE_H)}), _GOAL_RGB)
+    _visual(link, "disc", f"0 0 {_number_text(_MARK_T / 2)} 0 0 0", disc, _GOAL_RGB)
+    _visual(link, "pole", f"0 0 {_number_text(_POLE_H / 2)} 0 0 0",
+            ("cylinder", {"radius": "0.05", "length": _number_text(_POLE_H)}), _GOAL_RGB)
 
 
 def _build(world: World, heightmap_uri: str, step_s: float,
@@ -136,9 +137,9 @@ def _build(world: World, heightmap_uri: str, step_s: float,
     sdf = ET.Element("sdf", version=SDF_VERSION)
     w = _sub(sdf, "world", name=f"navstress_{world.seed}")
     phys = _sub(w, "physics", name="default", type="ode")
-    _sub(phys, "max_step_size", _f(step_s))
+    _sub(phys, "max_step_size", _number_text(step_s))
     _sub(phys, "real_time_factor", "1")
-    _sub(phys, "real_time_update_rate", _f(1.0 / step_s))
+    _sub(phys, "real_time_update_rate", _number_text(1.0 / step_s))
     _sub(w, "gravity", "0 0 -9.81")
     scene = _sub(w, "scene")
     _sub(scene, "ambient", "0.5 0.5 0.5 1")
@@ -147,7 +148,7 @@ def _build(world: World, heightmap_uri: str, step_s: float,
 
     sun = _sub(w, "light", name="sun", type="directional")
     _sub(sun, "cast_shadows", "true")
-    _sub(sun, "pose", f"{_f(sx / 2)} {_f(sy / 2)} {_f(z_max + 50)} 0 0 0")
+    _sub(sun, "pose", f"{_number_text(sx / 2)} {_number_text(sy / 2)} {_number_text(z_max + 50)} 0 0 0")
     _sub(sun, "diffuse", "0.85 0.85 0.8 1")
     _sub(sun, "specular", "0.2 0.2 0.2 1")
     _sub(sun, "direction", "-0.5 0.4 -0.8")
@@ -159,17 +160,17 @@ def _build(world: World, heightmap_uri: str, step_s: float,
         el = _sub(link, tag, name=tag)
         hm = _sub(_sub(el, "geometry"), "heightmap")
         _sub(hm, "uri", heightmap_uri)
-        _sub(hm, "size", f"{_f(sx)} {_f(sy)} {_f(z_span)}")
-        _sub(hm, "pos", f"{_f(sx / 2)} {_f(sy / 2)} {_f(z_min)}")
+        _sub(hm, "size", f"{_number_text(sx)} {_number_text(sy)} {_number_text(z_span)}")
+        _sub(hm, "pos", f"{_number_text(sx / 2)} {_number_text(sy / 2)} {_number_text(z_min)}")
         if tag == "visual":
             _material(el, (0.76, 0.69, 0.53))
 
     for k, o in enumerate(world.obstacles):
         m = _sub(w, "model", name=f"{o.kind}_{k:04d}")
         _sub(m, "static", "true")
-        _sub(m, "pose", f"{_f(o.x)} {_f(o.y)} {_f(o.z + o.size[2] / 2)} 0 0 {_f(o.yaw)}")
+        _sub(m, "pose", f"{_number_text(o.x)} {_number_text(o.y)} {_number_text(o.z + o.size[2] / 2)} 0 0 {_number_text(o.yaw)}")
         ln = _sub(m, "link", name="link")
-        size = " ".join(_f(v) for v in o.size)
+        size = " ".join(_number_text(v) for v in o.size)
         for tag in ("collision", "visual"):
             el = _sub(ln, tag, name=tag)
             _sub(_sub(_sub(el, "geometry"), "box"), "size", size)
