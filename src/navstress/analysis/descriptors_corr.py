@@ -18,7 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import rankdata
+from scipy.stats import rankdata, spearmanr
 
 from navstress.world.world import SKIP_PREFIXES, flatten, world_descriptors
 
@@ -33,14 +33,15 @@ def mean_descriptors(maps: list[dict[str, float]]) -> dict[str, float]:
 
 
 def spearman(x: list[float], y: list[float]) -> float | None:
-    """Spearman's rho (average ranks for ties); None for fewer than 3 pairs or a constant side."""
+    """Spearman's rho (``scipy.stats.spearmanr``: average ranks for ties); None for fewer than 3
+    pairs or a constant side (where scipy's is undefined)."""
     if len(x) != len(y) or len(x) < 3:
         return None
 
     rx, ry = rankdata(x), rankdata(y)
     if np.ptp(rx) == 0 or np.ptp(ry) == 0:
         return None
-    return float(np.corrcoef(rx, ry)[0, 1])
+    return float(spearmanr(x, y).statistic)
 
 
 @dataclass(frozen=True)

@@ -4,8 +4,8 @@ A *configuration* is one point of an experiment's sweep; its runs are grouped by
 ``(experiment, config_key, navigator, fault)``. For each group:
 
 - ``runs``, ``successes``, ``success_rate`` with a Wilson score interval (95 % by default;
-  Clopper-Pearson available with :func:`clopper_pearson`; why not scipy's ``binomtest``
-  intervals: docs/statistics.md, "Intervals and scipy");
+  Clopper-Pearson available with :func:`clopper_pearson`; which scipy routine gives each:
+  docs/statistics.md, "Intervals and scipy");
 - ``outcomes``: counts per outcome (every outcome listed, zeros included);
 - ``median_duration_s`` and ``median_tortuousness``: medians over *successful* runs only
   (None without a success). Tortuousness is the record's ``tortuousness`` column
@@ -51,17 +51,14 @@ def _check(successes: int, n: int, confidence: float) -> None:
 
 
 def wilson(successes: int, n: int, confidence: float = 0.95) -> tuple[float, float]:
-    """Wilson score interval for a binomial proportion; (0, 1) when ``n`` is 0."""
+    """Wilson score interval for a binomial proportion (``scipy.stats.binomtest``'s); (0, 1) when
+    ``n`` is 0 (scipy has none there)."""
     _check(successes, n, confidence)
     if n == 0:
         return 0.0, 1.0
-    z = float(_st.norm.ppf(0.5 + confidence / 2))
-    p = successes / n
-    den = 1 + z * z / n
-    centre = (p + z * z / (2 * n)) / den
-    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
-    lo = 0.0 if successes == 0 else max(0.0, centre - half)  # exact ends (no rounding residue)
-    hi = 1.0 if successes == n else min(1.0, centre + half)
+    ci = _st.binomtest(successes, n).proportion_ci(confidence_level=confidence, method="wilson")
+    lo = 0.0 if successes == 0 else max(0.0, float(ci.low))  # exact ends (no rounding residue)
+    hi = 1.0 if successes == n else min(1.0, float(ci.high))
     return lo, hi
 
 
