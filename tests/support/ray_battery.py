@@ -26,10 +26,9 @@ from typing import Any
 
 import pytest
 
-from built_once import built_once
+from tests.support.built_once import built_once
 
-ROOT = Path(__file__).resolve().parents[1]
-HELPERS = ROOT / "tests" / "unit" / "campaign"  # executor_contract, campaign_navs
+ROOT = Path(__file__).resolve().parents[2]  # tests.support (executor_contract, navigators.campaign_navs) importable
 #: What RAY_ADDRESS holds while the battery runs: nothing listens there.
 DEAD_RAY_ADDRESS = "127.0.0.1:1"
 
@@ -54,9 +53,8 @@ def _build(root: Path, factory: pytest.TempPathFactory) -> dict[str, Any]:
     # with no address given navstress must not follow RAY_ADDRESS but start its own local cluster
     # (test_executors.test_ray_ignores_ray_address_and_starts_its_own_cluster)
     env["RAY_ADDRESS"] = DEAD_RAY_ADDRESS
-    env["PYTHONPATH"] = os.pathsep.join([str(ROOT / "src"), str(HELPERS), str(ROOT / "tests"),
-                                         os.environ.get("PYTHONPATH", "")])
-    code = "import sys, executor_contract; executor_contract.main('ray', sys.argv[1])"
+    env["PYTHONPATH"] = os.pathsep.join([str(ROOT / "src"), str(ROOT), os.environ.get("PYTHONPATH", "")])
+    code = "import sys; from tests.support import executor_contract; executor_contract.main('ray', sys.argv[1])"
     p = subprocess.run([sys.executable, "-c", code, str(root / "contract")], env=env, capture_output=True,
                        text=True, timeout=580)
     assert p.returncode == 0, p.stderr[-3000:]

@@ -2,9 +2,8 @@
 channel's sequence numbers 1, 2, 3, ... in that order, and a valid, consistent summary (what
 ``mcap doctor --strict-message-order`` and Foxglove rely on).
 
-Used by the autouse fixtures in ``tests/conftest.py``; a uniquely named module (several
-``conftest`` modules exist in this tree). When the official ``mcap`` CLI is on PATH (or
-``NAVSTRESS_MCAP_CLI`` names it), ``mcap doctor --strict-message-order`` runs too.
+Used by the autouse fixtures in ``tests/conftest.py``. When the official ``mcap`` CLI is on
+PATH (or ``NAVSTRESS_MCAP_CLI`` names it), ``mcap doctor --strict-message-order`` runs too.
 """
 
 from __future__ import annotations

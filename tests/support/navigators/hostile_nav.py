@@ -1,9 +1,9 @@
 """A navigator that attacks its host on purpose, in one of its methods.
 
 In process: ``Hostile(config={"mode": MODE, "where": WHERE})`` (register it as
-``"hostile_nav:Hostile"``). Out of process: ``python hostile_nav.py MODE WHERE`` serves the same
-navigator over the line protocol (:func:`navstress.nav.external.serve`), so the attack hits the
-navigator's own process.
+``"tests.support.navigators.hostile_nav:Hostile"``). Out of process: ``python hostile_nav.py
+MODE WHERE`` serves the same navigator over the line protocol
+(:func:`navstress.nav.external.serve`), so the attack hits the navigator's own process.
 
 WHERE: ``init``, ``reset``, ``step`` (or ``close``). MODE:
   exit0 / exit3      sys.exit(0) / sys.exit(3)

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from analysis_synth import line, make_store, record, save_flat_worlds, write_trace
+from tests.support.analysis_synth import line, make_store, record, save_flat_worlds, write_trace
 from scipy import stats as sst
 
 from navstress.analysis.analyze import analyze

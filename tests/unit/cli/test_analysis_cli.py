@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 import typer
-from analysis_synth import make_store, record
+from tests.support.analysis_synth import make_store, record
 from typer.testing import CliRunner
 
 from navstress.cli.analysis import app as analysis_app

@@ -11,7 +11,7 @@ import pytest
 from PIL import Image
 from typer.testing import CliRunner
 
-from world_fixtures import small_world
+from tests.support.world_fixtures import small_world
 from navstress import __version__
 from navstress.cli import app
 from navstress.world import World, parse_spec

@@ -18,8 +18,9 @@ from pathlib import Path
 
 import pytest
 
-from cli_inputs import OUTPUT_COMMANDS, OutputCommand, assert_one_line_error, invoke, prepare, snapshot
+from tests.support.cli_inputs import OUTPUT_COMMANDS, OutputCommand, assert_one_line_error, invoke, prepare, snapshot
 
+ROOT = Path(__file__).resolve().parents[3]  # the child scripts import tests.support from there
 FAMILIES = {
     "parent is a file": "{root}/afile/out",
     "parent under /proc": "/proc/navstress-no-such-dir/out",
@@ -68,7 +69,7 @@ _RO_SCRIPT = """
 import json, sys
 sys.path[:0] = sys.argv[3].split(":")
 from pathlib import Path
-from cli_inputs import OUTPUT_COMMANDS, invoke, snapshot
+from tests.support.cli_inputs import OUTPUT_COMMANDS, invoke, snapshot
 root, ro = Path(sys.argv[1]), sys.argv[2]
 out = {}
 for c in OUTPUT_COMMANDS:
@@ -93,8 +94,7 @@ def test_read_only_file_system_in_every_output_command(tmp_path: Path) -> None:
     prepare(root)
     ro = tmp_path / "ro"
     ro.mkdir()
-    tests = Path(__file__).parent
-    paths = f"{tests}:{tests.parent}"
+    paths = str(ROOT)
     script = f"mount -t tmpfs -o ro tmpfs {ro} && exec {sys.executable} -c '{_RO_SCRIPT}' {root} {ro} {paths}"
     r = subprocess.run(["unshare", "-rm", "sh", "-c", script], capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr[-3000:]
@@ -111,7 +111,7 @@ _FULL_SCRIPT = """
 import json, subprocess, sys
 sys.path[:0] = sys.argv[3].split(":")
 from pathlib import Path
-from cli_inputs import OUTPUT_COMMANDS, invoke
+from tests.support.cli_inputs import OUTPUT_COMMANDS, invoke
 root, base = Path(sys.argv[1]), Path(sys.argv[2])
 skip = set(sys.argv[4].split(","))
 out = {}
@@ -136,10 +136,9 @@ def test_full_disk_in_every_output_command_is_one_line_and_leaves_nothing(tmp_pa
     prepare(root)
     base = tmp_path / "full"
     base.mkdir()
-    tests = Path(__file__).parent
     skip = shlex.quote(",".join(sorted(_FULL_SKIP)))
     script = (f"mount -t tmpfs tmpfs {base} && exec {sys.executable} -c '{_FULL_SCRIPT}' {root} {base} "
-              f"{tests}:{tests.parent} {skip}")
+              f"{ROOT} {skip}")
     r = subprocess.run(["unshare", "-rm", "sh", "-c", script], capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr[-3000:]
     results = json.loads(r.stdout.strip().splitlines()[-1])
@@ -168,10 +167,9 @@ def test_a_full_disk_under_a_resumable_command_says_to_resume_with_that_command(
     prepare(root)
     base = tmp_path / "full"
     base.mkdir()
-    tests = Path(__file__).parent
     only = shlex.quote(",".join(sorted(c.name for c in OUTPUT_COMMANDS if c.name not in _FULL_SKIP)))
     script = (f"mount -t tmpfs tmpfs {base} && exec {sys.executable} -c '{_FULL_SCRIPT}' {root} {base} "
-              f"{tests}:{tests.parent} {only}")
+              f"{ROOT} {only}")
     r = subprocess.run(["unshare", "-rm", "sh", "-c", script], capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr[-3000:]
     results = json.loads(r.stdout.strip().splitlines()[-1])

@@ -20,7 +20,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from cli_inputs import TRACEBACK, leaf_commands, prepare, snapshot
+from tests.support.cli_inputs import TRACEBACK, leaf_commands, prepare, snapshot
 from navstress.cli import app
 
 # ---- the commands, from the app --------------------------------------------------------

@@ -16,16 +16,13 @@ from pathlib import Path
 import pytest
 from typer import _click as click
 
-ANALYSIS = str(Path(__file__).resolve().parent / "analysis")
-CAMPAIGN_HELPERS = str(Path(__file__).resolve().parent / "campaign")
-if ANALYSIS not in sys.path:
-    sys.path.insert(0, ANALYSIS)
+from tests.support.analysis_synth import make_store, record
+from tests.support.cli_inputs import invoke
+from navstress.cli import MOUNTS, mounted
+from tests.support.strict_json import strict_loads
+from tests.support.world_fixtures import small_world
 
-from analysis_synth import make_store, record  # noqa: E402
-from cli_inputs import invoke  # noqa: E402
-from navstress.cli import MOUNTS, mounted  # noqa: E402
-from strict_json import strict_loads  # noqa: E402
-from world_fixtures import small_world  # noqa: E402
+ROOT = str(Path(__file__).resolve().parents[3])  # tests.support.navigators importable in a child
 
 FAULT = "small-footprint"
 
@@ -121,9 +118,9 @@ def test_run_json_stdout_stays_one_document_when_the_navigator_prints(dirs: dict
     """A real ``navstress`` process whose navigator (in its worker process) prints on stdout at
     every call: the prints go to stderr, stdout is the JSON document alone."""
     cli = ("import sys; from navstress.nav.registry import register; "
-           "register('prints-v1', 'campaign_navs:Prints'); from navstress.cli import main; "
+           "register('prints-v1', 'tests.support.navigators.campaign_navs:Prints'); from navstress.cli import main; "
            "sys.argv = ['navstress', *sys.argv[1:]]; main()")
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([CAMPAIGN_HELPERS, *sys.path])}
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([ROOT, *sys.path])}
     argv = ["run", str(dirs["w"]), "-o", str(tmp_path / "r"), "--navigator", "prints-v1", "--timeout", "0.3",
             "--json"]
     p = subprocess.run([sys.executable, "-c", cli, *argv], capture_output=True, text=True, timeout=300, env=env)

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from cli_inputs import invoke, prepare
+from tests.support.cli_inputs import invoke, prepare
 from navstress._console import console, literal
 
 HOSTILE = [

@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 import typer
 
-from cli_inputs import assert_one_line_error, invoke, snapshot
-from world_fixtures import small_world
+from tests.support.cli_inputs import assert_one_line_error, invoke, snapshot
+from tests.support.world_fixtures import small_world
 from navstress.cli import app
 
 

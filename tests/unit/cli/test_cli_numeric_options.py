@@ -13,19 +13,14 @@ traces, where the value is used.
 from __future__ import annotations
 
 import json
-import sys
 import time
 from pathlib import Path
 
 import pytest
 
-UNIT = Path(__file__).resolve().parent
-if str(UNIT / "analysis") not in sys.path:
-    sys.path.insert(0, str(UNIT / "analysis"))
-
-from analysis_synth import line, make_store, record, save_flat_worlds, write_trace  # noqa: E402
-from cli_inputs import assert_one_line_error, invoke, leaf_commands, prepare  # noqa: E402
-from test_cli_fuzz import BASE, DEFAULTS  # noqa: E402
+from tests.support.analysis_synth import line, make_store, record, save_flat_worlds, write_trace
+from tests.support.cli_inputs import assert_one_line_error, invoke, leaf_commands, prepare
+from test_cli_fuzz import BASE, DEFAULTS
 
 COMMANDS = leaf_commands()
 #: The options whose value is a number, by parameter name.

@@ -25,10 +25,10 @@ from typing import Any
 import pytest
 import yaml
 
-import loopback
-from cli_inputs import CAMPAIGN, SEARCH, TRACEBACK, assert_one_line_error, invoke, leaf_commands
+from tests.support import loopback
+from tests.support.cli_inputs import CAMPAIGN, SEARCH, TRACEBACK, assert_one_line_error, invoke, leaf_commands
 
-UNIT = Path(__file__).resolve().parent
+SUPPORT = Path(__file__).resolve().parents[2] / "support"
 COMMANDS = leaf_commands()
 
 #: A bad input per command ({root}: a folder holding bad.yaml, badsearch.yaml and afile).
@@ -104,7 +104,7 @@ def on_fd2(root: Path) -> dict[tuple[str, str], dict[str, Any]]:
     env = {**os.environ, "TERM": "xterm-256color", "COLUMNS": "120"}
     env.pop("NO_COLOR", None)
     env.pop("FORCE_COLOR", None)
-    r = subprocess.run([sys.executable, str(UNIT / "stderr_lines.py")], input=json.dumps(cases), text=True,
+    r = subprocess.run([sys.executable, str(SUPPORT / "stderr_lines.py")], input=json.dumps(cases), text=True,
                        capture_output=True, env=env, timeout=300, cwd=root)
     assert r.returncode == 0, r.stderr[-3000:]
     results = json.loads(r.stdout)

@@ -6,18 +6,14 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import sys
 from pathlib import Path
 from typing import Any
 
 import pytest
 import yaml
-from analysis_synth import make_store, record, spec_dict
+from tests.support.analysis_synth import make_store, record, spec_dict
 
-UNIT = str(Path(__file__).resolve().parents[1])  # the CLI test helpers (cli_inputs) live there
-if UNIT not in sys.path:
-    sys.path.insert(0, UNIT)
-from cli_inputs import assert_one_line_error, invoke, snapshot  # noqa: E402
+from tests.support.cli_inputs import assert_one_line_error, invoke, snapshot
 
 from navstress.analysis.compare import Arm, compare
 from navstress.campaign.spec import parse_campaign

@@ -3,15 +3,13 @@ line (an unknown objective, an existing file), and the group's default command."
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import pytest
 import typer
 from typer.testing import CliRunner
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # tests/unit: the CLI input helpers
-from cli_inputs import assert_one_line_error, invoke  # noqa: E402
+from tests.support.cli_inputs import assert_one_line_error, invoke
 from navstress.cli.search import DEFAULT_COMMAND, DefaultGroup
 from navstress.search.presets import template_yaml
 from navstress.search.spec import OBJECTIVES, load_search

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import pytest
 
-from nav_plugin_helpers import EXAMPLE, EXAMPLE_SRC
+from tests.support.nav_plugin_helpers import EXAMPLE, EXAMPLE_SRC
 
 
 def _entry_point_names() -> set[str]:

@@ -20,7 +20,7 @@ from navstress.nav.external import ExternalNavigator
 from navstress.run.mission import run_mission
 from navstress.world import Mission, World, WorldSpec
 
-ECHO = Path(__file__).resolve().parent / "echo_nav.py"
+ECHO = Path(__file__).resolve().parents[2] / "support" / "navigators" / "echo_nav.py"
 
 #: bad answers as (the in-process object, the same answer as a protocol reply)
 BAD: list[tuple[Any, dict[str, Any]]] = [

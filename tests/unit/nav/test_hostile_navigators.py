@@ -13,18 +13,18 @@ from pathlib import Path
 
 import pytest
 
-from hostile_nav import MODES
+from tests.support.navigators.hostile_nav import MODES
 from navstress.nav import registry
 from navstress.isolate import Worker
 from navstress.nav.check import CHECK_NAMES, check_in_worker
 from navstress.run.batch import plan_batch, run_batch
 from navstress.run.record import RunRecord, RunTask
-from strict_json import strict_lines
-from world_fixtures import small_world
+from tests.support.strict_json import strict_lines
+from tests.support.world_fixtures import small_world
 
 pytestmark = pytest.mark.slow
 
-HOSTILE = Path(__file__).resolve().parent / "hostile_nav.py"
+HOSTILE = Path(__file__).resolve().parents[2] / "support" / "navigators" / "hostile_nav.py"
 WHERE = ("init", "reset", "step")
 #: attacks that end the worker process (one fresh worker each: the costly part of the family)
 FATAL = ("os_exit0", "segv", "sigkill", "loop")
@@ -62,7 +62,7 @@ def world_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 @pytest.fixture
 def hostile_registered() -> object:
-    registry.register("hostile-v1", "hostile_nav:Hostile", override=True)
+    registry.register("hostile-v1", "tests.support.navigators.hostile_nav:Hostile", override=True)
     yield None
     registry.unregister("hostile-v1")
 
@@ -141,12 +141,12 @@ def test_nav_check_fails_naming_every_out_of_process_attack() -> None:
 
 # ---- through the real CLI: a user's script registers the navigator, then calls navstress
 
-CLI = ("import sys; from navstress.nav import registry; registry.register('hostile-v1', 'hostile_nav:Hostile'); "
+CLI = ("import sys; from navstress.nav import registry; registry.register('hostile-v1', 'tests.support.navigators.hostile_nav:Hostile'); "
        "from navstress.cli import main; sys.argv[0] = 'navstress'; main()")
 
 
 def navstress(*args: str) -> subprocess.CompletedProcess[str]:
-    env_path = str(HOSTILE.parent)
+    env_path = str(HOSTILE.parents[3])  # the repository root: tests.support.navigators.hostile_nav
     import os
 
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([env_path, *sys.path])}
@@ -187,7 +187,7 @@ def _config_file(tmp_path: Path, cfg: dict[str, str]) -> Path:
 def test_served_navigator_raising_in_step_is_classified_as_in_process(mode: str, world_dir: Path) -> None:
     """`serve` (python -m navstress.nav.external) does not turn an exception into the stack's own
     Fail-Error: the same navigator gives the same class in process and out of process."""
-    from hostile_nav import Hostile
+    from tests.support.navigators.hostile_nav import Hostile
     from navstress.nav.external import ExternalNavigator
     from navstress.run.mission import run_mission
     from navstress.world.world import World

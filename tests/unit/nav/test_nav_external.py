@@ -17,7 +17,7 @@ from navstress.nav.external import ExternalNavigator
 from navstress.nav.registry import make_navigator
 from navstress.robot import RobotSpec
 
-from nav_plugin_helpers import MISBEHAVING, STDIO
+from tests.support.nav_plugin_helpers import MISBEHAVING, STDIO
 
 ROBOT = RobotSpec()
 MISSION = NavMission((0.0, 0.0, 0.0), (5.0, 2.0), 1.0)
@@ -243,7 +243,7 @@ def test_stdio_example_is_standard_library_only() -> None:
     assert isinstance(wire.decode_command_or_status(replies[2]), Command)
 
 
-CHATTY = Path(__file__).resolve().parent / "chatty_nav.py"
+CHATTY = Path(__file__).resolve().parents[2] / "support" / "navigators" / "chatty_nav.py"
 
 
 def test_chatty_stderr_costs_little_and_keeps_a_bounded_tail(no_leftover_process: list[int]) -> None:

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from nav_plugin_helpers import MISBEHAVING, STDIO
+from tests.support.nav_plugin_helpers import MISBEHAVING, STDIO
 from navstress.run.mission import execute
 from navstress.run.record import RunTask
 from navstress.run.trace import read_poses

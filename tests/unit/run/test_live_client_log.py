@@ -15,8 +15,8 @@ import time
 
 import pytest
 
-import loopback
-from live_garbage import UNSAFE, attack
+from tests.support import loopback
+from tests.support.live_garbage import UNSAFE, attack
 from navstress.run.live import LOG_BURST, LOG_LINE_CHARS, SDK_LOGGER, ClientLog
 
 SERVER = """

@@ -9,7 +9,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from mcap.reader import NonSeekingReader, make_reader
-from trace_check import trace_problems
+from tests.support.trace_check import trace_problems
 
 from navstress.errors import StoreError
 from navstress.run.trace import (TOPIC_MAP, TOPIC_PERCEIVED, TOPIC_TRUTH, TraceWriter, euler, quaternion, read_events,

@@ -17,7 +17,7 @@ from navstress.sim.lidar import Lidar, LidarConfig, LidarScene, build_scene, cas
 from navstress.world.generate import generate
 from navstress.world.spec import WorldSpec
 from navstress.world.world import Obstacle, Terrain, World
-from oracles.scan import scan_kernel
+from tests.oracles.scan import scan_kernel
 
 # ---------------------------------------------------------------------------------------------
 # helpers: random scenes, brute force (every triangle), MuJoCo model of the same scene

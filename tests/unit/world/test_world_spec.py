@@ -158,7 +158,7 @@ def test_cli_generate_refuses_a_huge_map_in_one_line_without_allocating(tmp_path
 def test_damaged_world_files_are_one_world_file_error(tmp_path: Path, name: str, data: bytes) -> None:
     import shutil
 
-    from world_fixtures import small_world
+    from tests.support.world_fixtures import small_world
     from navstress.errors import WorldFileError
     from navstress.world import World
 

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from nav_scenes import BASE_H, MOUNT, Scene, closed_loop, grid_points, to_sensor
+from tests.support.nav_scenes import BASE_H, MOUNT, Scene, closed_loop, grid_points, to_sensor
 
 from navstress.errors import NavigatorError
 from navstress.nav.api import Command, Imu, LidarScan, NavMission, Navigator, Observation, Odometry, PoseReading, Status

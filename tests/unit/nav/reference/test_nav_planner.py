@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from nav_scenes import Scene, grid_points
+from tests.support.nav_scenes import Scene, grid_points
 
 from navstress.nav.reference.config import ReferenceConfig
 from navstress.nav.reference.planner import ArcPlanner, arc_nodes, footprint_cells, node_cost

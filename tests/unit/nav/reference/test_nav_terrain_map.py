@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from nav_scenes import BASE_H, MOUNT, Scene, scan_points
+from tests.support.nav_scenes import BASE_H, MOUNT, Scene, scan_points
 
 from navstress.nav.reference.planner import footprint_slope_roughness
 from navstress.nav.reference.pose import Pose, sensor_to_map

@@ -17,14 +17,14 @@ from typing import Any
 import numpy as np
 import pytest
 
-from built_once import built_once
-from required import need as _need
-from world_fixtures import small_world
+from tests.support.built_once import built_once
+from tests.support.required import need as _need
+from tests.support.world_fixtures import small_world
 from navstress.world import World
 from navstress.world.export._grid import MARKER, surface_heights
 from navstress.world.export.sdf import write_sdf
 
-SOURCE = Path(__file__).resolve().parents[2] / "oracles" / "sdf_load.cc"
+SOURCE = Path(__file__).resolve().parents[3] / "oracles" / "sdf_load.cc"
 PACKAGES = ("sdformat12", "ignition-common4-graphics")
 
 

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from PIL import Image
 
-from world_fixtures import small_world
+from tests.support.world_fixtures import small_world
 from navstress.world import Terrain, World, WorldSpec
 from navstress.world.export.images import (draw_world, heightmap_png_bytes, read_heightmap_png,
                                            world_title, write_heightmap_png, write_preview)

@@ -14,7 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from PIL import Image
 
-from world_fixtures import small_world
+from tests.support.world_fixtures import small_world
 from navstress.world.export._grid import MARKER
 from navstress.world.export.mesh import MESH_FORMATS, Z_UP_TO_Y_UP, terrain_faces, write_mesh
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from world_fixtures import small_world
+from tests.support.world_fixtures import small_world
 from navstress.world.export._grid import next_pow2_plus1, surface_heights
 from navstress.world.export.images import read_heightmap_png
 from navstress.world.export.sdf import write_sdf
