@@ -28,6 +28,8 @@ from navstress.sequential import decide, should_continue
 ROOT = str(Path(__file__).resolve().parents[2])
 SRC = str(Path(__file__).resolve().parents[2] / "src")
 
+pytestmark = pytest.mark.slow  # real campaigns (built once), Ray
+
 RULE = {"min": 3, "max": 12, "threshold": 0.5, "confidence": 0.8}
 SPEC: dict[str, Any] = {
     "name": "adaptive", "seed": 3,

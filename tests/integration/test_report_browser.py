@@ -32,6 +32,8 @@ from navstress.campaign.store import Store
 from tests.support.required import need as _need
 from tests.support.search_dirs import SearchDirs
 
+pytestmark = pytest.mark.slow  # a real browser, and the report of the session's tiny real searches
+
 CHROMIUM = os.environ.get("NAVSTRESS_CHROMIUM") or shutil.which("chromium") or "/usr/bin/chromium"
 
 

@@ -293,6 +293,7 @@ def ran(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return out
 
 
+@pytest.mark.slow
 def test_replay_keeps_its_trace_without_following_a_link(ran: Path, base: Path) -> None:
     outside = base / "outside"
     keep = base / "keep"

@@ -128,6 +128,7 @@ def test_bad_input_one_line_exit_2_nothing_written(tmp_path: Path, args: list[st
     assert snapshot(tmp_path) == before  # nothing written, nothing left behind
 
 
+@pytest.mark.slow
 def test_bad_input_in_a_real_subprocess(tmp_path: Path) -> None:
     r = subprocess.run([str(NAVSTRESS), "world", "generate", "--trees", "-3", "-o", str(tmp_path / "out")],
                        capture_output=True, text=True, timeout=120)
@@ -136,6 +137,7 @@ def test_bad_input_in_a_real_subprocess(tmp_path: Path) -> None:
     assert not list(tmp_path.iterdir())
 
 
+@pytest.mark.slow
 def test_version_and_generate_in_a_real_subprocess(tmp_path: Path) -> None:
     r = subprocess.run([str(NAVSTRESS), "--version"], capture_output=True, text=True, timeout=60)
     assert r.returncode == 0 and r.stdout.strip() == f"navstress {__version__}"

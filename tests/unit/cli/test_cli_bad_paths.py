@@ -88,6 +88,7 @@ def _unshare_works() -> bool:
     return r.returncode == 0
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not _unshare_works(), reason="needs unshare -rm and tmpfs mounts")
 def test_read_only_file_system_in_every_output_command(tmp_path: Path) -> None:
     root = tmp_path / "root"
@@ -130,6 +131,7 @@ print(json.dumps(out))
 _FULL_SKIP = {"demo", "campaign run", "search"}
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not _unshare_works(), reason="needs unshare -rm and tmpfs mounts")
 def test_full_disk_in_every_output_command_is_one_line_and_leaves_nothing(tmp_path: Path) -> None:
     root = tmp_path / "root"
@@ -160,6 +162,7 @@ _RESUME = {"campaign run": "navstress campaign run {root}/spec.yaml -o {out}",
            "demo": "navstress demo -o {out}"}
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not _unshare_works(), reason="needs unshare -rm and tmpfs mounts")
 def test_a_full_disk_under_a_resumable_command_says_to_resume_with_that_command(tmp_path: Path) -> None:
     assert set(_RESUME) == _FULL_SKIP

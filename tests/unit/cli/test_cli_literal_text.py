@@ -75,6 +75,7 @@ def root(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return r
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("text", HOSTILE)
 def test_navigator_messages_are_literal_in_run_and_nav_check(root: Path, text: str, tmp_path: Path) -> None:
     cfg = json.dumps({"command": [sys.executable, str(root / "nav.py"), text]})

@@ -81,6 +81,7 @@ def _family(tmp: Path) -> list[tuple[str, str, str]]:
     ]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("cmd", COMMANDS, ids=" ".join)
 def test_every_form_of_the_option_is_parsed_or_refused_in_one_line(cmd: list[str], world_dir: Path,
                                                                       tmp_path: Path) -> None:
@@ -98,6 +99,7 @@ def test_every_form_of_the_option_is_parsed_or_refused_in_one_line(cmd: list[str
         assert snapshot(tmp_path) == before, label
 
 
+@pytest.mark.slow
 def test_inline_json_config_reaches_the_navigator_of_a_run(world_dir: Path, tmp_path: Path) -> None:
     cfg = '{"max_speed_mps": 0.5, "n_arcs": 12}'
     argv = ["run", str(world_dir), "--timeout", "0.3", "-o", str(tmp_path / "o"), "--navigator-config", cfg]

@@ -27,6 +27,7 @@ print("up", flush=True)
 sys.stdin.read()
 p.close()
 """
+@pytest.mark.slow
 @pytest.mark.parametrize("connections", [0, 30])
 def test_client_garbage_is_escaped_bounded_and_counted(connections: int) -> None:
     pytest.importorskip("websockets")

@@ -630,6 +630,7 @@ def boxes_brute_force(sc: LidarScene, cfg: LidarConfig, origin: np.ndarray, rot:
     return out
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None)
 @given(st.integers(0, 2**32 - 1), st.sampled_from([0.0, 1e-3, 0.1, 0.5, 1.2, 3.0]),
        st.sampled_from(["random", "inside", "straddle", "wide"]))

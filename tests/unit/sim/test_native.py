@@ -283,6 +283,7 @@ def test_gated():
 """
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("off", [{"NAVSTRESS_NATIVE": "0"}, {"NAVSTRESS_NATIVE": "1", "CC": "no-such-cc"}])
 @pytest.mark.parametrize("require", ["1", None])
 def test_require_native_turns_the_skip_into_a_failure(tmp_path: Path, off: dict[str, str], require: str | None) -> None:
