@@ -3,7 +3,7 @@
 #   make test         create .venv with test extras, type-check (mypy --strict), run the whole suite
 #                     (the gate .ci/run calls)
 #   make test-quick   after each change: mypy and every test not marked `slow` (doctests and the
-#                     layer test included), in about 3 minutes on 2 cores; `make test` before a push
+#                     layer test included); target: at most 3 minutes on 2 cores; `make test` before a push
 PY ?= $(shell command -v python3.11 || command -v python3)
 VENV := .venv
 BIN := $(VENV)/bin
