@@ -1,5 +1,5 @@
-"""Shared fixtures. Helpers live in ``world_fixtures`` (a uniquely named module: several
-``conftest`` modules exist in this tree, so ``from conftest import ...`` would be ambiguous).
+"""Shared fixtures. Helpers that are not fixtures live in the ``tests.support`` package
+(``from tests.support.world_fixtures import small_world``), never in a ``conftest`` module.
 
 Every MCAP trace any test writes is checked (``trace_check``): messages in log-time order in
 the file, a valid summary. Per test under its ``tmp_path``, and once at the end of the session
@@ -15,9 +15,9 @@ from pathlib import Path
 import pytest
 from hypothesis import settings
 
-from search_dirs import SearchDirs, search_dirs
-from trace_check import TraceChecker
-from world_fixtures import small_world
+from tests.support.search_dirs import SearchDirs, search_dirs
+from tests.support.trace_check import TraceChecker
+from tests.support.world_fixtures import small_world
 from navstress.world import World
 
 _CHECKER = TraceChecker()
@@ -33,7 +33,7 @@ def pytest_sessionstart(session: pytest.Session) -> None:
     """numba's kernels compiled once before the test workers start (``make test`` has done it
     beside mypy; then this finds the cache warm and returns at once)."""
     if not hasattr(session.config, "workerinput"):  # the controller (or a run without xdist)
-        from numba_warm import warm
+        from tests.support.numba_warm import warm
         warm()
 
 

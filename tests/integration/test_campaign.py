@@ -22,15 +22,11 @@ from navstress.cli.campaign import campaign_app, replay as replay_cmd
 from navstress.campaign.executors import run_campaign
 from navstress.campaign.replay import replay
 from navstress.campaign.store import Store, read_export
-import loopback
-import ray_battery
-from cli_run import cli
-from built_once import built_once
-from campaign_kill import kill_when_recorded
-
-HELPERS = str(Path(__file__).resolve().parents[1] / "unit" / "campaign")
-if HELPERS not in sys.path:
-    sys.path.insert(0, HELPERS)
+from tests.support import loopback
+from tests.support import ray_battery
+from tests.support.cli_run import cli
+from tests.support.built_once import built_once
+from tests.support.campaign_kill import kill_when_recorded
 
 pytestmark = pytest.mark.slow
 
@@ -218,10 +214,10 @@ def test_exports_load_in_one_line_with_pandas_and_duckdb_typed_and_with_world_de
 
 
 MISBEHAVING = [
-    {"name": "exits-v1", "target": "campaign_navs:Exits", "config": {"after_s": 0.5}},
-    {"name": "segfaults-v1", "target": "campaign_navs:Segfaults", "config": {"after_s": 0.5}},
-    {"name": "raises-v1", "target": "campaign_navs:Raises", "config": {"after_s": 0.5}},
-    {"name": "hangs-v1", "target": "campaign_navs:Hangs", "config": {"after_s": 0.5}},
+    {"name": "exits-v1", "target": "tests.support.navigators.campaign_navs:Exits", "config": {"after_s": 0.5}},
+    {"name": "segfaults-v1", "target": "tests.support.navigators.campaign_navs:Segfaults", "config": {"after_s": 0.5}},
+    {"name": "raises-v1", "target": "tests.support.navigators.campaign_navs:Raises", "config": {"after_s": 0.5}},
+    {"name": "hangs-v1", "target": "tests.support.navigators.campaign_navs:Hangs", "config": {"after_s": 0.5}},
     {"name": "reference-v1"},
 ]
 

@@ -1,7 +1,7 @@
 """Adaptive repetition end to end: real missions in worker processes, a real SQLite store,
 SIGKILL of the driver, the local pool with 1 and 2 workers, and Ray once.
 
-The navigators are ``campaign_navs:Coin`` (tests/unit/campaign): each run is a real mission on a
+The navigators are ``campaign_navs:Coin`` (tests/support/navigators): each run is a real mission on a
 small generated world that ends after one control cycle, a success with probability ``p`` drawn
 from the run's seed, so the streams stop at varied run counts within seconds.
 """
@@ -18,17 +18,17 @@ from typing import Any
 import pytest
 import yaml
 
-import ray_battery
-from built_once import built_once
-from campaign_kill import kill_when_recorded
+from tests.support import ray_battery
+from tests.support.built_once import built_once
+from tests.support.campaign_kill import kill_when_recorded
 from navstress.campaign.executors import run_campaign
 from navstress.campaign.store import Store
 from navstress.sequential import decide, should_continue
 
-HELPERS = str(Path(__file__).resolve().parents[1] / "unit" / "campaign")
-if HELPERS not in sys.path:
-    sys.path.insert(0, HELPERS)
+ROOT = str(Path(__file__).resolve().parents[2])
 SRC = str(Path(__file__).resolve().parents[2] / "src")
+
+pytestmark = pytest.mark.slow  # real campaigns (built once), Ray
 
 RULE = {"min": 3, "max": 12, "threshold": 0.5, "confidence": 0.8}
 SPEC: dict[str, Any] = {
@@ -41,8 +41,8 @@ SPEC: dict[str, Any] = {
         {"name": "fixed", "sweep": {"obstacles.obstruction.tree": {"values": [0]}}},
     ],
     "maps_per_config": 2, "runs_per_map": 2,
-    "navigators": [{"name": "coin-v1", "target": "campaign_navs:Coin", "config": {"p": 0.5}},
-                   {"name": "coin-v2", "target": "campaign_navs:Coin", "config": {"p": 0.95}}],
+    "navigators": [{"name": "coin-v1", "target": "tests.support.navigators.campaign_navs:Coin", "config": {"p": 0.5}},
+                   {"name": "coin-v2", "target": "tests.support.navigators.campaign_navs:Coin", "config": {"p": 0.95}}],
     "faults": [None], "timeout_s": 5.0, "goal_tolerance_m": 2.0}
 
 
@@ -113,7 +113,7 @@ _DRIVER = ("import sys; from navstress.campaign.executors import run_campaign\n"
 @pytest.mark.parametrize("kill_after", [1, 9, 20])
 def test_sigkill_then_resume_gives_the_same_final_set(uninterrupted: Path, tmp_path: Path, kill_after: int) -> None:
     spec, out = _write(tmp_path / "spec.yaml"), tmp_path / "out"
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([SRC, HELPERS, os.environ.get("PYTHONPATH", "")])}
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([SRC, ROOT, os.environ.get("PYTHONPATH", "")])}
     driver = tmp_path / "driver.py"
     driver.write_text(_DRIVER)
     proc = subprocess.Popen([sys.executable, str(driver), str(spec), str(out)], env=env)

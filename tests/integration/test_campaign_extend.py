@@ -20,18 +20,16 @@ from typing import Any
 import pytest
 import yaml
 
-from campaign_kill import kill_when_recorded
+from tests.support.campaign_kill import kill_when_recorded
 from navstress.campaign.local import LocalExecutor
 from navstress.campaign.plan import plan
 from navstress.campaign.scheduler import resume
 from navstress.campaign.spec import load_campaign
 from navstress.campaign.store import Store
 
-HELPERS = str(Path(__file__).resolve().parents[1] / "unit" / "campaign")
-if HELPERS not in sys.path:
-    sys.path.insert(0, HELPERS)
+ROOT = str(Path(__file__).resolve().parents[2])
 SRC = str(Path(__file__).resolve().parents[2] / "src")
-TARGETS = {"coin-v1": "campaign_navs:Coin"}
+TARGETS = {"coin-v1": "tests.support.navigators.campaign_navs:Coin"}
 
 pytestmark = pytest.mark.slow
 
@@ -47,7 +45,7 @@ def _spec(generations: int) -> dict[str, Any]:
         "world": {"size_m": [12.0, 12.0], "cell_m": 0.5,
                   "mission": {"start": [5.0, 5.0, 0.0], "goal": [6.0, 5.0], "free_radius_m": 1.0}},
         "experiments": [_gen(g) for g in range(generations)], "runs_per_map": 2,
-        "navigators": [{"name": "coin-v1", "target": "campaign_navs:Coin", "config": {"p": 0.5}}],
+        "navigators": [{"name": "coin-v1", "target": "tests.support.navigators.campaign_navs:Coin", "config": {"p": 0.5}}],
         "faults": [None], "timeout_s": 5.0, "goal_tolerance_m": 2.0}
 
 
@@ -63,7 +61,7 @@ from navstress.campaign.store import Store
 
 if __name__ == "__main__":
     out, paths = sys.argv[1], sys.argv[2:]
-    ex = LocalExecutor(1, {"coin-v1": "campaign_navs:Coin"}, warm=False)
+    ex = LocalExecutor(1, {"coin-v1": "tests.support.navigators.campaign_navs:Coin"}, warm=False)
     with Store.create(out, *load_campaign(paths[0])) as store:
         resume(store, ex, wall_limit_s=60)
         for p in paths[1:]:
@@ -82,7 +80,7 @@ def _specs(root: Path) -> list[Path]:
 
 
 def _drive(root: Path, out: Path) -> subprocess.Popen[bytes]:
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([SRC, HELPERS, os.environ.get("PYTHONPATH", "")])}
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([SRC, ROOT, os.environ.get("PYTHONPATH", "")])}
     driver = root / "driver.py"
     driver.write_text(_DRIVER)
     return subprocess.Popen([sys.executable, str(driver), str(out), *map(str, _specs(root))], env=env)

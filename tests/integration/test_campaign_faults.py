@@ -30,10 +30,7 @@ from navstress.campaign.store import Store
 pytestmark = pytest.mark.slow
 
 ROOT = Path(__file__).resolve().parents[2]
-HELPERS = str(ROOT / "tests" / "unit" / "campaign")
-if HELPERS not in sys.path:
-    sys.path.insert(0, HELPERS)
-ENV = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), HELPERS, os.environ.get("PYTHONPATH", "")])}
+ENV = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), str(ROOT), os.environ.get("PYTHONPATH", "")])}
 
 
 def _spec(**over: Any) -> dict[str, Any]:
@@ -127,7 +124,7 @@ def test_kill_during_store_creation_at_many_moments(tmp_path: Path) -> None:
 def test_worker_killed_from_outside_is_retried(tmp_path: Path) -> None:
     marker = tmp_path / "pid"
     spec = _write(tmp_path / "s.yaml", _spec(runs_per_map=1, navigators=[
-        {"name": "killed-v1", "target": "campaign_navs:KilledOnce", "config": {"marker": str(marker), "after_s": 0.3}}]))
+        {"name": "killed-v1", "target": "tests.support.navigators.campaign_navs:KilledOnce", "config": {"marker": str(marker), "after_s": 0.3}}]))
     killed: list[int] = []
 
     def killer() -> None:
@@ -154,7 +151,7 @@ def test_worker_killed_from_outside_is_retried(tmp_path: Path) -> None:
 
 def test_navigator_crashing_every_attempt_is_its_own_result(tmp_path: Path) -> None:
     spec = _write(tmp_path / "s.yaml", _spec(runs_per_map=1, navigators=[
-        {"name": "segfaults-v1", "target": "campaign_navs:Segfaults", "config": {"after_s": 0.2}}]))
+        {"name": "segfaults-v1", "target": "tests.support.navigators.campaign_navs:Segfaults", "config": {"after_s": 0.2}}]))
     res = run_campaign(spec, tmp_path / "out", workers=1, wall_limit_s=60)
     assert res.recorded == 1
     with Store.open(tmp_path / "out") as s:
@@ -197,7 +194,7 @@ def test_signals_stop_with_a_resume_line(tmp_path: Path, sig: signal.Signals, co
     # a slow navigator (0.05 s of wall time per step, 40 steps a run): the campaign cannot end before
     # the signal however loaded the machine (a quick one sometimes did, and exited 0)
     spec = _write(tmp_path / "s.yaml", _spec(runs_per_map=3, timeout_s=4.0, navigators=[
-        {"name": "slow-v1", "target": "campaign_navs:Slow", "config": {"delay_s": 0.05}}]))
+        {"name": "slow-v1", "target": "tests.support.navigators.campaign_navs:Slow", "config": {"delay_s": 0.05}}]))
     out = tmp_path / "out"
     p = _cli(spec, out, "-j", "2")
     deadline = time.monotonic() + 120

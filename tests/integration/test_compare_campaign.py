@@ -13,7 +13,7 @@ from typing import Any
 import pytest
 import yaml
 
-from built_once import built_once
+from tests.support.built_once import built_once
 from navstress.analysis.compare import Arm, compare
 from navstress.campaign.executors import run_campaign
 

@@ -7,22 +7,15 @@ its worker on every attempt), because the scheduling core is written once
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 from typing import Any
 
 import pytest
 
-import loopback
-import ray_battery
-from built_once import built_once
-
-ROOT = Path(__file__).resolve().parents[2]
-HELPERS = str(ROOT / "tests" / "unit" / "campaign")
-if HELPERS not in sys.path:
-    sys.path.insert(0, HELPERS)
-
-import executor_contract  # noqa: E402
+from tests.support import executor_contract
+from tests.support import loopback
+from tests.support import ray_battery
+from tests.support.built_once import built_once
 
 pytestmark = pytest.mark.slow
 

@@ -18,9 +18,9 @@ import pytest
 import yaml
 from junitparser import JUnitXml
 
-from built_once import built_once
+from tests.support.built_once import built_once
 from navstress.campaign.store import Store
-from cli_run import cli as _cli
+from tests.support.cli_run import cli as _cli
 
 pytestmark = pytest.mark.slow
 

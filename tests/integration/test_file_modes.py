@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from built_once import built_once
+from tests.support.built_once import built_once
 
 pytestmark = pytest.mark.slow
 

@@ -6,23 +6,18 @@ the JUnit file read back with junitparser names the failed runs' seeds and trace
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 from typing import Any
 
 import pytest
 import yaml
-from junit_schemas import assert_valid
+from tests.support.junit_schemas import assert_valid
 from junitparser import Failure, JUnitXml
 
-HELPERS = str(Path(__file__).resolve().parents[1] / "unit" / "campaign")
-if HELPERS not in sys.path:
-    sys.path.insert(0, HELPERS)
-
-from built_once import built_once  # noqa: E402
-from navstress.campaign.store import Store  # noqa: E402
-from navstress.run.record import RunRecord  # noqa: E402
-from cli_run import cli as _cli  # noqa: E402
+from tests.support.built_once import built_once
+from navstress.campaign.store import Store
+from navstress.run.record import RunRecord
+from tests.support.cli_run import cli as _cli
 
 pytestmark = pytest.mark.slow
 
@@ -31,7 +26,7 @@ SPEC: dict[str, Any] = {
     "experiments": [{"name": "flat", "sweep": {"obstacles.obstruction.tree": {"values": [0]}}}],
     "maps_per_config": 2, "runs_per_map": 2,
     "navigators": [{"name": "reference-v1"},
-                   {"name": "raises-v1", "target": "campaign_navs:Raises", "config": {"after_s": 0.5}}],
+                   {"name": "raises-v1", "target": "tests.support.navigators.campaign_navs:Raises", "config": {"after_s": 0.5}}],
     "timeout_s": 60.0, "goal_tolerance_m": 2.0}
 
 

@@ -16,10 +16,10 @@ from typing import Any
 
 import numpy as np
 
-import loopback
+from tests.support import loopback
 import pytest
 
-from cli_run import cli
+from tests.support.cli_run import cli
 from navstress.run.live import _topics
 from navstress.run.trace import TOPIC_MAP, read_debug, read_events, read_grid, read_poses
 
@@ -54,7 +54,7 @@ def _watch(url: str, proc: subprocess.Popen[str]) -> tuple[dict[str, list[tuple[
     from websockets.exceptions import ConnectionClosed
     from websockets.sync.client import connect
 
-    from loopback import listening_addresses
+    from tests.support.loopback import listening_addresses
 
     deadline = time.monotonic() + 120
     while True:  # the server starts when the run's process is up
@@ -193,7 +193,7 @@ def test_garbage_from_clients_reaches_stderr_escaped_bounded_and_counted(world: 
     """``navstress run --live`` (its server in the run's worker process) while clients send escape
     sequences and a flood of bad connections: stderr holds only the ``live:`` lines of
     navstress.run.live.ClientLog, escaped, bounded and counted; the run itself ends as usual."""
-    from live_garbage import UNSAFE, attack
+    from tests.support.live_garbage import UNSAFE, attack
 
     from navstress.run.live import LOG_BURST, LOG_LINE_CHARS
 

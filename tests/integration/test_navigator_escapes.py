@@ -30,7 +30,7 @@ import pytest
 import yaml
 from typer.testing import CliRunner
 
-from leftovers import kill_left, pids, run_piped, scratch_left, still_running
+from tests.support.leftovers import kill_left, pids, run_piped, scratch_left, still_running
 from navstress.campaign.executors import run_campaign
 from navstress.campaign.store import Store
 from navstress.cli import app
@@ -38,19 +38,16 @@ from navstress.cli import app
 pytestmark = pytest.mark.slow
 
 ROOT = Path(__file__).resolve().parents[2]
-HELPERS = str(ROOT / "tests" / "unit" / "campaign")
-if HELPERS not in sys.path:
-    sys.path.insert(0, HELPERS)
 HANG_LIMIT = "2"  # the wall-clock limit where a navigator hangs (any limit classifies it the same)
 #: a user's script that registers the navigator, then is navstress (for `run` and `nav check`)
-CLI = ("import sys; from navstress.nav import registry; registry.register('escapes-v1', 'campaign_navs:Escapes'); "
+CLI = ("import sys; from navstress.nav import registry; registry.register('escapes-v1', 'tests.support.navigators.campaign_navs:Escapes'); "
        "from navstress.cli import main; sys.argv[0] = 'navstress'; main()")
 
 
 def _env(tmpdir: Path) -> dict[str, str]:
     tmpdir.mkdir(exist_ok=True)
     return {**os.environ, "TMPDIR": str(tmpdir),
-            "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), HELPERS, os.environ.get("PYTHONPATH", "")])}
+            "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), str(ROOT), os.environ.get("PYTHONPATH", "")])}
 
 
 def _spec(navigators: list[dict[str, Any]], **over: Any) -> dict[str, Any]:
@@ -63,7 +60,7 @@ def _spec(navigators: list[dict[str, Any]], **over: Any) -> dict[str, Any]:
 
 
 def _nav(name: str, pidfile: Path, **cfg: Any) -> dict[str, Any]:
-    return {"name": name, "target": "campaign_navs:Escapes",
+    return {"name": name, "target": "tests.support.navigators.campaign_navs:Escapes",
             "config": {"after_s": 0.3, "pidfile": str(pidfile), **cfg}}
 
 
@@ -224,7 +221,7 @@ def test_nav_check_leaves_no_process(spawn: str, then: str, where: str, tmp_path
 
 @pytest.fixture(scope="module")
 def world_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    from world_fixtures import small_world
+    from tests.support.world_fixtures import small_world
 
     d = tmp_path_factory.mktemp("escapes-world") / "w"
     small_world(5, bumpy=False).save(d)

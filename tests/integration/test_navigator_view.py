@@ -17,7 +17,7 @@ from navstress.run.record import RunTask
 from navstress.run.trace import (TOPIC_MAP, TOPIC_PERCEIVED, TraceWriter, read_commands, read_debug, read_events,
                                  read_grid, read_grids, read_poses)
 from navstress.world import Mission, Obstacle, World, WorldSpec
-from world_fixtures import trees_world_dir
+from tests.support.world_fixtures import trees_world_dir
 
 pytestmark = pytest.mark.slow
 

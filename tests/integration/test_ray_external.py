@@ -33,7 +33,7 @@ from typing import Any
 import pytest
 import yaml
 
-import loopback
+from tests.support import loopback
 from navstress._paths import cache_dir
 from navstress.campaign.store import OUTCOMES, Store
 

@@ -14,25 +14,25 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import sys
 from dataclasses import replace
 from pathlib import Path
 
 import pytest
 import yaml
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "unit" / "analysis"))
-from analysis_synth import line, make_store, record, save_flat_worlds, spec_dict, write_trace  # noqa: E402
+from tests.support.analysis_synth import line, make_store, record, save_flat_worlds, spec_dict, write_trace
 
-from cli_run import cli  # noqa: E402
-from navstress._percent import percent  # noqa: E402
-from navstress.analysis.report import build_report  # noqa: E402
-from navstress.analysis.stats import wilson  # noqa: E402
-from navstress.campaign.plan import run_id  # noqa: E402
-from navstress.campaign.spec import parse_campaign  # noqa: E402
-from navstress.campaign.store import Store  # noqa: E402
-from required import need as _need  # noqa: E402
-from search_dirs import SearchDirs  # noqa: E402
+from tests.support.cli_run import cli
+from navstress._percent import percent
+from navstress.analysis.report import build_report
+from navstress.analysis.stats import wilson
+from navstress.campaign.plan import run_id
+from navstress.campaign.spec import parse_campaign
+from navstress.campaign.store import Store
+from tests.support.required import need as _need
+from tests.support.search_dirs import SearchDirs
+
+pytestmark = pytest.mark.slow  # a real browser, and the report of the session's tiny real searches
 
 CHROMIUM = os.environ.get("NAVSTRESS_CHROMIUM") or shutil.which("chromium") or "/usr/bin/chromium"
 

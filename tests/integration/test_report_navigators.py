@@ -5,7 +5,6 @@ report says which navigator (and fault) it shows, no picture mixes two navigator
 from __future__ import annotations
 
 import re
-import sys
 from html.parser import HTMLParser
 from pathlib import Path
 from typing import Any
@@ -14,16 +13,12 @@ import pytest
 import yaml
 from typer.testing import CliRunner
 
-HELPERS = str(Path(__file__).resolve().parents[1] / "unit" / "campaign")
-if HELPERS not in sys.path:
-    sys.path.insert(0, HELPERS)
-
-from built_once import built_once  # noqa: E402
-from navstress.analysis.report import build_report  # noqa: E402
-from navstress.campaign.executors import run_campaign  # noqa: E402
-from navstress.campaign.store import Store  # noqa: E402
-from navstress.cli import app  # noqa: E402
-from navstress.run.record import RunRecord  # noqa: E402
+from tests.support.built_once import built_once
+from navstress.analysis.report import build_report
+from navstress.campaign.executors import run_campaign
+from navstress.campaign.store import Store
+from navstress.cli import app
+from navstress.run.record import RunRecord
 
 pytestmark = pytest.mark.slow
 
@@ -33,7 +28,7 @@ SPEC: dict[str, Any] = {
     "experiments": [{"name": "trees", "sweep": {"obstacles.obstruction.tree": {"values": [0, 2]}}}],
     "maps_per_config": 1, "runs_per_map": 2,
     "navigators": [{"name": "reference-v1"},
-                   {"name": "raises-v1", "target": "campaign_navs:Raises", "config": {"after_s": 0.5}}],
+                   {"name": "raises-v1", "target": "tests.support.navigators.campaign_navs:Raises", "config": {"after_s": 0.5}}],
     "faults": [None], "timeout_s": 4.0, "goal_tolerance_m": 2.0}
 
 

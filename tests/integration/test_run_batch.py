@@ -9,7 +9,7 @@ import pytest
 
 from navstress.run.batch import plan_batch, run_batch
 from navstress.run.trace import read_metadata
-from world_fixtures import small_world
+from tests.support.world_fixtures import small_world
 
 
 @pytest.mark.parametrize("seeds", [(0, 7, 2**40 + 3)])

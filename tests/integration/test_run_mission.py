@@ -13,7 +13,7 @@ from navstress.run.record import RunTask
 from navstress.run.trace import (TOPIC_MAP, TOPIC_PERCEIVED, TOPIC_ROBOT, _messages, read_events, read_grid,
                                  read_metadata, read_poses, read_transforms)
 from navstress.world import Obstacle, World, WorldSpec
-from world_fixtures import trees_world_dir
+from tests.support.world_fixtures import trees_world_dir
 
 pytestmark = pytest.mark.slow
 
@@ -225,7 +225,7 @@ def test_bounds_reach_in_process_and_external_navigators() -> None:
     local = Straight()
     run_mission(w, local, run_seed=1, timeout_s=1.0, sim_config=cfg)
     assert local.mission.bounds == expected
-    script = Path(__file__).resolve().parents[1] / "unit" / "nav_plugin" / "mission_nav.py"
+    script = Path(__file__).resolve().parents[1] / "support" / "navigators" / "mission_nav.py"
     with ExternalNavigator([sys.executable, str(script)], step_budget_s=10.0) as remote:
         r = run_mission(w, remote, run_seed=1, timeout_s=1.0, sim_config=cfg)
     sent = json.loads(r.facts.error)  # type: ignore[arg-type]

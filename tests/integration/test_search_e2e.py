@@ -25,11 +25,11 @@ from typing import Any
 import pytest
 import yaml
 
-import ray_battery
-from built_once import built_once
-from campaign_kill import descendants, recorded, wait_gone
-from cli_run import cli
-from search_checks import check_search, result, traces
+from tests.support import ray_battery
+from tests.support.built_once import built_once
+from tests.support.campaign_kill import descendants, recorded, wait_gone
+from tests.support.cli_run import cli
+from tests.support.search_checks import check_search, result, traces
 from navstress.campaign.store import Store
 from navstress.search.driver import run_search
 
@@ -37,7 +37,7 @@ pytestmark = pytest.mark.slow
 
 ROOT = Path(__file__).resolve().parents[2]
 ENV = {k: v for k, v in os.environ.items() if not k.startswith("RAY_")}
-ENV["PYTHONPATH"] = os.pathsep.join([str(ROOT / "src"), str(ROOT / "tests"), os.environ.get("PYTHONPATH", "")])
+ENV["PYTHONPATH"] = os.pathsep.join([str(ROOT / "src"), str(ROOT), os.environ.get("PYTHONPATH", "")])
 
 #: One generation: 3 worlds x 2 runs. The spec's budget holds one generation; the commands
 #: below give --budget 12 (two): the search goes on past its spec's budget.

@@ -12,7 +12,7 @@ import yaml
 
 from navstress.campaign.spec import load_campaign
 from navstress.campaign.store import Store
-from cli_run import cli as _cli
+from tests.support.cli_run import cli as _cli
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "suite.yaml"
 KEYS = ("open", "wooded", "rough")

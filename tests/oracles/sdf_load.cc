@@ -1,6 +1,6 @@
 // Loads an SDF world with libsdformat (the parser Gazebo uses) and its heightmap with
 // ign-common 4's ImageHeightmap (Gazebo Fortress's heightmap loader), and prints what they read
-// as one JSON object on stdout, for tests/unit/export/test_export_gazebo.py.
+// as one JSON object on stdout, for tests/unit/world/export/test_export_gazebo.py.
 //
 // Build: g++ -std=c++17 sdf_load.cc $(pkg-config --cflags --libs sdformat12 ignition-common4-graphics)
 // Usage: sdf_load WORLD.sdf

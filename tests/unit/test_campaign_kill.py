@@ -1,4 +1,4 @@
-"""The kill-and-resume helper of the campaign tests (tests/campaign_kill.py), on real processes:
+"""The kill-and-resume helper of the campaign tests (tests/support/campaign_kill.py), on real processes:
 it waits on the records themselves (not a fixed time), kills the driver, returns only once the
 driver's workers are gone, and says clearly when the driver ended first or the bound passed."""
 
@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from campaign_kill import descendants, kill_when_recorded, wait_gone
+from tests.support.campaign_kill import descendants, kill_when_recorded, wait_gone
 
 #: A worker: runs until its parent is gone (as the campaign's workers do).
 WORKER = "import os, time\np = os.getppid()\nwhile os.getppid() == p:\n    time.sleep(0.02)\n"

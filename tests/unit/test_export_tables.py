@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import json
 import re
-import sys
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -32,11 +31,9 @@ from navstress.campaign.store import Store
 from navstress.cli import app
 from navstress.run.batch import failure_record
 
-UNIT = Path(__file__).resolve().parent
-if str(UNIT / "analysis") not in sys.path:
-    sys.path.insert(0, str(UNIT / "analysis"))
+from tests.support.analysis_synth import make_store, save_flat_worlds
 
-from analysis_synth import make_store, save_flat_worlds  # noqa: E402
+UNIT = Path(__file__).resolve().parent
 
 DOCS = UNIT.parents[1] / "docs"
 TABLES = ("runs", "verdicts", "configurations")  # finest first: each row of one has one partner in the next

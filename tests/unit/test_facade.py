@@ -10,7 +10,7 @@ from pathlib import Path
 import navstress
 from navstress.nav.api import Command, Observation, Status
 from navstress.run.trace import read_metadata, read_poses
-from world_fixtures import small_world
+from tests.support.world_fixtures import small_world
 
 
 def test_import_navstress_does_not_import_the_simulation() -> None:

@@ -17,14 +17,11 @@ from pathlib import Path
 
 import pytest
 
-from leftovers import kill_left, pids, running, still_running
+from tests.support.leftovers import kill_left, pids, running, still_running
 from navstress.isolate import Worker
+from tests.support.navigators.campaign_navs import escape  # a module the worker imports too
 
-HELPERS = str(Path(__file__).resolve().parent / "campaign")
-if HELPERS not in sys.path:
-    sys.path.insert(0, HELPERS)
-
-from campaign_navs import escape  # noqa: E402  (a module the worker imports too)
+ROOT = str(Path(__file__).resolve().parents[2])  # tests.support importable in a child
 
 SPAWNS = ("fork", "double", "setsid", "popen")
 #: (then, code): what the navigator does after it started the sleeper, and the answer expected
@@ -74,7 +71,7 @@ SCRIPT = """
 import os, sys
 sys.path[:0] = [{helpers!r}]
 from navstress.isolate import Worker
-from campaign_navs import escape
+from tests.support.navigators.campaign_navs import escape
 if __name__ == "__main__":
     w = Worker(600.0)
     with open({marker!r}, "w") as f:
@@ -88,7 +85,7 @@ def test_a_command_killed_outright_leaves_no_process(spawn: str, tmp_path: Path,
     """SIGKILL to the command (the OOM killer, ``kill -9``): its worker, and what the navigator
     started, daemons included, end too (the keeper gets SIGTERM when its parent dies)."""
     marker = tmp_path / "worker.pid"
-    src = SCRIPT.format(helpers=HELPERS, marker=str(marker), spawn=spawn, pidfile=str(pidfile))
+    src = SCRIPT.format(helpers=ROOT, marker=str(marker), spawn=spawn, pidfile=str(pidfile))
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
     proc = subprocess.Popen([sys.executable, "-c", src], env=env)
     try:

@@ -25,7 +25,7 @@ from navstress.campaign.store import DB_NAME, Store
 from navstress.errors import SpecError
 from navstress.run.batch import failure_record, record_line
 from navstress.run.record import RunRecord, RunTask
-from strict_json import strict_lines, strict_loads
+from tests.support.strict_json import strict_lines, strict_loads
 
 SRC = Path(__file__).resolve().parents[2] / "src" / "navstress"
 NON_FINITE = (math.nan, math.inf, -math.inf)

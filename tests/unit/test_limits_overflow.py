@@ -8,12 +8,12 @@ from pathlib import Path
 
 import pytest
 
-from cli_inputs import assert_one_line_error, invoke
+from tests.support.cli_inputs import assert_one_line_error, invoke
 from navstress.campaign.presets import demo
 from navstress.campaign.spec import parse_campaign
 from navstress.errors import SpecError
 from navstress.isolate import Worker
-from world_fixtures import small_world
+from tests.support.world_fixtures import small_world
 
 
 @pytest.mark.parametrize("flag, value", [("--timeout", "1073682"), ("--timeout", "1e300"), ("--timeout", "86401"),

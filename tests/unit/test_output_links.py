@@ -26,8 +26,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import navstress
-from cli_inputs import CAMPAIGN, OUTPUT_COMMANDS, SEARCH, assert_one_line_error, invoke, prepare
-from links import KINDS, make_outside, outside_of, plant, target, tree
+from tests.support.cli_inputs import CAMPAIGN, OUTPUT_COMMANDS, SEARCH, assert_one_line_error, invoke, prepare
+from tests.support.links import KINDS, make_outside, outside_of, plant, target, tree
 from navstress import _files
 from navstress.campaign.plan import plan
 from navstress.campaign.scheduler import WorkQueue
@@ -36,7 +36,7 @@ from navstress.campaign.store import Store
 from navstress.errors import OutputPathError
 from navstress.run.mission import execute
 from navstress.run.trace import TraceWriter
-from world_fixtures import small_world
+from tests.support.world_fixtures import small_world
 
 SPEC = parse_campaign(CAMPAIGN)
 TEXT = yaml.safe_dump(CAMPAIGN)
@@ -293,6 +293,7 @@ def ran(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return out
 
 
+@pytest.mark.slow
 def test_replay_keeps_its_trace_without_following_a_link(ran: Path, base: Path) -> None:
     outside = base / "outside"
     keep = base / "keep"

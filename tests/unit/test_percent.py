@@ -6,20 +6,15 @@ from __future__ import annotations
 
 import math
 import re
-import sys
 from pathlib import Path
 
 import pytest
 from hypothesis import assume, example, given
 from hypothesis import strategies as st
 
-UNIT = Path(__file__).resolve().parent
-if str(UNIT / "analysis") not in sys.path:
-    sys.path.insert(0, str(UNIT / "analysis"))
-
-from analysis_synth import make_store, record  # noqa: E402
-from cli_inputs import invoke  # noqa: E402
-from navstress._percent import percent, percent_vs, points, setting  # noqa: E402
+from tests.support.analysis_synth import make_store, record
+from tests.support.cli_inputs import invoke
+from navstress._percent import percent, percent_vs, points, setting
 
 RATE = st.floats(0.0, 1.0)
 #: a percentage a person reads: whole, or one decimal, or bounded near the ends

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from analysis_synth import line, make_store, record, save_flat_worlds, write_trace
+from tests.support.analysis_synth import line, make_store, record, save_flat_worlds, write_trace
 from scipy import stats as sst
 
 from navstress.analysis.analyze import analyze
@@ -146,6 +146,7 @@ def test_a_report_says_how_far_it_is_step_by_step(campaign: Path, tmp_path: Path
     assert empty[-1] == ("written", 2, 2)
 
 
+@pytest.mark.slow
 def test_the_report_command_shows_its_progress_on_a_terminal_only(campaign: Path, tmp_path: Path) -> None:
     """``navstress report``: with standard error a terminal, a progress bar names each step (and is
     gone at the end); piped, standard error stays empty; standard output is the one result line

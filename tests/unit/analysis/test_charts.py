@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import json
 import re
-import sys
 from html.parser import HTMLParser
 from pathlib import Path
 from types import SimpleNamespace
@@ -19,13 +18,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
-from chart_render import all_marks, fields, marks, rgb  # noqa: E402
-from navstress.analysis.charts import (LEVEL_STYLE, VERDICT_COLOURS, chart_html, class_chart,  # noqa: E402
+from tests.support.chart_render import all_marks, fields, marks, rgb
+from navstress.analysis.charts import (LEVEL_STYLE, VERDICT_COLOURS, chart_html, class_chart,
                                        fault_power_chart, indeterminism_chart, verdict_chart)
-from navstress.analysis.stats import ConfigStats, wilson  # noqa: E402
-from navstress.analysis.verdicts import verdicts  # noqa: E402
-from analysis_synth import record  # noqa: E402
+from navstress.analysis.stats import ConfigStats, wilson
+from navstress.analysis.verdicts import verdicts
+from tests.support.analysis_synth import record
 
 LEVELS = list(LEVEL_STYLE)
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 
 import pytest
-from analysis_synth import spec_dict
+from tests.support.analysis_synth import spec_dict
 
 from navstress.analysis.difficulty import (CHALLENGING, EASY, NO_DATA, VERY_DIFFICULT, DifficultyParams,
                                            assign_levels, is_flat_empty, level_ranges, reference_keys)

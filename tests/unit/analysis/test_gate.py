@@ -9,7 +9,6 @@ from __future__ import annotations
 import json
 import math
 import sqlite3
-import sys
 from dataclasses import replace
 from datetime import datetime, timezone
 from pathlib import Path
@@ -17,18 +16,14 @@ from xml.etree import ElementTree as ET
 
 import numpy as np
 import pytest
-from analysis_synth import make_store, record
+from tests.support.analysis_synth import make_store, record
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from junitparser import Failure, JUnitXml, TestCase
 from scipy import stats
 
-UNIT = str(Path(__file__).resolve().parents[1])
-if UNIT not in sys.path:
-    sys.path.insert(0, UNIT)
-
-import junit_schemas
-from cli_inputs import assert_one_line_error, invoke, snapshot
+from tests.support import junit_schemas
+from tests.support.cli_inputs import assert_one_line_error, invoke, snapshot
 from navstress.analysis.gate import (ConfigResult, GateResult, GateRule, RunEvidence, WorldCase, gate, junit_xml,
                                      lower_bound)
 from navstress.errors import SpecError, StoreError

@@ -6,7 +6,7 @@ import itertools
 
 import numpy as np
 import pytest
-from analysis_synth import record
+from tests.support.analysis_synth import record
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays

@@ -14,7 +14,6 @@ from __future__ import annotations
 import csv
 import dataclasses
 import json
-import sys
 import tempfile
 from functools import lru_cache
 from pathlib import Path
@@ -22,17 +21,13 @@ from typing import Any
 
 import pytest
 import yaml
-from analysis_synth import spec_dict
+from tests.support.analysis_synth import spec_dict
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from test_analyze_report import _Cells
 
-UNIT = str(Path(__file__).resolve().parents[1])
-if UNIT not in sys.path:
-    sys.path.insert(0, UNIT)
-
-import junit_schemas  # noqa: E402
-from cli_inputs import assert_one_line_error, invoke  # noqa: E402
+from tests.support import junit_schemas
+from tests.support.cli_inputs import assert_one_line_error, invoke
 
 from navstress.analysis.analyze import analyze
 from navstress.analysis.compare import Arm, compare

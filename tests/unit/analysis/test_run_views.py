@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from analysis_synth import line, make_store, record, save_flat_worlds, write_trace
+from tests.support.analysis_synth import line, make_store, record, save_flat_worlds, write_trace
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays

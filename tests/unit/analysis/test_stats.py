@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 
 import pytest
-from analysis_synth import NAN, record
+from tests.support.analysis_synth import NAN, record
 from hypothesis import given
 from hypothesis import strategies as st
 from scipy import stats as sst

@@ -8,7 +8,7 @@ from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
-from analysis_synth import make_store, record
+from tests.support.analysis_synth import make_store, record
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from test_analyze_report import _Cells
@@ -302,7 +302,7 @@ def test_analyze_verdict_table_follows_navigator_and_rules(tmp_path: Path) -> No
     import dataclasses
 
     import yaml
-    from analysis_synth import spec_dict
+    from tests.support.analysis_synth import spec_dict
 
     from navstress.campaign.spec import parse_campaign
 

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import hashlib
 import random
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -20,8 +19,7 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # tests/unit: the CLI input helpers
-from cli_inputs import assert_one_line_error, invoke  # noqa: E402
+from tests.support.cli_inputs import assert_one_line_error, invoke
 from navstress.campaign.plan import Plan, plan
 from navstress.campaign.scheduler import Repetition
 from navstress.campaign.spec import AdaptiveRuns, parse_campaign, planned_runs

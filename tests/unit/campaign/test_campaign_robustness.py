@@ -13,7 +13,6 @@ from __future__ import annotations
 import json
 import math
 import sqlite3
-import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -32,11 +31,7 @@ from navstress.campaign.plan import plan
 from navstress.campaign.store import _CREATION_LEFTOVERS, Store
 from navstress.cli import app
 from navstress.errors import SpecError
-from world_fixtures import small_world
-
-HELPERS = str(Path(__file__).resolve().parent)
-if HELPERS not in sys.path:
-    sys.path.insert(0, HELPERS)
+from tests.support.world_fixtures import small_world
 
 TEXT = preset_yaml("demo")
 SPEC = parse_campaign(demo())
@@ -140,8 +135,8 @@ BAD_NAVIGATORS: list[tuple[dict[str, Any], str]] = [
     ({"name": "external-v1", "config": {"command": ["sleep", "1"], "cwd": "/no/such/dir"}}, "cwd='/no/such/dir'"),
     ({"name": "external-v1", "config": {"command": ["sleep", "1"], "env": {"A": 1}}}, "env="),
     ({"name": "external-v1", "config": {"command": ["sleep"], "budget": 1}}, "budget=1"),
-    ({"name": "validated-v1", "target": "campaign_navs:Validated", "config": {"gain": 99}}, "gain=99"),
-    ({"name": "validated-v1", "target": "campaign_navs:Validated", "config": {"gian": 1}}, "gian=1"),
+    ({"name": "validated-v1", "target": "tests.support.navigators.campaign_navs:Validated", "config": {"gain": 99}}, "gain=99"),
+    ({"name": "validated-v1", "target": "tests.support.navigators.campaign_navs:Validated", "config": {"gian": 1}}, "gian=1"),
 ]
 
 BAD_SIMS: list[tuple[dict[str, Any], str]] = [
@@ -183,7 +178,7 @@ def _refused_then_reusable(tmp: Path, bad: dict[str, Any], needle: str) -> None:
 
 @pytest.mark.parametrize("entry,field", BAD_NAVIGATORS, ids=[f"{e['name']}-{f.split('=')[0]}" for e, f in BAD_NAVIGATORS])
 def test_campaign_run_validates_navigator_configs(tmp_path: Path, entry: dict[str, Any], field: str) -> None:
-    bad = _spec(navigators=[{"name": "first-v1", "target": "campaign_navs:Exits"}, _fill(entry, tmp_path)])
+    bad = _spec(navigators=[{"name": "first-v1", "target": "tests.support.navigators.campaign_navs:Exits"}, _fill(entry, tmp_path)])
     _refused_then_reusable(tmp_path, bad, f"navigators[1].config.{field}")
 
 
@@ -214,7 +209,7 @@ def test_valid_configs_pass(tmp_path: Path) -> None:
         navigators=[{"name": "reference-v1", "config": {"max_slope_deg": 20}},
                     {"name": "reference-global-v1", "config": {"carrot_m": 3}},
                     {"name": "external-v1", "config": {"command": "sleep 1", "step_budget_s": 1}},
-                    {"name": "validated-v1", "target": "campaign_navs:Validated", "config": {"gain": 2}}],
+                    {"name": "validated-v1", "target": "tests.support.navigators.campaign_navs:Validated", "config": {"gain": 2}}],
         sim={"timestep_s": 0.005, "noise": False, "lidar": {"channels": 8}})))
 
 

@@ -4,7 +4,6 @@ and every bad input as a one-line error with exit 2 from ``campaign run`` (nothi
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -18,11 +17,7 @@ from navstress.campaign.spec import (MAX_MAP_SEED, check_plan_size, flatten, par
                                      planned_runs)
 from navstress.errors import SpecError
 
-CLI_HELPERS = str(Path(__file__).resolve().parents[1])
-if CLI_HELPERS not in sys.path:
-    sys.path.insert(0, CLI_HELPERS)
-
-from cli_inputs import assert_one_line_error, invoke  # noqa: E402
+from tests.support.cli_inputs import assert_one_line_error, invoke
 
 ENTRIES: list[dict[str, Any]] = [
     {"key": "dense", "map_seed": 42, "world": {"obstacles": {"obstruction": {"tree": 12}}}},

@@ -27,7 +27,7 @@ from navstress.search.objectives import (FAILURE_CLASSES, OBJECTIVES, boundary, 
                                          mutation_score, pair_key, pairs, reveals, ungenerated, world_feasible,
                                          world_key)
 from navstress.world.world import Mission, World
-from world_fixtures import small_world
+from tests.support.world_fixtures import small_world
 
 OUTCOMES = [o.value for o in Outcome]
 FAULT = "small-footprint"

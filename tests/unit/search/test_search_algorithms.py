@@ -115,6 +115,7 @@ print(json.dumps({n: [x.tolist() for x in drive(MAKERS[n](9), 4)] for n in MAKER
 """
 
 
+@pytest.mark.slow
 def test_asks_are_the_same_in_a_fresh_process() -> None:
     from pathlib import Path
     here = str(Path(__file__).parent)

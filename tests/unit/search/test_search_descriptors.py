@@ -16,7 +16,7 @@ from navstress.world.descriptors import describe_world
 from navstress.world.generate import generate
 from navstress.world.spec import WorldSpec
 from navstress.world.world import Mission, World
-from world_fixtures import small_world
+from tests.support.world_fixtures import small_world
 
 
 def test_registry_names_units_and_ranges() -> None:

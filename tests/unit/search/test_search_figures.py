@@ -22,13 +22,13 @@ from matplotlib.image import imread
 from navstress.errors import SpecError
 from navstress.run.batch import plan_batch, run_batch
 from navstress.run.figures import OUTCOME_COLOURS
-from chart_render import fields, marks
-from chart_render import rgb as css_rgb
+from tests.support.chart_render import fields, marks
+from tests.support.chart_render import rgb as css_rgb
 from navstress.analysis.charts import METHOD_COLOURS
 from navstress.search.figures import (BestWorld, Found, MapPoint, best_worlds_figure, cell_of, found_against_runs,
                                       found_curve, illumination_grid, illumination_map, tracks_of)
 from navstress.world.world import Mission, World
-from world_fixtures import small_world
+from tests.support.world_fixtures import small_world
 
 
 def rgb(png: bytes) -> np.ndarray:

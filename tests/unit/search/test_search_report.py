@@ -1,4 +1,4 @@
-"""The report's Search section on real search directories (tests/search_dirs.py: a tiny MAP-Elites
+"""The report's Search section on real search directories (tests/support/search_dirs.py: a tiny MAP-Elites
 search whose map has a space path as an axis, and a random baseline): every number it shows is
 search.json's, its charts are read back mark by mark as the real Vega renderer draws them (its
 picture of the best worlds pixel by pixel), and a bad ``--baseline`` is one line and exit 2 with no
@@ -10,7 +10,6 @@ import base64
 import io
 import json
 import re
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -20,20 +19,19 @@ import yaml
 from matplotlib.colors import to_rgb
 from matplotlib.image import imread
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # tests/unit: the CLI input helpers
-from cli_inputs import assert_one_line_error, invoke, prepare  # noqa: E402
-from navstress.analysis.report import Section, build_report  # noqa: E402
-from navstress.campaign.store import Store  # noqa: E402
-from navstress.errors import SpecError  # noqa: E402
-from navstress.run.figures import OUTCOME_COLOURS  # noqa: E402
-from navstress.search.driver import CONFIRM  # noqa: E402
-from chart_render import fields, marks  # noqa: E402
-from chart_render import rgb as css_rgb  # noqa: E402
-from navstress.analysis.charts import METHOD_COLOURS  # noqa: E402
-from navstress.search.figures import illumination_grid, illumination_map  # noqa: E402
-from test_search_figures import check_map  # noqa: E402
-from navstress.search.report import STOPPED, search_section, search_sections  # noqa: E402
-from search_dirs import SEARCH, SearchDirs  # noqa: E402
+from tests.support.cli_inputs import assert_one_line_error, invoke, prepare
+from navstress.analysis.report import Section, build_report
+from navstress.campaign.store import Store
+from navstress.errors import SpecError
+from navstress.run.figures import OUTCOME_COLOURS
+from navstress.search.driver import CONFIRM
+from tests.support.chart_render import fields, marks
+from tests.support.chart_render import rgb as css_rgb
+from navstress.analysis.charts import METHOD_COLOURS
+from navstress.search.figures import illumination_grid, illumination_map
+from test_search_figures import check_map
+from navstress.search.report import STOPPED, search_section, search_sections
+from tests.support.search_dirs import SEARCH, SearchDirs
 
 
 def result(d: Path) -> dict[str, Any]:

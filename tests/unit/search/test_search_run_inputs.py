@@ -7,20 +7,18 @@ from another spec, a confirmation planned with another confirm_runs)."""
 from __future__ import annotations
 
 import copy
-import sys
 from pathlib import Path
 from typing import Any
 
 import pytest
 import yaml
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # tests/unit: the CLI input helpers
-from cli_inputs import SEARCH, assert_one_line_error, invoke, prepare, snapshot  # noqa: E402
-from navstress.campaign.store import Store  # noqa: E402
-from navstress.search.driver import _campaign, _experiment, generation_name  # noqa: E402
-from navstress.search.algorithms import make_algorithm  # noqa: E402
-from navstress.search.space import Space  # noqa: E402
-from navstress.search.spec import parse_search  # noqa: E402
+from tests.support.cli_inputs import SEARCH, assert_one_line_error, invoke, prepare, snapshot
+from navstress.campaign.store import Store
+from navstress.search.driver import _campaign, _experiment, generation_name
+from navstress.search.algorithms import make_algorithm
+from navstress.search.space import Space
+from navstress.search.spec import parse_search
 
 
 def _with(**over: Any) -> dict[str, Any]:

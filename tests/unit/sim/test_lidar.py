@@ -17,7 +17,7 @@ from navstress.sim.lidar import Lidar, LidarConfig, LidarScene, build_scene, cas
 from navstress.world.generate import generate
 from navstress.world.spec import WorldSpec
 from navstress.world.world import Obstacle, Terrain, World
-from oracles.scan import scan_kernel
+from tests.oracles.scan import scan_kernel
 
 # ---------------------------------------------------------------------------------------------
 # helpers: random scenes, brute force (every triangle), MuJoCo model of the same scene
@@ -630,6 +630,7 @@ def boxes_brute_force(sc: LidarScene, cfg: LidarConfig, origin: np.ndarray, rot:
     return out
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None)
 @given(st.integers(0, 2**32 - 1), st.sampled_from([0.0, 1e-3, 0.1, 0.5, 1.2, 3.0]),
        st.sampled_from(["random", "inside", "straddle", "wide"]))

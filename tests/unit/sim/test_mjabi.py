@@ -18,7 +18,7 @@ from navstress.sim import SimConfig, Simulation
 from navstress.sim import mjabi
 from navstress.sim.model import build_model
 
-from sim_worlds import bumpy
+from tests.support.sim_worlds import bumpy
 
 NOLIDAR = SimConfig(lidar_enabled=False)
 

@@ -14,7 +14,7 @@ from navstress.robot import RobotSpec
 from navstress.sim.model import OBSTACLE_GROUP, ROBOT_GROUP, build_model, world_to_mjcf
 from navstress.world.world import Obstacle, Terrain
 
-from sim_worlds import flat, rough
+from tests.support.sim_worlds import flat, rough
 
 
 def _ray_heights(m: mujoco.MjModel, pts: np.ndarray, geomgroup: np.ndarray | None = None) -> np.ndarray:

@@ -20,7 +20,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from native_gate import REQUIRE, require_compiler, require_native
+from tests.support.native_gate import REQUIRE, require_compiler, require_native
 from navstress.errors import SpecError
 from navstress.sim import SimConfig, Simulation, _raycast, native
 from navstress.sim.lidar import Lidar, LidarConfig, LidarScene, build_scene
@@ -275,7 +275,7 @@ def test_the_kernel_hands_its_queue_to_the_native_walk_by_address(tmp_path: Path
 # ---------------------------------------------------------------------------------------------
 
 GATED_TEST = """
-from native_gate import require_native
+from tests.support.native_gate import require_native
 
 
 def test_gated():
@@ -283,6 +283,7 @@ def test_gated():
 """
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("off", [{"NAVSTRESS_NATIVE": "0"}, {"NAVSTRESS_NATIVE": "1", "CC": "no-such-cc"}])
 @pytest.mark.parametrize("require", ["1", None])
 def test_require_native_turns_the_skip_into_a_failure(tmp_path: Path, off: dict[str, str], require: str | None) -> None:
@@ -291,7 +292,7 @@ def test_require_native_turns_the_skip_into_a_failure(tmp_path: Path, off: dict[
     (tmp_path / "test_gated.py").write_text(GATED_TEST)
     env = {k: v for k, v in os.environ.items() if k != REQUIRE}
     env.update(off, NAVSTRESS_CACHE_DIR=str(tmp_path / "cache"),
-               PYTHONPATH=os.pathsep.join([str(Path(__file__).parent), env.get("PYTHONPATH", "")]))
+               PYTHONPATH=os.pathsep.join([str(Path(__file__).resolve().parents[3]), env.get("PYTHONPATH", "")]))
     if require is not None:
         env[REQUIRE] = require
     r = subprocess.run([sys.executable, "-m", "pytest", "-q", "-rfs", "-p", "no:cacheprovider", "-p", "no:xdist",

@@ -143,6 +143,7 @@ def test_same_seeds_same_movers_and_the_run_seed_matters() -> None:
 # ---------------------------------------------------------------- collisions
 
 
+@pytest.mark.slow
 def test_a_mover_walking_into_a_parked_robot_hit_it() -> None:
     sim = Simulation(flat(mover()), config=QUIET, seed=1, start=(10.0, 10.0, math.pi / 2))
     sim.advance(10.0)

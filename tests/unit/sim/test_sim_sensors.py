@@ -10,7 +10,7 @@ from scipy.spatial.transform import Rotation
 
 from navstress.sim.observer import Observer
 from navstress.sim.sensors import euler_from_mat
-from oracles.sensors import ImuSensor, PoseSensor, WheelOdometry
+from tests.oracles.sensors import ImuSensor, PoseSensor, WheelOdometry
 
 
 @settings(max_examples=50, deadline=None)

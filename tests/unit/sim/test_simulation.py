@@ -17,7 +17,7 @@ from navstress.nav.api import Command, Observation
 from navstress.sim import SimConfig, Simulation
 from navstress.world.world import Obstacle
 
-from sim_worlds import bumpy, flat, ramp
+from tests.support.sim_worlds import bumpy, flat, ramp
 
 NOLIDAR = SimConfig(lidar_enabled=False)
 

@@ -17,10 +17,10 @@ from navstress.sim import _step as K
 from navstress.sim.model import ObstaclePool, build_model
 from navstress.sim.observer import Observer
 from navstress.seeding import rng
-from oracles.sensors import ImuSensor, PoseSensor, WheelOdometry
+from tests.oracles.sensors import ImuSensor, PoseSensor, WheelOdometry
 from navstress.world.world import Obstacle
 
-from sim_worlds import bumpy, flat, rough
+from tests.support.sim_worlds import bumpy, flat, rough
 
 NOLIDAR = SimConfig(lidar_enabled=False)
 
