@@ -9,7 +9,7 @@ import math
 import numpy as np
 from numba import njit
 
-from navstress.sim._raycast import INF, _ray_box, terrain_kernel
+from navstress.sim._raycast import INF, SCAN_PARAMS, Beams, Box, Ray, TerrainGrid, _ray_box, terrain_kernel
 
 TWO_PI = 2.0 * math.pi
 
@@ -36,8 +36,11 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray, m
     ncy = h.shape[0] - 1
     icell = 1.0 / cell
     tr = np.empty((nch, naz))
-    terrain_kernel(h, cell, mip, mipf, moff, mnx, grad_max, origin, rot, cos_el, sin_el, cos_az, sin_az,
-                  max_range, plane_march, tr)
+    params = np.zeros(1, SCAN_PARAMS)  # (walk 0: the numba walk)
+    params[0].max_range = max_range
+    params[0].plane_march = 1 if plane_march else 0
+    terrain_kernel(TerrainGrid(h, cell, mip, mipf, moff, mnx, grad_max), Beams(cos_el, sin_el, cos_az, sin_az), params,
+                   origin, rot, tr)
     # ---- per-scan box preparation: distances, reachable slopes, heading intervals, bins --
     nb = boxes.shape[0]
     nsec = 360
@@ -216,7 +219,8 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray, m
                     for k in range(k0, k1 + 1):
                         if dmin[i] > best[k] * hxy[k]:
                             continue
-                        tb = _ray_box(b0, b1, b7, b8, b3, b4, b5, b6, ox, oy, oz, dirs[k, 0], dirs[k, 1], dirs[k, 2])
+                        tb = _ray_box(Box(b0, b1, b7, b8, b3, b4, b5, b6),
+                                      Ray(ox, oy, oz, dirs[k, 0], dirs[k, 1], dirs[k, 2]))
                         if tb < best[k]:
                             best[k] = tb
         for k in range(nch):

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from navstress.errors import NavstressError, SpecError
 from navstress.sim import _raybox
-from navstress.sim._raycast import _ray_box
+from navstress.sim._raycast import Box, Ray, _ray_box, new_scan_params
 from navstress.sim.lidar import Lidar, LidarConfig, LidarScene, build_scene, cast_rays
 from navstress.world.generate import generate
 from navstress.world.spec import WorldSpec
@@ -577,7 +577,8 @@ def terrain_then_boxes(sc: LidarScene, cfg: LidarConfig, origin: np.ndarray, rot
     scan_kernel(sc.heights, sc.cell_m, sc.mip, sc.mipf, sc.mip_offsets, sc.mip_widths, sc.grad_max,
                 np.zeros((0, 9)), origin, rot, *_kernel_args(lidar), cfg.max_range_m, -math.inf, plane_march, terr)
     out = terr.copy()
-    _raybox.box_pass(sc.boxes, origin, rot, *_kernel_args(lidar), cfg.max_range_m, cfg.min_range_m, out)
+    params = new_scan_params(max_range=cfg.max_range_m, min_range=cfg.min_range_m, plane_march=1, walk=0)
+    _raybox.box_pass(sc.boxes, lidar._beams, params, origin, rot, out)
     return terr, out
 
 
@@ -600,7 +601,7 @@ def nearest_box(sc: LidarScene, cfg: LidarConfig, origin: np.ndarray, rot: np.nd
     ce, se, ca, sa = np.cos(el), np.sin(el), np.cos(az), np.sin(az)
     ox, oy, oz = (float(v) for v in origin)
     uwx, uwy, uwz = float(rot[0, 2]), float(rot[1, 2]), float(rot[2, 2])
-    boxes = [(b[0], b[1], b[7], b[8], b[3], b[4], b[5], b[6]) for b in sc.boxes.tolist()]
+    boxes = [Box(b[0], b[1], b[7], b[8], b[3], b[4], b[5], b[6]) for b in sc.boxes.tolist()]
     out = np.full((cfg.channels, cfg.azimuth_steps), math.inf)
     for a in range(cfg.azimuth_steps):
         awx = float(rot[0, 0]) * float(ca[a]) + float(rot[0, 1]) * float(sa[a])
@@ -611,7 +612,7 @@ def nearest_box(sc: LidarScene, cfg: LidarConfig, origin: np.ndarray, rot: np.nd
             rx, ry, rz = c * awx + s * uwx, c * awy + s * uwy, c * awz + s * uwz
             best = math.inf
             for b in boxes:
-                best = min(best, ray_box(*b, ox, oy, oz, rx, ry, rz))
+                best = min(best, ray_box(b, Ray(ox, oy, oz, rx, ry, rz)))
             out[k, a] = best
     return out
 
