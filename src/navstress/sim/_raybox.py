@@ -27,7 +27,7 @@ regroup them: numba dispatches tuples of arrays microseconds slower per call.
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit
@@ -285,7 +285,7 @@ def box_pass(boxes: np.ndarray, beams: Beams, params: np.ndarray, origin: np.nda
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def scan_ranges(params: np.ndarray, origin: np.ndarray, rot: np.ndarray, boxes: np.ndarray,
-                *arrays: np.ndarray) -> None:
+                *arrays: Any) -> None:
     """One scan's ranges (terrain, then boxes) from the sensor at ``origin``, oriented ``rot``:
     :func:`~navstress.sim._raycast.terrain_kernel` then :func:`box_pass` in one compiled call
     (``params``: a one-record :data:`~navstress.sim._raycast.SCAN_PARAMS` array; ``arrays``:
@@ -299,7 +299,7 @@ def scan_ranges(params: np.ndarray, origin: np.ndarray, rot: np.ndarray, boxes: 
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def body_scan_ranges(params: np.ndarray, qpos: np.ndarray, mount: np.ndarray, rot: np.ndarray, origin: np.ndarray,
-                     boxes: np.ndarray, discs: np.ndarray, *arrays: np.ndarray) -> int:
+                     boxes: np.ndarray, discs: np.ndarray, *arrays: Any) -> int:
     """One scan's ranges (terrain, then upright cylinders ``discs``, then boxes) from a body pose ``qpos[:7]`` = (x, y, z, qw, qx,
     qy, qz) with the sensor at ``mount`` in the body frame and oriented as the body; returns the
     number of returns, or -1 (nothing computed) if the pose is not finite or not a rotation.

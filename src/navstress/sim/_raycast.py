@@ -43,7 +43,6 @@ from typing import Any, NamedTuple
 import numpy as np
 from llvmlite import ir
 from numba import njit, types
-from numba.core import cgutils
 from numba.extending import intrinsic
 
 import navstress._jit  # noqa: F401  (numba's cache directory, before any @njit(cache=True))
@@ -174,7 +173,7 @@ def _call_native_walk(typingctx: Any, fn: Any, args: Any) -> Any:  # pragma: no 
     (:func:`navstress.sim.native.load`)."""
     i64, f64, ptr = ir.IntType(64), ir.DoubleType(), ir.IntType(8).as_pointer()
     kinds = (ptr, i64, i64, i64, f64, f64, f64, i64, ptr, ptr, i64, ptr)
-    if not (isinstance(args, types.BaseNamedTuple) and args.instance_class is NativeWalkArgs):
+    if getattr(args, "instance_class", None) is not NativeWalkArgs:
         return None
     for t, k in zip(args.types, kinds):
         if (k is f64) != isinstance(t, types.Float) or getattr(t, "bitwidth", 0) != 64:
@@ -183,7 +182,7 @@ def _call_native_walk(typingctx: Any, fn: Any, args: Any) -> Any:  # pragma: no 
     def codegen(context: Any, builder: Any, signature: Any, call_args: Any) -> Any:
         fnty = ir.FunctionType(ir.VoidType(), list(kinds))
         target = builder.inttoptr(call_args[0], fnty.as_pointer())
-        values = cgutils.unpack_tuple(builder, call_args[1], len(kinds))
+        values = [builder.extract_value(call_args[1], i) for i in range(len(kinds))]
         builder.call(target, [builder.inttoptr(v, ptr) if k is ptr else v for v, k in zip(values, kinds)])
         return context.get_dummy_value()
 
