@@ -85,6 +85,7 @@ def load_baseline(rev: str) -> ModuleType:
 
 
 LIDAR_MODULES = ("_raycast", "_raybox", "_noise", "lidar")
+OPTIONAL_MODULES = ("native",)  # (the native walk's loader, from its revision on)
 
 
 def load_baseline_lidar(rev: str) -> ModuleType | None:
@@ -97,13 +98,17 @@ def load_baseline_lidar(rev: str) -> ModuleType | None:
         if r.returncode != 0:
             return None
         srcs[m] = r.stdout
+    for m in OPTIONAL_MODULES:
+        r = subprocess.run(["git", "show", f"{rev}:src/navstress/sim/{m}.py"], cwd=REPO, capture_output=True, text=True)
+        if r.returncode == 0:
+            srcs[m] = r.stdout
     digest = hashlib.sha1("".join(srcs.values()).encode()).hexdigest()[:12]
     pkg = f"navlidar_base_{digest}"
     root = Path(tempfile.gettempdir()) / f"navstress_bench_lidar_pkg_{digest}"
     (root / pkg).mkdir(parents=True, exist_ok=True)
     for m, src in {**srcs, "__init__": ""}.items():
         text = src.replace("from navstress.sim import ", f"from {pkg} import ")
-        for n in LIDAR_MODULES:
+        for n in srcs:
             text = text.replace(f"navstress.sim.{n} ", f"{pkg}.{n} ").replace(f"navstress.sim.{n}\n", f"{pkg}.{n}\n")
         p = root / pkg / f"{m}.py"
         if not p.exists() or p.read_text() != text:
