@@ -264,8 +264,12 @@ def _cell_hit(cell: Cell, ray: Ray, ta: float, tb: float, sgn: float) -> float:
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def march_terrain(grid: TerrainGrid, ray: Ray, t0: float, t1: float, above: bool) -> tuple[float, float]:
-    """First terrain hit of the ray (x, y in cell units) in [t0, t1]: returns (t_hit or inf, t_clear).
+def march_terrain(h: np.ndarray, mip: np.ndarray, moff: np.ndarray, mnx: np.ndarray, ray: Ray, t0: float, t1: float,
+                  above: bool) -> tuple[float, float]:
+    """First terrain hit of the ray (x, y in cell units) in [t0, t1] over the heights ``h`` and
+    their mipmap (:class:`TerrainGrid`'s ``mip``, ``mip_offsets``, ``mip_widths``): returns
+    (t_hit or inf, t_clear). (The four arrays, not the grid: a call is per ray, and the grid's
+    other fields measured 3-5 % slower per-ray scans on flat ground.)
 
     ``t_clear``: the ray is known free of terrain on [t0, t_clear) (t1, or where it leaves the
     map). ``above=True`` asserts the ray is above the surface at t0 (plane marching): a start
@@ -273,7 +277,6 @@ def march_terrain(grid: TerrainGrid, ray: Ray, t0: float, t1: float, above: bool
     mipmap levels (blocks the ray passes over are skipped), ``mip[1]`` the min heights (a block
     whose min equals its max is a flat plane: the hit is solved directly).
     """
-    h, mip, moff, mnx = grid.heights, grid.mip, grid.mip_offsets, grid.mip_widths
     ox, oy, oz, dx, dy, dz = ray
     ncx = h.shape[1] - 1
     ncy = h.shape[0] - 1
@@ -478,7 +481,7 @@ def cast_rays_kernel(grid: TerrainGrid, boxes: np.ndarray, origins: np.ndarray, 
                      out: np.ndarray) -> None:
     """Per-ray reference path: terrain march from t=0 plus every box (pruned by distance)."""
     nb = boxes.shape[0]
-    cell = grid.cell
+    h, cell, mip, moff, mnx = grid.heights, grid.cell, grid.mip, grid.mip_offsets, grid.mip_widths
     for r in range(origins.shape[0]):
         ox, oy, oz = origins[r, 0], origins[r, 1], origins[r, 2]
         dx, dy, dz = dirs[r, 0], dirs[r, 1], dirs[r, 2]
@@ -489,7 +492,8 @@ def cast_rays_kernel(grid: TerrainGrid, boxes: np.ndarray, origins: np.ndarray, 
             if tb < best:
                 best = tb
         tend = min(best, max_range)
-        th, _ = march_terrain(grid, Ray(ox / cell, oy / cell, oz, dx / cell, dy / cell, dz), 0.0, tend, False)
+        th, _ = march_terrain(h, mip, moff, mnx, Ray(ox / cell, oy / cell, oz, dx / cell, dy / cell, dz), 0.0, tend,
+                              False)
         if th < best:
             best = th
         out[r] = best if best <= max_range else INF
@@ -575,7 +579,8 @@ def terrain_kernel(grid: TerrainGrid, beams: Beams, params: np.ndarray, origin: 
     a descending ray comes down to the highest terrain point and ends where a rising ray climbs
     above it (1e-6 m of margin): 40 % fewer cells walked on the s=4 d=2 benchmark world.
     """
-    h, cell, mip, mipf, moff, grad_max = grid.heights, grid.cell, grid.mip, grid.mipf, grid.mip_offsets, grid.grad_max
+    h, cell, mip, mipf, moff, mnx = grid.heights, grid.cell, grid.mip, grid.mipf, grid.mip_offsets, grid.mip_widths
+    grad_max = grid.grad_max
     cos_el, sin_el, cos_az, sin_az = beams
     max_range, plane_march, walk = params[0].max_range, params[0].plane_march != 0, params[0].walk
     nch = cos_el.shape[0]
@@ -705,7 +710,8 @@ def terrain_kernel(grid: TerrainGrid, beams: Beams, params: np.ndarray, origin: 
             out[k, a] = INF
             if not plane[a]:  # each ray from the sensor
                 if not (rz >= 0.0 and oz > gmax):
-                    th, _ = march_terrain(grid, Ray(oxc, oyc, oz, sdx[a], sdy[a], rz), 0.0, max_range, False)
+                    th, _ = march_terrain(h, mip, moff, mnx, Ray(oxc, oyc, oz, sdx[a], sdy[a], rz), 0.0, max_range,
+                                          False)
                     out[k, a] = th
                 continue
             rl = srl[a]
