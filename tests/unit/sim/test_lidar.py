@@ -565,8 +565,9 @@ def test_scan_from_outside_the_map_sees_the_side_walls() -> None:
 # ---------------------------------------------------------------------------------------------
 
 
-def _kernel_args(lidar: Lidar) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    return lidar._cos_el, lidar._sin_el, lidar._cos_az, lidar._sin_az
+def _params(cfg: LidarConfig, plane_march: bool, min_range: float | None = None) -> np.ndarray:
+    return new_scan_params(max_range=cfg.max_range_m, min_range=cfg.min_range_m if min_range is None else min_range,
+                           plane_march=int(plane_march), walk=0)
 
 
 def terrain_then_boxes(sc: LidarScene, cfg: LidarConfig, origin: np.ndarray, rot: np.ndarray,
@@ -574,11 +575,9 @@ def terrain_then_boxes(sc: LidarScene, cfg: LidarConfig, origin: np.ndarray, rot
     """(terrain-only ranges before any filter, terrain + box_pass result)."""
     lidar = Lidar(sc, cfg, plane_march=plane_march)
     terr = np.empty((cfg.channels, cfg.azimuth_steps))
-    scan_kernel(sc.heights, sc.cell_m, sc.mip, sc.mipf, sc.mip_offsets, sc.mip_widths, sc.grad_max,
-                np.zeros((0, 9)), origin, rot, *_kernel_args(lidar), cfg.max_range_m, -math.inf, plane_march, terr)
+    scan_kernel(sc.grid, lidar._beams, _params(cfg, plane_march, -math.inf), np.zeros((0, 9)), origin, rot, terr)
     out = terr.copy()
-    params = new_scan_params(max_range=cfg.max_range_m, min_range=cfg.min_range_m, plane_march=1, walk=0)
-    _raybox.box_pass(sc.boxes, lidar._beams, params, origin, rot, out)
+    _raybox.box_pass(sc.boxes, lidar._beams, _params(cfg, plane_march), origin, rot, out)
     return terr, out
 
 
@@ -587,8 +586,7 @@ def all_in_one(sc: LidarScene, cfg: LidarConfig, origin: np.ndarray, rot: np.nda
     """scan_kernel with the boxes (the path before box_pass)."""
     lidar = Lidar(sc, cfg)
     out = np.empty((cfg.channels, cfg.azimuth_steps))
-    scan_kernel(sc.heights, sc.cell_m, sc.mip, sc.mipf, sc.mip_offsets, sc.mip_widths, sc.grad_max,
-                sc.boxes, origin, rot, *_kernel_args(lidar), cfg.max_range_m, cfg.min_range_m, plane_march, out)
+    scan_kernel(sc.grid, lidar._beams, _params(cfg, plane_march), sc.boxes, origin, rot, out)
     return out
 
 
