@@ -85,6 +85,8 @@ def load_baseline(rev: str) -> ModuleType:
 
 
 LIDAR_MODULES = ("_raycast", "_raybox", "_noise", "lidar")
+OPTIONAL_MODULES = ("native",)  # (the native walk's loader and its C file, from their revision on)
+NATIVE_C = "_march_avx512.c"
 
 
 def load_baseline_lidar(rev: str) -> ModuleType | None:
@@ -97,17 +99,25 @@ def load_baseline_lidar(rev: str) -> ModuleType | None:
         if r.returncode != 0:
             return None
         srcs[m] = r.stdout
+    for m in OPTIONAL_MODULES:
+        r = subprocess.run(["git", "show", f"{rev}:src/navstress/sim/{m}.py"], cwd=REPO, capture_output=True, text=True)
+        if r.returncode == 0:
+            srcs[m] = r.stdout
+    c_src = subprocess.run(["git", "show", f"{rev}:src/navstress/sim/{NATIVE_C}"], cwd=REPO, capture_output=True,
+                           text=True)
     digest = hashlib.sha1("".join(srcs.values()).encode()).hexdigest()[:12]
     pkg = f"navlidar_base_{digest}"
     root = Path(tempfile.gettempdir()) / f"navstress_bench_lidar_pkg_{digest}"
     (root / pkg).mkdir(parents=True, exist_ok=True)
     for m, src in {**srcs, "__init__": ""}.items():
         text = src.replace("from navstress.sim import ", f"from {pkg} import ")
-        for n in LIDAR_MODULES:
+        for n in srcs:
             text = text.replace(f"navstress.sim.{n} ", f"{pkg}.{n} ").replace(f"navstress.sim.{n}\n", f"{pkg}.{n}\n")
         p = root / pkg / f"{m}.py"
         if not p.exists() or p.read_text() != text:
             p.write_text(text)
+    if c_src.returncode == 0 and not (root / pkg / NATIVE_C).exists():
+        (root / pkg / NATIVE_C).write_text(c_src.stdout)
     if str(root) not in sys.path:
         sys.path.insert(0, str(root))
     return importlib.import_module(f"{pkg}.lidar")

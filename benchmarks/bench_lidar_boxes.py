@@ -63,7 +63,7 @@ def main() -> None:
 
     def new(o: np.ndarray, r: np.ndarray) -> np.ndarray:
         terrain(o, r)
-        _raybox.box_pass(sc.boxes, o, r, *trig, mx, mn, out)
+        _raybox.box_pass(sc.boxes, lidar._beams, lidar._params, o, r, out)
         return out
 
     rng = np.random.default_rng(0)

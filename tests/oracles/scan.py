@@ -9,17 +9,17 @@ import math
 import numpy as np
 from numba import njit
 
-from navstress.sim._raycast import INF, _ray_box, terrain_kernel
+from navstress.sim._raycast import INF, Beams, Box, Ray, TerrainGrid, _ray_box, terrain_kernel
 
 TWO_PI = 2.0 * math.pi
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray, moff: np.ndarray, mnx: np.ndarray,
-                grad_max: float, boxes: np.ndarray, origin: np.ndarray, rot: np.ndarray,
-                cos_el: np.ndarray, sin_el: np.ndarray, cos_az: np.ndarray, sin_az: np.ndarray,
-                max_range: float, min_range: float, plane_march: bool, out: np.ndarray) -> None:
-    """One scan: out[channel, azimuth] = range (inf: no return). Channels ascending in elevation.
+def scan_kernel(grid: TerrainGrid, beams: Beams, params: np.ndarray, boxes: np.ndarray, origin: np.ndarray,
+                rot: np.ndarray, out: np.ndarray) -> None:
+    """One scan: out[channel, azimuth] = range (inf: no return). Channels ascending in elevation;
+    ``params`` a one-record ``SCAN_PARAMS`` array (``max_range``, ``min_range``, ``plane_march``,
+    ``walk``), as the production kernels take it.
 
     The terrain ranges come from :func:`terrain_kernel` (one plane per azimuth column, lowest
     channel first). Boxes come from world-heading sector bins (built per scan), each tested only
@@ -29,6 +29,9 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray, m
     :func:`navstress.sim._raybox.box_pass`; the per-column box code here is the independent
     all-in-one reference that the tests compare ``box_pass`` against (bit-identical).
     """
+    h, cell = grid.heights, grid.cell
+    cos_el, sin_el, cos_az, sin_az = beams
+    max_range, min_range = params[0].max_range, params[0].min_range
     nch = cos_el.shape[0]
     naz = cos_az.shape[0]
     ox, oy, oz = origin[0], origin[1], origin[2]
@@ -36,8 +39,7 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray, m
     ncy = h.shape[0] - 1
     icell = 1.0 / cell
     tr = np.empty((nch, naz))
-    terrain_kernel(h, cell, mip, mipf, moff, mnx, grad_max, origin, rot, cos_el, sin_el, cos_az, sin_az,
-                  max_range, plane_march, tr)
+    terrain_kernel(grid, beams, params, origin, rot, tr)
     # ---- per-scan box preparation: distances, reachable slopes, heading intervals, bins --
     nb = boxes.shape[0]
     nsec = 360
@@ -216,7 +218,8 @@ def scan_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray, m
                     for k in range(k0, k1 + 1):
                         if dmin[i] > best[k] * hxy[k]:
                             continue
-                        tb = _ray_box(b0, b1, b7, b8, b3, b4, b5, b6, ox, oy, oz, dirs[k, 0], dirs[k, 1], dirs[k, 2])
+                        tb = _ray_box(Box(b0, b1, b7, b8, b3, b4, b5, b6),
+                                      Ray(ox, oy, oz, dirs[k, 0], dirs[k, 1], dirs[k, 2]))
                         if tb < best[k]:
                             best[k] = tb
         for k in range(nch):

@@ -43,17 +43,18 @@ LAYERS = 256
 _TWO53 = float(2 ** 53)
 
 
-def _f(x: float) -> float:
+def _density(x: float) -> float:
+    """f(x) = exp(-x^2/2): the standard normal density without its constant (the ziggurat's f)."""
     return math.exp(-0.5 * x * x)
 
 
 def _layers(r: float, n: int) -> tuple[float, list[float]]:
     """Common area ``v`` and widths X[1..n-1] (X[1] = r, decreasing) for a trial ``r``; the
     residual of the top layer's area is ``X[n-1] * (1 - f(X[n-1])) - v`` (0 when r is right)."""
-    v = r * _f(r) + math.sqrt(math.pi / 2.0) * math.erfc(r / math.sqrt(2.0))
+    v = r * _density(r) + math.sqrt(math.pi / 2.0) * math.erfc(r / math.sqrt(2.0))
     xs = [r]
     for _ in range(n - 2):
-        y = v / xs[-1] + _f(xs[-1])
+        y = v / xs[-1] + _density(xs[-1])
         if y >= 1.0:  # overshoot: r too small
             return v, []
         xs.append(math.sqrt(-2.0 * math.log(y)))
@@ -69,7 +70,7 @@ def _build(n: int) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
         v, xs = _layers(mid, n)
         if not xs:
             lo = mid  # layers too thick: they close below the top, r too small
-        elif xs[-1] * (1.0 - _f(xs[-1])) > v:
+        elif xs[-1] * (1.0 - _density(xs[-1])) > v:
             hi = mid  # top layer wider than the others: layers too thin, r too large
         else:
             lo = mid
@@ -77,7 +78,7 @@ def _build(n: int) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
             break
     r = hi
     v, xs = _layers(r, n)
-    x = np.array([v / _f(r)] + xs + [0.0])
+    x = np.array([v / _density(r)] + xs + [0.0])
     w = x / _TWO53
     k = np.array([math.floor(x[i + 1] / x[i] * _TWO53) for i in range(n)], np.int64)
     f = np.exp(-0.5 * x * x)

@@ -15,34 +15,66 @@ beta along the sensor's z axis: a ray is (t cos el, t sin el)), the channels who
 slope can reach the box and whose current range reaches its near side. Boxes are visited near
 first (bucketed by distance), so rays already stopped by a nearer box or the ground skip the
 boxes behind. Speed notes as in ``_raycast``: the hot loops call only scalar helpers.
+
+The kernels take the records of ``_raycast`` (:class:`~navstress.sim._raycast.Beams`, a
+:data:`~navstress.sim._raycast.SCAN_PARAMS` record, :class:`~navstress.sim._raycast.TerrainGrid`).
+The two per-scan entries that Python calls, :func:`scan_ranges` (a sensor pose) and
+:func:`body_scan_ranges` (a body pose), take the groups flattened (``*arrays``: a
+``TerrainGrid``'s fields, a ``Beams``' fields, then the ranges; see :func:`scan_arrays`) and
+regroup them: numba dispatches tuples of arrays microseconds slower per call.
 """
 
 from __future__ import annotations
 
 import math
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit
 
 import navstress._jit  # noqa: F401  (numba's cache directory, before any @njit(cache=True))
-from navstress.sim._raycast import _ray_box, count_finite, rotation_error, terrain_kernel
+from navstress.sim._raycast import (Beams, Box, Ray, TerrainGrid, _ray_box, count_finite, rotation_error,
+                                    terrain_kernel)
 
 INF = np.inf
 TWO_PI = 2.0 * math.pi
 NBUCKET = 64
+# where each group ends in the per-scan entries' flat argument list (scan_arrays)
+_E_GRID = len(TerrainGrid._fields)
+_E_BEAMS = _E_GRID + len(Beams._fields)
+
+
+class Cylinder(NamedTuple):
+    """An upright solid cylinder (a disc mover): centre (x, y), radius, bottom and top z."""
+
+    x: float
+    y: float
+    r: float
+    zb: float
+    zt: float
+
+
+def scan_arrays(grid: TerrainGrid, beams: Beams, ranges: np.ndarray) -> tuple[np.ndarray | float, ...]:
+    """The groups as :func:`scan_ranges` and :func:`body_scan_ranges` take them (``*arrays``):
+    the grid's fields, the beams' fields, then ``ranges`` (channels, azimuths), the output."""
+    if type(grid) is not TerrainGrid or type(beams) is not Beams:
+        raise TypeError(f"expected TerrainGrid and Beams, got {type(grid).__name__} and {type(beams).__name__}")
+    return (*grid, *beams, ranges)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def box_pass(boxes: np.ndarray, origin: np.ndarray, rot: np.ndarray, cos_el: np.ndarray, sin_el: np.ndarray,
-             cos_az: np.ndarray, sin_az: np.ndarray, max_range: float, min_range: float,
+def box_pass(boxes: np.ndarray, beams: Beams, params: np.ndarray, origin: np.ndarray, rot: np.ndarray,
              out: np.ndarray) -> None:
     """Lower ``out[channel, azimuth]`` (terrain ranges, inf = none, any value > max_range is
-    treated as none) with the box hits, then keep ``min_range <= r <= max_range`` (else inf).
+    treated as none) with the box hits, then keep ``min_range <= r <= max_range`` (else inf)
+    (``params``: a one-record :data:`~navstress.sim._raycast.SCAN_PARAMS` array).
 
     Preconditions (as :class:`~navstress.sim.lidar.Lidar` guarantees): channel elevations in
     (-90, 90) degrees (``cos_el > 0``); azimuth ``a`` at ``2 pi a / naz``; ``rot`` a rotation
     up to rounding (the margins scale with its orthonormality error).
     """
+    cos_el, sin_el, cos_az, sin_az = beams
+    max_range, min_range = params[0].max_range, params[0].min_range
     nch = cos_el.shape[0]
     naz = cos_az.shape[0]
     nb = boxes.shape[0]
@@ -179,6 +211,7 @@ def box_pass(boxes: np.ndarray, origin: np.ndarray, rot: np.ndarray, cos_el: np.
             hy = boxes[i, 4]
             zb = boxes[i, 5]
             zt = boxes[i, 6]
+            box = Box(bx, by, c, s, hx, hy, zb, zt)
             hz = 0.5 * (zt - zb)
             px = bx - ox
             py = by - oy
@@ -240,7 +273,7 @@ def box_pass(boxes: np.ndarray, origin: np.ndarray, rot: np.ndarray, cos_el: np.
                     rx = ce * awx + se * uwx
                     ry = ce * awy + se * uwy
                     rz = ce * awz + se * uwz
-                    tb = _ray_box(bx, by, c, s, hx, hy, zb, zt, ox, oy, oz, rx, ry, rz)
+                    tb = _ray_box(box, Ray(ox, oy, oz, rx, ry, rz))
                     if tb < out[k, a]:
                         out[k, a] = tb
     for k in range(nch):
@@ -251,22 +284,35 @@ def box_pass(boxes: np.ndarray, origin: np.ndarray, rot: np.ndarray, cos_el: np.
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def body_scan_ranges(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray, moff: np.ndarray,
-                     mnx: np.ndarray, grad_max: float, boxes: np.ndarray, discs: np.ndarray, qpos: np.ndarray,
-                     mount: np.ndarray,
-                     cos_el: np.ndarray, sin_el: np.ndarray, cos_az: np.ndarray, sin_az: np.ndarray,
-                     max_range: float, min_range: float, plane_march: bool, out: np.ndarray,
-                     rot: np.ndarray, origin: np.ndarray, walk: int) -> int:
+def scan_ranges(params: np.ndarray, origin: np.ndarray, rot: np.ndarray, boxes: np.ndarray,
+                *arrays: Any) -> None:
+    """One scan's ranges (terrain, then boxes) from the sensor at ``origin``, oriented ``rot``:
+    :func:`~navstress.sim._raycast.terrain_kernel` then :func:`box_pass` in one compiled call
+    (``params``: a one-record :data:`~navstress.sim._raycast.SCAN_PARAMS` array; ``arrays``:
+    :func:`scan_arrays`, the ranges written)."""
+    grid = TerrainGrid(*arrays[:_E_GRID])
+    beams = Beams(*arrays[_E_GRID:_E_BEAMS])
+    out = arrays[_E_BEAMS]
+    terrain_kernel(grid, beams, params, origin, rot, out)
+    box_pass(boxes, beams, params, origin, rot, out)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def body_scan_ranges(params: np.ndarray, qpos: np.ndarray, mount: np.ndarray, rot: np.ndarray, origin: np.ndarray,
+                     boxes: np.ndarray, discs: np.ndarray, *arrays: Any) -> int:
     """One scan's ranges (terrain, then upright cylinders ``discs``, then boxes) from a body pose ``qpos[:7]`` = (x, y, z, qw, qx,
     qy, qz) with the sensor at ``mount`` in the body frame and oriented as the body; returns the
     number of returns, or -1 (nothing computed) if the pose is not finite or not a rotation.
 
     One compiled call instead of the pose arithmetic, validation, terrain kernel, box pass and
-    count made separately from Python (each call pays the dispatcher); ``walk`` as in
-    :func:`~navstress.sim._raycast.terrain_kernel`. ``rot`` (3, 3) and
+    count made separately from Python (each call pays the dispatcher); ``params`` and
+    ``arrays`` as in :func:`scan_ranges`. ``rot`` (3, 3) and
     ``origin`` (3,) receive the sensor pose: ``rot`` with the formula of MuJoCo's
     ``mju_quat2Mat`` (MuJoCo's build contracts some products into fused multiply-adds, so
     entries may differ from it in the last bit), ``origin = qpos[:3] + rot @ mount``."""
+    grid = TerrainGrid(*arrays[:_E_GRID])
+    beams = Beams(*arrays[_E_GRID:_E_BEAMS])
+    out = arrays[_E_BEAMS]
     q0, q1, q2, q3 = qpos[3], qpos[4], qpos[5], qpos[6]
     if q0 == 1.0 and q1 == 0.0 and q2 == 0.0 and q3 == 0.0:
         for i in range(3):
@@ -290,19 +336,19 @@ def body_scan_ranges(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarr
     ok = math.isfinite(origin[0]) and math.isfinite(origin[1]) and math.isfinite(origin[2])
     if not (ok and rotation_error(rot) <= 1e-6):  # (a NaN rotation fails the comparison)
         return -1
-    terrain_kernel(h, cell, mip, mipf, moff, mnx, grad_max, origin, rot, cos_el, sin_el, cos_az, sin_az,
-                   max_range, plane_march, out, walk)
+    terrain_kernel(grid, beams, params, origin, rot, out)
     if discs.shape[0] > 0:
-        disc_pass(discs, origin, rot, cos_el, sin_el, cos_az, sin_az, max_range, out)
-    box_pass(boxes, origin, rot, cos_el, sin_el, cos_az, sin_az, max_range, min_range, out)
+        disc_pass(discs, beams, params, origin, rot, out)
+    box_pass(boxes, beams, params, origin, rot, out)
     return count_finite(out)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _ray_cylinder(cx: float, cy: float, r: float, zb: float, zt: float, ox: float, oy: float, oz: float,
-                  dx: float, dy: float, dz: float) -> float:
-    """Distance along the unit ray (o, d) to the upright solid cylinder (centre cx, cy, radius r,
-    from zb to zt), inf if none; surfaces two-sided (a ray from inside hits its exit)."""
+def _ray_cylinder(cyl: Cylinder, ray: Ray) -> float:
+    """Distance along the unit ray to the upright solid cylinder ``cyl``, inf if none; surfaces
+    two-sided (a ray from inside hits its exit)."""
+    cx, cy, r, zb, zt = cyl
+    ox, oy, oz, dx, dy, dz = ray
     best = INF
     ex, ey = ox - cx, oy - cy
     a = dx * dx + dy * dy
@@ -329,12 +375,15 @@ def _ray_cylinder(cx: float, cy: float, r: float, zb: float, zt: float, ox: floa
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def disc_pass(discs: np.ndarray, origin: np.ndarray, rot: np.ndarray, cos_el: np.ndarray, sin_el: np.ndarray,
-              cos_az: np.ndarray, sin_az: np.ndarray, max_range: float, out: np.ndarray) -> None:
+def disc_pass(discs: np.ndarray, beams: Beams, params: np.ndarray, origin: np.ndarray, rot: np.ndarray,
+              out: np.ndarray) -> None:
     """Lower ``out[channel, azimuth]`` with the hits on upright cylinders (rows ``[x, y, r, zb,
     zt]``: the disc movers); the ray directions as :func:`box_pass` computes them. Per cylinder
     only the azimuth columns its bounding circle in the sensor's xy plane can span (with a margin)
-    are tested; no range filter (the box pass applies it)."""
+    are tested; no range filter (the box pass applies it; ``params``: a one-record
+    :data:`~navstress.sim._raycast.SCAN_PARAMS` array, its ``max_range`` read)."""
+    cos_el, sin_el, cos_az, sin_az = beams
+    max_range = params[0].max_range
     nch = cos_el.shape[0]
     naz = cos_az.shape[0]
     ox, oy, oz = origin[0], origin[1], origin[2]
@@ -342,6 +391,7 @@ def disc_pass(discs: np.ndarray, origin: np.ndarray, rot: np.ndarray, cos_el: np
     step = TWO_PI / naz
     for i in range(discs.shape[0]):
         cx, cy, r, zb, zt = discs[i, 0], discs[i, 1], discs[i, 2], discs[i, 3], discs[i, 4]
+        cyl = Cylinder(cx, cy, r, zb, zt)
         hz = 0.5 * (zt - zb)
         px, py, pz = cx - ox, cy - oy, 0.5 * (zb + zt) - oz
         sx = rot[0, 0] * px + rot[1, 0] * py + rot[2, 0] * pz
@@ -369,7 +419,6 @@ def disc_pass(discs: np.ndarray, origin: np.ndarray, rot: np.ndarray, cos_el: np
             for k in range(nch):
                 ce = cos_el[k]
                 se = sin_el[k]
-                t = _ray_cylinder(cx, cy, r, zb, zt, ox, oy, oz, ce * awx + se * uwx, ce * awy + se * uwy,
-                                  ce * awz + se * uwz)
+                t = _ray_cylinder(cyl, Ray(ox, oy, oz, ce * awx + se * uwx, ce * awy + se * uwy, ce * awz + se * uwz))
                 if t < out[k, a]:
                     out[k, a] = t

@@ -17,18 +17,28 @@ origin), for rays that plane marching cannot take; and :func:`walk_cells`, the p
 round differently (ranges within ~1e-12 m of each other), so neither replaces the other without
 changing results. ``_march_avx512.c`` is the native twin of :func:`walk_cells` (a channel's
 queue of walks at a time, the same IEEE operations: bit-identical), called through its address
-(:func:`_call_native_walk`; the ``walk`` argument of :func:`terrain_kernel`).
+(:func:`_call_native_walk`; the ``walk`` field of :data:`SCAN_PARAMS`).
+
+Named parameters: the kernels take records, never long lists of positional values. A ray is a
+:class:`Ray` (origin, direction), a box a :class:`Box`, a terrain cell a :class:`Cell`, a cell
+walk's start a :class:`CellWalk` (NamedTuples of scalars: numba keeps them in registers, free);
+the scene's terrain is a :class:`TerrainGrid` and the lidar's beam angles :class:`Beams` (groups
+of arrays), and a scan's constants the one-record array :data:`SCAN_PARAMS` (:func:`new_scan_params`
+refuses a missing or unknown field). Python calls the per-scan entries of ``_raybox`` with the
+groups flattened (``*arrays``, regrouped inside, as ``_step.run_steps``): numba dispatches tuples
+of arrays microseconds slower than the same arrays one by one.
 
 Speed notes (measured, see docs/performance.md): a call to another ``@njit`` function that takes
 arrays costs atomic reference-count updates per call, even when inlined by numba; the helpers
-that the hot loops call per cell (:func:`_cell_hit`, :func:`_ray_box`) take scalars only;
+that the hot loops call per cell (:func:`_cell_hit`, :func:`_ray_box`) take scalar records only;
 :func:`walk_cells` (inlined, two arrays) measured as fast as the walk written out in the loop.
+Record fields that a loop reads are read into locals at a kernel's top.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from llvmlite import ir
@@ -40,24 +50,143 @@ import navstress._jit  # noqa: F401  (numba's cache directory, before any @njit(
 INF = np.inf
 
 
+class Ray(NamedTuple):
+    """A ray ``o + t d``: origin and direction (in the caller's units: x, y in cell units for the
+    terrain tests, metres for the boxes; z always in metres)."""
+
+    ox: float
+    oy: float
+    oz: float
+    dx: float
+    dy: float
+    dz: float
+
+
+class Box(NamedTuple):
+    """An upright box: centre (x, y), yaw as cos/sin, half sides, bottom and top z (metres)."""
+
+    x: float
+    y: float
+    cos_yaw: float
+    sin_yaw: float
+    hx: float
+    hy: float
+    zb: float
+    zt: float
+
+
+class Cell(NamedTuple):
+    """Terrain cell (cx, cy) and its corner heights h00 = h[cy, cx], h10 = h[cy, cx+1],
+    h01 = h[cy+1, cx], h11 = h[cy+1, cx+1]."""
+
+    cx: int
+    cy: int
+    h00: float
+    h10: float
+    h01: float
+    h11: float
+
+
+class CellWalk(NamedTuple):
+    """Where one ray's plain cell walk (:func:`walk_cells`) starts: at ``t`` in cell (cx, cy),
+    leaving it at ``tmx`` in x and ``tmy`` in y, crossing a cell in ``tdx = |1/dx|``,
+    ``tdy = |1/dy|``, stepping the cells by ``sx``, ``sy`` (+-1), ending at ``tend``."""
+
+    t: float
+    tmx: float
+    tmy: float
+    tdx: float
+    tdy: float
+    tend: float
+    cx: int
+    cy: int
+    sx: int
+    sy: int
+
+
+class TerrainGrid(NamedTuple):
+    """The terrain as the kernels read it (:class:`~navstress.sim.lidar.LidarScene`'s arrays)."""
+
+    heights: np.ndarray  # (rows, cols) float32, row = y
+    cell: float  # cell side (m)
+    mip: np.ndarray  # (2, n) float64 max / min mipmap levels, flat
+    mipf: np.ndarray  # (n0, 2) float32 level 0 max / min pairs (the scans' cell test)
+    mip_offsets: np.ndarray  # (levels,) where each level starts in mip
+    mip_widths: np.ndarray  # (levels,) blocks per row of each level
+    grad_max: float  # steepest triangle (m/m)
+
+
+class Beams(NamedTuple):
+    """A lidar's beam angles in its own frame: channel elevations (ascending) and azimuths."""
+
+    cos_el: np.ndarray
+    sin_el: np.ndarray
+    cos_az: np.ndarray
+    sin_az: np.ndarray
+
+
+_I, _F = np.int64, np.float64
+#: A scan's constants (a one-record array, see :func:`new_scan_params`).
+SCAN_PARAMS = np.dtype([
+    ("max_range", _F), ("min_range", _F),  # returns kept: min_range <= r <= max_range (m)
+    ("plane_march", _I),  # 1: march each azimuth column's plane (0: every ray from the sensor)
+    ("walk", _I),  # address of the native walk (navstress.sim.native.load), 0: walk_cells
+], align=True)
+SCAN_PARAMS_FIELDS: frozenset[str] = frozenset(SCAN_PARAMS.names or ())
+
+
+def new_scan_params(**values: Any) -> np.ndarray:
+    """A one-record :data:`SCAN_PARAMS` array; every field must be given."""
+    if set(values) != SCAN_PARAMS_FIELDS:
+        raise TypeError(f"SCAN_PARAMS fields missing: {sorted(SCAN_PARAMS_FIELDS - set(values))}, "
+                        f"unknown: {sorted(set(values) - SCAN_PARAMS_FIELDS)}")
+    p = np.zeros(1, SCAN_PARAMS)
+    for name, v in values.items():
+        p[name] = v
+    return p
+
+
+class NativeWalkArgs(NamedTuple):
+    """The arguments of ``nv_march_channel`` (``_march_avx512.c``), in its order: array addresses
+    as integers (heights, queue rows of doubles and of integers, results)."""
+
+    heights: int  # const float *h
+    width: int  # W: vertices per row
+    ncx: int
+    ncy: int
+    oz: float
+    oxc: float
+    oyc: float
+    nq: int  # queued walks
+    queue: int  # const double *Q: rows t, tmx, tmy, tdx, tdy, dx, dy, dz, tend
+    queue_int: int  # const int64_t *I: rows cx, cy, sx, sy
+    stride: int  # qs: row stride of both queues
+    result: int  # double *R
+
+
 @intrinsic
-def _call_native_walk(typingctx: Any, fn: Any, h: Any, w: Any, ncx: Any, ncy: Any, oz: Any, oxc: Any, oyc: Any,
-                      nq: Any, q: Any, qi: Any, qs: Any, r: Any) -> Any:  # pragma: no cover - compile time
-    """Call the native walk ``nv_march_channel`` (``_march_avx512.c``) at address ``fn``, array
-    addresses as int64. The address is an argument, not a linked symbol: the compiled (and
-    cached) kernels need nothing registered before they load, and the walk is built only when
-    a lidar asks for it (:func:`navstress.sim.native.load`)."""
+def _call_native_walk(typingctx: Any, fn: Any, args: Any) -> Any:  # pragma: no cover - compile time
+    """Call the native walk ``nv_march_channel`` (``_march_avx512.c``) at address ``fn`` with a
+    :class:`NativeWalkArgs` (its C arguments in order, array addresses as 64-bit integers). The
+    address is an argument, not a linked symbol: the compiled (and cached) kernels need nothing
+    registered before they load, and the walk is built only when a lidar asks for it
+    (:func:`navstress.sim.native.load`)."""
     i64, f64, ptr = ir.IntType(64), ir.DoubleType(), ir.IntType(8).as_pointer()
     kinds = (ptr, i64, i64, i64, f64, f64, f64, i64, ptr, ptr, i64, ptr)
+    if getattr(args, "instance_class", None) is not NativeWalkArgs:
+        return None
+    for t, k in zip(args.types, kinds):
+        if (k is f64) != isinstance(t, types.Float) or getattr(t, "bitwidth", 0) != 64:
+            return None
 
-    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+    def codegen(context: Any, builder: Any, signature: Any, call_args: Any) -> Any:
         fnty = ir.FunctionType(ir.VoidType(), list(kinds))
-        target = builder.inttoptr(args[0], fnty.as_pointer())
-        builder.call(target, [builder.inttoptr(v, ptr) if k is ptr else v for v, k in zip(args[1:], kinds)])
+        target = builder.inttoptr(call_args[0], fnty.as_pointer())
+        values = [builder.extract_value(call_args[1], i) for i in range(len(kinds))]
+        builder.call(target, [builder.inttoptr(v, ptr) if k is ptr else v for v, k in zip(values, kinds)])
         return context.get_dummy_value()
 
-    sig = types.void(types.int64, *[types.int64 if k is not f64 else types.float64 for k in kinds])
-    return sig, codegen
+    return types.void(types.int64, args), codegen
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -85,12 +214,13 @@ def height_at_cells(h: np.ndarray, x: float, y: float) -> float:
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _cell_hit(h00: float, h10: float, h01: float, h11: float, cx: int, cy: int, ox: float, oy: float,
-              oz: float, dx: float, dy: float, dz: float, ta: float, tb: float, sgn: float) -> float:
-    """First t in [ta, tb] where the ray crosses the surface in cell (cx, cy) (corner heights
-    h00 = h[cy, cx], h10 = h[cy, cx+1], h01 = h[cy+1, cx], h11 = h[cy+1, cx+1]) from side ``sgn``
-    (+1: from above, -1: from below); inf if none. Exact: F = z - h is linear on each triangle.
-    Scalars only, so that inlining it adds no array reference counting to the caller's loop."""
+def _cell_hit(cell: Cell, ray: Ray, ta: float, tb: float, sgn: float) -> float:
+    """First t in [ta, tb] where the ray (x, y in cell units) crosses the surface in ``cell`` from
+    side ``sgn`` (+1: from above, -1: from below); inf if none. Exact: F = z - h is linear on each
+    triangle. Scalar records only, so that inlining it adds no array reference counting to the
+    caller's loop."""
+    cx, cy, h00, h10, h01, h11 = cell
+    ox, oy, oz, dx, dy, dz = ray
     ua = ox + ta * dx - cx
     va = oy + ta * dy - cy
     ub = ox + tb * dx - cx
@@ -134,10 +264,12 @@ def _cell_hit(h00: float, h10: float, h01: float, h11: float, cx: int, cy: int, 
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def march_terrain(h: np.ndarray, mip: np.ndarray, moff: np.ndarray, mnx: np.ndarray,
-                  ox: float, oy: float, oz: float, dx: float, dy: float, dz: float,
-                  t0: float, t1: float, above: bool) -> tuple[float, float]:
-    """First terrain hit of the ray in [t0, t1]: returns (t_hit or inf, t_clear).
+def march_terrain(h: np.ndarray, mip: np.ndarray, moff: np.ndarray, mnx: np.ndarray, ray: Ray, t0: float, t1: float,
+                  above: bool) -> tuple[float, float]:
+    """First terrain hit of the ray (x, y in cell units) in [t0, t1] over the heights ``h`` and
+    their mipmap (:class:`TerrainGrid`'s ``mip``, ``mip_offsets``, ``mip_widths``): returns
+    (t_hit or inf, t_clear). (The four arrays, not the grid: a call is per ray, and the grid's
+    other fields measured 3-5 % slower per-ray scans on flat ground.)
 
     ``t_clear``: the ray is known free of terrain on [t0, t_clear) (t1, or where it leaves the
     map). ``above=True`` asserts the ray is above the surface at t0 (plane marching): a start
@@ -145,6 +277,7 @@ def march_terrain(h: np.ndarray, mip: np.ndarray, moff: np.ndarray, mnx: np.ndar
     mipmap levels (blocks the ray passes over are skipped), ``mip[1]`` the min heights (a block
     whose min equals its max is a flat plane: the hit is solved directly).
     """
+    ox, oy, oz, dx, dy, dz = ray
     ncx = h.shape[1] - 1
     ncy = h.shape[0] - 1
     W = float(ncx)
@@ -249,8 +382,8 @@ def march_terrain(h: np.ndarray, mip: np.ndarray, moff: np.ndarray, mnx: np.ndar
         else:
             skip = False
         if not skip:
-            th = _cell_hit(np.float64(h[cy, cx]), np.float64(h[cy, cx + 1]), np.float64(h[cy + 1, cx]),
-                           np.float64(h[cy + 1, cx + 1]), cx, cy, ox, oy, oz, dx, dy, dz, t, te, sgn)
+            th = _cell_hit(Cell(cx, cy, np.float64(h[cy, cx]), np.float64(h[cy, cx + 1]), np.float64(h[cy + 1, cx]),
+                                np.float64(h[cy + 1, cx + 1])), ray, t, te, sgn)
             if th <= te:
                 return th, th
         if te >= thi:
@@ -289,10 +422,11 @@ def march_terrain(h: np.ndarray, mip: np.ndarray, moff: np.ndarray, mnx: np.ndar
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _ray_box(bx: float, by: float, c: float, s: float, hx: float, hy: float, zb: float, zt: float,
-             ox: float, oy: float, oz: float, dx: float, dy: float, dz: float) -> float:
-    """Distance along unit ray (world metres) to the box centred (bx, by), yaw cos/sin (c, s),
-    half sides hx, hy, from zb to zt (two-sided slab test); inf if missed. Scalars only."""
+def _ray_box(box: Box, ray: Ray) -> float:
+    """Distance along the unit ray (world metres) to ``box`` (two-sided slab test); inf if
+    missed. Scalar records only."""
+    bx, by, c, s, hx, hy, zb, zt = box
+    ox, oy, oz, dx, dy, dz = ray
     px = ox - bx
     py = oy - by
     lx = c * px + s * py
@@ -336,53 +470,54 @@ def _ray_box(bx: float, by: float, c: float, s: float, hx: float, hy: float, zb:
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def ray_box(b: np.ndarray, i: int, ox: float, oy: float, oz: float,
-            dx: float, dy: float, dz: float) -> float:
-    """Distance along unit ray (world metres) to box row i of ``b`` (see :func:`_ray_box`)."""
-    return _ray_box(b[i, 0], b[i, 1], b[i, 7], b[i, 8], b[i, 3], b[i, 4], b[i, 5], b[i, 6],
-                    ox, oy, oz, dx, dy, dz)
+def ray_box(b: np.ndarray, i: int, ray: Ray) -> float:
+    """Distance along the unit ray (world metres) to box row i of ``b`` (rows ``[x, y, yaw, hx, hy,
+    zb, zt, cos(yaw), sin(yaw)]``; see :func:`_ray_box`)."""
+    return _ray_box(Box(b[i, 0], b[i, 1], b[i, 7], b[i, 8], b[i, 3], b[i, 4], b[i, 5], b[i, 6]), ray)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def cast_rays_kernel(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarray, mnx: np.ndarray,
-                     boxes: np.ndarray, origins: np.ndarray, dirs: np.ndarray, max_range: float,
+def cast_rays_kernel(grid: TerrainGrid, boxes: np.ndarray, origins: np.ndarray, dirs: np.ndarray, max_range: float,
                      out: np.ndarray) -> None:
     """Per-ray reference path: terrain march from t=0 plus every box (pruned by distance)."""
     nb = boxes.shape[0]
+    h, cell, mip, moff, mnx = grid.heights, grid.cell, grid.mip, grid.mip_offsets, grid.mip_widths
     for r in range(origins.shape[0]):
         ox, oy, oz = origins[r, 0], origins[r, 1], origins[r, 2]
         dx, dy, dz = dirs[r, 0], dirs[r, 1], dirs[r, 2]
+        ray = Ray(ox, oy, oz, dx, dy, dz)
         best = INF
         for i in range(nb):
-            tb = ray_box(boxes, i, ox, oy, oz, dx, dy, dz)
+            tb = ray_box(boxes, i, ray)
             if tb < best:
                 best = tb
         tend = min(best, max_range)
-        th, _ = march_terrain(h, mip, moff, mnx, ox / cell, oy / cell, oz, dx / cell, dy / cell, dz,
-                              0.0, tend, False)
+        th, _ = march_terrain(h, mip, moff, mnx, Ray(ox / cell, oy / cell, oz, dx / cell, dy / cell, dz), 0.0, tend,
+                              False)
         if th < best:
             best = th
         out[r] = best if best <= max_range else INF
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def walk_cells(h: np.ndarray, mipf: np.ndarray, ncx: int, ncy: int, oz: float, oxc: float, oyc: float,
-               t: float, tmx: float, tmy: float, tdx: float, tdy: float, dx: float, dy: float, dz: float,
-               tend: float, cx: int, cy: int, sx: int, sy: int) -> float:
-    """First terrain hit (t, or inf if none by ``tend`` or the map's edge) of one ray's plain cell walk.
+def walk_cells(h: np.ndarray, mipf: np.ndarray, ray: Ray, walk: CellWalk) -> float:
+    """First terrain hit (t, or inf if none by ``walk.tend`` or the map's edge) of one ray's plain cell walk.
 
-    Ray (oxc + t dx, oyc + t dy, oz + t dz), x, y in cell units, above the terrain at the start
-    ``t`` in cell (cx, cy); it leaves that cell at ``tmx`` in x and ``tmy`` in y and crosses a
-    cell in ``tdx = |1/dx|``, ``tdy = |1/dy|``; ``sx``, ``sy`` (+-1) step the cells. The walk
-    visits the cells in order, stepping the exits incrementally (one add on the loop's dependency
-    chain), and runs the exact test (:func:`_cell_hit`, or the plane of a flat cell) only where
-    the ray comes down to the cell's max height (``mipf`` level 0). No mipmap block skipping:
+    ``ray`` (x, y in cell units) is above the terrain (heights ``h``) at the start ``walk.t`` (a
+    :class:`CellWalk`: start cell, its exits, the steps). The walk visits the cells in order,
+    stepping the exits incrementally (one add on the loop's dependency chain), and runs the exact
+    test (:func:`_cell_hit`, or the plane of a flat cell) only where the ray comes down to the
+    cell's max height (``mipf`` level 0). No mipmap block skipping:
     :func:`terrain_kernel` starts the walks where the channel below hit, so they are short.
 
     ``nv_march_channel`` in ``_march_avx512.c`` is this walk's native twin (a channel's queue of
     walks, eight rays at a time, the same IEEE operations): change both together; the tests
     compare them to the bit wherever the CPU has AVX-512 (``NAVSTRESS_REQUIRE_NATIVE=1``).
     """
+    oxc, oyc, oz, dx, dy, dz = ray
+    t, tmx, tmy, tdx, tdy, tend, cx, cy, sx, sy = walk
+    ncx = h.shape[1] - 1
+    ncy = h.shape[0] - 1
     desc = dz < 0.0
     while True:
         te = min(tmx, tmy, tend)
@@ -398,7 +533,7 @@ def walk_cells(h: np.ndarray, mipf: np.ndarray, ncx: int, ncy: int, oz: float, o
                 ts = max(t, (h00 - oz) / dz) if desc else t
                 if ts <= te:
                     return ts
-            tcell = _cell_hit(h00, h10, h01, h11, cx, cy, oxc, oyc, oz, dx, dy, dz, t, te, 1.0)
+            tcell = _cell_hit(Cell(cx, cy, h00, h10, h01, h11), ray, t, te, 1.0)
             if tcell <= te:
                 return tcell
         if te >= tend:
@@ -417,14 +552,13 @@ def walk_cells(h: np.ndarray, mipf: np.ndarray, ncx: int, ncy: int, oz: float, o
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def terrain_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray, moff: np.ndarray, mnx: np.ndarray,
-                  grad_max: float, origin: np.ndarray, rot: np.ndarray, cos_el: np.ndarray, sin_el: np.ndarray,
-                  cos_az: np.ndarray, sin_az: np.ndarray, max_range: float, plane_march: bool,
-                  out: np.ndarray, walk: int = 0) -> None:
-    """Terrain-only ranges of one scan: out[channel, azimuth] = first terrain hit (inf: none
-    within max_range; no min_range filter). Channels ascending in elevation. ``walk``: the
-    address of the native walk (:func:`navstress.sim.native.load`), which then replaces
-    :func:`walk_cells` (bit-identical); 0 (default): :func:`walk_cells`.
+def terrain_kernel(grid: TerrainGrid, beams: Beams, params: np.ndarray, origin: np.ndarray, rot: np.ndarray,
+                   out: np.ndarray) -> None:
+    """Terrain-only ranges of one scan from the sensor at ``origin`` (3,), oriented ``rot`` (3, 3,
+    world from sensor): out[channel, azimuth] = first terrain hit (inf: none within
+    ``max_range``; no min_range filter). ``params``: a one-record :data:`SCAN_PARAMS` array. Its
+    ``walk``: the address of the native walk (:func:`navstress.sim.native.load`), which then
+    replaces :func:`walk_cells` (bit-identical); 0: :func:`walk_cells`.
 
     Per azimuth column, all channels lie in one plane through the sensor's z axis. The terrain
     is marched lowest channel first: channel k+1 starts where channel k hit or was proven clear
@@ -445,6 +579,10 @@ def terrain_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray
     a descending ray comes down to the highest terrain point and ends where a rising ray climbs
     above it (1e-6 m of margin): 40 % fewer cells walked on the s=4 d=2 benchmark world.
     """
+    h, cell, mip, mipf, moff, mnx = grid.heights, grid.cell, grid.mip, grid.mipf, grid.mip_offsets, grid.mip_widths
+    grad_max = grid.grad_max
+    cos_el, sin_el, cos_az, sin_az = beams
+    max_range, plane_march, walk = params[0].max_range, params[0].plane_march != 0, params[0].walk
     nch = cos_el.shape[0]
     naz = cos_az.shape[0]
     ox, oy, oz = origin[0], origin[1], origin[2]
@@ -572,8 +710,8 @@ def terrain_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray
             out[k, a] = INF
             if not plane[a]:  # each ray from the sensor
                 if not (rz >= 0.0 and oz > gmax):
-                    th, _ = march_terrain(h, mip, moff, mnx, oxc, oyc, oz, sdx[a], sdy[a], rz,
-                                          0.0, max_range, False)
+                    th, _ = march_terrain(h, mip, moff, mnx, Ray(oxc, oyc, oz, sdx[a], sdy[a], rz), 0.0, max_range,
+                                          False)
                     out[k, a] = th
                 continue
             rl = srl[a]
@@ -626,13 +764,14 @@ def terrain_kernel(h: np.ndarray, cell: float, mip: np.ndarray, mipf: np.ndarray
                     qi[3, nq] = sy
                     nq += 1
                     continue
-                th = walk_cells(h, mipf, ncx, ncy, oz, oxc, oyc, t, stmx[a], stmy[a], abs(idx), abs(idy), dx, dy, dz,
-                                tend, cx, cy, sx, sy)
+                th = walk_cells(h, mipf, Ray(oxc, oyc, oz, dx, dy, dz),
+                                CellWalk(t, stmx[a], stmy[a], abs(idx), abs(idy), tend, cx, cy, sx, sy))
             out[k, a] = th
             pcl[a] = max(p_clear, min(th, tc) * rl)
         if nq > 0:
-            _call_native_walk(walk, h.ctypes.data, ncx + 1, ncx, ncy, oz, oxc, oyc, nq,  # type: ignore[call-arg]
-                              qd.ctypes.data, qi.ctypes.data, qs, qr.ctypes.data)
+            native_args = NativeWalkArgs(h.ctypes.data, ncx + 1, ncx, ncy, oz, oxc, oyc, nq, qd.ctypes.data,
+                                         qi.ctypes.data, qs, qr.ctypes.data)
+            _call_native_walk(walk, native_args)  # type: ignore[call-arg]
             for q in range(nq):  # (a hit is <= thi; no hit: clear up to thi)
                 a = qa[q]
                 out[k, a] = qr[q]

@@ -18,8 +18,12 @@ What the loop keeps between calls is named:
 * :data:`PARAMS`, a record of the constants of a run (gains, limits, noise levels, addresses);
 * the arrays, in named groups (:class:`MjArrays`, :class:`RobotArrays`,
   :class:`~navstress.sim.model.PoolArrays`, :class:`SensorArrays`, :class:`CollisionArrays`,
-  :class:`WheelContactArrays`) that :func:`loop_arrays` flattens and :func:`run_steps` regroups
-  (numba dispatches a flat argument list several microseconds faster than tuples).
+  :class:`WheelContactArrays`, :class:`MoverArrays`) that :func:`loop_arrays` flattens and
+  :func:`run_steps` regroups into a :class:`LoopArrays` (numba dispatches a flat argument list
+  several microseconds faster than tuples).
+
+The helpers of the loop take these records and groups too (a helper reads the fields it needs,
+once, at its top), or small NamedTuples of scalars (:class:`Sphere`, :class:`HFieldGrid`).
 
 Adding a state variable is one line in :data:`STATE` (zero at the start; give another start value
 in :func:`new_state`); a constant, one line in :data:`PARAMS` (then :func:`new_params` demands it).
@@ -40,7 +44,7 @@ from navstress.errors import SimulationError
 from navstress.sim.mjabi import (CF_DIST, CF_FRAME, CF_FRICTION, CF_POS, CI_EFC, CI_EXCLUDE, CI_GEOM, CI_GEOM1, CI_GEOM2,
                                  add_contact, contact_row, contacts, fwd_position_collision,
                                  fwd_position_constraints, mj_fwdVelocity, mj_step2)
-from navstress.sim.model import PoolArrays, fill_obstacle_slots
+from navstress.sim.model import MjSlotArrays, PoolArrays, fill_obstacle_slots
 
 # status bits returned by run_steps
 DONE, LIDAR, CONTACT, LEFT_MAP, FLIPPED, UNSTABLE, FLUSH, MOVERS = 0, 1, 2, 4, 8, 16, 32, 64
@@ -192,6 +196,36 @@ class WheelContactArrays(NamedTuple):
     scratch: np.ndarray  # (4, 7) contacts of one wheel
 
 
+class LoopArrays(NamedTuple):
+    """Every array group of the loop (:func:`_steps`), as :func:`run_steps` regroups them."""
+
+    mj: MjArrays
+    robot: RobotArrays
+    pool: PoolArrays
+    sensors: SensorArrays
+    collisions: CollisionArrays
+    wheels: WheelContactArrays
+    movers: MoverArrays
+
+
+class Sphere(NamedTuple):
+    """A sphere (a wheel): centre and radius (m)."""
+
+    x: float
+    y: float
+    z: float
+    r: float
+
+
+class HFieldGrid(NamedTuple):
+    """Where a heightfield's vertices lie: ``hf[i, j]`` at (x0 + j dx, y0 + i dy)."""
+
+    x0: float
+    y0: float
+    dx: float
+    dy: float
+
+
 #: Columns of CollisionArrays.events: the robot's and the obstacle's planar speed (m/s, 0 for a
 #: static obstacle) and the norm of their velocity difference, at the step of the contact.
 EVENT_FIELDS = ("t", "x", "y", "obstacle", "robot_speed", "obstacle_speed", "relative_speed")
@@ -243,16 +277,18 @@ def contact_template(m: mujoco.MjModel, d0: mujoco.MjData, wheel_geoms: np.ndarr
 
 
 @numba.njit(cache=True)
-def _add_wheel_contacts(maddr: int, daddr: int, xpos: np.ndarray, wbody: np.ndarray, wgeom: np.ndarray,
-                        terrain: int, hf: np.ndarray, x0: float, y0: float, dx: float, dy: float, r: float,
-                        tmpl: np.ndarray, cbuf: np.ndarray) -> int:  # pragma: no cover - compiled
+def _add_wheel_contacts(p: Any, xpos: np.ndarray, wc: WheelContactArrays) -> int:  # pragma: no cover - compiled
     """Add every wheel's sphere-terrain contacts (:func:`sphere_terrain_contacts`) to MuJoCo's
-    contact list, copying ``tmpl`` (a MuJoCo wheel-ground contact) for the other fields."""
+    contact list, copying ``wc.template`` (a MuJoCo wheel-ground contact) for the other fields
+    (``p``: a :data:`PARAMS` record; wheel bodies at ``xpos``)."""
+    maddr, daddr, wbody, terrain, r = p.model, p.data, p.wheel_body, p.terrain, p.wheel_radius
+    grid = HFieldGrid(p.hfield_x0, p.hfield_y0, p.hfield_dx, p.hfield_dy)
+    wgeom, hf, tmpl, cbuf = wc.wheel_geom, wc.hfield, wc.template, wc.scratch
     ti = tmpl.view(np.int32)
     added = 0
     for w in range(wgeom.shape[0]):  # no wheel geoms given: MuJoCo's collision makes the contacts
         b = wbody[w]
-        nc = sphere_terrain_contacts(xpos[b, 0], xpos[b, 1], xpos[b, 2], r, hf, x0, y0, dx, dy, cbuf)
+        nc = sphere_terrain_contacts(Sphere(xpos[b, 0], xpos[b, 1], xpos[b, 2], r), hf, grid, cbuf)
         for k in range(nc):
             nx, ny, nz = cbuf[k, 4], cbuf[k, 5], cbuf[k, 6]
             tmpl[CF_DIST] = cbuf[k, 0]
@@ -277,17 +313,20 @@ def _add_wheel_contacts(maddr: int, daddr: int, xpos: np.ndarray, wbody: np.ndar
 
 
 @numba.njit(cache=True)
-def _align_wheel_contacts(cf: np.ndarray, ci: np.ndarray, wheel_of_geom: np.ndarray, qvel: np.ndarray,
-                          cm: np.ndarray, cpos: np.ndarray, xpos: np.ndarray, wbody: np.ndarray,
-                          wdof: np.ndarray, mu: float, floor: float, eps: float) -> int:  # pragma: no cover
+def _align_wheel_contacts(cf: np.ndarray, ci: np.ndarray, p: Any, qvel: np.ndarray, xmat: np.ndarray,
+                          xpos: np.ndarray, wheel_of_geom: np.ndarray) -> int:  # pragma: no cover
     """Turn wheel contact frames to (normal, rolling, lateral) and split ``mu`` by slip direction.
 
-    ``cf``/``ci``: the contacts as rows of float64/int32 (:func:`navstress.sim.mjabi.contacts`).
+    ``cf``/``ci``: the contacts as rows of float64/int32 (:func:`navstress.sim.mjabi.contacts`);
+    ``p``: a :data:`PARAMS` record (``mu``, ``friction_floor``, ``slip_eps``, the chassis and the
+    wheels' bodies and dofs); ``qvel``, ``xmat``, ``xpos``: MuJoCo's (:class:`MjArrays`).
     The pyramidal limits become ``mu*|s_roll|/|s|`` and ``mu*|s_lat|/|s|`` (at least
     ``floor*mu``; full ``mu`` both ways when ``|s| << eps``), with ``s`` the wheel's slip velocity
     at the contact at the start of the step: Coulomb friction opposing the slip, one step late.
     Returns the number of contacts changed.
     """
+    cm, cpos = xmat[p.chassis], xpos[p.chassis]
+    wbody, wdof, mu, floor, eps = p.wheel_body, p.wheel_dof, p.mu, p.friction_floor, p.slip_eps
     k = 0
     ax, ay, az = cm[1], cm[4], cm[7]  # wheel axle = chassis y axis
     wx = cm[0] * qvel[3] + cm[1] * qvel[4] + cm[2] * qvel[5]
@@ -381,10 +420,10 @@ def _closest_on_triangle(px: float, py: float, pz: float, a: np.ndarray, b: np.n
 
 
 @numba.njit(cache=True)
-def sphere_terrain_contacts(cx: float, cy: float, cz: float, r: float, hf: np.ndarray, x0: float, y0: float,
-                            dx: float, dy: float, out: np.ndarray) -> int:  # pragma: no cover - compiled
+def sphere_terrain_contacts(sphere: Sphere, hf: np.ndarray, grid: HFieldGrid,
+                            out: np.ndarray) -> int:  # pragma: no cover - compiled
     """Contacts of a sphere (centre c, radius r) with the triangulated heightfield ``hf[i, j]`` at
-    (x0 + j*dx, y0 + i*dy), cells split along the (i, j)-(i+1, j+1) diagonal (MuJoCo's hfield).
+    (x0 + j*dx, y0 + i*dy) (``grid``), cells split along the (i, j)-(i+1, j+1) diagonal (MuJoCo's hfield).
 
     Writes rows (dist < 0, pos x3 on the midway surface, normal x3 from the ground to the sphere)
     into ``out`` and returns how many (at most ``out.shape[0]``). Exact sphere-mesh geometry: every
@@ -394,6 +433,8 @@ def sphere_terrain_contacts(cx: float, cy: float, cz: float, r: float, hf: np.nd
     coplanar neighbours) are not contacts. Coincident face points count once; with more than
     ``out.shape[0]`` contacts the deepest are kept.
     """
+    cx, cy, cz, r = sphere
+    x0, y0, dx, dy = grid
     rows, cols = hf.shape
     j0 = max(int(np.floor((cx - r - x0) / dx)), 0)
     j1 = min(int(np.floor((cx + r - x0) / dx)), cols - 2)
@@ -562,7 +603,7 @@ def _fire(k: int, s: Any, p: Any, qpos: np.ndarray, qvel: np.ndarray, wqpos: np.
     (t, x, y, z, yaw, pitch, roll) with their noise, as ``ImuSensor.read``/``PoseSensor.read``
     compute it from the same standard normals (``noise``, pre-drawn in order); observer
     (t, x, y, z, yaw, pitch, roll), true."""
-    next_k, period, jit, jit_idx = s.next_k, p.period, sens.jitter, s.jitter_idx
+    next_k, period, jitter, jitter_idx = s.next_k, p.period, sens.jitter, s.jitter_idx
     samples, nsamp, noise = sens.samples, s.nsamples, sens.noise
     status = DONE
     t = k * p.dt
@@ -572,7 +613,7 @@ def _fire(k: int, s: Any, p: Any, qpos: np.ndarray, qvel: np.ndarray, wqpos: np.
         if next_k[sn] > k:
             continue
         jittered = p.jitter != 0 and p.rate_jitter > 0 and sn != OBSERVER
-        if (sn != SCAN and nsamp[sn] >= samples.shape[1]) or (jittered and jit_idx[sn] >= jit.shape[1]):
+        if (sn != SCAN and nsamp[sn] >= samples.shape[1]) or (jittered and jitter_idx[sn] >= jitter.shape[1]):
             return status | FLUSH
         if noisy and ((sn == IMU and s.n_imu + 7 > nb) or (sn == POSE and s.n_pose + 6 > nb)):
             return status | FLUSH
@@ -612,21 +653,22 @@ def _fire(k: int, s: Any, p: Any, qpos: np.ndarray, qvel: np.ndarray, wqpos: np.
             nsamp[sn] += 1
         per = period[sn]
         if jittered:
-            per *= 1.0 + p.rate_jitter * (2.0 * jit[sn, jit_idx[sn]] - 1.0)
-            jit_idx[sn] += 1
+            per *= 1.0 + p.rate_jitter * (2.0 * jitter[sn, jitter_idx[sn]] - 1.0)
+            jitter_idx[sn] += 1
         next_k[sn] = k + max(1, int(np.rint(per / p.dt)))
     return status
 
 
 @numba.njit(cache=True)
-def contact_events(t: float, x: float, y: float, cur: np.ndarray, ncur: int, prev: np.ndarray, s: Any,
-                   last_touch: np.ndarray, debounce: float, events: np.ndarray) -> bool:  # pragma: no cover
-    """:meth:`Observer.contacts` on arrays: ``cur[:ncur]`` (distinct obstacle indices) is the
-    touching set after the step at ``t``, ``prev[:s.touching]`` the previous one (``s``: a
-    :data:`STATE` record). A newly touched obstacle counts a start (``s.starts``) and, when last
-    touched more than ``debounce`` ago (``last_touch``, -inf: never), appends a collision event
-    (t, x, y, obstacle) to ``events`` (``s.nevent`` rows). Returns False when ``events`` is now
-    full."""
+def contact_events(s: Any, col: CollisionArrays, ncur: int, t: float, x: float, y: float,
+                   debounce: float) -> bool:  # pragma: no cover
+    """:meth:`Observer.contacts` on arrays: ``col.current[:ncur]`` (distinct obstacle indices) is
+    the touching set after the step at ``t`` (robot at x, y), ``col.previous[:s.touching]`` the
+    previous one (``s``: a :data:`STATE` record). A newly touched obstacle counts a start
+    (``s.starts``) and, when last touched more than ``debounce`` ago (``col.last_touch``, -inf:
+    never), appends a collision event (t, x, y, obstacle) to ``col.events`` (``s.nevent`` rows).
+    Returns False when ``col.events`` is now full."""
+    cur, prev, last_touch, events = col.current, col.previous, col.last_touch, col.events
     for i in range(ncur):
         o = cur[i]
         new = True
@@ -653,10 +695,12 @@ def run_steps(k_stop: int, state: np.ndarray, params: np.ndarray, *arrays: np.nd
 
     ``state``/``params``: one-record :data:`STATE`/:data:`PARAMS` arrays; ``arrays``: the groups
     as :func:`loop_arrays` flattens them. Returns the status bits (see :func:`_steps`)."""
-    return _steps(k_stop, state[0], params[0], MjArrays(*arrays[:_E_MJ]), RobotArrays(*arrays[_E_MJ:_E_ROBOT]),
-                  PoolArrays(*arrays[_E_ROBOT:_E_POOL]), SensorArrays(*arrays[_E_POOL:_E_SENSORS]),
-                  CollisionArrays(*arrays[_E_SENSORS:_E_COLLISIONS]),
-                  WheelContactArrays(*arrays[_E_COLLISIONS:_E_WHEELS]), MoverArrays(*arrays[_E_WHEELS:_E_MOVERS]))
+    return _steps(k_stop, state[0], params[0],
+                  LoopArrays(MjArrays(*arrays[:_E_MJ]), RobotArrays(*arrays[_E_MJ:_E_ROBOT]),
+                             PoolArrays(*arrays[_E_ROBOT:_E_POOL]), SensorArrays(*arrays[_E_POOL:_E_SENSORS]),
+                             CollisionArrays(*arrays[_E_SENSORS:_E_COLLISIONS]),
+                             WheelContactArrays(*arrays[_E_COLLISIONS:_E_WHEELS]),
+                             MoverArrays(*arrays[_E_WHEELS:_E_MOVERS])))
 
 
 @numba.njit(cache=True)
@@ -712,11 +756,13 @@ def mover_targets(ctrl: np.ndarray, half_h: np.ndarray, h: np.ndarray, cell: flo
 
 @numba.njit(cache=True)
 def mover_shapes(f: float, p0: np.ndarray, p1: np.ndarray, size: np.ndarray, disc_idx: np.ndarray,
-                 box_idx: np.ndarray, discs: np.ndarray, boxes: np.ndarray, first_box: int) -> None:  # pragma: no cover
+                 box_idx: np.ndarray, discs: np.ndarray, boxes: np.ndarray) -> None:  # pragma: no cover
     """The movers' lidar shapes at fraction ``f`` of the control period (as :func:`_place_movers`,
-    between ``MoverArrays.pose0`` and ``pose1``): ``discs`` rows (x, y, r, z bottom, z top),
-    ``boxes`` rows from ``first_box`` on (x, y, yaw, half length, half width, z bottom, z top, cos
-    yaw, sin yaw)."""
+    between ``MoverArrays.pose0`` and ``pose1``; arrays passed one by one: numba unboxes a tuple
+    slowly): ``discs`` rows (x, y, r, z bottom, z top) of the movers ``disc_idx``, the last
+    ``len(box_idx)`` rows of ``boxes`` (x, y, yaw, half length, half width, z bottom, z top, cos
+    yaw, sin yaw) those of the movers ``box_idx``; ``size``: the movers' (length, width, height)."""
+    first_box = boxes.shape[0] - box_idx.shape[0]
     for r in range(disc_idx.shape[0]):
         i = disc_idx[r]
         z = p0[i, 2] + f * (p1[i, 2] - p0[i, 2])
@@ -755,17 +801,20 @@ def _event_speeds(s: Any, p: Any, e0: int, vx: float, vy: float, mv: MoverArrays
 
 
 @numba.njit(cache=True)
-def _steps(k_stop: int, s: Any, p: Any, mj: MjArrays, rb: RobotArrays, pool: PoolArrays, sens: SensorArrays,
-           col: CollisionArrays, wc: WheelContactArrays, mv: MoverArrays) -> int:  # pragma: no cover - compiled
-    """:func:`run_steps` on the records and groups. The step count is ``s.k``. The pending
+def _steps(k_stop: int, s: Any, p: Any, g: LoopArrays) -> int:  # pragma: no cover - compiled
+    """:func:`run_steps` on the records (``s``: :data:`STATE`, ``p``: :data:`PARAMS`) and the
+    groups ``g``. The step count is ``s.k``. The pending
     command (``s.cmd_k``) is applied at the start of its step. Bumper contacts go through
     :func:`contact_events` (collision events in ``col.events[:s.nevent]``, contact starts counted
     in ``s.starts``); FLUSH also when the event buffer is full. The up-vector z is in ``s.up_z``.
     """
+    mj, rb, pool, sens, col, wc, mv = g
     maddr, daddr, ncon_addr, con_field = p.model, p.data, p.ncon_addr, p.contact_field
-    chassis, bumper = p.chassis, p.bumper
+    bumper = p.bumper
     qpos, qvel, xpos = mj.qpos, mj.qvel, mj.xpos
-    wbody, wqpos, obstacle_of_geom, contact_out = p.wheel_body, p.wheel_qpos, rb.obstacle_of_geom, col.current
+    wqpos, obstacle_of_geom, contact_out = p.wheel_qpos, rb.obstacle_of_geom, col.current
+    slots = MjSlotArrays(mj.mocap_pos, mj.mocap_quat, mj.geom_size, mj.geom_rbound, mj.geom_aabb, mj.bvh_aabb,
+                         mj.geom_contype)
     pool_every = p.pool_every
     while True:
         k = s.k
@@ -783,15 +832,12 @@ def _steps(k_stop: int, s: Any, p: Any, mj: MjArrays, rb: RobotArrays, pool: Poo
         if p.mover_every > 0:
             _place_movers((k - s.mover_k0) / p.mover_every, mv, mj.mocap_pos, mj.mocap_quat)
         if pool_every > 0 and k % pool_every == 0:
-            fill_obstacle_slots(qpos[0], qpos[1], pool, obstacle_of_geom, mj.mocap_pos, mj.mocap_quat, mj.geom_size,
-                                mj.geom_rbound, mj.geom_aabb, mj.bvh_aabb, mj.geom_contype, p.park_z, p.pool_contype)
+            fill_obstacle_slots(qpos[0], qpos[1], pool, obstacle_of_geom, slots, p.park_z, p.pool_contype)
         fwd_position_collision(maddr, daddr)
-        _add_wheel_contacts(maddr, daddr, xpos, wbody, wc.wheel_geom, p.terrain, wc.hfield, p.hfield_x0,
-                            p.hfield_y0, p.hfield_dx, p.hfield_dy, p.wheel_radius, wc.template, wc.scratch)
+        _add_wheel_contacts(p, xpos, wc)
         cf, ci = contacts(ncon_addr, con_field)
         if cf.shape[0] > 0:
-            _align_wheel_contacts(cf, ci, rb.wheel_of_geom, qvel, mj.xmat[chassis], xpos[chassis], xpos, wbody,
-                                  p.wheel_dof, p.mu, p.friction_floor, p.slip_eps)
+            _align_wheel_contacts(cf, ci, p, qvel, mj.xmat, xpos, rb.wheel_of_geom)
         fwd_position_constraints(maddr, daddr)
         mj_fwdVelocity(maddr, daddr)
         mj_step2(maddr, daddr)
@@ -828,8 +874,7 @@ def _steps(k_stop: int, s: Any, p: Any, mj: MjArrays, rb: RobotArrays, pool: Poo
         s.ncontact = nk
         if nk > 0 or s.touching > 0:
             e0 = s.nevent
-            if not contact_events(k * p.dt, qpos[0], qpos[1], contact_out, nk, col.previous, s, col.last_touch,
-                                  p.debounce, col.events):
+            if not contact_events(s, col, nk, k * p.dt, qpos[0], qpos[1], p.debounce):
                 status |= FLUSH  # event buffer full: Python empties it before the next step
             _event_speeds(s, p, e0, vx0, vy0, mv, col.events)
         x, y = qpos[0], qpos[1]

@@ -36,6 +36,7 @@ import numpy as np
 
 from navstress.errors import SpecError
 from navstress.sim import _noise, _raybox, _raycast, native
+from navstress.sim._raycast import Beams, TerrainGrid
 from navstress.world.world import World
 
 __all__ = ["LidarConfig", "LidarScene", "Lidar", "build_scene", "cast_rays"]
@@ -117,7 +118,8 @@ class LidarScene:
     appended as columns 7 and 8). Derived acceleration data
     (max/min-height mipmaps: ``mip`` float64 (2, n) for the per-ray path, ``mipf`` the same values
     as float32 (n, 2) max/min pairs for scans, exact since they are maxima/minima of float32
-    heights; terrain gradient bound) is computed on construction."""
+    heights; terrain gradient bound) is computed on construction; ``grid`` holds the terrain as
+    the kernels read it."""
 
     heights: np.ndarray
     cell_m: float
@@ -127,6 +129,7 @@ class LidarScene:
     mip_offsets: np.ndarray = field(init=False, repr=False)
     mip_widths: np.ndarray = field(init=False, repr=False)
     grad_max: float = field(init=False)
+    grid: TerrainGrid = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         h = np.ascontiguousarray(self.heights, dtype=np.float32)
@@ -178,6 +181,8 @@ class LidarScene:
         d_up_v = h64[1:, :-1] - h64[:-1, :-1]
         g = max(float(np.max(np.hypot(d_lo_u, d_lo_v))), float(np.max(np.hypot(d_up_u, d_up_v))))
         object.__setattr__(self, "grad_max", g / self.cell_m)
+        object.__setattr__(self, "grid", TerrainGrid(self.heights, self.cell_m, self.mip, self.mipf, self.mip_offsets,
+                                                     self.mip_widths, self.grad_max))
 
     @property
     def size_m(self) -> tuple[float, float]:
@@ -211,8 +216,7 @@ def cast_rays(scene: LidarScene, origins: np.ndarray, directions: np.ndarray, ma
         raise SpecError("max_range", max_range, "a distance > 0")
     d = d / n[:, None]
     out = np.empty(o.shape[0])
-    _raycast.cast_rays_kernel(scene.heights, scene.cell_m, scene.mip, scene.mip_offsets, scene.mip_widths,
-                              scene.boxes, o, d, float(max_range), out)
+    _raycast.cast_rays_kernel(scene.grid, scene.boxes, o, d, float(max_range), out)
     return out
 
 
@@ -240,34 +244,46 @@ class Lidar:
                  simd: bool | None = None) -> None:
         if not isinstance(config, LidarConfig):
             raise SpecError("config", config, "a LidarConfig")
-        self._walk = 0  # address of the native walk, 0: the numba walk
+        # the scan's constants (walk: address of the native walk, 0: the numba walk)
+        self._params = _raycast.new_scan_params(max_range=float(config.max_range_m),
+                                                min_range=float(config.min_range_m),
+                                                plane_march=int(bool(plane_march)), walk=0)
         self.simd = native.available() if simd is None else simd
         self.scene = scene
         self.config = config
-        self.plane_march = plane_march
         el = config.elevations_rad
         az = config.azimuths_rad
-        self._cos_el, self._sin_el = np.cos(el), np.sin(el)
-        self._cos_az, self._sin_az = np.cos(az), np.sin(az)
+        self._beams = Beams(np.cos(el), np.sin(el), np.cos(az), np.sin(az))
+        self._cos_el, self._sin_el, self._cos_az, self._sin_az = self._beams
         self._dirs = config.directions()
         self._out = np.empty((config.channels, config.azimuth_steps), np.float64)
         self._rot = np.empty((3, 3))  # the last body scan's sensor pose
         self._origin = np.empty(3)
+        self._arrays = _raybox.scan_arrays(scene.grid, self._beams, self._out)  # the per-scan kernels' groups
+
+    @property
+    def plane_march(self) -> bool:
+        """Whether scans march each azimuth column's plane (False: every ray from the sensor)."""
+        return bool(self._params["plane_march"][0])
+
+    @plane_march.setter
+    def plane_march(self, on: bool) -> None:
+        self._params["plane_march"] = int(bool(on))
 
     @property
     def simd(self) -> bool:
         """Whether scans walk the terrain with the native walk."""
-        return self._walk != 0
+        return int(self._params["walk"][0]) != 0
 
     @simd.setter
     def simd(self, on: bool) -> None:
         if not on:
-            self._walk = 0
+            self._params["walk"] = 0
             return
         nat = native.load()
         if not nat.address:
             raise SpecError("simd", on, "False or None: the native walk is " + nat.status)
-        self._walk = nat.address
+        self._params["walk"] = nat.address
 
     def ranges(self, origin: np.ndarray, rotation: np.ndarray) -> np.ndarray:
         """Noise-free ranges, (channels, azimuth_steps) float32, inf where there is no return."""
@@ -275,14 +291,9 @@ class Lidar:
 
     def _ranges(self, origin: np.ndarray, rotation: np.ndarray) -> np.ndarray:
         o, r = _check_pose(origin, rotation)
-        s, c = self.scene, self.config
         # terrain first (no boxes, no min-range filter), then the boxes lower it and filter:
         # bit-identical to scan_kernel with the boxes (min_range applies to the nearer hit)
-        _raycast.terrain_kernel(s.heights, s.cell_m, s.mip, s.mipf, s.mip_offsets, s.mip_widths, s.grad_max,
-                                o, r, self._cos_el, self._sin_el, self._cos_az, self._sin_az,
-                                float(c.max_range_m), self.plane_march, self._out, self._walk)
-        _raybox.box_pass(s.boxes, o, r, self._cos_el, self._sin_el, self._cos_az, self._sin_az,
-                         float(c.max_range_m), float(c.min_range_m), self._out)
+        _raybox.scan_ranges(self._params, o, r, self.scene.boxes, *self._arrays)
         return self._out
 
     def scan(self, origin: np.ndarray, rotation: np.ndarray, rng: np.random.Generator | None = None) -> np.ndarray:
@@ -310,7 +321,7 @@ class Lidar:
         movers where they are at scan time): exact ray-cylinder hits before the box pass, the
         boxes with the scene's. ``scene_boxes`` (the simulation's path, no copy): every box of
         this scan, in ``LidarScene.boxes``' 9-column layout (the scene's, then the extra ones)."""
-        s, c = self.scene, self.config
+        s = self.scene
         all_boxes = s.boxes if scene_boxes is None else scene_boxes
         if boxes is not None and len(boxes):
             b = np.asarray(boxes, dtype=np.float64).reshape(-1, 7)
@@ -319,11 +330,7 @@ class Lidar:
         q, m = np.asarray(qpos), np.ascontiguousarray(mount, dtype=np.float64)
         if q.dtype != np.float64 or q.ndim != 1 or q.shape[0] < 7 or m.shape != (3,):
             raise SpecError("qpos", getattr(qpos, "shape", qpos), "a float64 (>= 7,) body pose and a (3,) mount")
-        n = _raybox.body_scan_ranges(s.heights, s.cell_m, s.mip, s.mipf, s.mip_offsets, s.mip_widths, s.grad_max,
-                                     all_boxes, d, q, m, self._cos_el,
-                                     self._sin_el, self._cos_az, self._sin_az, float(c.max_range_m),
-                                     float(c.min_range_m), self.plane_march, self._out, self._rot, self._origin,
-                                     self._walk)
+        n = _raybox.body_scan_ranges(self._params, q, m, self._rot, self._origin, all_boxes, d, *self._arrays)
         if n < 0:
             raise SpecError("qpos", q[:7].tolist(), "a finite position and a unit quaternion (w, x, y, z)")
         return self._points(n, rng)

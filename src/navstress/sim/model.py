@@ -58,7 +58,8 @@ WHEEL_MASS_FRACTION = 0.05  # of the total mass, each wheel
 PARK_Z_M = -1.0e4  # where unused obstacle slots wait (far below any terrain)
 
 
-def _f(x: float) -> str:
+def _xml_float(x: float) -> str:
+    """``x`` as MJCF text: the shortest repr that reads back as the same float64."""
     return repr(float(x))
 
 
@@ -84,19 +85,21 @@ def _world_xml(world: World, *, inline: bool, pool: int = 0) -> tuple[str, str, 
     if inline:  # MJCF lists rows from +y to -y
         elevation = ' elevation="' + " ".join(f"{v:.7g}" for v in norm[::-1].ravel()) + '"'
     asset = (f'<hfield name="terrain" nrow="{rows}" ncol="{cols}" '
-             f'size="{_f(sx / 2)} {_f(sy / 2)} {_f(elev)} {_f(HFIELD_BASE_M)}"{elevation}/>')
-    body = [f'<geom name="terrain" type="hfield" hfield="terrain" pos="{_f(sx / 2)} {_f(sy / 2)} {_f(base)}" '
+             f'size="{_xml_float(sx / 2)} {_xml_float(sy / 2)} {_xml_float(elev)} {_xml_float(HFIELD_BASE_M)}"'
+             f'{elevation}/>')
+    body = [f'<geom name="terrain" type="hfield" hfield="terrain" '
+            f'pos="{_xml_float(sx / 2)} {_xml_float(sy / 2)} {_xml_float(base)}" '
             f'group="{TERRAIN_GROUP}" contype="{GROUND_BIT}" conaffinity="{GROUND_BIT}" rgba="0.5 0.45 0.35 1"/>']
     # contype only: slots never collide with each other, only with the bumper; compiled with the
     # bit set (MuJoCo's per-body broadphase filter body_contype), switched off while parked
     for k in range(pool):
-        body.append(f'<body name="obstacle_slot_{k}" mocap="true" pos="0 0 {_f(PARK_Z_M - 10.0 * k)}">'
+        body.append(f'<body name="obstacle_slot_{k}" mocap="true" pos="0 0 {_xml_float(PARK_Z_M - 10.0 * k)}">'
                     f'<geom name="obstacle_slot_{k}" type="box" size="0.5 0.5 0.5" group="{OBSTACLE_GROUP}" '
                     f'contype="{OBSTACLE_BIT}" conaffinity="0" rgba="0.3 0.5 0.3 1"/></body>')
     for k, o in enumerate(world.obstacles if pool == 0 else ()):
         hx, hy, hz = (s / 2 for s in o.size)
-        body.append(f'<geom name="obstacle_{k}" type="box" size="{_f(hx)} {_f(hy)} {_f(hz)}" '
-                    f'pos="{_f(o.x)} {_f(o.y)} {_f(o.z + hz)}" euler="0 0 {_f(o.yaw)}" '
+        body.append(f'<geom name="obstacle_{k}" type="box" size="{_xml_float(hx)} {_xml_float(hy)} {_xml_float(hz)}" '
+                    f'pos="{_xml_float(o.x)} {_xml_float(o.y)} {_xml_float(o.z + hz)}" euler="0 0 {_xml_float(o.yaw)}" '
                     f'group="{OBSTACLE_GROUP}" contype="{OBSTACLE_BIT}" conaffinity="{OBSTACLE_BIT}" '
                     f'rgba="0.3 0.5 0.3 1"/>')
     return asset, "\n".join(body), norm
@@ -131,31 +134,37 @@ def _robot_xml(robot: RobotSpec, cfg: SimConfig, pose: tuple[float, float, float
     izz = mc * (L**2 + W**2) / 12
     bx = max(robot.wheelbase_m / 2, 0.05)
     by = max(robot.track_m / 2 - robot.wheel_width_m / 2 - 0.01, 0.05)
-    fric = f'friction="{_f(cfg.friction)} 0.005 0.0001"'
+    fric = f'friction="{_xml_float(cfg.friction)} 0.005 0.0001"'
     wheels = []
     names = ("front_left", "rear_left", "front_right", "rear_right")
     for i, (sxn, syn) in enumerate(((1, 1), (-1, 1), (1, -1), (-1, -1))):
         wheels.append(
-            f'<body name="wheel_{names[i]}" pos="{_f(sxn * robot.wheelbase_m / 2)} {_f(syn * robot.track_m / 2)} 0">'
-            f'<joint name="wheel_{names[i]}" type="hinge" axis="0 1 0" armature="{_f(cfg.wheel_armature)}"/>'
-            f'<geom name="wheel_{names[i]}" type="sphere" size="{_f(r)}" mass="{_f(mw)}" group="{ROBOT_GROUP}" '
+            f'<body name="wheel_{names[i]}" '
+            f'pos="{_xml_float(sxn * robot.wheelbase_m / 2)} {_xml_float(syn * robot.track_m / 2)} 0">'
+            f'<joint name="wheel_{names[i]}" type="hinge" axis="0 1 0" armature="{_xml_float(cfg.wheel_armature)}"/>'
+            f'<geom name="wheel_{names[i]}" type="sphere" size="{_xml_float(r)}" mass="{_xml_float(mw)}" '
+            f'group="{ROBOT_GROUP}" '
             f'contype="{GROUND_BIT}" conaffinity="{GROUND_BIT}" condim="3" {fric} rgba="0.1 0.1 0.1 1"/>'
             f"</body>")
     lm = robot.lidar
     bumper_aff = OBSTACLE_BIT | (MOVER_BIT if movers else 0)
     body = (
-        f'<body name="chassis" pos="{_f(x)} {_f(y)} {_f(zg + r + 0.002)}" euler="0 0 {_f(yaw)}">'
+        f'<body name="chassis" pos="{_xml_float(x)} {_xml_float(y)} {_xml_float(zg + r + 0.002)}" '
+        f'euler="0 0 {_xml_float(yaw)}">'
         f'<freejoint name="chassis"/>'
-        f'<inertial pos="0 0 {_f(zc)}" mass="{_f(mc)}" diaginertia="{_f(ixx)} {_f(iyy)} {_f(izz)}"/>'
-        f'<geom name="belly" type="box" size="{_f(bx)} {_f(by)} {_f(H / 2)}" pos="0 0 {_f(zc)}" mass="0" '
+        f'<inertial pos="0 0 {_xml_float(zc)}" mass="{_xml_float(mc)}" '
+        f'diaginertia="{_xml_float(ixx)} {_xml_float(iyy)} {_xml_float(izz)}"/>'
+        f'<geom name="belly" type="box" size="{_xml_float(bx)} {_xml_float(by)} {_xml_float(H / 2)}" '
+        f'pos="0 0 {_xml_float(zc)}" mass="0" '
         f'group="{ROBOT_GROUP}" contype="{GROUND_BIT}" conaffinity="{GROUND_BIT}" {fric} rgba="0.8 0.3 0.1 1"/>'
-        f'<geom name="bumper" type="box" size="{_f(L / 2)} {_f(W / 2)} {_f(H / 2)}" pos="0 0 {_f(zc)}" mass="0" '
+        f'<geom name="bumper" type="box" size="{_xml_float(L / 2)} {_xml_float(W / 2)} {_xml_float(H / 2)}" '
+        f'pos="0 0 {_xml_float(zc)}" mass="0" '
         f'group="{ROBOT_GROUP}" contype="{OBSTACLE_BIT}" conaffinity="{bumper_aff}" rgba="0.8 0.3 0.1 0.3"/>'
-        f'<site name="lidar" pos="{_f(lm.x_m)} {_f(lm.y_m)} {_f(lm.z_m)}"/>'
+        f'<site name="lidar" pos="{_xml_float(lm.x_m)} {_xml_float(lm.y_m)} {_xml_float(lm.z_m)}"/>'
         + "".join(wheels) + "</body>")
     act = "".join(
-        f'<velocity name="wheel_{n}" joint="wheel_{n}" kv="{_f(cfg.wheel_kv)}" '
-        f'forcerange="{_f(-cfg.wheel_torque_nm)} {_f(cfg.wheel_torque_nm)}"/>' for n in names)
+        f'<velocity name="wheel_{n}" joint="wheel_{n}" kv="{_xml_float(cfg.wheel_kv)}" '
+        f'forcerange="{_xml_float(-cfg.wheel_torque_nm)} {_xml_float(cfg.wheel_torque_nm)}"/>' for n in names)
     return body, act
 
 
@@ -172,11 +181,12 @@ def _movers_xml(world: World) -> str:
         x, y, yaw = mv.start
         ln, wd, h = mv.size
         if mv.shape == "disc":
-            geom = f'type="cylinder" size="{_f(ln / 2)} {_f(h / 2)}"'
+            geom = f'type="cylinder" size="{_xml_float(ln / 2)} {_xml_float(h / 2)}"'
         else:
-            geom = f'type="box" size="{_f(ln / 2)} {_f(wd / 2)} {_f(h / 2)}"'
-        out.append(f'<body name="mover_{mv.id}" mocap="true" pos="{_f(x)} {_f(y)} {_f(mover_centre_z(world, k, x, y))}" '
-                   f'euler="0 0 {_f(yaw)}"><geom name="mover_{mv.id}" {geom} group="{MOVER_GROUP}" '
+            geom = f'type="box" size="{_xml_float(ln / 2)} {_xml_float(wd / 2)} {_xml_float(h / 2)}"'
+        out.append(f'<body name="mover_{mv.id}" mocap="true" '
+                   f'pos="{_xml_float(x)} {_xml_float(y)} {_xml_float(mover_centre_z(world, k, x, y))}" '
+                   f'euler="0 0 {_xml_float(yaw)}"><geom name="mover_{mv.id}" {geom} group="{MOVER_GROUP}" '
                    f'contype="{MOVER_BIT}" conaffinity="0" rgba="0.2 0.3 0.8 1"/></body>')
     return "\n".join(out)
 
@@ -223,7 +233,7 @@ def build_model(world: World, robot: RobotSpec = RobotSpec(), cfg: SimConfig = S
         wbody += "\n" + _movers_xml(world)
     rbody, act = _robot_xml(robot, cfg, (sx, sy, zg, syaw), movers=bool(world.movers))
     xml = (f'<mujoco model="navstress">\n<compiler angle="radian"/>\n'
-           f'<option timestep="{_f(cfg.timestep_s)}" integrator="implicitfast" solver="Newton" '
+           f'<option timestep="{_xml_float(cfg.timestep_s)}" integrator="implicitfast" solver="Newton" '
            f'iterations="{cfg.solver_iterations}" ls_iterations="10" cone="pyramidal"/>\n'
            f'<default><geom solref="0.02 1"/></default>\n'
            f"<asset>\n{asset}\n</asset>\n<worldbody>\n{wbody}\n{rbody}\n</worldbody>\n"
@@ -295,10 +305,10 @@ class ObstaclePool:
     def update(self, data: mujoco.MjData) -> int:
         """Refill the slots for the robot's current position; returns the number of filled slots."""
         m, rm = self.rm.model, self.rm
-        nfill = fill_obstacle_slots(
-            float(data.qpos[0]), float(data.qpos[1]), self.arrays, rm.obstacle_of_geom, data.mocap_pos,
-            data.mocap_quat, m.geom_size, m.geom_rbound, m.geom_aabb, m.bvh_aabb, m.geom_contype, PARK_Z_M,
-            OBSTACLE_BIT)
+        slots = MjSlotArrays(data.mocap_pos, data.mocap_quat, m.geom_size, m.geom_rbound, m.geom_aabb, m.bvh_aabb,
+                             m.geom_contype)
+        nfill = fill_obstacle_slots(float(data.qpos[0]), float(data.qpos[1]), self.arrays, rm.obstacle_of_geom, slots,
+                                    PARK_Z_M, OBSTACLE_BIT)
         if nfill < 0:
             self.overflows += 1
             nfill = -nfill
@@ -319,6 +329,19 @@ class PoolArrays(NamedTuple):
     slot_bvh: np.ndarray  # (K,) BVH node of each slot body
 
 
+class MjSlotArrays(NamedTuple):
+    """The MuJoCo arrays that :func:`fill_obstacle_slots` writes: mjData's mocap poses, mjModel's
+    geom sizes, bounds, AABBs, BVH boxes and collision types."""
+
+    mocap_pos: np.ndarray
+    mocap_quat: np.ndarray
+    geom_size: np.ndarray
+    geom_rbound: np.ndarray
+    geom_aabb: np.ndarray
+    bvh_aabb: np.ndarray
+    geom_contype: np.ndarray
+
+
 def empty_pool_arrays() -> PoolArrays:
     """The :class:`PoolArrays` of no pool (same array types as a pool's)."""
     e2, e1, ei = np.zeros((0, 3)), np.zeros(0), np.zeros(0, np.int64)
@@ -326,11 +349,14 @@ def empty_pool_arrays() -> PoolArrays:
 
 
 @numba.njit(cache=True)
-def fill_obstacle_slots(x: float, y: float, pool: PoolArrays, obstacle_of_geom: np.ndarray,
-                        mocap_pos: np.ndarray, mocap_quat: np.ndarray, geom_size: np.ndarray,
-                        geom_rbound: np.ndarray, geom_aabb: np.ndarray, bvh_aabb: np.ndarray,
-                        geom_contype: np.ndarray, park_z: float, contype: int) -> int:  # pragma: no cover - compiled
-    """Numba core of :meth:`ObstaclePool.update`; returns minus the count when it overflowed."""
+def fill_obstacle_slots(x: float, y: float, pool: PoolArrays, obstacle_of_geom: np.ndarray, slots: MjSlotArrays,
+                        park_z: float, contype: int) -> int:  # pragma: no cover - compiled
+    """Numba core of :meth:`ObstaclePool.update` for the robot at (x, y): empty slots parked at
+    ``park_z`` (minus 10 m per slot), filled ones given collision type ``contype``; returns minus
+    the count when it overflowed."""
+    mocap_pos, mocap_quat, geom_size = slots.mocap_pos, slots.mocap_quat, slots.geom_size
+    geom_rbound, geom_aabb, bvh_aabb = slots.geom_rbound, slots.geom_aabb, slots.bvh_aabb
+    geom_contype = slots.geom_contype
     centre, half, quat, reach, dist = pool.centre, pool.half, pool.quat, pool.reach, pool.dist
     slot_obstacle, slot_geom, slot_mocap, slot_bvh = pool.slot_obstacle, pool.slot_geom, pool.slot_mocap, pool.slot_bvh
     n = centre.shape[0]

@@ -75,7 +75,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Sequence
+from typing import NamedTuple, Sequence
 
 import numpy as np
 from numba import njit
@@ -137,6 +137,16 @@ class MoverPlan:
     @property
     def n(self) -> int:
         return len(self.movers)
+
+
+class StaticBins(NamedTuple):
+    """The static obstacles binned in a grid, as the kernel reads them (:class:`MoverPlan`'s
+    ``boxes``, ``bin_start``, ``bin_items``, ``geo``)."""
+
+    boxes: np.ndarray  # (k, 6) cx, cy, half x, half y, cos yaw, sin yaw
+    bin_start: np.ndarray  # (bins + 1,) where each bin's items start in bin_items
+    bin_items: np.ndarray  # box indices, bin by bin
+    geo: np.ndarray  # bin side, bins along x and y, map size x and y
 
 
 def make_plan(world: World, movers: Sequence[Mover] | None = None) -> MoverPlan:
@@ -211,7 +221,7 @@ def step(plan: MoverPlan, state: np.ndarray, dt: float, robot_pose_xy_yaw: Seque
     if not dt > 0.0 or not math.isfinite(dt):
         raise ValueError(f"dt={dt!r} must be a finite time step > 0")
     u = rng.random((plan.n, 2))
-    _step(state, plan.params, plan.points, plan.boxes, plan.bin_start, plan.bin_items, plan.geo, robot, u, float(dt))
+    _step(state, robot, u, float(dt), plan.params, plan.points, plan.boxes, plan.bin_start, plan.bin_items, plan.geo)
     return state
 
 
@@ -225,9 +235,9 @@ def poses(state: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True, nogil=True)
-def _clear(px: float, py: float, r: float, boxes: np.ndarray, bin_start: np.ndarray, bin_items: np.ndarray,
-           geo: np.ndarray) -> bool:
+def _clear(px: float, py: float, r: float, bins: StaticBins) -> bool:
     """Whether a disc of radius ``r`` at (px, py) is inside the map and clear of every box."""
+    boxes, bin_start, bin_items, geo = bins
     if px < r or py < r or px > geo[3] - r or py > geo[4] - r:
         return False
     a = min(int(px / geo[0]), int(geo[1]) - 1)
@@ -247,8 +257,10 @@ def _clear(px: float, py: float, r: float, boxes: np.ndarray, bin_start: np.ndar
 
 
 @njit(cache=True, nogil=True)
-def _ahead_clear(px: float, py: float, vx: float, vy: float, r: float, amax: float, dt: float, boxes: np.ndarray,
-                 bin_start: np.ndarray, bin_items: np.ndarray, geo: np.ndarray) -> bool:
+def _ahead_clear(px: float, py: float, vx: float, vy: float, r: float, amax: float, dt: float,
+                 bins: StaticBins) -> bool:
+    """Whether the look-ahead of a disc of radius ``r`` at (px, py) moving at (vx, vy) (braking
+    at ``amax``, plus one step ``dt``) is clear (:func:`_clear` every :data:`LOOK_STEP_M`)."""
     sp = math.sqrt(vx * vx + vy * vy)
     if sp < 1e-9:
         return True
@@ -258,7 +270,7 @@ def _ahead_clear(px: float, py: float, vx: float, vy: float, r: float, amax: flo
     uy = vy / sp
     for k in range(1, n + 1):
         t = look * k / n
-        if not _clear(px + ux * t, py + uy * t, r, boxes, bin_start, bin_items, geo):
+        if not _clear(px + ux * t, py + uy * t, r, bins):
             return False
     return True
 
@@ -326,8 +338,13 @@ def _aim(st: np.ndarray, pr: np.ndarray, robot: np.ndarray, geo: np.ndarray) -> 
 
 
 @njit(cache=True, nogil=True)
-def _step(state: np.ndarray, params: np.ndarray, points: np.ndarray, boxes: np.ndarray, bin_start: np.ndarray,
-          bin_items: np.ndarray, geo: np.ndarray, robot: np.ndarray, u: np.ndarray, dt: float) -> None:
+def _step(state: np.ndarray, robot: np.ndarray, u: np.ndarray, dt: float, *plan: np.ndarray) -> None:
+    """:func:`step` compiled: ``robot`` (x, y, yaw, vx, vy), ``u`` the draws, ``plan`` the
+    :class:`MoverPlan`'s ``params``, ``points``, then the :class:`StaticBins` fields (one by one:
+    numba dispatches a tuple of arrays slower; regrouped here)."""
+    params, points = plan[0], plan[1]
+    bins = StaticBins(*plan[2:])
+    geo = bins.geo
     n = state.shape[0]
     old = state[:, X:VY + 1].copy()
     nv = np.zeros((n, 2))
@@ -423,7 +440,7 @@ def _step(state: np.ndarray, params: np.ndarray, points: np.ndarray, boxes: np.n
             if (tx == 0.0 and ty == 0.0) or (c > 0 and (tx == vdx and ty == vdy)):
                 continue
             qx, qy = _limit(vx, vy, tx, ty, amax * dt, pr[P_VMAX])
-            if _ahead_clear(px, py, qx, qy, r + LOOK_MARGIN_M, amax, dt, boxes, bin_start, bin_items, geo):
+            if _ahead_clear(px, py, qx, qy, r + LOOK_MARGIN_M, amax, dt, bins):
                 nx, ny = qx, qy
                 vdx, vdy = tx, ty
                 break
@@ -451,10 +468,10 @@ def _step(state: np.ndarray, params: np.ndarray, points: np.ndarray, boxes: np.n
         r = params[i, P_RADIUS]
         vx, vy = nv[i, 0], nv[i, 1]
         px, py = st[X], st[Y]
-        if not _clear(px + vx * dt, py + vy * dt, r, boxes, bin_start, bin_items, geo):
-            if vx != 0.0 and _clear(px + vx * dt, py, r, boxes, bin_start, bin_items, geo):
+        if not _clear(px + vx * dt, py + vy * dt, r, bins):
+            if vx != 0.0 and _clear(px + vx * dt, py, r, bins):
                 vy = 0.0
-            elif vy != 0.0 and _clear(px, py + vy * dt, r, boxes, bin_start, bin_items, geo):
+            elif vy != 0.0 and _clear(px, py + vy * dt, r, bins):
                 vx = 0.0
             else:
                 vx, vy = 0.0, 0.0

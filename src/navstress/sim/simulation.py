@@ -25,9 +25,9 @@ from navstress.robot import RobotSpec
 from navstress.seeding import rng
 from navstress.sim.config import SimConfig
 from navstress.sim.lidar import Lidar, build_scene
-from navstress.sim import _step as K
+from navstress.sim import _step as step_loop
 from navstress.sim import mjabi
-from navstress.sim import movers as M
+from navstress.sim import movers as mover_control
 from navstress.sim.model import OBSTACLE_BIT, PARK_Z_M, ObstaclePool, RobotModel, build_model, empty_pool_arrays
 from navstress.sim.observer import CollisionEvent, Observer, StopEvent
 from navstress.world.world import World
@@ -79,7 +79,7 @@ class Simulation:
             self._pool.update(d)
         # wheel-ground contacts come from _step.sphere_terrain_contacts, not MuJoCo's hfield collision
         wgeoms = np.flatnonzero(rm.wheel_of_geom >= 0)[np.argsort(rm.wheel_of_geom[rm.wheel_of_geom >= 0])]
-        tmpl = K.contact_template(m, d, wgeoms, 0) if cfg.analytic_wheel_contacts else np.zeros(mjabi.CF)
+        tmpl = step_loop.contact_template(m, d, wgeoms, 0) if cfg.analytic_wheel_contacts else np.zeros(mjabi.CF)
         # the contacts are rewritten (and added) after mj_fwdPosition, which computes constraint
         # islands from the contacts; the robot is one kinematic tree: one island, none needed
         m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_ISLAND)
@@ -92,7 +92,7 @@ class Simulation:
         hf = m.geom_pos[terrain][2] + hsz[2] * m.hfield_data.astype(np.float64).reshape(nrow, ncol)
         grid = np.array([m.geom_pos[terrain][0] - hsz[0], m.geom_pos[terrain][1] - hsz[1], 2 * hsz[0] / (ncol - 1),
                          2 * hsz[1] / (nrow - 1)])  # x0, y0, dx, dy of hf
-        wheel_arrays = K.WheelContactArrays(
+        wheel_arrays = step_loop.WheelContactArrays(
             wgeoms.astype(np.int64) if cfg.analytic_wheel_contacts else np.zeros(0, np.int64), hf, tmpl,
             np.zeros((4, 7)))
         mujoco.mj_forward(m, d)
@@ -102,45 +102,46 @@ class Simulation:
         # sensors: IMU and pose noise (ImuSensor/PoseSensor arithmetic, compiled in _step._fire) come
         # from standard normals pre-drawn in batches from each sensor's generator, consumed in order
         self._noise_gen = (rng(seed, "sim", "noise", "imu"), rng(seed, "sim", "noise", "pose"))
-        self._noise = np.zeros((2, K.NOISE_BATCH))
+        self._noise = np.zeros((2, step_loop.NOISE_BATCH))
         self._lidar: Lidar | None = None
         self._lidar_gen = rng(seed, "sim", "noise", "lidar")
         rates = [cfg.odom_rate_hz, cfg.imu_rate_hz, cfg.pose_rate_hz, 0.0, cfg.observer_rate_hz]
-        next_k = np.zeros(K.NSENSORS, np.int64)
+        next_k = np.zeros(step_loop.NSENSORS, np.int64)
         if cfg.lidar_enabled:
             self._lidar = Lidar(build_scene(world), cfg.lidar)
-            rates[K.SCAN] = float(cfg.lidar.rate_hz)
+            rates[step_loop.SCAN] = float(cfg.lidar.rate_hz)
         else:
-            next_k[K.SCAN] = np.iinfo(np.int64).max  # never due
+            next_k[step_loop.SCAN] = np.iinfo(np.int64).max  # never due
         n_obst, n_mov = len(world.obstacles), len(world.movers)
         self._init_movers(n_obst)
-        self._jit = np.zeros((K.NSENSORS, _JITTER_BATCH))
-        self._samples = np.zeros((K.NSENSORS, _SAMPLES, 7))
+        self._jitter = np.zeros((step_loop.NSENSORS, _JITTER_BATCH))
+        self._samples = np.zeros((step_loop.NSENSORS, _SAMPLES, 7))
         self.observer = Observer(cfg.collision_debounce_s)
         self._contact_buf = np.zeros(64, np.int64)
         self._contact_prev = np.zeros(64, np.int64)
         # per obstacle then per mover (contact index n_obst + i), for the debounce
         self._last_touch = np.full(max(1, n_obst + n_mov), -np.inf)
-        self._event_buf = np.zeros((128, K.EVENT_COLS))
+        self._event_buf = np.zeros((128, step_loop.EVENT_COLS))
         # compiled-loop state and constants (named records, see _step.STATE / PARAMS) and arrays
         r = robot
         wheel_angles = d.qpos[rm.wheel_qpos]
-        self._state = K.new_state(cmd_k=K.NO_CMD, ref=wheel_angles, odom_a=wheel_angles, next_k=next_k,
-                                  mover_k=0 if self._mover_every else K.NO_CMD,
-                                  # noise and jitter rows: drawn on first use
-                                  n_imu=K.NOISE_BATCH, n_pose=K.NOISE_BATCH, jitter_idx=_JITTER_BATCH)
+        self._state = step_loop.new_state(cmd_k=step_loop.NO_CMD, ref=wheel_angles, odom_a=wheel_angles,
+                                          next_k=next_k, mover_k=0 if self._mover_every else step_loop.NO_CMD,
+                                          # noise and jitter rows: drawn on first use
+                                          n_imu=step_loop.NOISE_BATCH, n_pose=step_loop.NOISE_BATCH,
+                                          jitter_idx=_JITTER_BATCH)
         # views of the fields Python reads or writes every cycle (a view reads ~4x faster than a
         # field of the record); the rest through self._state
         st = self._state
         self._sk, self._cmd_k, self._cmd_v, self._cmd_w = st["k"], st["cmd_k"], st["cmd_v"], st["cmd_w"]
         self._touching, self._starts, self._nevent = st["touching"], st["starts"], st["nevent"]
-        self._jit_idx, self._nsamp = st["jitter_idx"][0], st["nsamples"][0]
+        self._jitter_idx, self._nsamp = st["jitter_idx"][0], st["nsamples"][0]
         self._mover_k, self._mover_k0 = st["mover_k"], st["mover_k0"]
         warn = d.warning.number
-        bad = [int(w) for w in K.BAD_WARNINGS]
+        bad = [int(w) for w in step_loop.BAD_WARNINGS]
         pool = self._pool
         adr = mjabi.addresses(m, d)
-        self._params = K.new_params(
+        self._params = step_loop.new_params(
             model=adr.model, data=adr.data, ncon_addr=adr.ncon, contact_field=adr.contact_field,
             chassis=rm.chassis_body, bumper=rm.bumper_geom, terrain=terrain,
             wheel_body=rm.wheel_bodies, wheel_qpos=rm.wheel_qpos, wheel_dof=rm.wheel_dofs, warning_ids=bad,
@@ -160,13 +161,13 @@ class Simulation:
             pool_contype=OBSTACLE_BIT, park_z=PARK_Z_M,
             hfield_x0=grid[0], hfield_y0=grid[1], hfield_dx=grid[2], hfield_dy=grid[3],
             mover_every=self._mover_every, n_obstacles=n_obst)
-        self._arrays = K.loop_arrays(
-            K.MjArrays(d.qpos, d.qvel, d.ctrl, d.xpos, d.xmat, warn, d.mocap_pos, d.mocap_quat, m.geom_size,
-                       m.geom_rbound, m.geom_aabb, m.bvh_aabb, m.geom_contype),
-            K.RobotArrays(rm.wheel_of_geom, rm.obstacle_of_geom),
+        self._arrays = step_loop.loop_arrays(
+            step_loop.MjArrays(d.qpos, d.qvel, d.ctrl, d.xpos, d.xmat, warn, d.mocap_pos, d.mocap_quat, m.geom_size,
+                               m.geom_rbound, m.geom_aabb, m.bvh_aabb, m.geom_contype),
+            step_loop.RobotArrays(rm.wheel_of_geom, rm.obstacle_of_geom),
             pool.arrays if pool is not None else empty_pool_arrays(),
-            K.SensorArrays(self._jit, self._samples, self._noise),
-            K.CollisionArrays(self._contact_buf, self._contact_prev, self._last_touch, self._event_buf),
+            step_loop.SensorArrays(self._jitter, self._samples, self._noise),
+            step_loop.CollisionArrays(self._contact_buf, self._contact_prev, self._last_touch, self._event_buf),
             wheel_arrays, self._mover_arrays)
         # readings since the last observe()
         self._scans: list[LidarScan] = []
@@ -204,7 +205,7 @@ class Simulation:
         pending = int(self._cmd_k[0])
         if self._queue:  # commands never overtake each other
             k = max(k, self._queue[-1][0])
-        elif pending != K.NO_CMD:
+        elif pending != step_loop.NO_CMD:
             k = max(k, pending)
         self._queue.append((k, cmd))
 
@@ -256,21 +257,23 @@ class Simulation:
         self._mover_poses: list[np.ndarray] = []
         if n == 0:
             self._mover_every = 0
-            self._mover_arrays = K.empty_mover_arrays()
+            self._mover_arrays = step_loop.empty_mover_arrays()
             return
         self._mover_every = max(1, int(round(MOVER_PERIOD_S / self._dt)))
-        self._mover_plan = M.make_plan(world)
-        self._mover_state = M.initial_state(self._mover_plan)
+        self._mover_plan = mover_control.make_plan(world)
+        self._mover_state = mover_control.initial_state(self._mover_plan)
         self._mover_rng = rng(self.seed, "movers")
         self._mover_half_h = np.array([mv.size[2] / 2 for mv in world.movers])
         rm.obstacle_of_geom[rm.mover_geoms] = n_obst + np.arange(n)
         pose = np.zeros((n, 4))
-        pose[:, :2] = self._mover_state[:, M.X:M.Y + 1]
+        pose[:, :2] = self._mover_state[:, mover_control.X:mover_control.Y + 1]
         ter = world.terrain
-        pose[:, 2] = [K.ground_height(ter.heights, float(ter.cell_m), x, y) for x, y in pose[:, :2].tolist()]
+        pose[:, 2] = [step_loop.ground_height(ter.heights, float(ter.cell_m), x, y)
+                      for x, y in pose[:, :2].tolist()]
         pose[:, 2] += self._mover_half_h
-        pose[:, 3] = self._mover_state[:, M.YAW]
-        self._mover_arrays = K.MoverArrays(rm.mover_mocap.astype(np.int64), pose, pose.copy(), np.zeros((n, 2)))
+        pose[:, 3] = self._mover_state[:, mover_control.YAW]
+        self._mover_arrays = step_loop.MoverArrays(rm.mover_mocap.astype(np.int64), pose, pose.copy(),
+                                                   np.zeros((n, 2)))
         # lidar shapes: discs (x, y, r, z bottom, z top) and boxes (LidarScene rows, after the static ones)
         self._disc_movers = np.array([i for i, mv in enumerate(world.movers) if mv.shape == "disc"], np.int64)
         self._box_movers = np.array([i for i, mv in enumerate(world.movers) if mv.shape != "disc"], np.int64)
@@ -293,26 +296,27 @@ class Simulation:
         self._mover_t.append(k * self._dt)
         self._mover_poses.append(mv.pose1.copy())  # where the bodies are now
         period = every * self._dt
-        M.step(self._mover_plan, st, period, (float(q[0]), float(q[1]), yaw), (float(qv[0]), float(qv[1])),
-               self._mover_rng)
+        mover_control.step(self._mover_plan, st, period, (float(q[0]), float(q[1]), yaw),
+                           (float(qv[0]), float(qv[1])), self._mover_rng)
         ter = self.world.terrain
-        K.mover_targets(st, self._mover_half_h, ter.heights, float(ter.cell_m), period, mv.pose0, mv.pose1, mv.vel)
+        step_loop.mover_targets(st, self._mover_half_h, ter.heights, float(ter.cell_m), period, mv.pose0, mv.pose1,
+                                mv.vel)
         self._mover_k0[0] = k
         self._mover_k[0] = k + every
 
     def _warnings(self) -> int:
-        return sum(int(self.data.warning[w].number) for w in K.BAD_WARNINGS)
+        return sum(int(self.data.warning[w].number) for w in step_loop.BAD_WARNINGS)
 
     def _run(self, k_end: int) -> None:
         """Step until step ``k_end`` (or a stop), handling what the compiled loop hands back."""
         r, q, sk, cmd_k = self.robot, self._queue, self._sk, self._cmd_k
         state, params, arrays = self._state, self._params, self._arrays
-        run_steps, ob = K.run_steps, self.observer  # looked up per call: benchmarks wrap it
+        run_steps, ob = step_loop.run_steps, self.observer  # looked up per call: benchmarks wrap it
         vmax, wmax = r.max_speed_mps, r.max_yaw_rate_rps
         while True:
             # the compiled loop applies one pending command at the start of its step; it stops at
             # the next queued one (a later command for the same step replaces the pending one)
-            if q and (cmd_k[0] == K.NO_CMD or q[0][0] <= cmd_k[0]):
+            if q and (cmd_k[0] == step_loop.NO_CMD or q[0][0] <= cmd_k[0]):
                 while True:
                     kc, c = q.pop(0)
                     cmd_k[0] = kc
@@ -322,55 +326,55 @@ class Simulation:
                         break
             stopped = ob.stop is not None
             st = run_steps(int(sk[0]) if stopped else (min(k_end, q[0][0]) if q else k_end), state, params, *arrays)
-            if st == K.DONE:
+            if st == step_loop.DONE:
                 if stopped or int(sk[0]) >= k_end:
                     break
                 continue
-            if st & K.UNSTABLE:
+            if st & step_loop.UNSTABLE:
                 self._flush()
                 self._unstable()
-            if st & (K.LEFT_MAP | K.FLIPPED):
+            if st & (step_loop.LEFT_MAP | step_loop.FLIPPED):
                 self._flush()  # collisions of this step first
                 self._events(st)
-            if st & K.FLUSH:
+            if st & step_loop.FLUSH:
                 self._flush()
-                for s in range(K.NSENSORS):
-                    if self._jit_idx[s] >= _JITTER_BATCH:
-                        self._jit[s] = self._timing[s].random(_JITTER_BATCH)
-                        self._jit_idx[s] = 0
+                for s in range(step_loop.NSENSORS):
+                    if self._jitter_idx[s] >= _JITTER_BATCH:
+                        self._jitter[s] = self._timing[s].random(_JITTER_BATCH)
+                        self._jitter_idx[s] = 0
                 if self.config.noise:
-                    for row, field in ((K.IMU_NOISE, "n_imu"), (K.POSE_NOISE, "n_pose")):
-                        if state[field][0] >= K.NOISE_BATCH:  # used up exactly (a multiple of 7 and 6)
-                            self._noise[row] = self._noise_gen[row].standard_normal(K.NOISE_BATCH)
+                    for row, field in ((step_loop.IMU_NOISE, "n_imu"), (step_loop.POSE_NOISE, "n_pose")):
+                        if state[field][0] >= step_loop.NOISE_BATCH:  # used up exactly (a multiple of 7, 6)
+                            self._noise[row] = self._noise_gen[row].standard_normal(step_loop.NOISE_BATCH)
                             state[field] = 0
-            if st & K.LIDAR:
+            if st & step_loop.LIDAR:
                 self._scan()
-            if st & K.MOVERS:
+            if st & step_loop.MOVERS:
                 self._step_movers()
         self._flush()
 
     def _events(self, st: int) -> None:
         t, x, y = self.t, float(self.data.qpos[0]), float(self.data.qpos[1])
         ob = self.observer
-        if st & K.LEFT_MAP:
+        if st & step_loop.LEFT_MAP:
             ob.stopped(StopEvent(t, x, y, "left_map", f"robot left the map at ({x:.2f}, {y:.2f})"))
-        if st & K.FLIPPED:
+        if st & step_loop.FLIPPED:
             up_z = float(self._state["up_z"][0])
             ob.stopped(StopEvent(t, x, y, "flipped", f"robot tipped over (up-vector z={up_z:.2f})"))
 
     def _flush(self) -> None:
         """Turn the raw samples of the compiled loop into readings, in order."""
         n, smp = self._nsamp.tolist(), self._samples
-        if n[K.ODOM]:  # the rows are the readings (_step._fire): the last one counts
-            o = smp[K.ODOM, n[K.ODOM] - 1].tolist()
+        if n[step_loop.ODOM]:  # the rows are the readings (_step._fire): the last one counts
+            o = smp[step_loop.ODOM, n[step_loop.ODOM] - 1].tolist()
             self._odom = Odometry(o[0], o[1], o[2], o[3], o[4], o[5])
-        if n[K.IMU]:
-            i = smp[K.IMU, n[K.IMU] - 1].tolist()
+        if n[step_loop.IMU]:
+            i = smp[step_loop.IMU, n[step_loop.IMU] - 1].tolist()
             self._imu = Imu(i[0], i[1], i[2], i[3], (i[4], i[5], i[6]))
-        if n[K.POSE]:
-            self._pose = PoseReading(*smp[K.POSE, n[K.POSE] - 1].tolist())
-        if n[K.OBSERVER]:
-            self.observer.record_poses(smp[K.OBSERVER, : n[K.OBSERVER]])
+        if n[step_loop.POSE]:
+            self._pose = PoseReading(*smp[step_loop.POSE, n[step_loop.POSE] - 1].tolist())
+        if n[step_loop.OBSERVER]:
+            self.observer.record_poses(smp[step_loop.OBSERVER, : n[step_loop.OBSERVER]])
         self._nsamp[:] = 0
         ob, nevent, starts, touching = self.observer, self._nevent, self._starts, self._touching
         ne = int(nevent[0])
@@ -395,8 +399,8 @@ class Simulation:
             assert self._scan_boxes is not None
             f = (int(self._sk[0]) - int(self._mover_k0[0])) / self._mover_every
             discs, boxes, mv = self._scan_discs, self._scan_boxes, self._mover_arrays
-            K.mover_shapes(f, mv.pose0, mv.pose1, self._mover_size, self._disc_movers, self._box_movers, discs,
-                           boxes, boxes.shape[0] - len(self._box_movers))
+            step_loop.mover_shapes(f, mv.pose0, mv.pose1, self._mover_size, self._disc_movers, self._box_movers, discs,
+                                   boxes)
         pts = self._lidar.scan_body(self.data.qpos, self._mount_v, self._lidar_gen if self.config.noise else None,
                                     discs=discs, scene_boxes=boxes)
         self._scans.append(LidarScan(int(self._sk[0]) * self._dt, pts, self._mount))

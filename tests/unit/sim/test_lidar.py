@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from navstress.errors import NavstressError, SpecError
 from navstress.sim import _raybox
-from navstress.sim._raycast import _ray_box
+from navstress.sim._raycast import Box, Ray, _ray_box, new_scan_params
 from navstress.sim.lidar import Lidar, LidarConfig, LidarScene, build_scene, cast_rays
 from navstress.world.generate import generate
 from navstress.world.spec import WorldSpec
@@ -565,8 +565,9 @@ def test_scan_from_outside_the_map_sees_the_side_walls() -> None:
 # ---------------------------------------------------------------------------------------------
 
 
-def _kernel_args(lidar: Lidar) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    return lidar._cos_el, lidar._sin_el, lidar._cos_az, lidar._sin_az
+def _params(cfg: LidarConfig, plane_march: bool, min_range: float | None = None) -> np.ndarray:
+    return new_scan_params(max_range=cfg.max_range_m, min_range=cfg.min_range_m if min_range is None else min_range,
+                           plane_march=int(plane_march), walk=0)
 
 
 def terrain_then_boxes(sc: LidarScene, cfg: LidarConfig, origin: np.ndarray, rot: np.ndarray,
@@ -574,10 +575,9 @@ def terrain_then_boxes(sc: LidarScene, cfg: LidarConfig, origin: np.ndarray, rot
     """(terrain-only ranges before any filter, terrain + box_pass result)."""
     lidar = Lidar(sc, cfg, plane_march=plane_march)
     terr = np.empty((cfg.channels, cfg.azimuth_steps))
-    scan_kernel(sc.heights, sc.cell_m, sc.mip, sc.mipf, sc.mip_offsets, sc.mip_widths, sc.grad_max,
-                np.zeros((0, 9)), origin, rot, *_kernel_args(lidar), cfg.max_range_m, -math.inf, plane_march, terr)
+    scan_kernel(sc.grid, lidar._beams, _params(cfg, plane_march, -math.inf), np.zeros((0, 9)), origin, rot, terr)
     out = terr.copy()
-    _raybox.box_pass(sc.boxes, origin, rot, *_kernel_args(lidar), cfg.max_range_m, cfg.min_range_m, out)
+    _raybox.box_pass(sc.boxes, lidar._beams, _params(cfg, plane_march), origin, rot, out)
     return terr, out
 
 
@@ -586,8 +586,7 @@ def all_in_one(sc: LidarScene, cfg: LidarConfig, origin: np.ndarray, rot: np.nda
     """scan_kernel with the boxes (the path before box_pass)."""
     lidar = Lidar(sc, cfg)
     out = np.empty((cfg.channels, cfg.azimuth_steps))
-    scan_kernel(sc.heights, sc.cell_m, sc.mip, sc.mipf, sc.mip_offsets, sc.mip_widths, sc.grad_max,
-                sc.boxes, origin, rot, *_kernel_args(lidar), cfg.max_range_m, cfg.min_range_m, plane_march, out)
+    scan_kernel(sc.grid, lidar._beams, _params(cfg, plane_march), sc.boxes, origin, rot, out)
     return out
 
 
@@ -600,7 +599,7 @@ def nearest_box(sc: LidarScene, cfg: LidarConfig, origin: np.ndarray, rot: np.nd
     ce, se, ca, sa = np.cos(el), np.sin(el), np.cos(az), np.sin(az)
     ox, oy, oz = (float(v) for v in origin)
     uwx, uwy, uwz = float(rot[0, 2]), float(rot[1, 2]), float(rot[2, 2])
-    boxes = [(b[0], b[1], b[7], b[8], b[3], b[4], b[5], b[6]) for b in sc.boxes.tolist()]
+    boxes = [Box(b[0], b[1], b[7], b[8], b[3], b[4], b[5], b[6]) for b in sc.boxes.tolist()]
     out = np.full((cfg.channels, cfg.azimuth_steps), math.inf)
     for a in range(cfg.azimuth_steps):
         awx = float(rot[0, 0]) * float(ca[a]) + float(rot[0, 1]) * float(sa[a])
@@ -611,7 +610,7 @@ def nearest_box(sc: LidarScene, cfg: LidarConfig, origin: np.ndarray, rot: np.nd
             rx, ry, rz = c * awx + s * uwx, c * awy + s * uwy, c * awz + s * uwz
             best = math.inf
             for b in boxes:
-                best = min(best, ray_box(*b, ox, oy, oz, rx, ry, rz))
+                best = min(best, ray_box(b, Ray(ox, oy, oz, rx, ry, rz)))
             out[k, a] = best
     return out
 

@@ -252,9 +252,9 @@ def test_the_kernel_hands_its_queue_to_the_native_walk_by_address(tmp_path: Path
     origin, rot = np.array([20.0, 20.0, w.terrain.height_at(20.0, 20.0) + 0.9]), rot_zyx(0.3, 0.05, -0.04)
     ref, out = np.empty((2, cfg.channels, cfg.azimuth_steps))
     for walk, dest in ((0, ref), (address, out)):
-        _raycast.terrain_kernel(sc.heights, sc.cell_m, sc.mip, sc.mipf, sc.mip_offsets, sc.mip_widths, sc.grad_max,
-                                origin, rot, lid._cos_el, lid._sin_el, lid._cos_az, lid._sin_az, cfg.max_range_m, True,
-                                dest, walk)
+        params = _raycast.new_scan_params(max_range=cfg.max_range_m, min_range=cfg.min_range_m, plane_march=1,
+                                          walk=walk)
+        _raycast.terrain_kernel(sc.grid, lid._beams, params, origin, rot, dest)
     assert not np.isnan(out).any(), "a queued row was inconsistent"
     queued = out < 0
     assert queued.sum() > cfg.azimuth_steps  # the walks of many channels went to the probe

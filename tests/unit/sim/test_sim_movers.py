@@ -20,6 +20,7 @@ from navstress.run.mission import run_mission
 from navstress.seeding import rng
 from navstress.sim import _raybox
 from navstress.sim import movers as M
+from navstress.sim._raycast import Ray
 from navstress.sim.config import SimConfig
 from navstress.sim.lidar import Lidar, build_scene
 from navstress.sim.model import MOVER_BIT, OBSTACLE_BIT, build_model
@@ -254,7 +255,7 @@ def test_the_disc_pass_is_the_exact_cylinder_on_every_ray(roll: float, pitch: fl
     o = np.array([40.0, 40.0, 1.0])
     disc = np.array([[o[0] + dist * math.cos(bearing), o[1] + dist * math.sin(bearing), radius, zb, zb + 1.8]])
     out = np.full((32, 360), np.inf)
-    _raybox.disc_pass(disc, o, rot, lidar._cos_el, lidar._sin_el, lidar._cos_az, lidar._sin_az, 70.0, out)
+    _raybox.disc_pass(disc, lidar._beams, lidar._params, o, rot, out)  # (max_range 70 m)
     ref = np.full((32, 360), np.inf)
     for k in range(32):
         for a in range(360):
@@ -262,8 +263,9 @@ def test_the_disc_pass_is_the_exact_cylinder_on_every_ray(roll: float, pitch: fl
             awy = rot[1, 0] * lidar._cos_az[a] + rot[1, 1] * lidar._sin_az[a]
             awz = rot[2, 0] * lidar._cos_az[a] + rot[2, 1] * lidar._sin_az[a]
             ce, se = lidar._cos_el[k], lidar._sin_el[k]
-            ref[k, a] = _raybox._ray_cylinder(*disc[0], *o, ce * awx + se * rot[0, 2], ce * awy + se * rot[1, 2],
-                                              ce * awz + se * rot[2, 2])
+            ref[k, a] = _raybox._ray_cylinder(_raybox.Cylinder(*disc[0]),
+                                              Ray(*o, ce * awx + se * rot[0, 2], ce * awy + se * rot[1, 2],
+                                                  ce * awz + se * rot[2, 2]))
     assert np.array_equal(out, ref)
 
 

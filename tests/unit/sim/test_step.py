@@ -137,7 +137,7 @@ def test_compiled_contact_events_equal_the_observer(seq: list[set[int]], dt: flo
         t, x, y = k * dt, 0.1 * k, -0.2 * k
         ref.contacts(t, x, y, set(s_))
         cur[: len(s_)] = sorted(s_)
-        assert K.contact_events(t, x, y, cur, len(s_), prev, I, last, 0.5, events)
+        assert K.contact_events(I, K.CollisionArrays(cur, prev, last, events), len(s_), t, x, y, 0.5)
     got = [(float(e[0]), float(e[1]), float(e[2]), int(e[3])) for e in events[: I["nevent"]]]
     assert got == [(e.t, e.x, e.y, e.obstacle) for e in ref.collisions]
     assert I["starts"] == ref.contact_starts
@@ -253,7 +253,7 @@ def test_sphere_terrain_contacts_find_the_surface_distance(seed: int) -> None:
     for _ in range(5):
         cx, cy = g.uniform(2.0, 10.0, 2)
         cz = w.terrain.height_at(cx, cy) + r - g.uniform(0.0, 0.08)
-        n = K.sphere_terrain_contacts(cx, cy, cz, r, hf, x0, y0, dx, dy, out)
+        n = K.sphere_terrain_contacts(K.Sphere(cx, cy, cz, r), hf, K.HFieldGrid(x0, y0, dx, dy), out)
         xs = np.arange(cx - r, cx + r, 0.003)
         ys = np.arange(cy - r, cy + r, 0.003)
         X, Y = np.meshgrid(xs, ys)
