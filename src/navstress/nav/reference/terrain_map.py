@@ -31,7 +31,7 @@ map via the pose, roll and pitch included). Integration is a compiled loop (numb
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, NamedTuple
 
 import numba as nb
 import numpy as np
@@ -42,7 +42,38 @@ from numba.extending import intrinsic
 import navstress._jit  # noqa: F401  (numba's cache directory, before any @njit(cache=True))
 from navstress.nav.reference.pose import Pose
 
-__all__ = ["TerrainMap", "step_threshold"]
+__all__ = ["MAP_CONSTANTS", "TerrainMap", "new_map_constants", "step_threshold"]
+
+#: The constants of a :class:`TerrainMap` that its kernels read (:func:`_integrate`,
+#: :func:`_fill_unknown`): a record (numpy structured dtype, one field a line);
+#: :func:`new_map_constants` demands every field.
+MAP_CONSTANTS = np.dtype([
+    ("ox", np.float64), ("oy", np.float64),  # corner of cell [0, 0] (TerrainMap.origin)
+    ("cell", np.float64),  # cell side (m)
+    ("sub", np.int64),  # fine obstacle cells per cell side
+    ("step", np.float64),  # obstacle step threshold (m)
+    ("max_range2", np.float64),  # squared range beyond which lidar points are dropped (m^2)
+], align=True)
+MAP_CONSTANTS_FIELDS: frozenset[str] = frozenset(MAP_CONSTANTS.names or ())
+
+
+def new_map_constants(**values: float) -> np.ndarray:
+    """A one-record :data:`MAP_CONSTANTS` array; every field must be given."""
+    if values.keys() != MAP_CONSTANTS_FIELDS:
+        raise TypeError(f"MAP_CONSTANTS fields missing: {sorted(MAP_CONSTANTS_FIELDS - set(values))}, "
+                        f"unknown: {sorted(set(values) - MAP_CONSTANTS_FIELDS)}")
+    p = np.zeros(1, MAP_CONSTANTS)
+    for name, v in values.items():
+        p[name] = v
+    return p
+
+
+class ScanBuffers(NamedTuple):
+    """Per-point scratch of :func:`_integrate` (each at least as long as the scan)."""
+
+    cell: np.ndarray  # int64: the point's coarse cell, flat (i * columns + j)
+    z: np.ndarray  # float64: the point's z in the map frame
+    sub: np.ndarray  # int64: the point's fine sub-cell in its coarse cell (u * sub + v)
 
 
 def step_threshold(obstacle_height_m: float, max_slope_deg: float, cell_m: float) -> float:
@@ -70,16 +101,20 @@ _AHEAD = 32  # points between a record's prefetch and its update (measured: 8 to
 
 
 @nb.njit(cache=True)
-def _integrate(points: np.ndarray, rot: np.ndarray, trans: np.ndarray, ox: float, oy: float,
-               cell: float, max_range2: float, stats: np.ndarray, fine: np.ndarray, sub: int,
-               scan: int, buf_c: np.ndarray, buf_z: np.ndarray, buf_q: np.ndarray) -> int:
-    """Bin one scan: per coarse cell min/max/sum/count (``stats[i, j]``, one cache line), and the
-    fine max z of this scan per sub-cell (``fine[i, j, :sub*sub]``), reset when the scan is the
-    first to hit the cell since the last one (``fine[i, j, sub*sub]`` keeps that scan's number).
+def _integrate(points: np.ndarray, rot: np.ndarray, trans: np.ndarray, consts: np.ndarray, stats: np.ndarray,
+               fine: np.ndarray, scan: int, bufs: ScanBuffers) -> int:
+    """Bin one scan (points in the sensor frame, placed by ``rot @ p + trans``; the map's
+    :data:`MAP_CONSTANTS` in ``consts``): per coarse cell min/max/sum/count (``stats[i, j]``, one
+    cache line), and the fine max z of this scan per sub-cell (``fine[i, j, :sub*sub]``), reset
+    when the scan (number ``scan``) is the first to hit the cell since the last one
+    (``fine[i, j, sub*sub]`` keeps that scan's number).
 
-    Two passes: the points' cells, z and sub-cells into the buffers (``buf_*``, at least N
-    long), then the record updates in point order with the records ``_AHEAD`` points ahead
-    prefetched (the map is far larger than the caches: the updates waited on memory)."""
+    Two passes: the points' cells, z and sub-cells into ``bufs``, then the record updates in
+    point order with the records ``_AHEAD`` points ahead prefetched (the map is far larger than
+    the caches: the updates waited on memory)."""
+    c = consts[0]
+    ox, oy, cell, sub, max_range2 = c.ox, c.oy, c.cell, c.sub, c.max_range2
+    buf_c, buf_z, buf_q = bufs.cell, bufs.z, bufs.sub
     nr = stats.shape[0]
     nc = stats.shape[1]
     inv = 1.0 / cell
@@ -187,12 +222,15 @@ def _fine_obstacle_grid(zmin: np.ndarray, count: np.ndarray, fine: np.ndarray, s
 
 
 @nb.njit(cache=True)
-def _fill_unknown(cells_i: np.ndarray, cells_j: np.ndarray, n: int, cx: float, cy: float,
-                  radius_cells: int, ox: float, oy: float, cell: float, fallback_z: float,
-                  step: float, zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray,
-                  count: np.ndarray) -> int:
-    """Give never-seen cells (cells_i/j[:n]) the height of a plane fitted to the known,
-    non-obstacle cells within ``radius_cells`` of (cx, cy); ``fallback_z`` if fewer than 6."""
+def _fill_unknown(cells_i: np.ndarray, cells_j: np.ndarray, consts: np.ndarray, stats: np.ndarray, cx: float,
+                  cy: float, radius_cells: int, fallback_z: float) -> int:
+    """Give never-seen cells (cells_i/j) of the map (``stats``, its :data:`MAP_CONSTANTS`
+    ``consts``) the height of a plane fitted to the known, non-obstacle cells within
+    ``radius_cells`` of (cx, cy); ``fallback_z`` if fewer than 6."""
+    c = consts[0]
+    ox, oy, cell, step = c.ox, c.oy, c.cell, c.step
+    zmin, zmax, zsum, count = stats[:, :, 0], stats[:, :, 1], stats[:, :, 2], stats[:, :, 3]
+    n = cells_i.shape[0]
     nr, nc = zmin.shape
     unknown = False
     for k in range(n):  # nothing to fill: skip the plane fit (the common case once moving)
@@ -297,11 +335,12 @@ class TerrainMap:
         self.fine = np.full((*shape, self.sub * self.sub + 1), -np.inf, dtype=np.float32)
         self.fine[:, :, -1] = 0.0
         self.scans = 0
-        self._max_range2 = self.max_range_m ** 2
+        #: what the kernels read (the geometry is fixed at construction)
+        self._consts = new_map_constants(ox=self.origin[0], oy=self.origin[1], cell=self.cell_m, sub=self.sub,
+                                         step=self.step_m, max_range2=self.max_range_m ** 2)
         # per-point scratch of integrate (grown to the largest scan)
-        self._buf_c = np.empty(0, dtype=np.int64)
-        self._buf_z = np.empty(0, dtype=np.float64)
-        self._buf_q = np.empty(0, dtype=np.int64)
+        self._bufs = ScanBuffers(np.empty(0, dtype=np.int64), np.empty(0, dtype=np.float64),
+                                 np.empty(0, dtype=np.int64))
 
     @property
     def zmin(self) -> np.ndarray:
@@ -362,13 +401,11 @@ class TerrainMap:
             pts = pts.astype(np.float64)
         rot, trans = pose.sensor_transform(mount)
         self.scans += 1
-        if len(self._buf_c) < len(pts):
-            self._buf_c = np.empty(len(pts), dtype=np.int64)
-            self._buf_z = np.empty(len(pts), dtype=np.float64)
-            self._buf_q = np.empty(len(pts), dtype=np.int64)
-        return int(_integrate(np.ascontiguousarray(pts), rot, trans, self.origin[0], self.origin[1],
-                              self.cell_m, self._max_range2, self.stats, self.fine, self.sub, self.scans,
-                              self._buf_c, self._buf_z, self._buf_q))
+        if len(self._bufs.cell) < len(pts):
+            self._bufs = ScanBuffers(np.empty(len(pts), dtype=np.int64), np.empty(len(pts), dtype=np.float64),
+                                     np.empty(len(pts), dtype=np.int64))
+        return int(_integrate(np.ascontiguousarray(pts), rot, trans, self._consts, self.stats, self.fine, self.scans,
+                              self._bufs))
 
     def known(self) -> np.ndarray:
         return self.count > 0
@@ -392,7 +429,5 @@ class TerrainMap:
                      radius_m: float, fallback_z: float) -> int:
         """Give the never-seen cells among ``cells`` the ground plane fitted around ``center_xy``
         (the robot stands there, so the ground under it exists). Returns cells filled."""
-        return int(_fill_unknown(cells_i, cells_j, len(cells_i), center_xy[0], center_xy[1],
-                                 max(1, int(round(radius_m / self.cell_m))), self.origin[0], self.origin[1],
-                                 self.cell_m, fallback_z, self.step_m, self.zmin, self.zmax, self.zsum,
-                                 self.count))
+        return int(_fill_unknown(cells_i, cells_j, self._consts, self.stats, center_xy[0], center_xy[1],
+                                 max(1, int(round(radius_m / self.cell_m))), fallback_z))
