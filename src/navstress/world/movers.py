@@ -109,18 +109,18 @@ class _Clearance:
 
 
 class _Which(NamedTuple):
-    """The mover being placed (for the error): the 0-based ``index`` among ``count`` of type ``kind``."""
+    """The mover being placed (for the error): the 0-based ``position`` among ``total`` of type ``kind``."""
 
     kind: str
-    index: int
-    count: int
-    type: MoverType
+    position: int
+    total: int
+    mover_type: MoverType
 
 
 def _fail(which: _Which, what: str) -> GenerationError:
     return GenerationError(
-        f"movers: could not place {what} of mover {which.index + 1} of {which.count} of type '{which.kind}' (radius "
-        f"up to {which.type.radius_m:.3g} m) in {MAX_TRIES} draws: no room left clear of obstacles, the start and "
+        f"movers: could not place {what} of mover {which.position + 1} of {which.total} of type '{which.kind}' (radius "
+        f"up to {which.mover_type.radius_m:.3g} m) in {MAX_TRIES} draws: no room left clear of obstacles, the start and "
         "goal free discs and the other movers; lower movers.count, the obstruction or the waypoints, or use a larger "
         "map")
 

@@ -85,7 +85,7 @@ class TerrainArrays(NamedTuple):
     zmin: np.ndarray  # (R, C) lowest z hit per cell (+inf: unknown)
     zmax: np.ndarray  # (R, C) highest z hit per cell
     zsum: np.ndarray  # (R, C) sum of the hits' z
-    count: np.ndarray  # (R, C) hits per cell (0: unknown)
+    hits: np.ndarray  # (R, C) hits per cell (0: unknown; TerrainMap.count)
     fine: np.ndarray  # (R, C, sub*sub + 1) float32: the fine layer (TerrainMap.fine)
 
 
@@ -299,7 +299,7 @@ def _classify(maps: TerrainArrays, g: _Grid, i0: int, i1: int, j0: int, j1: int,
     more than ``step`` above its ground, or unknown), its ground (the 3x3 minimum of the known
     cells' min z, computed separably: a row minimum, then a column minimum) and mean height."""
     nr, nc = g.rows, g.cols
-    zmin, zmax, zsum, count = maps.zmin, maps.zmax, maps.zsum, maps.count
+    zmin, zmax, zsum, count = maps.zmin, maps.zmax, maps.zsum, maps.hits
     wi = max(0, i1 - i0 + 1)
     wj = max(0, j1 - j0 + 1)
     # the window's 3x3 ground minimum: row minima over a one-cell halo, then column minima
