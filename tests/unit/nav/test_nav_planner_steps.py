@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 
 from navstress.nav.reference.planner import (_CLEAR, _EXEMPT, _HIT, _KNOWN, _OBSTACLE, _RING, _UNKNOWN, CYCLE,
                                               CYCLE_FIELDS, TerrainArrays, _classify, _exempt_cells, _fine_contact,
-                                              _fine_squares, _FineTest, _grid, _rect, _squares_near, footprint_cells,
+                                              _fine_squares, _FineTest, _Grid, _rect, _squares_near, footprint_cells,
                                               new_cycle)
 from navstress.nav.reference.terrain_map import (MAP_CONSTANTS, MAP_CONSTANTS_FIELDS, TerrainMap,
                                                  new_map_constants)
@@ -79,6 +79,10 @@ def random_map(seed: int) -> TerrainMap:
         a, b = int(g.integers(0, rows)), int(g.integers(0, cols))
         m.stats[a:a + int(g.integers(1, 6)), b:b + int(g.integers(1, 6))] = (np.inf, -np.inf, 0.0, 0.0)
     return m
+
+
+def _grid(m: TerrainMap) -> _Grid:
+    return _Grid(m.origin[0], m.origin[1], m.cell_m, m.shape[0], m.shape[1], m.sub)
 
 
 def maps_of(m: TerrainMap) -> TerrainArrays:

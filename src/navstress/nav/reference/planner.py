@@ -71,11 +71,15 @@ _CYCLE_NAMES = tuple(CYCLE.names or ())
 
 def new_cycle(**values: float) -> np.ndarray:
     """A one-record :data:`CYCLE` array; every field must be given."""
-    if values.keys() != CYCLE_FIELDS:
+    try:  # (a planning cycle makes one: kept cheap)
+        row = tuple(map(values.__getitem__, _CYCLE_NAMES))
+    except KeyError:
+        row = ()
+    if len(row) != len(values) or not row:
         raise TypeError(f"CYCLE fields missing: {sorted(CYCLE_FIELDS - set(values))}, "
                         f"unknown: {sorted(set(values) - CYCLE_FIELDS)}")
     p = np.empty(1, CYCLE)
-    p[0] = tuple(map(values.__getitem__, _CYCLE_NAMES))  # every field (a planning cycle makes one: kept cheap)
+    p[0] = row
     return p
 
 
@@ -174,12 +178,6 @@ def _footprint_box(r: _Rect, g: _Grid) -> tuple[float, int, int, int, int]:
     return proj, j0, j1, i0, i1
 
 
-def _grid(terrain: TerrainMap) -> _Grid:
-    """The :class:`_Grid` of ``terrain``."""
-    return _Grid(terrain.origin[0], terrain.origin[1], terrain.cell_m, terrain.shape[0], terrain.shape[1],
-                 terrain.sub)
-
-
 @nb.njit(cache=True)
 def _footprint_cells(cx: float, cy: float, yaw: float, hl: float, hw: float, g: _Grid, out_i: np.ndarray,
                      out_j: np.ndarray) -> int:
@@ -212,6 +210,16 @@ def _footprint_cells(cx: float, cy: float, yaw: float, hl: float, hw: float, g: 
             out_j[n] = j
             n += 1
     return n
+
+
+@nb.njit(cache=True)
+def _map_footprint_cells(consts: np.ndarray, stats: np.ndarray, x: float, y: float, yaw: float, hl: float, hw: float,
+                         out: np.ndarray) -> int:
+    """:func:`_footprint_cells` on a :class:`TerrainMap` (its :attr:`~TerrainMap.constants` and
+    ``stats``), into the rows of ``out`` (2, K): rows i, columns j."""
+    mc = consts[0]
+    g = _Grid(mc.ox, mc.oy, mc.cell, stats.shape[0], stats.shape[1], mc.sub)
+    return _footprint_cells(x, y, yaw, hl, hw, g, out[0], out[1])
 
 
 @nb.njit(cache=True)
@@ -351,24 +359,25 @@ def _fine_squares(fine: np.ndarray, win: _Window, g: _Grid, step: float, robot: 
     """(centres, n): the fine obstacle cells of the window as squares (their centres in the first
     n rows), from its coarse obstacle cells only (the fine ones lie inside); with ``exempt``,
     not those overlapping the footprint ``robot`` (the robot already stands there)."""
-    sub = g.sub
+    sub, ox, oy, i0, j0 = g.sub, g.ox, g.oy, win.i0, win.j0
+    cls, ground = win.cls, win.ground
     fcell = g.cell / sub
     h = 0.5 * fcell
-    wi, wj = win.cls.shape
+    wi, wj = cls.shape
     pts = np.empty((win.n_obstacle * sub * sub, 2))
     n_pts = 0
     for li in range(wi):
         for lj in range(wj):
-            if win.cls[li, lj] != _OBSTACLE:
+            if cls[li, lj] != _OBSTACLE:
                 continue
-            z = win.ground[li, lj]
+            z = ground[li, lj]
             for u in range(sub):
-                fi = (win.i0 + li) * sub + u
+                fi = (i0 + li) * sub + u
                 for v in range(sub):
-                    fj = (win.j0 + lj) * sub + v
-                    if fine[win.i0 + li, win.j0 + lj, u * sub + v] - z > step:
-                        px = g.ox + (fj + 0.5) * fcell
-                        py = g.oy + (fi + 0.5) * fcell
+                    fj = (j0 + lj) * sub + v
+                    if fine[i0 + li, j0 + lj, u * sub + v] - z > step:
+                        px = ox + (fj + 0.5) * fcell
+                        py = oy + (fi + 0.5) * fcell
                         if exempt and _rect_hits_square(px - robot.x, py - robot.y, robot, h):
                             continue
                         pts[n_pts, 0] = px
@@ -384,11 +393,12 @@ def _exempt_cells(win: _Window, g: _Grid, x: float, y: float, yaw: float, hl: fl
     buf_i = np.empty(_MAX_FP_CELLS, dtype=np.int64)
     buf_j = np.empty(_MAX_FP_CELLS, dtype=np.int64)
     n = _footprint_cells(x, y, yaw, hl, hw, g, buf_i, buf_j)
+    cls, i0, j0 = win.cls, win.i0, win.j0
     for k in range(max(n, 0)):
-        li = buf_i[k] - win.i0
-        lj = buf_j[k] - win.j0
-        if win.cls[li, lj] == _UNKNOWN:
-            win.cls[li, lj] = _EXEMPT
+        li = buf_i[k] - i0
+        lj = buf_j[k] - j0
+        if cls[li, lj] == _UNKNOWN:
+            cls[li, lj] = _EXEMPT
 
 
 @nb.njit(cache=True, inline="always")
@@ -687,12 +697,11 @@ def _single(terrain: TerrainMap, x: float, y: float, yaw: float, half_length: fl
 def footprint_cells(x: float, y: float, yaw: float, half_length: float, half_width: float,
                     terrain: TerrainMap) -> tuple[np.ndarray, np.ndarray] | None:
     """(rows, cols) of the cells the oriented footprint overlaps; None if it leaves the map."""
-    bi = np.empty(_MAX_FP_CELLS, dtype=np.int64)
-    bj = np.empty(_MAX_FP_CELLS, dtype=np.int64)
-    n = _footprint_cells(x, y, yaw, half_length, half_width, _grid(terrain), bi, bj)
+    out = np.empty((2, _MAX_FP_CELLS), dtype=np.int64)
+    n = _map_footprint_cells(terrain.constants, terrain.stats, x, y, yaw, half_length, half_width, out)
     if n < 0:
         return None
-    return bi[:n].copy(), bj[:n].copy()
+    return out[0, :n].copy(), out[1, :n].copy()
 
 
 def footprint_slope_roughness(terrain: TerrainMap, x: float, y: float, yaw: float, half_length: float,

@@ -31,7 +31,7 @@ map via the pose, roll and pitch included). Integration is a compiled loop (numb
 from __future__ import annotations
 
 import math
-from typing import Any, NamedTuple
+from typing import Any
 
 import numba as nb
 import numpy as np
@@ -42,7 +42,7 @@ from numba.extending import intrinsic
 import navstress._jit  # noqa: F401  (numba's cache directory, before any @njit(cache=True))
 from navstress.nav.reference.pose import Pose
 
-__all__ = ["MAP_CONSTANTS", "TerrainMap", "new_map_constants", "step_threshold"]
+__all__ = ["MAP_CONSTANTS", "SCAN_POINT", "TerrainMap", "new_map_constants", "step_threshold"]
 
 #: The constants of a :class:`TerrainMap` that its kernels read (:func:`_integrate`,
 #: :func:`_fill_unknown`): a record (numpy structured dtype, one field a line);
@@ -68,12 +68,13 @@ def new_map_constants(**values: float) -> np.ndarray:
     return p
 
 
-class ScanBuffers(NamedTuple):
-    """Per-point scratch of :func:`_integrate` (each at least as long as the scan)."""
-
-    cell: np.ndarray  # int64: the point's coarse cell, flat (i * columns + j)
-    z: np.ndarray  # float64: the point's z in the map frame
-    sub: np.ndarray  # int64: the point's fine sub-cell in its coarse cell (u * sub + v)
+#: What :func:`_integrate`'s first pass keeps per point (a record; its scratch is an array of them,
+#: at least as long as the scan).
+SCAN_POINT = np.dtype([
+    ("cell", np.int64),  # the point's coarse cell, flat (i * columns + j)
+    ("z", np.float64),  # its z in the map frame
+    ("sub", np.int64),  # its fine sub-cell in that cell (u * sub + v)
+])
 
 
 def step_threshold(obstacle_height_m: float, max_slope_deg: float, cell_m: float) -> float:
@@ -102,19 +103,18 @@ _AHEAD = 32  # points between a record's prefetch and its update (measured: 8 to
 
 @nb.njit(cache=True)
 def _integrate(points: np.ndarray, rot: np.ndarray, trans: np.ndarray, consts: np.ndarray, stats: np.ndarray,
-               fine: np.ndarray, scan: int, bufs: ScanBuffers) -> int:
+               fine: np.ndarray, scan: int, buf: np.ndarray) -> int:
     """Bin one scan (points in the sensor frame, placed by ``rot @ p + trans``; the map's
     :data:`MAP_CONSTANTS` in ``consts``): per coarse cell min/max/sum/count (``stats[i, j]``, one
     cache line), and the fine max z of this scan per sub-cell (``fine[i, j, :sub*sub]``), reset
     when the scan (number ``scan``) is the first to hit the cell since the last one
     (``fine[i, j, sub*sub]`` keeps that scan's number).
 
-    Two passes: the points' cells, z and sub-cells into ``bufs``, then the record updates in
+    Two passes: the points' cells, z and sub-cells into ``buf`` (:data:`SCAN_POINT` records), then the record updates in
     point order with the records ``_AHEAD`` points ahead prefetched (the map is far larger than
     the caches: the updates waited on memory)."""
-    c = consts[0]
-    ox, oy, cell, sub, max_range2 = c.ox, c.oy, c.cell, c.sub, c.max_range2
-    buf_c, buf_z, buf_q = bufs.cell, bufs.z, bufs.sub
+    mc = consts[0]
+    ox, oy, cell, sub, max_range2 = mc.ox, mc.oy, mc.cell, mc.sub, mc.max_range2
     nr = stats.shape[0]
     nc = stats.shape[1]
     inv = 1.0 / cell
@@ -139,21 +139,24 @@ def _integrate(points: np.ndarray, rot: np.ndarray, trans: np.ndarray, consts: n
         # the sub-cell, kept inside coarse cell (i, j) whatever the rounding
         u = min(max(int((y - oy) * finv) - i * sub, 0), sub - 1)
         v = min(max(int((x - ox) * finv) - j * sub, 0), sub - 1)
-        buf_c[n] = i * nc + j
-        buf_z[n] = rot[2, 0] * px + rot[2, 1] * py + rot[2, 2] * pz + trans[2]
-        buf_q[n] = u * sub + v
+        pt = buf[n]
+        pt.cell = i * nc + j
+        pt.z = rot[2, 0] * px + rot[2, 1] * py + rot[2, 2] * pz + trans[2]
+        pt.sub = u * sub + v
         n += 1
     sf = stats.reshape(-1)
     ff = fine.reshape(-1)
     fstride = fine.shape[2]
     for k in range(n):
         if k + _AHEAD < n:
-            ca = buf_c[k + _AHEAD]
+            ahead = buf[k + _AHEAD]
+            ca = ahead.cell
             _prefetch(sf, 4 * ca)  # type: ignore[call-arg]
-            _prefetch(ff, ca * fstride + buf_q[k + _AHEAD])
+            _prefetch(ff, ca * fstride + ahead.sub)
             _prefetch(ff, ca * fstride + nsub)
-        c = buf_c[k]
-        z = buf_z[k]
+        pt = buf[k]
+        c = pt.cell
+        z = pt.z
         b = 4 * c
         sf[b] = min(sf[b], z)  # unknown cells hold +inf / -inf: no branch on the count
         sf[b + 1] = max(sf[b + 1], z)
@@ -164,7 +167,7 @@ def _integrate(points: np.ndarray, rot: np.ndarray, trans: np.ndarray, consts: n
             ff[fb + nsub] = fscan
             for q in range(nsub):
                 ff[fb + q] = -np.inf
-        q = fb + buf_q[k]
+        q = fb + pt.sub
         ff[q] = max(ff[q], np.float32(z))
     return n
 
@@ -227,8 +230,8 @@ def _fill_unknown(cells_i: np.ndarray, cells_j: np.ndarray, consts: np.ndarray, 
     """Give never-seen cells (cells_i/j) of the map (``stats``, its :data:`MAP_CONSTANTS`
     ``consts``) the height of a plane fitted to the known, non-obstacle cells within
     ``radius_cells`` of (cx, cy); ``fallback_z`` if fewer than 6."""
-    c = consts[0]
-    ox, oy, cell, step = c.ox, c.oy, c.cell, c.step
+    mc = consts[0]
+    ox, oy, cell, step = mc.ox, mc.oy, mc.cell, mc.step
     zmin, zmax, zsum, count = stats[:, :, 0], stats[:, :, 1], stats[:, :, 2], stats[:, :, 3]
     n = cells_i.shape[0]
     nr, nc = zmin.shape
@@ -339,8 +342,12 @@ class TerrainMap:
         self._consts = new_map_constants(ox=self.origin[0], oy=self.origin[1], cell=self.cell_m, sub=self.sub,
                                          step=self.step_m, max_range2=self.max_range_m ** 2)
         # per-point scratch of integrate (grown to the largest scan)
-        self._bufs = ScanBuffers(np.empty(0, dtype=np.int64), np.empty(0, dtype=np.float64),
-                                 np.empty(0, dtype=np.int64))
+        self._scan_points = np.empty(0, dtype=SCAN_POINT)
+
+    @property
+    def constants(self) -> np.ndarray:
+        """The one-record :data:`MAP_CONSTANTS` array of this map (what its kernels read)."""
+        return self._consts
 
     @property
     def zmin(self) -> np.ndarray:
@@ -401,11 +408,10 @@ class TerrainMap:
             pts = pts.astype(np.float64)
         rot, trans = pose.sensor_transform(mount)
         self.scans += 1
-        if len(self._bufs.cell) < len(pts):
-            self._bufs = ScanBuffers(np.empty(len(pts), dtype=np.int64), np.empty(len(pts), dtype=np.float64),
-                                     np.empty(len(pts), dtype=np.int64))
+        if len(self._scan_points) < len(pts):
+            self._scan_points = np.empty(len(pts), dtype=SCAN_POINT)
         return int(_integrate(np.ascontiguousarray(pts), rot, trans, self._consts, self.stats, self.fine, self.scans,
-                              self._bufs))
+                              self._scan_points))
 
     def known(self) -> np.ndarray:
         return self.count > 0
