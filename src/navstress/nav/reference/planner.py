@@ -773,6 +773,25 @@ class ArcPlanner:
         self._max_slope_tan = math.tan(math.radians(config.max_slope_deg))
         self._fan_curvatures = (np.concatenate([self.curvatures, [math.nan]]) if config.turn_in_place
                                 else self.curvatures.copy())
+        self._cycle_terrain: TerrainMap | None = None
+        self._cycle = np.empty(0, CYCLE)
+
+    def _cycle_on(self, terrain: TerrainMap) -> np.ndarray:
+        """This planner's :data:`CYCLE` record on ``terrain`` (a map's geometry is fixed when it is
+        made), every field named once per map; :meth:`evaluate` then writes the pose and the turn's
+        direction into it each cycle (cheaper than a new record: the planner is not reentrant)."""
+        if terrain is not self._cycle_terrain:
+            cfg = self.config
+            self._cycle = new_cycle(ox=terrain.origin[0], oy=terrain.origin[1], cell=terrain.cell_m,
+                                    step=terrain.step_m, sub=terrain.sub, hl=self.half_length, hw=self.half_width,
+                                    rx=0.0, ry=0.0, ryaw=0.0, exempt=int(cfg.exempt_current_footprint),
+                                    max_slope_tan=self._max_slope_tan, max_rough=cfg.max_roughness_m,
+                                    w_s=cfg.slope_weight, w_r=cfg.roughness_weight,
+                                    unknown_cost=float(cfg.unknown_cell_cost), clear_m=cfg.clearance_margin_m,
+                                    clear_cost=cfg.clearance_cost, length=cfg.arc_length_m, spin_dir=0,
+                                    spin_angle=math.radians(cfg.turn_in_place_angle_deg))
+            self._cycle_terrain = terrain
+        return self._cycle
 
     def evaluate(self, terrain: TerrainMap, x: float, y: float, yaw: float, spin_dir: int) -> ArcEvaluation:
         """Node poses and terrain costs of the fan at (x, y, yaw), in one compiled call. With
@@ -787,13 +806,8 @@ class ArcPlanner:
         node_cost = np.empty((na, n))
         sr = np.empty((2, na, n))
         cost = np.empty(na)
-        cycle = new_cycle(ox=terrain.origin[0], oy=terrain.origin[1], cell=terrain.cell_m, step=terrain.step_m,
-                          sub=terrain.sub, hl=self.half_length, hw=self.half_width, rx=x, ry=y, ryaw=yaw,
-                          exempt=int(cfg.exempt_current_footprint), max_slope_tan=self._max_slope_tan,
-                          max_rough=cfg.max_roughness_m, w_s=cfg.slope_weight, w_r=cfg.roughness_weight,
-                          unknown_cost=float(cfg.unknown_cell_cost), clear_m=cfg.clearance_margin_m,
-                          clear_cost=cfg.clearance_cost, length=cfg.arc_length_m, spin_dir=d,
-                          spin_angle=math.radians(cfg.turn_in_place_angle_deg))
+        cycle = self._cycle_on(terrain)
+        cycle["rx"], cycle["ry"], cycle["ryaw"], cycle["spin_dir"] = x, y, yaw, d  # what changes each cycle
         _plan_cycle(terrain.stats, terrain.fine, self.curvatures, cycle, nodes, node_cost, sr, cost)
         return ArcEvaluation(nodes, self._fan_curvatures, d, cost, node_cost)
 
