@@ -17,8 +17,9 @@ positive-area overlap of the oriented rectangle with the cell square) give the n
   ``clearance_margin_m``.
 
 A whole cycle (node poses, a window of coarse obstacle flags and the fine obstacle cells in it,
-all node costs) is one compiled call (:func:`_evaluate_fan`): the obstacle test is done once per
-window cell, not once per footprint cell.
+all node costs) is one compiled call (:func:`_plan_cycle`, then :func:`_evaluate_fan` and its
+steps): the obstacle test is done once per window cell, not once per footprint cell. The cycle's
+constants are one named record, :data:`CYCLE`.
 
 An arc's terrain cost is the sum of its node costs (infinite as soon as one node is). The
 navigator adds a goal term per arc and elects the cheapest arc whose terrain cost is at most the
