@@ -199,6 +199,7 @@ def export(
 def replay(
     directory: Annotated[Path, typer.Argument(help="Campaign directory.")],
     run_id: Annotated[str, typer.Argument(help="The run to replay (a run_id of the runs table).")],
+    *,
     keep: Annotated[Path | None, typer.Option("--keep", help="Keep the new trace at this path.")] = None,
     lidar: LidarOpt = False,
     navigator_view: NavigatorViewOpt = False,

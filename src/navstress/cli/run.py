@@ -29,6 +29,7 @@ app = typer.Typer(rich_markup_mode=None)
 @app.command("run")
 def run_cmd(
     world_dir: Annotated[Path, typer.Argument(metavar="WORLD_DIR", help="A world directory (navstress world generate).")],
+    *,
     output: Annotated[Path, typer.Option("--output", "-o", metavar="OUT", help=(
         "Folder for the traces (run-NNN.mcap), records (runs.jsonl) and trajectories.png; must be new or empty."))],
     navigator: Annotated[str, typer.Option(metavar="NAME", help=(

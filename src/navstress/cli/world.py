@@ -89,6 +89,7 @@ _PCT = "PCT"
 
 @world_app.command("generate")
 def world_generate(
+    *,
     output: Annotated[Path, typer.Option("--output", "-o", metavar="DIR", help=(
         "World directory to write (world.json, terrain.npz, preview.png). Must be new or an "
         "existing world directory, which is replaced."))],

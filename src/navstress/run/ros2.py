@@ -106,7 +106,7 @@ class _Bag:
     def rgba(self, c: Any, alpha: float | None = None) -> Any:
         return self.t["std_msgs/msg/ColorRGBA"](r=c.r, g=c.g, b=c.b, a=c.a if alpha is None else alpha)
 
-    def marker(self, ent: Any, t_ns: int, k: int, kind: int, pose: Any, scale: Any, color: Any,
+    def marker(self, ent: Any, t_ns: int, k: int, kind: int, pose: Any, scale: Any, color: Any, *,
                points: list[Any] | None = None, colors: list[Any] | None = None, text: str = "",
                action: int | None = None) -> Any:
         """One ``visualization_msgs/Marker`` of entity ``ent`` (every field set: CDR needs them)."""
@@ -143,11 +143,11 @@ class _Bag:
                 out.append(self.marker(ent, t_ns, k, m.TRIANGLE_LIST, tri.pose,
                                        self.t["geometry_msgs/msg/Vector3"](x=1.0, y=1.0, z=1.0),
                                        self.rgba(tri.color, None if not cols else 1.0),
-                                       [self.point(tri.points[i]) for i in idx], cols))
+                                       points=[self.point(tri.points[i]) for i in idx], colors=cols))
             k = len(shapes) + len(ent.triangles)
             for ln in ent.lines:  # a line strip's scale.x is its width
                 out.append(self.marker(ent, t_ns, k, m.LINE_STRIP, ln.pose, self.t["geometry_msgs/msg/Vector3"](
-                    x=ln.thickness, y=0.0, z=0.0), self.rgba(ln.color), [self.point(p) for p in ln.points]))
+                    x=ln.thickness, y=0.0, z=0.0), self.rgba(ln.color), points=[self.point(p) for p in ln.points]))
                 k += 1
             for tx in ent.texts:  # a text's scale.z is its height
                 out.append(self.marker(ent, t_ns, k, m.TEXT_VIEW_FACING, tx.pose, self.t["geometry_msgs/msg/Vector3"](

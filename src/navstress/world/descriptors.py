@@ -38,7 +38,7 @@ All lengths in meters, angles in degrees, obstruction in percent of the map area
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, NamedTuple
 
 import numba
 import numpy as np
@@ -58,26 +58,36 @@ BARN_RAY_M = 10.0
 MAX_PATH_NODES = 1_000_000
 
 
-def _f(x: float | np.floating[Any]) -> float | None:
+def _finite_or_none(x: float | np.floating[Any]) -> float | None:
+    """``x`` as a float, None when it is not finite (the descriptors are JSON without NaN)."""
     v = float(x)
     return v if math.isfinite(v) else None
 
 
-def _box_arrays(obstacles: tuple[Obstacle, ...]) -> tuple[np.ndarray, ...]:
-    xs = np.array([o.x for o in obstacles], np.float64)
-    ys = np.array([o.y for o in obstacles], np.float64)
-    hx = np.array([o.size[0] / 2 for o in obstacles], np.float64)
-    hy = np.array([o.size[1] / 2 for o in obstacles], np.float64)
-    c = np.array([math.cos(o.yaw) for o in obstacles], np.float64)
-    s = np.array([math.sin(o.yaw) for o in obstacles], np.float64)
-    return xs, ys, hx, hy, c, s
+class Boxes(NamedTuple):
+    """Oriented box footprints as arrays, one entry per obstacle (:func:`_box_distance`)."""
+
+    x: np.ndarray  # centres (m)
+    y: np.ndarray
+    hx: np.ndarray  # half sides along the box's own axes (m)
+    hy: np.ndarray
+    c: np.ndarray  # cos and sin of the yaw
+    s: np.ndarray
+
+
+def _box_arrays(obstacles: tuple[Obstacle, ...]) -> Boxes:
+    return Boxes(np.array([o.x for o in obstacles], np.float64), np.array([o.y for o in obstacles], np.float64),
+                 np.array([o.size[0] / 2 for o in obstacles], np.float64),
+                 np.array([o.size[1] / 2 for o in obstacles], np.float64),
+                 np.array([math.cos(o.yaw) for o in obstacles], np.float64),
+                 np.array([math.sin(o.yaw) for o in obstacles], np.float64))
 
 
 @numba.njit(cache=True)
-def _box_distance(rows: int, cols: int, cell: float, xs: np.ndarray, ys: np.ndarray, hx: np.ndarray,
-                  hy: np.ndarray, c: np.ndarray, s: np.ndarray, reach: float) -> np.ndarray:
+def _box_distance(rows: int, cols: int, cell: float, boxes: Boxes, reach: float) -> np.ndarray:
     """Exact distance from each grid point (j*cell, i*cell) to the nearest oriented box
     footprint (0 inside), ``inf`` where farther than ``reach``."""
+    xs, ys, hx, hy, c, s = boxes.x, boxes.y, boxes.hx, boxes.hy, boxes.c, boxes.s
     out = np.full((rows, cols), np.inf)
     for k in range(xs.shape[0]):
         ex = abs(c[k]) * hx[k] + abs(s[k]) * hy[k] + reach
@@ -105,8 +115,7 @@ def obstacle_distance(shape: tuple[int, int], cell_m: float, obstacles: tuple[Ob
     """Distance (m) from each vertex of a grid to the nearest footprint, ``inf`` beyond ``reach``."""
     if not obstacles:
         return np.full(shape, np.inf)
-    out: np.ndarray = _box_distance(shape[0], shape[1], float(cell_m), *_box_arrays(obstacles),  # type: ignore[call-arg, arg-type]
-                                    float(reach))
+    out: np.ndarray = _box_distance(shape[0], shape[1], float(cell_m), _box_arrays(obstacles), float(reach))
     return out
 
 
@@ -176,9 +185,9 @@ def barn_metrics(size_m: tuple[float, float], obstacles: tuple[Obstacle, ...],
                                      "barn_dispersion": None, "barn_characteristic_dim_m": None}
     if not obstacles:
         return none
-    xs, ys, hx, hy, c, s = _box_arrays(obstacles)
+    boxes = _box_arrays(obstacles)
     # occupied when the cell centre is inside a footprint (grid point (i, j) := centre of cell (i, j))
-    d = _box_distance(ny, nx, cell, xs - 0.5 * cell, ys - 0.5 * cell, hx, hy, c, s, 0.0)
+    d = _box_distance(ny, nx, cell, boxes._replace(x=boxes.x - 0.5 * cell, y=boxes.y - 0.5 * cell), 0.0)
     occ = (d <= 0.0).astype(np.uint8)
     if not occ.any():
         return none
@@ -187,9 +196,10 @@ def barn_metrics(size_m: tuple[float, float], obstacles: tuple[Obstacle, ...],
     edt = ndimage.distance_transform_edt(occ == 0) * cell
     free = occ == 0
     vis, disp, cd, n = _rays(occ, cell, float(ray_m))
-    return {"barn_dist_closest_m": _f(edt[free].mean()) if free.any() else None,
-            "barn_visibility_m": _f(vis) if n else None, "barn_dispersion": _f(disp) if n else None,
-            "barn_characteristic_dim_m": _f(cd) if n else None}
+    return {"barn_dist_closest_m": _finite_or_none(edt[free].mean()) if free.any() else None,
+            "barn_visibility_m": _finite_or_none(vis) if n else None,
+            "barn_dispersion": _finite_or_none(disp) if n else None,
+            "barn_characteristic_dim_m": _finite_or_none(cd) if n else None}
 
 
 def traversable(terrain: Terrain, obstacles: tuple[Obstacle, ...], robot: RobotSpec,
@@ -285,16 +295,17 @@ def describe(spec: WorldSpec, terrain: Terrain, obstacles: tuple[Obstacle, ...],
 
     resid = h - ndimage.gaussian_filter(h, sigma, mode="nearest")
     out.update({
-        "height_min_m": _f(h.min()), "height_max_m": _f(h.max()), "height_std_m": _f(h.std()),
-        "slope_mean_deg": _f(sl.mean()), "slope_p95_deg": _f(np.percentile(sl, 95)),
-        "slope_max_deg": _f(sl.max()), "roughness_m": _f(resid.std()),
+        "height_min_m": _finite_or_none(h.min()), "height_max_m": _finite_or_none(h.max()),
+        "height_std_m": _finite_or_none(h.std()),
+        "slope_mean_deg": _finite_or_none(sl.mean()), "slope_p95_deg": _finite_or_none(np.percentile(sl, 95)),
+        "slope_max_deg": _finite_or_none(sl.max()), "roughness_m": _finite_or_none(resid.std()),
     })
     out.update(barn_metrics(spec.size_m, obstacles))
     ok = traversable(terrain, obstacles, robot, max_slope_deg)
     length, reason = shortest_path_length(terrain, ok, mission.start[:2], mission.goal)
-    out["path_length_m"] = _f(length) if length is not None else None
+    out["path_length_m"] = _finite_or_none(length) if length is not None else None
     straight = mission.straight_distance_m
-    out["path_ratio"] = _f(length / straight) if length is not None and straight > 0 else None
+    out["path_ratio"] = _finite_or_none(length / straight) if length is not None and straight > 0 else None
     out["feasible"] = length is not None
     out["infeasible_reason"] = reason
     out["traversability"] = {"robot": robot.name, "half_width_m": robot.width_m / 2,

@@ -34,6 +34,7 @@ it.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -107,15 +108,25 @@ class _Clearance:
         return bool(np.all(self.clear[ib, ia] >= radius + MARGIN_M))
 
 
-def _fail(kind: str, i: int, n: int, what: str, t: MoverType) -> GenerationError:
+class _Which(NamedTuple):
+    """The mover being placed (for the error): the 0-based ``position`` among ``total`` of type ``kind``."""
+
+    kind: str
+    position: int
+    total: int
+    mover_type: MoverType
+
+
+def _fail(which: _Which, what: str) -> GenerationError:
     return GenerationError(
-        f"movers: could not place {what} of mover {i + 1} of {n} of type '{kind}' (radius up to "
-        f"{t.radius_m:.3g} m) in {MAX_TRIES} draws: no room left clear of obstacles, the start and goal free "
-        "discs and the other movers; lower movers.count, the obstruction or the waypoints, or use a larger map")
+        f"movers: could not place {what} of mover {which.position + 1} of {which.total} of type '{which.kind}' (radius "
+        f"up to {which.mover_type.radius_m:.3g} m) in {MAX_TRIES} draws: no room left clear of obstacles, the start and "
+        "goal free discs and the other movers; lower movers.count, the obstruction or the waypoints, or use a larger "
+        "map")
 
 
 def _path(ras: _Clearance, gen: np.random.Generator, start: tuple[float, float], count: int, loop: bool,
-          radius: float, kind: str, i: int, n: int, t: MoverType) -> list[tuple[float, float]]:
+          radius: float, which: _Which) -> list[tuple[float, float]]:
     """``count`` waypoints from ``start`` (see the module docstring); a closed loop when ``loop``."""
     for _ in range(MAX_LOOPS if loop else 1):
         path: list[tuple[float, float]] = []
@@ -136,10 +147,10 @@ def _path(ras: _Clearance, gen: np.random.Generator, start: tuple[float, float],
             else:
                 if last:
                     break  # draw the loop again
-                raise _fail(kind, i, n, f"waypoint {k + 1}", t)
+                raise _fail(which, f"waypoint {k + 1}")
         else:
             return path
-    raise _fail(kind, i, n, f"a closed patrol loop ({count} waypoints, {MAX_LOOPS} loops drawn)", t)
+    raise _fail(which, f"a closed patrol loop ({count} waypoints, {MAX_LOOPS} loops drawn)")
 
 
 def place_movers(spec: WorldSpec, mission: Mission, obstacles: tuple[Obstacle, ...], seed: int) -> tuple[Mover, ...]:
@@ -157,7 +168,7 @@ def place_movers(spec: WorldSpec, mission: Mission, obstacles: tuple[Obstacle, .
         radius_max = t.radius_m
         cells = ras.free_cells(radius_max)
         if cells.size == 0:
-            raise _fail(kind, 0, n, "the start", t)
+            raise _fail(_Which(kind, 0, n, t), "the start")
         v = t.variability
         speed_max = b.speed_m_s if b.speed_m_s is not None else t.speed_max_m_s
         accel = b.accel_m_s2 if b.accel_m_s2 is not None else t.accel_m_s2
@@ -176,10 +187,10 @@ def place_movers(spec: WorldSpec, mission: Mission, obstacles: tuple[Obstacle, .
                     start = p
                     break
             if start is None:
-                raise _fail(kind, i, n, "the start", t)
+                raise _fail(_Which(kind, i, n, t), "the start")
             path: list[tuple[float, float]] = []
             if b.kind in ("crossing", "patrol", "intercept"):
-                path = _path(ras, gen, start, b.waypoints, b.kind == "patrol", radius_max, kind, i, n, t)
+                path = _path(ras, gen, start, b.waypoints, b.kind == "patrol", radius_max, _Which(kind, i, n, t))
                 yaw = math.atan2(path[0][1] - start[1], path[0][0] - start[0])
             else:
                 yaw = float(gen.uniform(-math.pi, math.pi))

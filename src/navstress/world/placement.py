@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -126,12 +127,48 @@ def free_centres(occ: np.ndarray, kx: int, ky: int) -> np.ndarray:
     return out
 
 
+#: The constants of one round of :func:`_accept`: a record (numpy structured dtype, one field a
+#: line); :func:`new_round` demands every field.
+ROUND = np.dtype([
+    ("rx", np.float64), ("ry", np.float64),  # the raster's cell sides (m)
+    ("size_x", np.float64), ("size_y", np.float64),  # the map's size (m)
+    ("achieved", np.float64),  # obstacle area of the type placed before this round (m^2)
+    ("target", np.float64),  # the type's target area (m^2)
+    ("stop_tol", np.float64),  # the type stops within this of its target (m^2)
+], align=True)
+ROUND_FIELDS: frozenset[str] = frozenset(ROUND.names or ())
+
+
+def new_round(**values: float) -> np.ndarray:
+    """A one-record :data:`ROUND` array; every field must be given."""
+    if values.keys() != ROUND_FIELDS:
+        raise TypeError(f"ROUND fields missing: {sorted(ROUND_FIELDS - set(values))}, "
+                        f"unknown: {sorted(set(values) - ROUND_FIELDS)}")
+    p = np.zeros(1, ROUND)
+    for name, v in values.items():
+        p[name] = v
+    return p
+
+
+class Candidates(NamedTuple):
+    """One round's candidate obstacles of a type, in the order they are tried (:func:`_accept`)."""
+
+    x: np.ndarray  # centres (m)
+    y: np.ndarray
+    sx: np.ndarray  # sides (m); an accepted obstacle's trimmed in place
+    sy: np.ndarray
+    keep: np.ndarray  # bool, written: accepted
+
+
 @numba.njit(cache=True)
-def _accept(occ: np.ndarray, xs: np.ndarray, ys: np.ndarray, sxs: np.ndarray, sys_: np.ndarray,
-            rx: float, ry: float, size_x: float, size_y: float, achieved: float, target: float,
-            stop_tol: float, keep: np.ndarray) -> tuple[float, int, int]:
+def _accept(occ: np.ndarray, cand: Candidates, rnd: np.ndarray) -> tuple[float, int, int]:
     """Sequentially accept candidates whose footprint cells are free; marks them, trims sizes
-    in ``sxs``/``sys_`` in place. Returns (achieved area, candidates tried, trimmed count)."""
+    in ``cand.sx``/``cand.sy`` in place (the round's constants: the one-record :data:`ROUND`
+    array ``rnd``). Returns (achieved area, candidates tried, trimmed count)."""
+    r = rnd[0]
+    rx, ry, size_x, size_y, achieved, target, stop_tol = r.rx, r.ry, r.size_x, r.size_y, r.achieved, r.target, \
+        r.stop_tol
+    xs, ys, sxs, sys_, keep = cand.x, cand.y, cand.sx, cand.sy, cand.keep
     ny, nx = occ.shape
     tried = 0
     trimmed = 0
@@ -221,15 +258,16 @@ def place_obstacles(spec: WorldSpec, mission: Mission, seed: int) -> PlacementRe
             need = math.ceil((target_area - achieved) / mean_area)
             n = int(min(max(2 * need, 16), 200_000))
             pick = cells[gen.integers(0, cells.size, n)]
-            jit = gen.random((n, 2))
-            xs = (pick % nx + jit[:, 0]) * ras.rx
-            ys = (pick // nx + jit[:, 1]) * ras.ry
+            in_cell = gen.random((n, 2))  # the position in the cell, uniform
+            xs = (pick % nx + in_cell[:, 0]) * ras.rx
+            ys = (pick // nx + in_cell[:, 1]) * ras.ry
             sxs = gen.uniform(lo_x, hi_x, n)
             sys_ = gen.uniform(lo_y, hi_y, n)
             szs = gen.uniform(t.height_m * (1 - v), t.height_m * (1 + v), n)
             keep = np.zeros(n, np.bool_)
-            new_ach, k_tried, k_trim = _accept(ras.occ, xs, ys, sxs, sys_, ras.rx, ras.ry, size_x, size_y,
-                                               achieved, target_area, stop_tol, keep)
+            new_ach, k_tried, k_trim = _accept(ras.occ, Candidates(xs, ys, sxs, sys_, keep),
+                                               new_round(rx=ras.rx, ry=ras.ry, size_x=size_x, size_y=size_y,
+                                                         achieved=achieved, target=target_area, stop_tol=stop_tol))
             tried += k_tried
             trimmed += k_trim
             stall = stall + 1 if new_ach == achieved else 0
@@ -316,16 +354,45 @@ def _find(parent: np.ndarray, k: int) -> int:
     return k
 
 
-@numba.njit(cache=True)
-def _level(h: np.ndarray, cell: float, x0s: np.ndarray, x1s: np.ndarray, y0s: np.ndarray, y1s: np.ndarray,
-           blend: float, zs_out: np.ndarray, root_out: np.ndarray, pin: np.ndarray, pin_z: np.ndarray,
-           discs: np.ndarray, bad_out: np.ndarray) -> np.ndarray:
-    """Level the vertex boxes of all obstacles (clusters sharing a vertex get one z), then blend.
+class LevelBoxes(NamedTuple):
+    """The obstacles' footprint bounding boxes (:func:`_level`), one entry per obstacle (m)."""
 
-    ``pin`` (-1 or an area index per vertex): vertices kept as they are (the free areas' flat sets);
-    a cluster holding one takes that area's level ``pin_z`` (the first area's when it holds two);
-    ``discs`` (area, x, y, radius) are extra sources of the blend's z*. ``bad_out[0]``: an obstacle
-    whose cluster holds vertices of two areas of different levels, else -1."""
+    x0: np.ndarray
+    x1: np.ndarray
+    y0: np.ndarray
+    y1: np.ndarray
+
+
+class PinArrays(NamedTuple):
+    """:class:`~navstress.world.freearea.Pins` as :func:`_level` takes them."""
+
+    mask: np.ndarray  # int8 per vertex: -1, or the area whose flat set holds it
+    levels: np.ndarray  # per area: its level
+    discs: np.ndarray  # rows: area index, centre x, centre y, flat-set radius
+
+
+class LevelOut(NamedTuple):
+    """What :func:`_level` writes besides the heights."""
+
+    z: np.ndarray  # per obstacle: the z of its base
+    root: np.ndarray  # per obstacle: the first obstacle of its cluster
+    joined: np.ndarray  # (1,): an obstacle whose cluster holds vertices of two areas of different levels, or -1
+
+
+@numba.njit(cache=True)
+def _level(h: np.ndarray, cell: float, blend: float, boxes: LevelBoxes, pins: PinArrays,
+           result: LevelOut) -> np.ndarray:
+    """Level the vertex boxes of all obstacles (clusters sharing a vertex get one z), then blend;
+    returns the heights.
+
+    ``pins.mask`` (-1 or an area index per vertex): vertices kept as they are (the free areas'
+    flat sets); a cluster holding one takes that area's level ``pins.levels`` (the first area's
+    when it holds two); ``pins.discs`` (area, x, y, radius) are extra sources of the blend's z*.
+    ``result.joined[0]``: an obstacle whose cluster holds vertices of two areas of different levels,
+    else -1."""
+    x0s, x1s, y0s, y1s = boxes.x0, boxes.x1, boxes.y0, boxes.y1
+    pin, pin_z, discs = pins.mask, pins.levels, pins.discs
+    zs_out, root_out, bad_out = result.z, result.root, result.joined
     rows, cols = h.shape
     n = x0s.shape[0]
     bj0 = np.empty(n, np.int64)
@@ -448,8 +515,9 @@ def level_terrain(heights: np.ndarray, cell_m: float, obstacles: list[Obstacle],
     if pins is None:
         pins = Pins(np.full(h.shape, -1, np.int8), np.zeros(0), np.zeros((0, 4)))
     joined = np.zeros(1, np.int64)
-    out = _level(h, float(cell_m), lo[:, 0].copy(), hi[:, 0].copy(), lo[:, 1].copy(), hi[:, 1].copy(),
-                 float(blend_m), zs, roots, pins.mask, pins.levels, pins.discs, joined)
+    out = _level(h, float(cell_m), float(blend_m),
+                 LevelBoxes(lo[:, 0].copy(), hi[:, 0].copy(), lo[:, 1].copy(), hi[:, 1].copy()),
+                 PinArrays(pins.mask, pins.levels, pins.discs), LevelOut(zs, roots, joined))
     placed = [Obstacle(kind=o.kind, x=o.x, y=o.y, yaw=o.yaw, size=o.size, z=float(z))
               for o, z in zip(obstacles, zs)]
     sizes = np.bincount(roots)

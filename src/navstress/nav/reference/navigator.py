@@ -26,7 +26,7 @@ import numpy as np
 from navstress.errors import NavigatorError
 from navstress.nav.api import Command, DebugDraw, DebugLine, DebugText, NavMission, Observation, Status
 from navstress.nav.reference.config import ReferenceConfig
-from navstress.nav.reference.planner import _MAX_FP_CELLS, ArcEvaluation, ArcPlanner, _footprint_cells, node_cost
+from navstress.nav.reference.planner import _MAX_FP_CELLS, ArcEvaluation, ArcPlanner, _map_footprint_cells, node_cost
 from navstress.nav.reference.pose import Pose, PoseEstimator, wrap_angle
 from navstress.nav.reference.terrain_map import TerrainMap, step_threshold
 from navstress.robot import RobotSpec
@@ -83,7 +83,7 @@ class ReferenceNavigator:
         self._evaluated_at: Pose | None = None  # the pose the last arc fan was evaluated from
         self._spin_latch = 0
         self.messages: list[tuple[float, str]] = []
-        self._fp_buf = (np.empty(_MAX_FP_CELLS, dtype=np.int64), np.empty(_MAX_FP_CELLS, dtype=np.int64))
+        self._fp_buf = np.empty((2, _MAX_FP_CELLS), dtype=np.int64)  # rows i, columns j
         self._ready = True
 
     def step(self, obs: Observation) -> Command | Status:
@@ -117,13 +117,13 @@ class ReferenceNavigator:
             spin = self._spin_latch if self._spin_latch != 0 else (1 if bearing >= 0 else -1)
             ev = self.planner.evaluate(self.terrain, pose.x, pose.y, pose.yaw, spin)
             goal = self._geofence(ev, pose, self._goal_terms(ev, pose))
-            jit = self._rng.uniform(0.0, self.config.cost_jitter, len(goal)) if self.config.cost_jitter > 0 else None
+            jitter = self._rng.uniform(0.0, self.config.cost_jitter, len(goal)) if self.config.cost_jitter > 0 else None
             idx = -1
             if abs(bearing) <= math.radians(self.config.spin_min_bearing_deg):
                 # the target is within the forward fan's reach: a turn on the spot makes no progress
-                idx = self.planner.elect(ev, np.where(ev.is_spin, np.inf, goal), jit)
+                idx = self.planner.elect(ev, np.where(ev.is_spin, np.inf, goal), jitter)
             if idx < 0:
-                idx = self.planner.elect(ev, goal, jit)
+                idx = self.planner.elect(ev, goal, jitter)
             self.last_evaluation, self.last_elected, self._evaluated_at = ev, idx, pose
             if idx < 0:
                 return self._latch(obs.t, Status("error", NO_ARC))
@@ -233,11 +233,12 @@ class ReferenceNavigator:
 
     def _mark_under_robot(self, pose: Pose) -> None:
         t = self.terrain
-        bi, bj = self._fp_buf
-        n = _footprint_cells(pose.x, pose.y, pose.yaw, 0.5 * self.robot.length_m, 0.5 * self.robot.width_m,
-                             t.origin[0], t.origin[1], t.cell_m, t.shape[0], t.shape[1], bi, bj)
-        if n > 0:  # the buffers' first n entries (footprint_cells without its copies)
-            t.fill_unknown(bi[:n], bj[:n], (pose.x, pose.y), self.config.fill_radius_m, pose.z - self._base_height)
+        buf = self._fp_buf
+        n = _map_footprint_cells(t.constants, t.stats, pose.x, pose.y, pose.yaw, 0.5 * self.robot.length_m,
+                                 0.5 * self.robot.width_m, buf)
+        if n > 0:  # the buffer's first n entries (footprint_cells without its copies)
+            t.fill_unknown(buf[0, :n], buf[1, :n], (pose.x, pose.y), self.config.fill_radius_m,
+                           pose.z - self._base_height)
 
     def _progress_manoeuvre(self, obs: Observation) -> None:
         """Advance the scan manoeuvre: the turn is measured on the perceived (gyro-fused) heading,

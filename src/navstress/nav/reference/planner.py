@@ -17,8 +17,9 @@ positive-area overlap of the oriented rectangle with the cell square) give the n
   ``clearance_margin_m``.
 
 A whole cycle (node poses, a window of coarse obstacle flags and the fine obstacle cells in it,
-all node costs) is one compiled call (:func:`_evaluate_fan`): the obstacle test is done once per
-window cell, not once per footprint cell.
+all node costs) is one compiled call (:func:`_plan_cycle`, then :func:`_evaluate_fan` and its
+steps): the obstacle test is done once per window cell, not once per footprint cell. The cycle's
+constants are one named record, :data:`CYCLE`.
 
 An arc's terrain cost is the sum of its node costs (infinite as soon as one node is). The
 navigator adds a goal term per arc and elects the cheapest arc whose terrain cost is at most the
@@ -30,6 +31,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any, NamedTuple
 
 import numba as nb
 import numpy as np
@@ -39,38 +41,154 @@ from navstress.nav.reference.config import ReferenceConfig
 from navstress.nav.reference.terrain_map import TerrainMap, cell_ground
 from navstress.robot import RobotSpec
 
-__all__ = ["ArcEvaluation", "ArcPlanner", "arc_nodes", "footprint_cells", "footprint_slope_roughness", "node_cost"]
+__all__ = ["CYCLE", "ArcEvaluation", "ArcPlanner", "FanCosts", "TerrainArrays", "arc_nodes", "footprint_cells",
+           "footprint_slope_roughness", "new_cycle", "node_cost"]
 
 _MAX_FP_CELLS = 4096
 _EPS = 1e-9  # touching within this (rounding) is not a positive-area overlap
 
+_I, _F = np.int64, np.float64
+#: The constants of one planning cycle (:func:`_plan_cycle`, :func:`_evaluate_fan`): a record
+#: (numpy structured dtype, one field a line); :func:`new_cycle` demands every field.
+CYCLE = np.dtype([
+    ("ox", _F), ("oy", _F),  # corner of the map's cell [0, 0] (TerrainMap.origin)
+    ("cell", _F),  # coarse cell side (m)
+    ("step", _F),  # obstacle step threshold (m): TerrainMap.step_m
+    ("sub", _I),  # fine obstacle cells per coarse cell side: TerrainMap.sub
+    ("hl", _F), ("hw", _F),  # the believed footprint's half length and half width, margin included (m)
+    ("rx", _F), ("ry", _F), ("ryaw", _F),  # the perceived pose, where the fan starts
+    ("exempt", _I),  # 1: the cells under the footprint at (rx, ry, ryaw) are not checked
+    ("max_slope_tan", _F), ("max_rough", _F),  # a node is untraversable above either
+    ("w_s", _F), ("w_r", _F),  # weights of slope and roughness in a node's cost
+    ("unknown_cost", _F),  # cost of an unknown coarse cell under a footprint (inf: blocked)
+    ("clear_m", _F), ("clear_cost", _F),  # the clearance ring: its width (m), its cost
+    ("length", _F),  # arc length (m)
+    ("spin_dir", _I),  # the turn on the spot: +1 CCW, -1 CW, 0 none
+    ("spin_angle", _F),  # the angle the turn on the spot covers (rad)
+], align=True)
+CYCLE_FIELDS: frozenset[str] = frozenset(CYCLE.names or ())
+_CYCLE_NAMES = tuple(CYCLE.names or ())
+
+
+def new_cycle(**values: float) -> np.ndarray:
+    """A one-record :data:`CYCLE` array; every field must be given."""
+    try:  # (a planning cycle makes one: kept cheap)
+        row = tuple(map(values.__getitem__, _CYCLE_NAMES))
+    except KeyError:
+        row = ()
+    if len(row) != len(values) or not row:
+        raise TypeError(f"CYCLE fields missing: {sorted(CYCLE_FIELDS - set(values))}, "
+                        f"unknown: {sorted(set(values) - CYCLE_FIELDS)}")
+    p = np.empty(1, CYCLE)
+    p[0] = row
+    return p
+
+
+class TerrainArrays(NamedTuple):
+    """The map a fan is costed on: a :class:`TerrainMap`'s statistics (views)."""
+
+    zmin: np.ndarray  # (R, C) lowest z hit per cell (+inf: unknown)
+    zmax: np.ndarray  # (R, C) highest z hit per cell
+    zsum: np.ndarray  # (R, C) sum of the hits' z
+    hits: np.ndarray  # (R, C) hits per cell (0: unknown; TerrainMap.count)
+    fine: np.ndarray  # (R, C, sub*sub + 1) float32: the fine layer (TerrainMap.fine)
+
+
+class FanCosts(NamedTuple):
+    """What :func:`_evaluate_fan` writes, per arc and node of the fan (A arcs, N nodes each)."""
+
+    node: np.ndarray  # (A, N) node costs (inf: blocked)
+    slope: np.ndarray  # (A, N) slope tangent of the plane fitted under the footprint (NaN: blocked)
+    rough: np.ndarray  # (A, N) roughness: the fit's largest absolute residual (m; NaN: blocked)
+    arc: np.ndarray  # (A,) an arc's terrain cost: the sum of its node costs
+
+
+class _Grid(NamedTuple):
+    """The map's grid: the corner of cell [0, 0], the cell side, its size, fine cells per cell side."""
+
+    ox: float
+    oy: float
+    cell: float
+    rows: int
+    cols: int
+    sub: int
+
+
+class _Rect(NamedTuple):
+    """An oriented rectangle (a footprint, :func:`_rect`): its centre, heading (cos, sin), half
+    length and half width, and the half extents of its bounding box on the grid axes."""
+
+    x: float
+    y: float
+    c: float
+    s: float
+    hl: float
+    hw: float
+    ex: float
+    ey: float
+
+
+# classes of a window's coarse cells (_Window.cls)
+_KNOWN, _OBSTACLE, _EXEMPT, _UNKNOWN = 0, 1, 2, 3
+
+
+class _Window(NamedTuple):
+    """The coarse cells around a fan (:func:`_classify`): rows ``i0 ...``, columns ``j0 ...`` of the map."""
+
+    i0: int
+    j0: int
+    cls: np.ndarray  # (wi, wj) int8: _KNOWN ground, _OBSTACLE, _EXEMPT (unknown, under the robot), _UNKNOWN
+    ground: np.ndarray  # (wi, wj) known cells: the lowest known min z of their 3x3 neighbourhood
+    zmean: np.ndarray  # (wi, wj) known cells: their mean height (0 elsewhere)
+    xc: np.ndarray  # (wj,) x of the columns' cell centres
+    yc: np.ndarray  # (wi,) y of the rows' cell centres
+    n_obstacle: int  # cells of class _OBSTACLE
+
+
+class _FineTest(NamedTuple):
+    """The fine obstacle squares against a footprint (:func:`_fine_contact`)."""
+
+    h: float  # half side of a fine square
+    r_hit: float  # centre distances beyond which a square cannot touch the footprint
+    r_clear: float  # ... nor the footprint grown by clear_m
+    clear_m: float  # the clearance ring's width
+    use_clear: bool  # whether the ring costs anything
+
+
+# what a footprint's fine obstacle squares say (_fine_contact)
+_CLEAR, _RING, _HIT = 0, 1, 2
+
 
 @nb.njit(cache=True, inline="always")
-def _footprint_box(x: float, y: float, c: float, s: float, hl: float, hw: float, ox: float, oy: float,
-                   cell: float) -> tuple[float, float, float, int, int, int, int]:
-    """Of a footprint (half sides hl, hw) at (x, y) with heading cos/sin (c, s): its half extents
-    (ex, ey) on the grid axes, a cell's half-diagonal projection ``proj`` on its axes, and the range
-    of cells its bounding box covers (j0, j1, i0, i1). Scalars only (cheap to inline in hot loops)."""
+def _rect(x: float, y: float, c: float, s: float, hl: float, hw: float) -> _Rect:
+    """The :class:`_Rect` of half sides hl, hw at (x, y) with heading cos/sin (c, s)."""
     ac = abs(c)
     as_ = abs(s)
-    ex = hl * ac + hw * as_
-    ey = hl * as_ + hw * ac
-    j0 = int(math.floor((x - ex - ox) / cell))
-    j1 = int(math.floor((x + ex - ox) / cell))
-    i0 = int(math.floor((y - ey - oy) / cell))
-    i1 = int(math.floor((y + ey - oy) / cell))
-    proj = 0.5 * cell * (ac + as_)
-    return ex, ey, proj, j0, j1, i0, i1
+    return _Rect(x, y, c, s, hl, hw, hl * ac + hw * as_, hl * as_ + hw * ac)
+
+
+@nb.njit(cache=True, inline="always")
+def _footprint_box(r: _Rect, g: _Grid) -> tuple[float, int, int, int, int]:
+    """Of a footprint: a cell's half-diagonal projection ``proj`` on its axes, and the range of
+    cells its bounding box covers (j0, j1, i0, i1). Scalars only (cheap to inline in hot loops)."""
+    j0 = int(math.floor((r.x - r.ex - g.ox) / g.cell))
+    j1 = int(math.floor((r.x + r.ex - g.ox) / g.cell))
+    i0 = int(math.floor((r.y - r.ey - g.oy) / g.cell))
+    i1 = int(math.floor((r.y + r.ey - g.oy) / g.cell))
+    proj = 0.5 * g.cell * (abs(r.c) + abs(r.s))
+    return proj, j0, j1, i0, i1
 
 
 @nb.njit(cache=True)
-def _footprint_cells(cx: float, cy: float, yaw: float, hl: float, hw: float, ox: float, oy: float,
-                     cell: float, nr: int, nc: int, out_i: np.ndarray, out_j: np.ndarray) -> int:
+def _footprint_cells(cx: float, cy: float, yaw: float, hl: float, hw: float, g: _Grid, out_i: np.ndarray,
+                     out_j: np.ndarray) -> int:
     """Cells whose square overlaps the oriented rectangle with positive area (separating-axis
     test). Returns their count, or -1 if the rectangle reaches outside the grid or overflows."""
     c = math.cos(yaw)
     s = math.sin(yaw)
-    ex, ey, proj, j0, j1, i0, i1 = _footprint_box(cx, cy, c, s, hl, hw, ox, oy, cell)
+    r = _rect(cx, cy, c, s, hl, hw)
+    proj, j0, j1, i0, i1 = _footprint_box(r, g)
+    ex, ey, ox, oy, cell = r.ex, r.ey, g.ox, g.oy, g.cell
     half = 0.5 * cell
     n = 0
     for i in range(i0, i1 + 1):
@@ -87,7 +205,7 @@ def _footprint_cells(cx: float, cy: float, yaw: float, hl: float, hw: float, ox:
                 continue
             if abs(-dx * s + dy * c) >= hw + proj - _EPS:
                 continue
-            if i < 0 or j < 0 or i >= nr or j >= nc or n >= out_i.shape[0]:
+            if i < 0 or j < 0 or i >= g.rows or j >= g.cols or n >= out_i.shape[0]:
                 return -1
             out_i[n] = i
             out_j[n] = j
@@ -96,11 +214,23 @@ def _footprint_cells(cx: float, cy: float, yaw: float, hl: float, hw: float, ox:
 
 
 @nb.njit(cache=True)
-def _fan_nodes(x: float, y: float, yaw: float, curv: np.ndarray, length: float, n_nodes: int,
-               spin_dir: int, spin_angle: float, out: np.ndarray, trig: np.ndarray) -> None:
-    """Fill ``out`` (A, N, 3) with the fan's node poses: the arcs of ``curv`` (as :func:`arc_nodes`),
-    then, when ``spin_dir != 0``, the turn on the spot (``spin_angle`` covered by its N nodes);
-    ``trig`` (A, N, 2) gets each node's (cos, sin) heading (the arcs' own sin/cos, reused)."""
+def _map_footprint_cells(consts: np.ndarray, stats: np.ndarray, x: float, y: float, yaw: float, hl: float, hw: float,
+                         out: np.ndarray) -> int:
+    """:func:`_footprint_cells` on a :class:`TerrainMap` (its :attr:`~TerrainMap.constants` and
+    ``stats``), into the rows of ``out`` (2, K): rows i, columns j."""
+    mc = consts[0]
+    g = _Grid(mc.ox, mc.oy, mc.cell, stats.shape[0], stats.shape[1], mc.sub)
+    return _footprint_cells(x, y, yaw, hl, hw, g, out[0], out[1])
+
+
+@nb.njit(cache=True)
+def _fan_nodes(p: Any, curv: np.ndarray, out: np.ndarray, trig: np.ndarray) -> None:
+    """Fill ``out`` (A, N, 3) with the fan's node poses from the :data:`CYCLE` record ``p``: the
+    arcs of ``curv`` (as :func:`arc_nodes`), then, when ``p.spin_dir != 0``, the turn on the spot
+    (``p.spin_angle`` covered by its N nodes); ``trig`` (A, N, 2) gets each node's (cos, sin)
+    heading (the arcs' own sin/cos, reused)."""
+    x, y, yaw, length, spin_dir, spin_angle = p.rx, p.ry, p.ryaw, p.length, p.spin_dir, p.spin_angle
+    n_nodes = out.shape[1]
     cy0 = math.cos(yaw)
     sy0 = math.sin(yaw)
     for a in range(curv.shape[0]):
@@ -142,57 +272,43 @@ def _node_trig(nodes: np.ndarray, trig: np.ndarray) -> None:
 
 
 @nb.njit(cache=True, inline="always")
-def _rect_hits_square(dx: float, dy: float, c: float, s: float, hl: float, hw: float, ex: float, ey: float,
-                      h: float) -> bool:
-    """Separating-axis test: the rectangle (half sizes hl x hw, axis (c, s), AABB half extents
-    ex, ey) and the axis-aligned square of half side ``h`` whose centre is (dx, dy) from the
-    rectangle's overlap with positive area."""
-    if abs(dx) >= ex + h - _EPS or abs(dy) >= ey + h - _EPS:
+def _rect_hits_square(dx: float, dy: float, r: _Rect, h: float) -> bool:
+    """Separating-axis test: the rectangle ``r`` and the axis-aligned square of half side ``h``
+    whose centre is (dx, dy) from the rectangle's overlap with positive area."""
+    if abs(dx) >= r.ex + h - _EPS or abs(dy) >= r.ey + h - _EPS:
         return False
-    pad = h * (abs(c) + abs(s))
-    return abs(dx * c + dy * s) < hl + pad - _EPS and abs(-dx * s + dy * c) < hw + pad - _EPS
+    pad = h * (abs(r.c) + abs(r.s))
+    return abs(dx * r.c + dy * r.s) < r.hl + pad - _EPS and abs(-dx * r.s + dy * r.c) < r.hw + pad - _EPS
 
 
 @nb.njit(cache=True)
-def _evaluate_fan(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: np.ndarray,
-                  fine: np.ndarray, sub: int, ox: float, oy: float, cell: float, step: float,
-                  nodes: np.ndarray, trig: np.ndarray, hl: float, hw: float, rx: float, ry: float, ryaw: float,
-                  exempt_on: bool, max_slope_tan: float, max_rough: float, w_s: float, w_r: float,
-                  unknown_cost: float, clear_m: float, clear_cost: float, out_node: np.ndarray,
-                  out_slope: np.ndarray, out_rough: np.ndarray, out_cost: np.ndarray) -> int:
-    """One planning cycle's terrain costs, in one call (module doc); ``trig`` holds each node's
-    (cos, sin) heading. Returns the number of fine obstacle cells considered.
-
-    1. A window of coarse cells covering every node's (clearance-grown) footprint: per cell one
-       class (known ground, obstacle, unknown exempt, unknown) and its mean height, computed once
-       (the 3x3 ground minimum separably: a row minimum, then a column minimum); the fine
-       obstacle cells inside the coarse obstacle cells collected as a list of squares.
-    2. With ``exempt_on``: the coarse cells and the fine obstacle cells under the footprint at
-       (rx, ry, ryaw) are not checked (the robot already stands there).
-    3. Per node: the coarse footprint cells (those of :func:`_footprint_cells`, same order;
-       each row's cells are contiguous, so a row stops at its first miss after a hit), classified
-       as they are enumerated -> unknown / outside check and the plane fit (coarse obstacle cells
-       left out of the fit); fine obstacle squares -> collision (inf) with the footprint, or
-       ``clear_cost`` when one overlaps the footprint grown by ``clear_m``.
-    """
-    nr, nc = zmin.shape
-    n_arcs = nodes.shape[0]
-    n_nodes = nodes.shape[1]
-    reach = math.hypot(hl + clear_m, hw + clear_m) + cell
+def _window_bounds(g: _Grid, nodes: np.ndarray, rx: float, ry: float, reach: float) -> tuple[int, int, int, int]:
+    """(i0, i1, j0, j1): the rows and columns of the map within ``reach`` of the bounding box of
+    the fan's nodes and of its start (rx, ry), clipped to the map (i1 < i0 or j1 < j0: none)."""
     xlo = rx
     xhi = rx
     ylo = ry
     yhi = ry
-    for a in range(n_arcs):
-        for k in range(n_nodes):
+    for a in range(nodes.shape[0]):
+        for k in range(nodes.shape[1]):
             xlo = min(xlo, nodes[a, k, 0])
             xhi = max(xhi, nodes[a, k, 0])
             ylo = min(ylo, nodes[a, k, 1])
             yhi = max(yhi, nodes[a, k, 1])
-    i0 = max(0, int(math.floor((ylo - reach - oy) / cell)))
-    i1 = min(nr - 1, int(math.floor((yhi + reach - oy) / cell)))
-    j0 = max(0, int(math.floor((xlo - reach - ox) / cell)))
-    j1 = min(nc - 1, int(math.floor((xhi + reach - ox) / cell)))
+    i0 = max(0, int(math.floor((ylo - reach - g.oy) / g.cell)))
+    i1 = min(g.rows - 1, int(math.floor((yhi + reach - g.oy) / g.cell)))
+    j0 = max(0, int(math.floor((xlo - reach - g.ox) / g.cell)))
+    j1 = min(g.cols - 1, int(math.floor((xhi + reach - g.ox) / g.cell)))
+    return i0, i1, j0, j1
+
+
+@nb.njit(cache=True)
+def _classify(maps: TerrainArrays, g: _Grid, i0: int, i1: int, j0: int, j1: int, step: float) -> _Window:
+    """The window of rows i0..i1, columns j0..j1: per cell its class (known ground, obstacle:
+    more than ``step`` above its ground, or unknown), its ground (the 3x3 minimum of the known
+    cells' min z, computed separably: a row minimum, then a column minimum) and mean height."""
+    nr, nc = g.rows, g.cols
+    zmin, zmax, zsum, count = maps.zmin, maps.zmax, maps.zsum, maps.hits
     wi = max(0, i1 - i0 + 1)
     wj = max(0, j1 - j0 + 1)
     # the window's 3x3 ground minimum: row minima over a one-cell halo, then column minima
@@ -203,13 +319,12 @@ def _evaluate_fan(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: n
         i = hi0 + r
         for lj in range(wj):
             j = j0 + lj
-            g = math.inf
+            z = math.inf
             for b in range(max(0, j - 1), min(nc, j + 2)):
-                if count[i, b] > 0 and zmin[i, b] < g:
-                    g = zmin[i, b]
-            rowmin[r, lj] = g
-    # per window cell: 0 known ground, 1 obstacle, 2 unknown exempt, 3 unknown
-    cls = np.full((wi, wj), 3, dtype=np.int8)
+                if count[i, b] > 0 and zmin[i, b] < z:
+                    z = zmin[i, b]
+            rowmin[r, lj] = z
+    cls = np.full((wi, wj), _UNKNOWN, dtype=np.int8)
     ground = np.empty((wi, wj))
     zmean = np.zeros((wi, wj))
     n_obst = 0
@@ -219,104 +334,176 @@ def _evaluate_fan(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: n
             j = j0 + lj
             if count[i, j] > 0:
                 zmean[li, lj] = zsum[i, j] / count[i, j]
-                g = math.inf
+                z = math.inf
                 for r in range(max(0, i - 1) - hi0, min(nr, i + 2) - hi0):
-                    if rowmin[r, lj] < g:
-                        g = rowmin[r, lj]
-                ground[li, lj] = g
-                if zmax[i, j] - g > step:
-                    cls[li, lj] = 1
+                    if rowmin[r, lj] < z:
+                        z = rowmin[r, lj]
+                ground[li, lj] = z
+                if zmax[i, j] - z > step:
+                    cls[li, lj] = _OBSTACLE
                     n_obst += 1
                 else:
-                    cls[li, lj] = 0
+                    cls[li, lj] = _KNOWN
     # cell centres of the window's columns and rows (as the fit's moments need them)
     xc = np.empty(wj)
     for lj in range(wj):
-        xc[lj] = ox + (j0 + lj + 0.5) * cell
+        xc[lj] = g.ox + (j0 + lj + 0.5) * g.cell
     yc = np.empty(wi)
     for li in range(wi):
-        yc[li] = oy + (i0 + li + 0.5) * cell
-    # fine obstacle squares (centres), from the coarse obstacle cells only (fine ones lie inside)
-    fcell = cell / sub
+        yc[li] = g.oy + (i0 + li + 0.5) * g.cell
+    return _Window(i0, j0, cls, ground, zmean, xc, yc, n_obst)
+
+
+@nb.njit(cache=True)
+def _fine_squares(fine: np.ndarray, win: _Window, g: _Grid, step: float, robot: _Rect,
+                  exempt: bool) -> tuple[np.ndarray, int]:
+    """(centres, n): the fine obstacle cells of the window as squares (their centres in the first
+    n rows), from its coarse obstacle cells only (the fine ones lie inside); with ``exempt``,
+    not those overlapping the footprint ``robot`` (the robot already stands there)."""
+    sub, ox, oy, i0, j0 = g.sub, g.ox, g.oy, win.i0, win.j0
+    cls, ground = win.cls, win.ground
+    fcell = g.cell / sub
     h = 0.5 * fcell
-    pts = np.empty((n_obst * sub * sub, 2))
+    wi, wj = cls.shape
+    pts = np.empty((win.n_obstacle * sub * sub, 2))
     n_pts = 0
-    cr = math.cos(ryaw)
-    sr = math.sin(ryaw)
-    rex = hl * abs(cr) + hw * abs(sr)
-    rey = hl * abs(sr) + hw * abs(cr)
     for li in range(wi):
         for lj in range(wj):
-            if cls[li, lj] != 1:
+            if cls[li, lj] != _OBSTACLE:
                 continue
-            g = ground[li, lj]
+            z = ground[li, lj]
             for u in range(sub):
                 fi = (i0 + li) * sub + u
                 for v in range(sub):
                     fj = (j0 + lj) * sub + v
-                    if fine[i0 + li, j0 + lj, u * sub + v] - g > step:
+                    if fine[i0 + li, j0 + lj, u * sub + v] - z > step:
                         px = ox + (fj + 0.5) * fcell
                         py = oy + (fi + 0.5) * fcell
-                        if exempt_on and _rect_hits_square(px - rx, py - ry, cr, sr, hl, hw, rex, rey, h):
+                        if exempt and _rect_hits_square(px - robot.x, py - robot.y, robot, h):
                             continue
                         pts[n_pts, 0] = px
                         pts[n_pts, 1] = py
                         n_pts += 1
-    buf_x = np.empty(_MAX_FP_CELLS, dtype=np.float64)
-    buf_y = np.empty(_MAX_FP_CELLS, dtype=np.float64)
-    buf_z = np.empty(_MAX_FP_CELLS, dtype=np.float64)
-    if exempt_on:
-        buf_i = np.empty(_MAX_FP_CELLS, dtype=np.int64)
-        buf_j = np.empty(_MAX_FP_CELLS, dtype=np.int64)
-        n = _footprint_cells(rx, ry, ryaw, hl, hw, ox, oy, cell, nr, nc, buf_i, buf_j)
-        for k in range(max(n, 0)):
-            li = buf_i[k] - i0
-            lj = buf_j[k] - j0
-            if cls[li, lj] == 3:
-                cls[li, lj] = 2
+    return pts, n_pts
+
+
+@nb.njit(cache=True)
+def _exempt_cells(win: _Window, g: _Grid, x: float, y: float, yaw: float, hl: float, hw: float) -> None:
+    """The unknown cells of the window under the footprint at (x, y, yaw) become _EXEMPT (none
+    when that footprint leaves the map)."""
+    buf_i = np.empty(_MAX_FP_CELLS, dtype=np.int64)
+    buf_j = np.empty(_MAX_FP_CELLS, dtype=np.int64)
+    n = _footprint_cells(x, y, yaw, hl, hw, g, buf_i, buf_j)
+    cls, i0, j0 = win.cls, win.i0, win.j0
+    for k in range(max(n, 0)):
+        li = buf_i[k] - i0
+        lj = buf_j[k] - j0
+        if cls[li, lj] == _UNKNOWN:
+            cls[li, lj] = _EXEMPT
+
+
+@nb.njit(cache=True, inline="always")
+def _squares_near(pts: np.ndarray, arc: np.ndarray, r: float, out: np.ndarray) -> int:
+    """Copy into ``out`` the squares of ``pts`` whose centre lies within ``r`` of the bounding
+    box of the nodes ``arc`` (N, 3) (strictly); returns how many."""
+    axlo = arc[0, 0]
+    axhi = axlo
+    aylo = arc[0, 1]
+    ayhi = aylo
+    for k in range(1, arc.shape[0]):
+        axlo = min(axlo, arc[k, 0])
+        axhi = max(axhi, arc[k, 0])
+        aylo = min(aylo, arc[k, 1])
+        ayhi = max(ayhi, arc[k, 1])
+    n = 0
+    for q in range(pts.shape[0]):
+        if axlo - r < pts[q, 0] < axhi + r and aylo - r < pts[q, 1] < ayhi + r:
+            out[n, 0] = pts[q, 0]
+            out[n, 1] = pts[q, 1]
+            n += 1
+    return n
+
+
+@nb.njit(cache=True, inline="always")
+def _fine_contact(foot: _Rect, near: np.ndarray, n_near: int, test: _FineTest) -> int:
+    """_HIT when a fine obstacle square among ``near[:n_near]`` overlaps the footprint, else
+    _RING when one overlaps the footprint grown by the clearance ring (and the ring costs), else
+    _CLEAR."""
+    x, y, h, r_hit, r_clear, use_clear = foot.x, foot.y, test.h, test.r_hit, test.r_clear, test.use_clear
+    grown = _rect(x, y, foot.c, foot.s, foot.hl + test.clear_m, foot.hw + test.clear_m)
+    ring = False
+    for q in range(n_near):
+        dx = near[q, 0] - x
+        dy = near[q, 1] - y
+        d2 = dx * dx + dy * dy
+        if d2 < r_hit * r_hit and _rect_hits_square(dx, dy, foot, h):
+            return _HIT
+        if use_clear and not ring and d2 < r_clear * r_clear:
+            ring = _rect_hits_square(dx, dy, grown, h)
+    return _RING if ring else _CLEAR
+
+
+@nb.njit(cache=True)
+def _fan_costs(nodes: np.ndarray, trig: np.ndarray, g: _Grid, win: _Window, pts: np.ndarray, p: Any,
+               out: FanCosts) -> None:
+    """The node and arc costs of the fan (:func:`_evaluate_fan`, step 3) on the classified window
+    ``win``, with the fine obstacle squares ``pts`` (centres) and the constants of the
+    :data:`CYCLE` record ``p``.
+
+    Per arc, the squares near it (:func:`_squares_near`); per node (footprint ``foot``):
+
+    a. the coarse footprint cells, enumerated as :func:`_footprint_cells` does (each row's cells
+       are contiguous, so a row stops at its first miss after a hit) and classified as they come:
+       outside the map, or unknown with an infinite ``unknown_cost`` -> inf; each other unknown
+       cell costs ``unknown_cost``; the known ground cells' centres (relative to the node) and
+       mean heights are kept (obstacle cells are not ground: their obstacle part is the fine
+       layer's business; exempt cells are left out too);
+    b. the least-squares plane through the kept cells: slope = its tilt, roughness = the largest
+       absolute residual; inf above either maximum, else the weighted sum;
+    c. the fine squares (:func:`_fine_contact`): inf on a collision with the footprint, plus
+       ``clear_cost`` when one overlaps the footprint grown by ``clear_m``.
+
+    An arc stops at its first infinite node (the rest: inf, NaN slope and roughness).
+
+    The node's steps are written out here, not called: a call that takes arrays makes numba count
+    references to them at every node (about 10 % of a cycle; the helpers that stay are free of it).
+    """
+    hl, hw, clear_m, clear_cost, unknown_cost = p.hl, p.hw, p.clear_m, p.clear_cost, p.unknown_cost
+    max_slope_tan, max_rough, w_s, w_r = p.max_slope_tan, p.max_rough, p.w_s, p.w_r
+    ox, oy, cell, nr, nc = g.ox, g.oy, g.cell, g.rows, g.cols
+    cls, xc, yc, zmean, wi0, wj0 = win.cls, win.xc, win.yc, win.zmean, win.i0, win.j0
+    n_arcs = nodes.shape[0]
+    n_nodes = nodes.shape[1]
+    h = 0.5 * (cell / g.sub)
     r_hit = math.hypot(hl, hw) + h * math.sqrt(2.0)
     r_clear = math.hypot(hl + clear_m, hw + clear_m) + h * math.sqrt(2.0)
     use_clear = clear_m > 0.0 and clear_cost > 0.0
+    test = _FineTest(h, r_hit, r_clear, clear_m, use_clear)
     r_max = r_clear if use_clear else r_hit
     inf_unknown = math.isinf(unknown_cost)
     atan_max = math.atan(max_slope_tan)
     half = 0.5 * cell
+    buf_x = np.empty(_MAX_FP_CELLS, dtype=np.float64)
+    buf_y = np.empty(_MAX_FP_CELLS, dtype=np.float64)
+    buf_z = np.empty(_MAX_FP_CELLS, dtype=np.float64)
     n_col = int(2.0 * (hl + hw) / cell) + 3  # more than a footprint's bounding box spans
     col_c = np.empty(n_col)
     col_s = np.empty(n_col)
-    sub_pts = np.empty((max(n_pts, 1), 2))
+    near = np.empty((max(pts.shape[0], 1), 2))
     for a in range(n_arcs):
-        # the fine squares near this arc (its nodes' bounding box + the largest ring radius)
-        axlo = nodes[a, 0, 0]
-        axhi = axlo
-        aylo = nodes[a, 0, 1]
-        ayhi = aylo
-        for k in range(1, n_nodes):
-            axlo = min(axlo, nodes[a, k, 0])
-            axhi = max(axhi, nodes[a, k, 0])
-            aylo = min(aylo, nodes[a, k, 1])
-            ayhi = max(ayhi, nodes[a, k, 1])
-        n_sub = 0
-        for q in range(n_pts):
-            if axlo - r_max < pts[q, 0] < axhi + r_max and aylo - r_max < pts[q, 1] < ayhi + r_max:
-                sub_pts[n_sub, 0] = pts[q, 0]
-                sub_pts[n_sub, 1] = pts[q, 1]
-                n_sub += 1
+        n_near = _squares_near(pts, nodes[a], r_max, near)
         total = 0.0
         for k in range(n_nodes):
             x = nodes[a, k, 0]
             y = nodes[a, k, 1]
             c = trig[a, k, 0]
             s = trig[a, k, 1]
+            foot = _rect(x, y, c, s, hl, hw)
             cst = 0.0
             slope_tan = math.nan
             rough = math.nan
-            # coarse layer, as the footprint cells are enumerated (as _footprint_cells): outside
-            # the map or unknown -> inf; else moments about the node of the known non-obstacle
-            # cells (one pass), residuals in a second pass
-            ex, ey, proj, fj0, fj1, fi0, fi1 = _footprint_box(x, y, c, s, hl, hw, ox, oy, cell)
-            ac = abs(c)  # (the clearance ring below)
-            as_ = abs(s)
+            # a. the coarse cells under the footprint
+            proj, fj0, fj1, fi0, fi1 = _footprint_box(foot, g)
             lim_l = hl + proj - _EPS
             lim_w = hw + proj - _EPS
             extra = 0.0
@@ -332,7 +519,7 @@ def _evaluate_fan(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: n
             jb = fj0 - 1
             for j in range(fj0, fj1 + 1):
                 x0 = ox + j * cell
-                if x - ex < x0 + cell - _EPS and x + ex > x0 + _EPS:
+                if x - foot.ex < x0 + cell - _EPS and x + foot.ex > x0 + _EPS:
                     if ja > fj1:
                         ja = j
                     jb = j
@@ -341,7 +528,7 @@ def _evaluate_fan(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: n
                     col_s[j - fj0] = -dxc * s
             for i in range(fi0, fi1 + 1):
                 y0 = oy + i * cell
-                if not (y - ey < y0 + cell - _EPS and y + ey > y0 + _EPS):
+                if not (y - foot.ey < y0 + cell - _EPS and y + foot.ey > y0 + _EPS):
                     continue
                 dyc = y0 + half - y
                 dys = dyc * s
@@ -357,10 +544,10 @@ def _evaluate_fan(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: n
                         blocked = True
                         break
                     n += 1
-                    li = i - i0
-                    lj = j - j0
+                    li = i - wi0
+                    lj = j - wj0
                     kind = cls[li, lj]
-                    if kind == 0:
+                    if kind == _KNOWN:
                         dx = xc[lj] - x
                         dy = yc[li] - y
                         z = zmean[li, lj]
@@ -371,18 +558,17 @@ def _evaluate_fan(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: n
                         sy += dy
                         sz += z
                         m += 1
-                    elif kind == 3:
+                    elif kind == _UNKNOWN:
                         if inf_unknown:
                             blocked = True
                             break
                         extra += unknown_cost
-                    # kind 1: its obstacle part is the fine layer's business; its heights are not
-                    # ground; kind 2: unknown under the current footprint
                 if blocked:
                     break
             if blocked:
                 cst = math.inf
             else:
+                # b. the plane fit: moments about the kept cells' mean, then the residuals
                 slope_tan = 0.0
                 rough = 0.0
                 if m > 0:
@@ -418,101 +604,112 @@ def _evaluate_fan(zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray, count: n
                     cst = math.inf
                 else:
                     cst = w_s * math.atan(slope_tan) / atan_max + w_r * rough / max_rough + extra
-            if not math.isinf(cst) and n_sub > 0:
-                # fine layer: obstacle squares against the footprint and its clearance ring
-                exc = (hl + clear_m) * ac + (hw + clear_m) * as_
-                eyc = (hl + clear_m) * as_ + (hw + clear_m) * ac
-                near = False
-                for q in range(n_sub):
-                    dx = sub_pts[q, 0] - x
-                    dy = sub_pts[q, 1] - y
-                    d2 = dx * dx + dy * dy
-                    if d2 < r_hit * r_hit and _rect_hits_square(dx, dy, c, s, hl, hw, ex, ey, h):
-                        cst = math.inf
-                        slope_tan = math.nan
-                        rough = math.nan
-                        break
-                    if use_clear and not near and d2 < r_clear * r_clear:
-                        near = _rect_hits_square(dx, dy, c, s, hl + clear_m, hw + clear_m, exc, eyc, h)
-                if near and not math.isinf(cst):
+            # c. the fine obstacle squares
+            if not math.isinf(cst) and n_near > 0:
+                contact = _fine_contact(foot, near, n_near, test)
+                if contact == _HIT:
+                    cst = math.inf
+                    slope_tan = math.nan
+                    rough = math.nan
+                elif contact == _RING:
                     cst += clear_cost
-            out_node[a, k] = cst
-            out_slope[a, k] = slope_tan
-            out_rough[a, k] = rough
+            out.node[a, k] = cst
+            out.slope[a, k] = slope_tan
+            out.rough[a, k] = rough
             total += cst
             if math.isinf(total):
                 for r in range(k + 1, n_nodes):
-                    out_node[a, r] = math.inf
-                    out_slope[a, r] = math.nan
-                    out_rough[a, r] = math.nan
+                    out.node[a, r] = math.inf
+                    out.slope[a, r] = math.nan
+                    out.rough[a, r] = math.nan
                 break
-        out_cost[a] = total
-    return n_pts
-
-
-# parameters of one planning cycle, packed in a float64 vector (one cheap argument to dispatch)
-_P_OX, _P_OY, _P_CELL, _P_STEP, _P_SUB, _P_HL, _P_HW, _P_RX, _P_RY, _P_RYAW, _P_EXEMPT, _P_SLOPE, _P_ROUGH, \
-    _P_WS, _P_WR, _P_UNKNOWN, _P_CLEAR_M, _P_CLEAR_COST, _P_LENGTH, _P_SPIN_DIR, _P_SPIN_ANGLE, _P_N = range(22)
+        out.arc[a] = total
 
 
 @nb.njit(cache=True)
-def _plan_cycle(stats: np.ndarray, fine: np.ndarray, curv: np.ndarray, p: np.ndarray, nodes: np.ndarray,
+def _evaluate_fan(maps: TerrainArrays, nodes: np.ndarray, trig: np.ndarray, p: Any, out: FanCosts) -> int:
+    """One planning cycle's terrain costs, in one call (module doc): the fan's nodes ``nodes``
+    (A, N, 3) with each node's (cos, sin) heading in ``trig``, the constants in the :data:`CYCLE`
+    record ``p``, the costs into ``out``. Returns the number of fine obstacle cells considered.
+
+    1. A window of coarse cells covering every node's (clearance-grown) footprint
+       (:func:`_window_bounds`), classified once (:func:`_classify`); the fine obstacle cells
+       inside its coarse obstacle cells collected as a list of squares (:func:`_fine_squares`).
+    2. With ``p.exempt``: the coarse cells and the fine obstacle cells under the footprint at
+       (rx, ry, ryaw) are not checked (the robot already stands there; :func:`_fine_squares`,
+       :func:`_exempt_cells`).
+    3. The node and arc costs (:func:`_fan_costs`).
+    """
+    hl, hw, rx, ry, ryaw, clear_m, step = p.hl, p.hw, p.rx, p.ry, p.ryaw, p.clear_m, p.step
+    g = _Grid(p.ox, p.oy, p.cell, maps.zmin.shape[0], maps.zmin.shape[1], p.sub)
+    exempt = p.exempt != 0
+    reach = math.hypot(hl + clear_m, hw + clear_m) + g.cell
+    i0, i1, j0, j1 = _window_bounds(g, nodes, rx, ry, reach)
+    win = _classify(maps, g, i0, i1, j0, j1, step)
+    robot = _rect(rx, ry, math.cos(ryaw), math.sin(ryaw), hl, hw)
+    pts, n_pts = _fine_squares(maps.fine, win, g, step, robot, exempt)
+    if exempt:
+        _exempt_cells(win, g, rx, ry, ryaw, hl, hw)
+    _fan_costs(nodes, trig, g, win, pts[:n_pts], p, out)
+    return n_pts
+
+
+@nb.njit(cache=True)
+def _plan_cycle(stats: np.ndarray, fine: np.ndarray, curv: np.ndarray, cycle: np.ndarray, nodes: np.ndarray,
                 out_node: np.ndarray, out_sr: np.ndarray, out_cost: np.ndarray) -> int:
-    """One whole planning cycle in one call: the fan's node poses into ``nodes`` (A, N, 3), then
-    :func:`_evaluate_fan` (``out_sr`` holds slope tangents and roughness, (2, A, N))."""
+    """One whole planning cycle in one call, with the constants of the one-record :data:`CYCLE`
+    array ``cycle``: the fan's node poses into ``nodes`` (A, N, 3), then :func:`_evaluate_fan`
+    (``out_sr`` holds slope tangents and roughness, (2, A, N))."""
+    p = cycle[0]
     trig = np.empty((nodes.shape[0], nodes.shape[1], 2))
-    _fan_nodes(p[_P_RX], p[_P_RY], p[_P_RYAW], curv, p[_P_LENGTH], nodes.shape[1], int(p[_P_SPIN_DIR]),
-               p[_P_SPIN_ANGLE], nodes, trig)
-    return _evaluate_fan(stats[:, :, 0], stats[:, :, 1], stats[:, :, 2], stats[:, :, 3], fine, int(p[_P_SUB]),
-                         p[_P_OX], p[_P_OY], p[_P_CELL], p[_P_STEP], nodes, trig, p[_P_HL], p[_P_HW], p[_P_RX],
-                         p[_P_RY], p[_P_RYAW], p[_P_EXEMPT] != 0.0, p[_P_SLOPE], p[_P_ROUGH], p[_P_WS], p[_P_WR],
-                         p[_P_UNKNOWN], p[_P_CLEAR_M], p[_P_CLEAR_COST], out_node, out_sr[0], out_sr[1], out_cost)
+    _fan_nodes(p, curv, nodes, trig)
+    maps = TerrainArrays(stats[:, :, 0], stats[:, :, 1], stats[:, :, 2], stats[:, :, 3], fine)
+    return _evaluate_fan(maps, nodes, trig, p, FanCosts(out_node, out_sr[0], out_sr[1], out_cost))
 
 
-def _params(terrain: TerrainMap, hl: float, hw: float, x: float, y: float, yaw: float, exempt: bool,
-            max_slope_tan: float, max_rough: float, w_s: float, w_r: float, unknown_cost: float, clear_m: float,
-            clear_cost: float, length: float, spin_dir: int, spin_angle: float) -> np.ndarray:
-    p = np.empty(_P_N)
-    p[_P_OX], p[_P_OY], p[_P_CELL], p[_P_STEP], p[_P_SUB] = (terrain.origin[0], terrain.origin[1], terrain.cell_m,
-                                                            terrain.step_m, terrain.sub)
-    p[_P_HL], p[_P_HW], p[_P_RX], p[_P_RY], p[_P_RYAW], p[_P_EXEMPT] = hl, hw, x, y, yaw, float(exempt)
-    p[_P_SLOPE], p[_P_ROUGH], p[_P_WS], p[_P_WR], p[_P_UNKNOWN] = max_slope_tan, max_rough, w_s, w_r, unknown_cost
-    p[_P_CLEAR_M], p[_P_CLEAR_COST], p[_P_LENGTH], p[_P_SPIN_DIR], p[_P_SPIN_ANGLE] = (clear_m, clear_cost, length,
-                                                                                    spin_dir, spin_angle)
-    return p
-
-
-def _single(terrain: TerrainMap, x: float, y: float, yaw: float, hl: float, hw: float, max_slope_tan: float,
-            max_rough: float, w_s: float, w_r: float, unknown_cost: float) -> tuple[float, float, float]:
-    """(cost, slope tangent, roughness) of one footprint, no exemption, no clearance."""
-    nodes = np.array([[[x, y, yaw]]], dtype=np.float64)
+@nb.njit(cache=True)
+def _evaluate_one(stats: np.ndarray, fine: np.ndarray, cycle: np.ndarray) -> tuple[float, float, float]:
+    """(cost, slope tangent, roughness) of one footprint, at the pose (rx, ry, ryaw) of the
+    one-record :data:`CYCLE` array ``cycle`` (give it no exemption and no clearance)."""
+    p = cycle[0]
+    nodes = np.empty((1, 1, 3))
+    nodes[0, 0, 0] = p.rx
+    nodes[0, 0, 1] = p.ry
+    nodes[0, 0, 2] = p.ryaw
     trig = np.empty((1, 1, 2))
     _node_trig(nodes, trig)
-    on, os_, or_ = np.empty((1, 1)), np.empty((1, 1)), np.empty((1, 1))
-    oc = np.empty(1)
-    _evaluate_fan(terrain.zmin, terrain.zmax, terrain.zsum, terrain.count, terrain.fine, terrain.sub,
-                  terrain.origin[0], terrain.origin[1], terrain.cell_m, terrain.step_m, nodes, trig, hl, hw,
-                  x, y, yaw, False, max_slope_tan, max_rough, w_s, w_r, unknown_cost, 0.0, 0.0, on, os_,
-                  or_, oc)
-    return float(on[0, 0]), float(os_[0, 0]), float(or_[0, 0])
+    out = FanCosts(np.empty((1, 1)), np.empty((1, 1)), np.empty((1, 1)), np.empty(1))
+    maps = TerrainArrays(stats[:, :, 0], stats[:, :, 1], stats[:, :, 2], stats[:, :, 3], fine)
+    _evaluate_fan(maps, nodes, trig, p, out)
+    return out.node[0, 0], out.slope[0, 0], out.rough[0, 0]
+
+
+def _single(terrain: TerrainMap, x: float, y: float, yaw: float, half_length: float, half_width: float,
+            **costs: float) -> tuple[float, float, float]:
+    """(cost, slope tangent, roughness) of one footprint at (x, y, yaw): no exemption, no
+    clearance; ``costs``: the :data:`CYCLE` fields max_slope_tan, max_rough, w_s, w_r, unknown_cost."""
+    cycle = new_cycle(ox=terrain.origin[0], oy=terrain.origin[1], cell=terrain.cell_m, step=terrain.step_m,
+                      sub=terrain.sub, hl=half_length, hw=half_width, rx=x, ry=y, ryaw=yaw, exempt=0, clear_m=0.0,
+                      clear_cost=0.0, length=0.0, spin_dir=0, spin_angle=0.0, **costs)
+    c, st, r = _evaluate_one(terrain.stats, terrain.fine, cycle)
+    return float(c), float(st), float(r)
 
 
 def footprint_cells(x: float, y: float, yaw: float, half_length: float, half_width: float,
                     terrain: TerrainMap) -> tuple[np.ndarray, np.ndarray] | None:
     """(rows, cols) of the cells the oriented footprint overlaps; None if it leaves the map."""
-    bi = np.empty(_MAX_FP_CELLS, dtype=np.int64)
-    bj = np.empty(_MAX_FP_CELLS, dtype=np.int64)
-    n = _footprint_cells(x, y, yaw, half_length, half_width, terrain.origin[0], terrain.origin[1],
-                         terrain.cell_m, terrain.shape[0], terrain.shape[1], bi, bj)
+    out = np.empty((2, _MAX_FP_CELLS), dtype=np.int64)
+    n = _map_footprint_cells(terrain.constants, terrain.stats, x, y, yaw, half_length, half_width, out)
     if n < 0:
         return None
-    return bi[:n].copy(), bj[:n].copy()
+    return out[0, :n].copy(), out[1, :n].copy()
 
 
 def footprint_slope_roughness(terrain: TerrainMap, x: float, y: float, yaw: float, half_length: float,
                               half_width: float) -> tuple[float, float]:
     """(slope in degrees, roughness in meters) of the plane fitted under a footprint (NaN if blocked)."""
-    _, st, r = _single(terrain, x, y, yaw, half_length, half_width, 1e9, 1e9, 1.0, 1.0, math.inf)
+    _, st, r = _single(terrain, x, y, yaw, half_length, half_width, max_slope_tan=1e9, max_rough=1e9, w_s=1.0,
+                       w_r=1.0, unknown_cost=math.inf)
     return math.degrees(math.atan(st)) if math.isfinite(st) else math.nan, r
 
 
@@ -522,8 +719,8 @@ def node_cost(planner: "ArcPlanner", terrain: TerrainMap, x: float, y: float, ya
     cfg = planner.config
     uc = float(cfg.unknown_cell_cost if unknown_cost is None else unknown_cost)
     c, _, _ = _single(terrain, x, y, yaw, planner.half_length, planner.half_width,
-                      math.tan(math.radians(cfg.max_slope_deg)), cfg.max_roughness_m, cfg.slope_weight,
-                      cfg.roughness_weight, uc)
+                      max_slope_tan=math.tan(math.radians(cfg.max_slope_deg)), max_rough=cfg.max_roughness_m,
+                      w_s=cfg.slope_weight, w_r=cfg.roughness_weight, unknown_cost=uc)
     return c
 
 
@@ -577,6 +774,25 @@ class ArcPlanner:
         self._max_slope_tan = math.tan(math.radians(config.max_slope_deg))
         self._fan_curvatures = (np.concatenate([self.curvatures, [math.nan]]) if config.turn_in_place
                                 else self.curvatures.copy())
+        self._cycle_terrain: TerrainMap | None = None
+        self._cycle = np.empty(0, CYCLE)
+
+    def _cycle_on(self, terrain: TerrainMap) -> np.ndarray:
+        """This planner's :data:`CYCLE` record on ``terrain`` (a map's geometry is fixed when it is
+        made), every field named once per map; :meth:`evaluate` then writes the pose and the turn's
+        direction into it each cycle (cheaper than a new record: the planner is not reentrant)."""
+        if terrain is not self._cycle_terrain:
+            cfg = self.config
+            self._cycle = new_cycle(ox=terrain.origin[0], oy=terrain.origin[1], cell=terrain.cell_m,
+                                    step=terrain.step_m, sub=terrain.sub, hl=self.half_length, hw=self.half_width,
+                                    rx=0.0, ry=0.0, ryaw=0.0, exempt=int(cfg.exempt_current_footprint),
+                                    max_slope_tan=self._max_slope_tan, max_rough=cfg.max_roughness_m,
+                                    w_s=cfg.slope_weight, w_r=cfg.roughness_weight,
+                                    unknown_cost=float(cfg.unknown_cell_cost), clear_m=cfg.clearance_margin_m,
+                                    clear_cost=cfg.clearance_cost, length=cfg.arc_length_m, spin_dir=0,
+                                    spin_angle=math.radians(cfg.turn_in_place_angle_deg))
+            self._cycle_terrain = terrain
+        return self._cycle
 
     def evaluate(self, terrain: TerrainMap, x: float, y: float, yaw: float, spin_dir: int) -> ArcEvaluation:
         """Node poses and terrain costs of the fan at (x, y, yaw), in one compiled call. With
@@ -591,11 +807,9 @@ class ArcPlanner:
         node_cost = np.empty((na, n))
         sr = np.empty((2, na, n))
         cost = np.empty(na)
-        p = _params(terrain, self.half_length, self.half_width, x, y, yaw, cfg.exempt_current_footprint,
-                    self._max_slope_tan, cfg.max_roughness_m, cfg.slope_weight, cfg.roughness_weight,
-                    float(cfg.unknown_cell_cost), cfg.clearance_margin_m, cfg.clearance_cost, cfg.arc_length_m, d,
-                    math.radians(cfg.turn_in_place_angle_deg))
-        _plan_cycle(terrain.stats, terrain.fine, self.curvatures, p, nodes, node_cost, sr, cost)
+        cycle = self._cycle_on(terrain)
+        cycle["rx"], cycle["ry"], cycle["ryaw"], cycle["spin_dir"] = x, y, yaw, d  # what changes each cycle
+        _plan_cycle(terrain.stats, terrain.fine, self.curvatures, cycle, nodes, node_cost, sr, cost)
         return ArcEvaluation(nodes, self._fan_curvatures, d, cost, node_cost)
 
     def elect(self, ev: ArcEvaluation, goal_terms: np.ndarray, jitter: np.ndarray | None = None) -> int:

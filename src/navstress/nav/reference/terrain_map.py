@@ -42,7 +42,39 @@ from numba.extending import intrinsic
 import navstress._jit  # noqa: F401  (numba's cache directory, before any @njit(cache=True))
 from navstress.nav.reference.pose import Pose
 
-__all__ = ["TerrainMap", "step_threshold"]
+__all__ = ["MAP_CONSTANTS", "SCAN_POINT", "TerrainMap", "new_map_constants", "step_threshold"]
+
+#: The constants of a :class:`TerrainMap` that its kernels read (:func:`_integrate`,
+#: :func:`_fill_unknown`): a record (numpy structured dtype, one field a line);
+#: :func:`new_map_constants` demands every field.
+MAP_CONSTANTS = np.dtype([
+    ("ox", np.float64), ("oy", np.float64),  # corner of cell [0, 0] (TerrainMap.origin)
+    ("cell", np.float64),  # cell side (m)
+    ("sub", np.int64),  # fine obstacle cells per cell side
+    ("step", np.float64),  # obstacle step threshold (m)
+    ("max_range2", np.float64),  # squared range beyond which lidar points are dropped (m^2)
+], align=True)
+MAP_CONSTANTS_FIELDS: frozenset[str] = frozenset(MAP_CONSTANTS.names or ())
+
+
+def new_map_constants(**values: float) -> np.ndarray:
+    """A one-record :data:`MAP_CONSTANTS` array; every field must be given."""
+    if values.keys() != MAP_CONSTANTS_FIELDS:
+        raise TypeError(f"MAP_CONSTANTS fields missing: {sorted(MAP_CONSTANTS_FIELDS - set(values))}, "
+                        f"unknown: {sorted(set(values) - MAP_CONSTANTS_FIELDS)}")
+    p = np.zeros(1, MAP_CONSTANTS)
+    for name, v in values.items():
+        p[name] = v
+    return p
+
+
+#: What :func:`_integrate`'s first pass keeps per point (a record; its scratch is an array of them,
+#: at least as long as the scan).
+SCAN_POINT = np.dtype([
+    ("cell", np.int64),  # the point's coarse cell, flat (i * columns + j)
+    ("z", np.float64),  # its z in the map frame
+    ("sub", np.int64),  # its fine sub-cell in that cell (u * sub + v)
+])
 
 
 def step_threshold(obstacle_height_m: float, max_slope_deg: float, cell_m: float) -> float:
@@ -70,16 +102,19 @@ _AHEAD = 32  # points between a record's prefetch and its update (measured: 8 to
 
 
 @nb.njit(cache=True)
-def _integrate(points: np.ndarray, rot: np.ndarray, trans: np.ndarray, ox: float, oy: float,
-               cell: float, max_range2: float, stats: np.ndarray, fine: np.ndarray, sub: int,
-               scan: int, buf_c: np.ndarray, buf_z: np.ndarray, buf_q: np.ndarray) -> int:
-    """Bin one scan: per coarse cell min/max/sum/count (``stats[i, j]``, one cache line), and the
-    fine max z of this scan per sub-cell (``fine[i, j, :sub*sub]``), reset when the scan is the
-    first to hit the cell since the last one (``fine[i, j, sub*sub]`` keeps that scan's number).
+def _integrate(points: np.ndarray, rot: np.ndarray, trans: np.ndarray, consts: np.ndarray, stats: np.ndarray,
+               fine: np.ndarray, scan: int, buf: np.ndarray) -> int:
+    """Bin one scan (points in the sensor frame, placed by ``rot @ p + trans``; the map's
+    :data:`MAP_CONSTANTS` in ``consts``): per coarse cell min/max/sum/count (``stats[i, j]``, one
+    cache line), and the fine max z of this scan per sub-cell (``fine[i, j, :sub*sub]``), reset
+    when the scan (number ``scan``) is the first to hit the cell since the last one
+    (``fine[i, j, sub*sub]`` keeps that scan's number).
 
-    Two passes: the points' cells, z and sub-cells into the buffers (``buf_*``, at least N
-    long), then the record updates in point order with the records ``_AHEAD`` points ahead
-    prefetched (the map is far larger than the caches: the updates waited on memory)."""
+    Two passes: the points' cells, z and sub-cells into ``buf`` (:data:`SCAN_POINT` records), then the record updates in
+    point order with the records ``_AHEAD`` points ahead prefetched (the map is far larger than
+    the caches: the updates waited on memory)."""
+    mc = consts[0]
+    ox, oy, cell, sub, max_range2 = mc.ox, mc.oy, mc.cell, mc.sub, mc.max_range2
     nr = stats.shape[0]
     nc = stats.shape[1]
     inv = 1.0 / cell
@@ -104,21 +139,24 @@ def _integrate(points: np.ndarray, rot: np.ndarray, trans: np.ndarray, ox: float
         # the sub-cell, kept inside coarse cell (i, j) whatever the rounding
         u = min(max(int((y - oy) * finv) - i * sub, 0), sub - 1)
         v = min(max(int((x - ox) * finv) - j * sub, 0), sub - 1)
-        buf_c[n] = i * nc + j
-        buf_z[n] = rot[2, 0] * px + rot[2, 1] * py + rot[2, 2] * pz + trans[2]
-        buf_q[n] = u * sub + v
+        pt = buf[n]
+        pt.cell = i * nc + j
+        pt.z = rot[2, 0] * px + rot[2, 1] * py + rot[2, 2] * pz + trans[2]
+        pt.sub = u * sub + v
         n += 1
     sf = stats.reshape(-1)
     ff = fine.reshape(-1)
     fstride = fine.shape[2]
     for k in range(n):
         if k + _AHEAD < n:
-            ca = buf_c[k + _AHEAD]
+            ahead = buf[k + _AHEAD]
+            ca = ahead.cell
             _prefetch(sf, 4 * ca)  # type: ignore[call-arg]
-            _prefetch(ff, ca * fstride + buf_q[k + _AHEAD])
+            _prefetch(ff, ca * fstride + ahead.sub)
             _prefetch(ff, ca * fstride + nsub)
-        c = buf_c[k]
-        z = buf_z[k]
+        pt = buf[k]
+        c = pt.cell
+        z = pt.z
         b = 4 * c
         sf[b] = min(sf[b], z)  # unknown cells hold +inf / -inf: no branch on the count
         sf[b + 1] = max(sf[b + 1], z)
@@ -129,7 +167,7 @@ def _integrate(points: np.ndarray, rot: np.ndarray, trans: np.ndarray, ox: float
             ff[fb + nsub] = fscan
             for q in range(nsub):
                 ff[fb + q] = -np.inf
-        q = fb + buf_q[k]
+        q = fb + pt.sub
         ff[q] = max(ff[q], np.float32(z))
     return n
 
@@ -187,12 +225,15 @@ def _fine_obstacle_grid(zmin: np.ndarray, count: np.ndarray, fine: np.ndarray, s
 
 
 @nb.njit(cache=True)
-def _fill_unknown(cells_i: np.ndarray, cells_j: np.ndarray, n: int, cx: float, cy: float,
-                  radius_cells: int, ox: float, oy: float, cell: float, fallback_z: float,
-                  step: float, zmin: np.ndarray, zmax: np.ndarray, zsum: np.ndarray,
-                  count: np.ndarray) -> int:
-    """Give never-seen cells (cells_i/j[:n]) the height of a plane fitted to the known,
-    non-obstacle cells within ``radius_cells`` of (cx, cy); ``fallback_z`` if fewer than 6."""
+def _fill_unknown(cells_i: np.ndarray, cells_j: np.ndarray, consts: np.ndarray, stats: np.ndarray, cx: float,
+                  cy: float, radius_cells: int, fallback_z: float) -> int:
+    """Give never-seen cells (cells_i/j) of the map (``stats``, its :data:`MAP_CONSTANTS`
+    ``consts``) the height of a plane fitted to the known, non-obstacle cells within
+    ``radius_cells`` of (cx, cy); ``fallback_z`` if fewer than 6."""
+    mc = consts[0]
+    ox, oy, cell, step = mc.ox, mc.oy, mc.cell, mc.step
+    zmin, zmax, zsum, count = stats[:, :, 0], stats[:, :, 1], stats[:, :, 2], stats[:, :, 3]
+    n = cells_i.shape[0]
     nr, nc = zmin.shape
     unknown = False
     for k in range(n):  # nothing to fill: skip the plane fit (the common case once moving)
@@ -297,11 +338,16 @@ class TerrainMap:
         self.fine = np.full((*shape, self.sub * self.sub + 1), -np.inf, dtype=np.float32)
         self.fine[:, :, -1] = 0.0
         self.scans = 0
-        self._max_range2 = self.max_range_m ** 2
+        #: what the kernels read (the geometry is fixed at construction)
+        self._consts = new_map_constants(ox=self.origin[0], oy=self.origin[1], cell=self.cell_m, sub=self.sub,
+                                         step=self.step_m, max_range2=self.max_range_m ** 2)
         # per-point scratch of integrate (grown to the largest scan)
-        self._buf_c = np.empty(0, dtype=np.int64)
-        self._buf_z = np.empty(0, dtype=np.float64)
-        self._buf_q = np.empty(0, dtype=np.int64)
+        self._scan_points = np.empty(0, dtype=SCAN_POINT)
+
+    @property
+    def constants(self) -> np.ndarray:
+        """The one-record :data:`MAP_CONSTANTS` array of this map (what its kernels read)."""
+        return self._consts
 
     @property
     def zmin(self) -> np.ndarray:
@@ -362,13 +408,10 @@ class TerrainMap:
             pts = pts.astype(np.float64)
         rot, trans = pose.sensor_transform(mount)
         self.scans += 1
-        if len(self._buf_c) < len(pts):
-            self._buf_c = np.empty(len(pts), dtype=np.int64)
-            self._buf_z = np.empty(len(pts), dtype=np.float64)
-            self._buf_q = np.empty(len(pts), dtype=np.int64)
-        return int(_integrate(np.ascontiguousarray(pts), rot, trans, self.origin[0], self.origin[1],
-                              self.cell_m, self._max_range2, self.stats, self.fine, self.sub, self.scans,
-                              self._buf_c, self._buf_z, self._buf_q))
+        if len(self._scan_points) < len(pts):
+            self._scan_points = np.empty(len(pts), dtype=SCAN_POINT)
+        return int(_integrate(np.ascontiguousarray(pts), rot, trans, self._consts, self.stats, self.fine, self.scans,
+                              self._scan_points))
 
     def known(self) -> np.ndarray:
         return self.count > 0
@@ -392,7 +435,5 @@ class TerrainMap:
                      radius_m: float, fallback_z: float) -> int:
         """Give the never-seen cells among ``cells`` the ground plane fitted around ``center_xy``
         (the robot stands there, so the ground under it exists). Returns cells filled."""
-        return int(_fill_unknown(cells_i, cells_j, len(cells_i), center_xy[0], center_xy[1],
-                                 max(1, int(round(radius_m / self.cell_m))), self.origin[0], self.origin[1],
-                                 self.cell_m, fallback_z, self.step_m, self.zmin, self.zmax, self.zsum,
-                                 self.count))
+        return int(_fill_unknown(cells_i, cells_j, self._consts, self.stats, center_xy[0], center_xy[1],
+                                 max(1, int(round(radius_m / self.cell_m))), fallback_z))
