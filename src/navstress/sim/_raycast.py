@@ -46,6 +46,7 @@ from numba import njit, types
 from numba.extending import intrinsic
 
 import navstress._jit  # noqa: F401  (numba's cache directory, before any @njit(cache=True))
+from navstress._records import full_record
 
 INF = np.inf
 
@@ -137,13 +138,7 @@ SCAN_PARAMS_FIELDS: frozenset[str] = frozenset(SCAN_PARAMS.names or ())
 
 def new_scan_params(**values: Any) -> np.ndarray:
     """A one-record :data:`SCAN_PARAMS` array; every field must be given."""
-    if set(values) != SCAN_PARAMS_FIELDS:
-        raise TypeError(f"SCAN_PARAMS fields missing: {sorted(SCAN_PARAMS_FIELDS - set(values))}, "
-                        f"unknown: {sorted(set(values) - SCAN_PARAMS_FIELDS)}")
-    p = np.zeros(1, SCAN_PARAMS)
-    for name, v in values.items():
-        p[name] = v
-    return p
+    return full_record(SCAN_PARAMS, "SCAN_PARAMS", values)
 
 
 class NativeWalkArgs(NamedTuple):

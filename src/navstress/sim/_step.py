@@ -40,6 +40,7 @@ import numba
 import numpy as np
 
 import navstress._jit  # noqa: F401  (numba's cache directory, before any @njit(cache=True))
+from navstress._records import full_record
 from navstress.errors import SimulationError
 from navstress.sim.mjabi import (CF_DIST, CF_FRAME, CF_FRICTION, CF_POS, CI_EFC, CI_EXCLUDE, CI_GEOM, CI_GEOM1, CI_GEOM2,
                                  add_contact, contact_row, contacts, fwd_position_collision,
@@ -125,13 +126,7 @@ def new_state(**values: Any) -> np.ndarray:
 
 def new_params(**values: Any) -> np.ndarray:
     """A one-record :data:`PARAMS` array; every field must be given."""
-    if set(values) != PARAMS_FIELDS:
-        raise TypeError(f"PARAMS fields missing: {sorted(PARAMS_FIELDS - set(values))}, "
-                        f"unknown: {sorted(set(values) - PARAMS_FIELDS)}")
-    p = np.zeros(1, PARAMS)
-    for name, v in values.items():
-        p[name] = v
-    return p
+    return full_record(PARAMS, "PARAMS", values)
 
 
 class MjArrays(NamedTuple):

@@ -49,6 +49,7 @@ import numba
 import numpy as np
 
 import navstress._jit  # noqa: F401  (numba's cache directory, before any @njit(cache=True))
+from navstress._records import full_record
 from navstress.errors import GenerationError
 from navstress.seeding import rng
 from navstress.world.freearea import Pins
@@ -141,13 +142,7 @@ ROUND_FIELDS: frozenset[str] = frozenset(ROUND.names or ())
 
 def new_round(**values: float) -> np.ndarray:
     """A one-record :data:`ROUND` array; every field must be given."""
-    if values.keys() != ROUND_FIELDS:
-        raise TypeError(f"ROUND fields missing: {sorted(ROUND_FIELDS - set(values))}, "
-                        f"unknown: {sorted(set(values) - ROUND_FIELDS)}")
-    p = np.zeros(1, ROUND)
-    for name, v in values.items():
-        p[name] = v
-    return p
+    return full_record(ROUND, "ROUND", values)
 
 
 class Candidates(NamedTuple):

@@ -40,6 +40,7 @@ from numba.core import cgutils
 from numba.extending import intrinsic
 
 import navstress._jit  # noqa: F401  (numba's cache directory, before any @njit(cache=True))
+from navstress._records import full_record
 from navstress.nav.reference.pose import Pose
 
 __all__ = ["MAP_CONSTANTS", "SCAN_POINT", "TerrainMap", "new_map_constants", "step_threshold"]
@@ -59,13 +60,7 @@ MAP_CONSTANTS_FIELDS: frozenset[str] = frozenset(MAP_CONSTANTS.names or ())
 
 def new_map_constants(**values: float) -> np.ndarray:
     """A one-record :data:`MAP_CONSTANTS` array; every field must be given."""
-    if values.keys() != MAP_CONSTANTS_FIELDS:
-        raise TypeError(f"MAP_CONSTANTS fields missing: {sorted(MAP_CONSTANTS_FIELDS - set(values))}, "
-                        f"unknown: {sorted(set(values) - MAP_CONSTANTS_FIELDS)}")
-    p = np.zeros(1, MAP_CONSTANTS)
-    for name, v in values.items():
-        p[name] = v
-    return p
+    return full_record(MAP_CONSTANTS, "MAP_CONSTANTS", values)
 
 
 #: What :func:`_integrate`'s first pass keeps per point (a record; its scratch is an array of them,
