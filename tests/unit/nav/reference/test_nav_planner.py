@@ -15,27 +15,7 @@ from navstress.nav.reference.planner import ArcPlanner, arc_nodes, footprint_cel
 from navstress.nav.reference.pose import Pose
 from navstress.nav.reference.terrain_map import TerrainMap, step_threshold
 from navstress.robot import RobotSpec
-
-
-def _clip_area(rect: np.ndarray, x0: float, y0: float, c: float) -> float:
-    """Area of (convex polygon rect) inside the square [x0, x0+c] x [y0, y0+c] (Sutherland-Hodgman)."""
-    poly = [tuple(p) for p in rect]
-    for axis, bound, keep_ge in ((0, x0, True), (0, x0 + c, False), (1, y0, True), (1, y0 + c, False)):
-        out = []
-        for k in range(len(poly)):
-            p, q = poly[k], poly[(k + 1) % len(poly)]
-            pin = (p[axis] >= bound) if keep_ge else (p[axis] <= bound)
-            qin = (q[axis] >= bound) if keep_ge else (q[axis] <= bound)
-            if pin:
-                out.append(p)
-            if pin != qin:
-                f = (bound - p[axis]) / (q[axis] - p[axis])
-                out.append((p[0] + f * (q[0] - p[0]), p[1] + f * (q[1] - p[1])))
-        poly = out
-        if not poly:
-            return 0.0
-    xs, ys = np.array(poly).T
-    return 0.5 * abs(float(np.dot(xs, np.roll(ys, 1)) - np.dot(ys, np.roll(xs, 1))))
+from tests.oracles.polygon import clip_area
 
 
 @settings(max_examples=80, deadline=None)
@@ -53,7 +33,7 @@ def test_footprint_cells_are_exactly_the_overlapped_cells(x: float, y: float, ya
     i1, j1 = m.cell_of(rect[:, 0].max(), rect[:, 1].max())
     for i in range(i0 - 1, i1 + 2):
         for j in range(j0 - 1, j1 + 2):
-            area = _clip_area(rect, m.origin[0] + j * cell, m.origin[1] + i * cell, cell)
+            area = clip_area(rect, m.origin[0] + j * cell, m.origin[1] + i * cell, cell)
             if area > 1e-9:
                 assert (i, j) in cells, f"cell {(i, j)} overlapped by {area} m2 but not covered"
             elif area == 0.0:
@@ -192,7 +172,7 @@ def test_node_is_blocked_exactly_when_a_fine_obstacle_cell_overlaps_the_footprin
     c, s = math.cos(yaw), math.sin(yaw)
     hl, hw = p.half_length, p.half_width
     rect = np.array([[x + a * c - b * s, y + a * s + b * c] for a, b in ((hl, hw), (-hl, hw), (-hl, -hw), (hl, -hw))])
-    areas = [_clip_area(rect, m.origin[0] + fj * f, m.origin[1] + fi * f, f) for fi, fj in zip(*np.nonzero(fine))]
+    areas = [clip_area(rect, m.origin[0] + fj * f, m.origin[1] + fi * f, f) for fi, fj in zip(*np.nonzero(fine))]
     post_cells = {(int((py - m.origin[1]) // f), int((px - m.origin[0]) // f)) for px, py in posts}
     assert set(zip(*np.nonzero(fine))) == post_cells  # the posts' fine cells, and only them
     if max(areas) > 1e-9:

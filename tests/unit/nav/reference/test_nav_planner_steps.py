@@ -19,6 +19,7 @@ from navstress.nav.reference.planner import (_CLEAR, _EXEMPT, _HIT, _KNOWN, _OBS
                                               new_cycle)
 from navstress.nav.reference.terrain_map import (MAP_CONSTANTS, MAP_CONSTANTS_FIELDS, TerrainMap,
                                                  new_map_constants)
+from tests.oracles.polygon import clip_area
 
 CYCLE_VALUES = dict(ox=-1.0, oy=-2.0, cell=0.25, step=0.3, sub=3, hl=0.6, hw=0.4, rx=1.0, ry=2.0, ryaw=0.3, exempt=1,
                     max_slope_tan=0.5, max_rough=0.2, w_s=1.0, w_r=2.0, unknown_cost=math.inf, clear_m=0.2,
@@ -93,27 +94,6 @@ def random_window(m: TerrainMap, g: np.random.Generator) -> tuple[int, int, int,
     rows, cols = m.shape
     i0, j0 = int(g.integers(0, rows)), int(g.integers(0, cols))
     return i0, int(g.integers(i0, rows)), j0, int(g.integers(j0, cols))
-
-
-def clip_area(rect: np.ndarray, x0: float, y0: float, side: float) -> float:
-    """Area of the convex polygon ``rect`` inside the square [x0, x0+side] x [y0, y0+side]."""
-    poly = [tuple(p) for p in rect]
-    for axis, bound, keep_ge in ((0, x0, True), (0, x0 + side, False), (1, y0, True), (1, y0 + side, False)):
-        out = []
-        for k in range(len(poly)):
-            p, q = poly[k], poly[(k + 1) % len(poly)]
-            pin = (p[axis] >= bound) if keep_ge else (p[axis] <= bound)
-            qin = (q[axis] >= bound) if keep_ge else (q[axis] <= bound)
-            if pin:
-                out.append(p)
-            if pin != qin:
-                f = (bound - p[axis]) / (q[axis] - p[axis])
-                out.append((p[0] + f * (q[0] - p[0]), p[1] + f * (q[1] - p[1])))
-        poly = out
-        if not poly:
-            return 0.0
-    xs, ys = np.array(poly).T
-    return 0.5 * abs(float(np.dot(xs, np.roll(ys, 1)) - np.dot(ys, np.roll(xs, 1))))
 
 
 def corners(x: float, y: float, yaw: float, hl: float, hw: float) -> np.ndarray:
