@@ -9,6 +9,7 @@ import navstress.nav.reference as ref
 
 ALLOWED = {"navstress.nav.api", "navstress.robot", "navstress.errors", "navstress.seeding",
            "navstress._jit",  # numba's cache directory, imported by every compiled module (no world data)
+           "navstress._records",  # the maker of a kernel's named record (numpy only, no world data)
            "navstress._models", "navstress.specfile"}  # the config's strict model and bounded file reader
 
 
