@@ -205,7 +205,8 @@ BASES: dict[str, tuple[Any, dict[str, Any], Callable[[dict[str, Any]], Any]]] = 
     **{f"search {k}": (SearchSpec, v, parse_search) for k, v in SEARCHES.items()},
     "reference config": (ReferenceConfig, {}, parse_config),
     "global config": (GlobalConfig, {}, lambda d: parse_config(d, cls=GlobalConfig)),
-    "robot": (RobotSpec, {"lidar": {"x_m": 0.3}}, lambda d: parse(RobotSpec, d)),
+    "robot": (RobotSpec, {"mounts": {"lidar": {"xyz": [0.3, 0.0, 0.75]}}, "inertia_kgm2": [5.0, 9.0, 12.0]},
+              lambda d: parse(RobotSpec, d)),
 }
 LEAVES = [leaf for name, (model, data, _f) in BASES.items() for leaf in leaves(name, model, data)]
 WRONG: dict[str, list[Any]] = {
