@@ -237,7 +237,7 @@ def import_body(path: Path, kind: str, drive: str, wheels: Any, field_name: str)
     ob = np.asarray(d.xpos[base], np.float64)
 
     def in_base(p: np.ndarray) -> np.ndarray:
-        return (np.asarray(p, np.float64) - ob) @ rb
+        return np.asarray((np.asarray(p, np.float64) - ob) @ rb, np.float64)
 
     collide = [g for g in range(m.ngeom) if int(m.geom_bodyid[g]) in robot_bodies
                and (int(m.geom_contype[g]) or int(m.geom_conaffinity[g])) and int(m.geom_type[g]) not in (_PLANE, _HFIELD)]
@@ -278,7 +278,7 @@ def import_body(path: Path, kind: str, drive: str, wheels: Any, field_name: str)
     ground = centre[2] - radius
 
     def shift(p: np.ndarray) -> np.ndarray:
-        return p - centre
+        return np.asarray(p - centre, np.float64)
 
     body_pts: list[np.ndarray] = []
     chassis_pts: list[np.ndarray] = []
@@ -353,5 +353,6 @@ def import_body(path: Path, kind: str, drive: str, wheels: Any, field_name: str)
         if nm:
             p = shift(in_base(d.xpos[bb]))
             rot = rb.T @ np.asarray(d.xmat[bb], np.float64).reshape(3, 3)
-            links[nm] = ((_r(p[0]), _r(p[1]), _r(p[2])), tuple(_r(v) for v in _rpy(rot)))  # type: ignore[misc]
+            roll, pitch, yaw = _rpy(rot)
+            links[nm] = ((_r(p[0]), _r(p[1]), _r(p[2])), (_r(roll), _r(pitch), _r(yaw)))
     return Body(fields=fields, links=links, joints=tuple(sorted(names)))
