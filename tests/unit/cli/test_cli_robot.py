@@ -106,3 +106,14 @@ def test_check_fails_with_exit_1_on_a_robot_it_cannot_hold(tmp_path: Path) -> No
                    "mounts: {lidar: {xyz: [0.0, 0.0, 1.2]}}\n", encoding="utf-8")
     code, out, _err = cli("robot", "check", str(bad), "--quick")
     assert code == 1 and "FAIL" in out
+
+
+@pytest.mark.parametrize("dest", ["{tmp}/afile/robot.svg", "/proc/navstress-no-such-dir/robot.png", "/sys/navstress.svg"])
+def test_an_unwritable_picture_is_one_line_naming_its_path(dest: str, tmp_path: Path) -> None:
+    (tmp_path / "afile").write_text("a file", encoding="utf-8")
+    out = dest.replace("{tmp}", str(tmp_path))
+    code, _out, err = cli("robot", "show", "jackal", "-o", out)
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert code == 2 and len(lines) == 1 and lines[0].startswith("error: path="), err
+    assert f"path='{out}'" in lines[0] or f"path='{Path(out).parent}'" in lines[0], err  # the file or its folder
+    assert not Path(out).exists()
