@@ -39,7 +39,8 @@ def robot_list() -> None:
 def robot_show(
     ref: Annotated[str, typer.Argument(metavar="NAME|FILE", help=ROBOT_HELP)],
     output: Annotated[Path | None, typer.Option("--output", "-o", metavar="FILE", help=(
-        "Write the robot's top view (footprint, wheels, casters, sensor mounts) to FILE: .svg or .png."))] = None,
+        "Write the robot's top view (footprint, wheels, casters, sensor mounts) to FILE: .svg (or no "
+        "suffix) or .png."))] = None,
     as_json: Annotated[bool, typer.Option("--json", help=(
         "Print the description, every derived figure and the digest as one JSON object on stdout."))] = False,
 ) -> None:

@@ -191,11 +191,12 @@ def draw(r: RobotSpec) -> Any:
 
 
 def write_picture(r: RobotSpec, path: str | Path) -> Path:
-    """Write the top view of ``r`` to ``path`` (SVG or PNG by its suffix), atomically."""
+    """Write the top view of ``r`` to ``path`` (PNG for ``.png``, else SVG: ``.svg`` or no suffix),
+    atomically."""
     p = Path(path)
-    fmt = p.suffix.lower()
+    fmt = p.suffix.lower() or ".svg"
     if fmt not in FORMATS:
-        raise SpecError("--output", str(p), "a picture file ending in .svg or .png")
+        raise SpecError("--output", str(p), "a picture file ending in .svg or .png (no suffix: SVG)")
     fig = draw(r)
     buf = io.BytesIO()
     fig.savefig(buf, format=fmt[1:])
