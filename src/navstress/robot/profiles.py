@@ -27,28 +27,31 @@ from navstress.robot.spec import Footprint, Mount, RobotSpec
 PROFILES: dict[str, RobotSpec] = {
     # the paper's Segway RMP 400 (Mana): today's defaults, byte-identical behaviour
     "rmp400": RobotSpec(),
-    # Clearpath Husky A200: 990 x 670 x 390 mm, 50 kg, 1.0 m/s, 330 mm wheels, skid steer
+    # Clearpath Husky A200: 990 x 670 x 390 mm, 50 kg, 1.0 m/s, skid steer; wheels, track and body
+    # from husky_description (husky.urdf.xacro), the scanner at the LMS1xx's focal point on the top plate
     "husky": RobotSpec(
-        name="husky", drive="skid-steer", length_m=0.99, width_m=0.67, body_height_m=0.26,
-        ground_clearance_m=0.13, mass_kg=50.0, wheel_radius_m=0.165, wheel_width_m=0.115,
-        wheelbase_m=0.512, track_m=0.555, wheels_per_side=2, wheel_torque_nm=None, wheel_kv=None,
+        name="husky", drive="skid-steer", length_m=0.99, width_m=0.67, body_height_m=0.2475,
+        ground_clearance_m=0.1323, mass_kg=50.0, wheel_radius_m=0.1651, wheel_width_m=0.1143,
+        wheelbase_m=0.512, track_m=0.5708, wheels_per_side=2, wheel_torque_nm=None, wheel_kv=None,
         wheel_armature_kgm2=None, track_multiplier=None, max_speed_mps=1.0, max_yaw_rate_rps=2.0,
         max_accel_mps2=3.0, max_yaw_accel_rps2=6.0,
-        mounts={"lidar": Mount(xyz=(0.3, 0.0, 0.45))}),
-    # Clearpath Jackal: 508 x 430 x 250 mm, 17 kg, 2.0 m/s, skid steer, 2D scanner ~0.3 m up
+        mounts={"lidar": Mount(xyz=(0.337, 0.0, 0.275))}),
+    # Clearpath Jackal: 508 x 430 x 250 mm, 17 kg, 2.0 m/s, skid steer, 2D scanner ~0.3 m up; wheels,
+    # track and chassis from jackal_description (jackal.urdf.xacro)
     "jackal": RobotSpec(
         name="jackal", drive="skid-steer", length_m=0.508, width_m=0.43, body_height_m=0.184,
-        ground_clearance_m=0.065, mass_kg=17.0, wheel_radius_m=0.098, wheel_width_m=0.04,
-        wheelbase_m=0.262, track_m=0.376, wheels_per_side=2, wheel_torque_nm=None, wheel_kv=None,
+        ground_clearance_m=0.0635, mass_kg=17.0, wheel_radius_m=0.098, wheel_width_m=0.04,
+        wheelbase_m=0.262, track_m=0.37559, wheels_per_side=2, wheel_torque_nm=None, wheel_kv=None,
         wheel_armature_kgm2=None, track_multiplier=None, max_speed_mps=2.0, max_yaw_rate_rps=4.0,
         max_accel_mps2=2.0, max_yaw_accel_rps2=6.0,
         mounts={"lidar": Mount(xyz=(0.12, 0.0, 0.21))}),
-    # TurtleBot 4 (iRobot Create 3 base): 342 mm round, 3.9 kg, 0.31 m/s, two wheels + caster
+    # TurtleBot 4 (iRobot Create 3 base): 342 mm round, 3.9 kg, 0.31 m/s, two wheels + caster; wheels,
+    # caster, clearance and the RPLIDAR's position from irobot_create_description and turtlebot4_description
     "turtlebot4": RobotSpec(
         name="turtlebot4", drive="differential", length_m=0.342, width_m=0.342,
         footprint=Footprint(shape="circle", radius_m=0.171), body_height_m=0.15,
-        ground_clearance_m=0.0045, mass_kg=3.9, wheel_radius_m=0.036, wheel_width_m=0.02,
-        wheelbase_m=0.0, track_m=0.233, wheels_per_side=1, caster_positions=((0.12, 0.0),),
+        ground_clearance_m=0.0045, mass_kg=3.9, wheel_radius_m=0.03575, wheel_width_m=0.015,
+        wheelbase_m=0.0, track_m=0.233, wheels_per_side=1, caster_positions=((0.125, 0.0),),
         caster_radius_m=0.015, wheel_torque_nm=None, wheel_kv=None, wheel_armature_kgm2=None,
         track_multiplier=None, odom_heading="gyro", max_speed_mps=0.31, max_yaw_rate_rps=1.9,
         max_accel_mps2=0.9, max_yaw_accel_rps2=3.0,

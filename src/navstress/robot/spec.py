@@ -26,7 +26,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-from typing import Literal
+from typing import Annotated, Literal
 
 import numpy as np
 from pydantic import BaseModel, Field, model_validator
@@ -38,7 +38,8 @@ from navstress.errors import SpecError
 DRIVES = ("skid-steer", "differential", "ackermann")
 Drive = Literal["skid-steer", "differential", "ackermann"]
 Vec3 = tuple[float, float, float]
-Point = tuple[float, float]
+#: (x, y); a YAML/JSON list is taken for it (inside a list of points too), its items stay strict
+Point = Annotated[tuple[float, float], Field(strict=LIST)]
 
 
 class Mount(BaseModel):
@@ -69,6 +70,17 @@ class Footprint(BaseModel):
     shape: Literal["box", "circle", "polygon"] = "box"
     radius_m: float | None = Field(None, gt=0)
     points: tuple[Point, ...] | None = Field(None, strict=LIST)
+
+
+class BodySource(BaseModel):
+    """The URDF/MJCF file a robot's body was read from (:mod:`navstress.robot.body`): its kind, its
+    path as the robot file wrote it, and the sha256 of its text (so that the robot's digest changes
+    when the file does)."""
+
+    model_config = SPEC_CONFIG
+    kind: Literal["urdf", "mjcf"]
+    path: str
+    sha256: str = Field(pattern=r"^[0-9a-f]{64}$")
 
 
 class RobotSpec(BaseModel):
@@ -120,6 +132,8 @@ class RobotSpec(BaseModel):
     max_yaw_accel_rps2: float = Field(2.0, gt=0, description="angular acceleration limit")
     # --- sensors
     mounts: dict[str, Mount] = Field(default_factory=lambda: {"lidar": Mount(xyz=(0.35, 0.0, 0.75))})
+    # --- the body file the figures were read from (None: none; left out of the digest then)
+    body_source: BodySource | None = None
 
     @model_validator(mode="after")
     def _check(self) -> "RobotSpec":
@@ -164,7 +178,10 @@ class RobotSpec(BaseModel):
     def digest(self) -> str:
         """First 16 hex digits of the sha256 of the description (canonical JSON): two robots with
         the same digest are simulated the same."""
-        text = json.dumps(self.model_dump(mode="json"), sort_keys=True, separators=(",", ":"))
+        data = self.model_dump(mode="json")
+        if data.get("body_source") is None:
+            data.pop("body_source", None)  # the digests of robots without a body file stay as they were
+        text = json.dumps(data, sort_keys=True, separators=(",", ":"))
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
     @classmethod
