@@ -1,10 +1,12 @@
 """Run traces: one MCAP file per run, with Foxglove schemas (protobuf encoding).
 
 Open a trace in Foxglove to see the run: ``/tf`` (``foxglove.FrameTransform``: the frame tree
-``map -> base_link -> lidar`` from the true pose, and ``map -> perceived/base_link ->
-perceived/lidar`` from the navigator's belief, so a follow camera can ride ``base_link`` and the
-drift shows between the two), ``/robot/body`` (``foxglove.SceneUpdate``: the robot's box locked
-to each ``base_link``, the belief's translucent), ``/truth/pose`` and ``/perceived/pose``
+``map -> base_link -> lidar`` (and ``base_link -> <mount name>`` for each sensor mount of the
+robot) from the true pose, and ``map -> perceived/base_link -> perceived/lidar`` from the
+navigator's belief, so a follow camera can ride ``base_link`` and the drift shows between the
+two), ``/robot/body`` (``foxglove.SceneUpdate``: the robot's true shape locked to each
+``base_link``, the belief's translucent: a cube for a box footprint, a prism of the outline for a
+circle or a polygon, and the footprint's outline on the ground), ``/truth/pose`` and ``/perceived/pose``
 (``foxglove.PoseInFrame``), ``/events`` (``foxglove.Log``: collisions, errors, end of run),
 ``/world/scene`` (``foxglove.SceneUpdate``: obstacles as cubes, start and goal),
 ``/world/movers`` (``foxglove.SceneUpdate``, one per run of the movers' controller (10 Hz): every
@@ -24,6 +26,9 @@ log-time order whatever order they were handed over in (``mcap doctor
 by log time then order of submission) when the file is closed. The file is written under a
 temporary name and renamed into place when complete (DESIGN invariant 4). Each channel's
 messages carry sequence numbers 1, 2, 3, ... in file order.
+
+The robot is the file's ``navstress.robot`` metadata (:func:`robot_metadata`: name, digest,
+description, footprint, mounts; :func:`read_robot`; a trace without it is the rmp400's).
 
 The analysis reads trajectories back with :func:`read_poses`, the movers with :func:`read_movers`.
 """
