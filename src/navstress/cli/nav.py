@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import warnings
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -66,7 +66,8 @@ def nav_check(
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 validate_config(name, cfg)
-        report = check_in_worker(name, cfg or None, worker=worker, **({"robot": robot_v} if robot is not None else {}))
+        extra: dict[str, Any] = {"robot": robot_v} if robot is not None else {}
+        report = check_in_worker(name, cfg or None, worker=worker, **extra)
     console().print(format_report(report))
     if not report.passed:
         raise typer.Exit(1)

@@ -32,8 +32,8 @@ def test_every_profile_shrinks_by_the_papers_ratios(name: str) -> None:
     assert b.name == f"{name}-small-belief"
     assert b.length_m == pytest.approx(robot.length_m * KX, rel=1e-9)
     assert b.width_m == pytest.approx(robot.width_m * KY, rel=1e-9)
-    assert np.allclose(b.footprint_points()[:, 0].ptp(), robot.footprint_points()[:, 0].ptp() * KX)
-    assert np.allclose(b.footprint_points()[:, 1].ptp(), robot.footprint_points()[:, 1].ptp() * KY)
+    assert np.allclose(np.ptp(b.footprint_points()[:, 0]), np.ptp(robot.footprint_points()[:, 0]) * KX)
+    assert np.allclose(np.ptp(b.footprint_points()[:, 1]), np.ptp(robot.footprint_points()[:, 1]) * KY)
     keep = set(RobotSpec.model_fields) - {"name", "length_m", "width_m", "footprint"}
     assert {k: getattr(b, k) for k in keep} == {k: getattr(robot, k) for k in keep}  # only the footprint changes
 
