@@ -77,7 +77,7 @@ from mcap_protobuf.writer import Writer
 
 from navstress import _files
 from navstress.errors import NavstressError, StoreError
-from navstress.robot import PROFILES, RobotSpec
+from navstress.robot import PROFILES, Mount, RobotSpec
 from navstress.nav.api import DebugDraw, DebugLine, DebugPoints, DebugText
 from navstress.run.record import cap_message
 
@@ -214,6 +214,15 @@ def mount_frames(robot: RobotSpec) -> list[tuple[str, tuple[float, float, float]
     return out
 
 
+def box_robot(size: tuple[float, float, float], lidar: tuple[float, float, float]) -> RobotSpec:
+    """A RobotSpec of a box ``size`` (length, width, height) with its lidar at ``lidar``, the rest
+    the default's (built without the checks across fields: only its shape is drawn)."""
+    lx, ly, lz = (float(v) for v in lidar)
+    return RobotSpec.model_construct(**{**RobotSpec().__dict__, "name": "box", "length_m": float(size[0]),
+                                        "width_m": float(size[1]), "body_height_m": float(size[2]),
+                                        "mounts": {"lidar": Mount(xyz=(lx, ly, lz))}})
+
+
 def prism(ring: np.ndarray, z0: float, z1: float) -> tuple[np.ndarray, np.ndarray]:
     """A closed prism over the convex counter-clockwise polygon ``ring`` (n, 2) from ``z0`` to
     ``z1``: vertices (2n, 3) and outward-facing triangles (4n - 4, 3)."""
@@ -271,14 +280,18 @@ class TraceMessages:
                                  translation=Vector3(x=x, y=y, z=z), rotation=quaternion(yaw, pitch, roll))
             self._put(TOPIC_TF, msg, _ns(t))
 
-    def robot(self, robot: RobotSpec, *, belief: bool) -> None:
-        """The robot: its sensor mounts as static transforms ``base_link -> <mount name>`` (each
+    def robot(self, robot: RobotSpec | tuple[float, float, float], lidar: tuple[float, float, float] | None = None, *,
+              belief: bool) -> None:
+        """The robot (a RobotSpec; or, as before robots were data, a box's (length, width, height)
+        and its ``lidar`` mount (x, y, z)): its sensor mounts as static transforms ``base_link -> <mount name>`` (each
         mount of the RobotSpec, and ``lidar`` where the simulation's lidar is when the robot names
         no such mount), and one ``/robot/body`` SceneUpdate whose entities are locked to
         ``base_link`` (opaque) and, with ``belief``, to ``perceived/base_link`` (translucent), so
         that the drift between truth and belief shows as two bodies. The body is the footprint
         raised to the body's height (a box footprint: a cube; a circle or a polygon: a prism of
         its outline), and the footprint's outline is drawn on the ground (``footprint`` lines)."""
+        if not isinstance(robot, RobotSpec):
+            robot = box_robot(robot, lidar if lidar is not None else (0.35, 0.0, 0.75))
         frames = [FRAME_ROBOT] + ([BELIEF + FRAME_ROBOT] if belief else [])
         ents = []
         h = robot.body_height_m
@@ -442,9 +455,12 @@ class TraceWriter(TraceMessages):
         self._pending: list[tuple[int, int, str, Any]] = []  # (log_time, submission order, topic, message)
         self._robot_written = False
 
-    def robot(self, robot: RobotSpec, *, belief: bool) -> None:
+    def robot(self, robot: RobotSpec | tuple[float, float, float], lidar: tuple[float, float, float] | None = None, *,
+              belief: bool) -> None:
         """As :meth:`TraceMessages.robot`, and the robot's ``navstress.robot`` metadata
         (:func:`robot_metadata`; :func:`read_robot` reads it back)."""
+        if not isinstance(robot, RobotSpec):
+            robot = box_robot(robot, lidar if lidar is not None else (0.35, 0.0, 0.75))
         if not self._robot_written:
             self._w._writer.add_metadata(ROBOT_METADATA, robot_metadata(robot))
             self._robot_written = True
