@@ -98,3 +98,16 @@ def test_run_with_a_robot_records_it(root: Path, tmp_path: Path) -> None:
     doc = json.loads(out)
     assert doc["robot"] == {"name": "turtlebot4", "digest": PROFILES["turtlebot4"].digest}
     assert read_robot(tmp_path / "o" / "run-000.mcap") == PROFILES["turtlebot4"]
+
+
+def test_world_drive_drives_the_robot_given(root: Path, tmp_path: Path) -> None:
+    code, out, err = cli("world", "drive", str(root / "world"), "-o", str(tmp_path / "d.png"), "--course", "0.3,0,1",
+                         "--robot", "jackal")
+    assert code == 0, err
+    assert out.startswith("drove ") and (tmp_path / "d.png").stat().st_size > 0
+
+
+def test_nav_check_with_a_robot_passes_for_the_reference_stack() -> None:
+    code, out, err = cli("nav", "check", "reference-v1", "--robot", "turtlebot4")
+    assert code == 0, (out, err)
+    assert "reference-v1: PASS" in out
