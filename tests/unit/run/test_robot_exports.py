@@ -82,3 +82,24 @@ def test_the_bag_holds_the_mount_frames_and_the_footprint(kind: str, tmp_path: P
             xy = np.array([(p.x, p.y) for p in mk.points])
             d = np.min(np.hypot(xy[:, None, 0] - ring[None, :, 0], xy[:, None, 1] - ring[None, :, 1]), axis=1)
             assert np.all(d < 1e-9)
+
+
+@pytest.mark.parametrize("kind", sorted(ROBOTS))
+def test_the_trajectory_picture_draws_the_robots_true_outline_where_the_run_ended(kind: str) -> None:
+    from matplotlib.patches import Polygon
+
+    from navstress.run.figures import RunTrack, draw_tracks, footprint_at, world_axes
+
+    robot = ROBOTS[kind]
+    ring = robot.footprint_points()
+    truth = np.array([[0.0, 1.0, 1.0, 0.0, 0.0, 0, 0], [1.0, 4.0, 3.0, 0.0, 0.7, 0, 0]])
+    _fig, ax = world_axes()
+    draw_tracks(ax, [RunTrack("r", "success", truth, footprint=ring)])
+    (patch,) = [p for p in ax.patches if isinstance(p, Polygon)]
+    xy = patch.get_xy()[: len(ring)]
+    assert np.allclose(xy, footprint_at(ring, truth[-1]))
+    assert np.allclose(np.mean(xy, axis=0), truth[-1, 1:3] + [[np.cos(0.7), -np.sin(0.7)], [np.sin(0.7), np.cos(0.7)]]
+                       @ np.mean(ring, axis=0))
+    _fig, ax = world_axes()
+    draw_tracks(ax, [RunTrack("r", "success", truth)])  # no footprint given: none drawn (the report's maps)
+    assert not [p for p in ax.patches if isinstance(p, Polygon)]
