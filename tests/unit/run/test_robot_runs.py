@@ -205,3 +205,15 @@ def test_replay_simulates_the_recorded_robot(tmp_path: Path) -> None:
         pass
     old = with_recorded_robot(RunTask(**{**task.__dict__, "robot": None}), tmp_path / "old.mcap")
     assert old.robot is None and robot_of(old.robot) == PROFILES["rmp400"]
+
+
+def test_the_facade_takes_the_robot(tmp_path: Path) -> None:
+    import navstress
+
+    w = small_world(bumpy=False)
+    navstress.run_mission(w, "reference-v1", seed=1, timeout_s=1.0, sim_config=CHEAP, robot="husky",
+                          trace=tmp_path / "f.mcap")
+    assert read_robot(tmp_path / "f.mcap") == PROFILES["husky"]
+    with pytest.raises(SpecError, match="did you mean husky"):
+        navstress.run_mission(w, "reference-v1", seed=1, timeout_s=1.0, robot="huskyy", trace=tmp_path / "g.mcap")
+    assert not list(tmp_path.glob("*g.mcap*"))
