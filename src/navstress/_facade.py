@@ -12,6 +12,7 @@ from navstress.nav.api import Navigator
 from navstress.nav.registry import make_navigator
 from navstress.run.mission import RunResult
 from navstress.run.mission import run_mission as loop
+from navstress.run.robot import robot_of
 from navstress.run.trace import TraceWriter
 from navstress.world.world import World
 
@@ -19,7 +20,7 @@ from navstress.world.world import World
 def run_mission(world: World | str | os.PathLike[str], navigator: Navigator | str, *, seed: int = 0,
                 timeout_s: float = 400.0, goal_tolerance_m: float = 2.0,
                 navigator_config: Mapping[str, Any] | str | None = None, fault: str | None = None,
-                trace: str | os.PathLike[str] | None = None, sim_config: Any = None) -> RunResult:
+                trace: str | os.PathLike[str] | None = None, sim_config: Any = None, robot: Any = None) -> RunResult:
     """Run one mission in this process and return its :class:`~navstress.run.mission.RunResult`
     (classification, facts, true and perceived trajectories, events).
 
@@ -27,7 +28,9 @@ def run_mission(world: World | str | os.PathLike[str], navigator: Navigator | st
     with ``reset``/``step``/``close`` (your navigator, under a debugger if you like) or a
     registered name (built with ``navigator_config`` and ``fault``). ``seed``: the run seed
     (sensor noise, timing jitter, the navigator's seed): the same seed gives the same run.
-    ``trace``: where to write the MCAP trace (none by default). The navigator runs in this
+    ``trace``: where to write the MCAP trace (none by default). ``robot``: the simulated robot, a
+    :class:`~navstress.robot.RobotSpec`, a profile name (``"jackal"``), a robot file path or a
+    mapping (default ``rmp400``, the paper's); the navigator is told it. The navigator runs in this
     process, unprotected: ``navstress run`` is the way to run one that may crash or hang.
 
         >>> import navstress
@@ -38,6 +41,7 @@ def run_mission(world: World | str | os.PathLike[str], navigator: Navigator | st
         ('Success', True)
     """
     w = world if isinstance(world, World) else World.load(Path(world))
+    robot_v = robot_of(robot)  # a bad robot: one line, before anything is built or written
     nav = make_navigator(navigator, navigator_config, fault=fault) if isinstance(navigator, str) else navigator
     tw = None
     if trace is not None:
@@ -47,7 +51,7 @@ def run_mission(world: World | str | os.PathLike[str], navigator: Navigator | st
                                  "goal_tolerance_m": str(goal_tolerance_m)})
     try:
         result = loop(w, nav, run_seed=seed, timeout_s=timeout_s, goal_tolerance_m=goal_tolerance_m,
-                      sim_config=sim_config, trace=tw)
+                      sim_config=sim_config, trace=tw, robot=robot_v)
         if tw is not None:
             tw.close()
     except BaseException:

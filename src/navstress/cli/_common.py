@@ -19,13 +19,15 @@ from navstress.campaign.store import DiskFullError
 from navstress._flags import bounded_int, integer, number
 from navstress.errors import SpecError, WorldFileError
 from navstress.nav.registry import load_config
+from navstress.robot import PROFILES, RobotSpec
+from navstress.run.robot import robot_of
 from navstress.seeding import MAX_SEED
 from navstress.world.world import is_world_dir
 
 __all__ = ["MAX_RUNS", "MAX_SEED", "MAX_TIMEOUT_S", "MAX_WALL_S", "MAX_WORKERS", "Stopped", "check_executor_flags", "NAV_CONFIG_HELP", "bounded_int",
            "check_file_out", "check_out_dir", "integer", "load_navigator_config", "number", "probe_writable",
            "LidarOpt", "LiveHostOpt", "LiveOpt", "LivePortOpt", "LiveWaitOpt", "NavigatorViewOpt", "SpeedOpt",
-           "live_banner", "live_settings", "resumable"]
+           "live_banner", "live_settings", "resumable", "RobotOpt", "load_robot_flag"]
 
 #: Longest simulated run (one day, as a campaign spec's timeout_s) and longest wall-clock limit.
 MAX_TIMEOUT_S = 86_400.0
@@ -96,6 +98,24 @@ def check_executor_flags(executor: str, workers: int | None, wall_limit: float |
         raise SpecError("--workers", workers, f"an integer in [1, {MAX_WORKERS}]")
     if wall_limit is not None and not 0 < wall_limit <= MAX_WALL_S:
         raise SpecError("--wall-limit", wall_limit, "seconds in (0, 2592000]")
+
+
+# ---- the robot (world generate, world drive, run, nav check) --------------------------------------
+
+RobotOpt = Annotated[str | None, typer.Option("--robot", metavar="NAME|FILE", help=(
+    "The robot: a profile (" + ", ".join(sorted(PROFILES)) + ") or a robot file (YAML or JSON with an "
+    "optional base profile and overrides, or a URDF/MJCF body: docs/robots.md). Default rmp400, the paper's "
+    "Segway RMP 400."))]
+
+
+def load_robot_flag(raw: str | None) -> RobotSpec:
+    """``--robot``: a profile name or a robot file; a one-line SpecError naming ``--robot`` (with a
+    "did you mean" for a misspelt profile) otherwise."""
+    if raw is None:
+        return PROFILES["rmp400"]
+    if not raw.strip():
+        raise SpecError("--robot", raw, "a robot profile (" + ", ".join(sorted(PROFILES)) + ") or a robot file")
+    return robot_of(raw, field="--robot")
 
 
 # ---- what a run records and the live view (navstress run, navstress replay) -----------------------

@@ -15,11 +15,14 @@ from navstress._console import console
 from navstress._json import pretty as dumps
 from navstress.campaign.store import OUTCOMES
 from navstress.cli._common import (MAX_RUNS, MAX_SEED, MAX_TIMEOUT_S, MAX_WALL_S, NAV_CONFIG_HELP, LidarOpt,
-                                   LiveHostOpt, LiveOpt, LivePortOpt, LiveWaitOpt, NavigatorViewOpt, SpeedOpt,
-                                   bounded_int, live_banner, live_settings, load_navigator_config, number)
+                                   LiveHostOpt, LiveOpt, LivePortOpt, LiveWaitOpt, NavigatorViewOpt, RobotOpt, SpeedOpt,
+                                   bounded_int, live_banner, live_settings, load_navigator_config, load_robot_flag,
+                                   number)
 from navstress.errors import SpecError, WorldFileError
 from navstress.nav.registry import build_and_close
 from navstress._tables import NOMINAL
+from navstress.run.robot import check_stable
+from navstress.world.generate import check_robot_fits
 from navstress.run.batch import batch_picture, check_buildable, default_wall_limit_s, plan_batch, record_dict, run_batch
 from navstress.world.world import World
 
@@ -37,6 +40,7 @@ def run_cmd(
     navigator_config: Annotated[str | None, typer.Option(metavar="FILE|TEXT", help=NAV_CONFIG_HELP)] = None,
     fault: Annotated[str | None, typer.Option(metavar="NAME", help=(
         "Inject a named fault into the navigator (see `navstress nav faults`)."))] = None,
+    robot: RobotOpt = None,
     runs: Annotated[str, typer.Option(metavar="N", help="Number of runs (each with its own run seed), in [1, 10000]. Default 1.")] = "1",
     seed: Annotated[str, typer.Option(metavar="N", help="Root seed of the run seeds, an integer in [0, 2**63-1]. Default 0.")] = "0",
     timeout: Annotated[str, typer.Option(metavar="S", help="Simulated-time limit of a run in seconds, in (0, 86400]. Default 400.")] = "400",
@@ -75,7 +79,11 @@ def run_cmd(
     settings = live_settings(live_host, live_port, live_wait, speed) if live else None
     if settings is not None and wall_v is None:  # paced to the wall clock, after waiting for a client
         wall_v = default_wall_limit_s(timeout_v / settings.speed) + settings.wait_s
-    world_seed = World.load(world_dir).seed  # a clear error for a non-world, before anything is written
+    robot_v = load_robot_flag(robot)
+    world = World.load(world_dir)  # a clear error for a non-world, before anything is written
+    world_seed = world.seed
+    check_robot_fits(world.mission.free_radius_m, robot_v, "--robot")
+    check_stable(robot_v)  # a robot the simulation cannot hold stable: refused before any run
     cfg = load_navigator_config(navigator_config)
     # built in a worker process: a navigator that exits, crashes or hangs there is the runs' to classify
     check_buildable(build_and_close, navigator, fault, cfg,
@@ -89,7 +97,7 @@ def run_cmd(
     try:
         tasks = plan_batch(world_dir, output, navigator=navigator, navigator_config=cfg, fault=fault, runs=n,
                            seed=seed_v, timeout_s=timeout_v, goal_tolerance_m=tol, record_lidar=lidar,
-                           record_navigator=navigator_view or live, map_seed=world_seed)
+                           record_navigator=navigator_view or live, map_seed=world_seed, robot=robot_v)
         if settings is not None:
             con.print(live_banner(settings))
         with Bar(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
@@ -108,12 +116,14 @@ def run_cmd(
     pic = batch_picture(world_dir, records, output / "trajectories.png",
                         f"{navigator}{' + ' + fault if fault else ''}: {n} run(s) on {world_dir.name}")
     if as_json:
-        typer.echo(dumps({"world": str(world_dir), "navigator": navigator, "fault": fault or NOMINAL, "runs": len(records),
+        typer.echo(dumps({"world": str(world_dir), "navigator": navigator, "fault": fault or NOMINAL,
+                          "robot": {"name": robot_v.name, "digest": robot_v.digest}, "runs": len(records),
                           "counts": {o: sum(r.outcome == o for r in records) for o in OUTCOMES},
                           "output": str(output), "records_file": str(output / "runs.jsonl"), "picture": str(pic),
                           "records": [record_dict(r) for r in records]}))
         return
-    table = Table(title=f"{navigator}{' + ' + fault if fault else ''} on {world_dir}")
+    table = Table(title=f"{navigator}{' + ' + fault if fault else ''} on {world_dir}"
+                        + (f" (robot {robot_v.name})" if robot is not None else ""))
     for col in ("run", "outcome", "sim s", "wall s", "goal m", "path m", "reason"):
         table.add_column(col)
     for r in records:

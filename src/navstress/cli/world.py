@@ -14,7 +14,8 @@ from typer import _click as click
 
 from navstress import _files
 from navstress._console import console, literal
-from navstress.cli._common import (MAX_SEED, bounded_int, check_file_out, check_out_dir, probe_writable)
+from navstress.cli._common import (MAX_SEED, RobotOpt, bounded_int, check_file_out, check_out_dir, load_robot_flag,
+                                   probe_writable)
 from navstress.errors import SpecError
 from navstress.run.drive import DEFAULT_COURSE, drive, drive_picture, parse_course
 from navstress.sim.model import world_to_mjcf
@@ -22,7 +23,8 @@ from navstress.world.export.images import PREVIEW, obstruction_pct, save_with_pr
 from navstress.world.export.mesh import write_mesh
 from navstress.world.export.sdf import write_sdf
 from navstress.world.flags import build_spec
-from navstress.world.generate import generate
+from navstress.run.robot import check_stable
+from navstress.world.generate import check_robot_fits, generate, sized_to_robot
 from navstress.world.world import World
 
 EXPORT_FORMATS = ("mjcf", "sdf", "gltf", "glb", "obj", "png")
@@ -131,16 +133,24 @@ def world_generate(
         "WorldSpec file (YAML or JSON); the flags above override its fields."))] = None,
     seed: Annotated[str, typer.Option(metavar="N", help=(
         "Map seed, an integer in [0, 2**63-1]: the same spec and seed give the same world."))] = "0",
+    robot: RobotOpt = None,
 ) -> None:
-    """Generate one world from a spec and a seed; write it with a preview and print its descriptors."""
+    """Generate one world from a spec and a seed; write it with a preview and print its descriptors.
+
+    With --robot, the world is made for that robot: its start and goal free discs sized to it
+    (unless the spec sets mission.free_radius_m) and its traversability (feasible, path_length_m)
+    computed with its width."""
     seed_v = bounded_int("--seed", seed, 0, MAX_SEED)
+    robot_v = load_robot_flag(robot)
     world_spec = build_spec(spec_file=spec, size=size, cell=cell, subdivisions=subdivisions,
                             deformation=deformation, ground=ground, trees=trees, buildings=buildings,
                             obstruction=obstruction, mix=mix, movers=movers, mover_behaviour=mover_behaviour)
+    if robot is not None:
+        world_spec = sized_to_robot(world_spec, robot_v, field="--robot")
     if output.is_symlink():  # a link named as -o is the user's choice: followed once, its target replaced
         output = Path(os.path.realpath(output))
     check_out_dir(output)
-    world = generate(world_spec, seed_v)
+    world = generate(world_spec, seed_v, robot=robot_v if robot is not None else None)
     save_with_preview(world, output)
     con = console()
     con.print(_descriptor_table(world, f"world {output}"))
@@ -220,16 +230,20 @@ def world_drive(
         "Open-loop course from the mission start: 'v,omega,seconds; ...' (m/s, rad/s, s). Default: 20 m "
         "straight, quarter turn on the spot, 12 m straight, a right curve, 15 m straight."))] = None,
     seed: Annotated[str, typer.Option(metavar="N", help="Run seed (sensor noise, jitter), an integer in [0, 2**63-1]. Default 0.")] = "0",
+    robot: RobotOpt = None,
 ) -> None:
     """Drive a scripted course in the simulation and draw where the robot really went."""
+    robot_v = load_robot_flag(robot)
     world = World.load(world_dir)
+    check_robot_fits(world.mission.free_radius_m, robot_v, "--robot")
     segs = parse_course(course) if course is not None else DEFAULT_COURSE
     seed_v = bounded_int("--seed", seed, 0, MAX_SEED)
     dest = output if output is not None else world_dir / "drive.png"
     if dest.exists() and dest.is_dir():
         raise SpecError("--output", str(dest), "a PNG file path, not a directory")
+    check_stable(robot_v)
     probe_writable(dest)
-    res = drive(world, segs, seed=seed_v)
+    res = drive(world, segs, seed=seed_v, robot=robot_v)
     t = res.truth
     dist = float(np.sum(np.hypot(np.diff(t[:, 1]), np.diff(t[:, 2])))) if len(t) > 1 else 0.0
     odo_err = (math.hypot(res.odometry[-1, 0] - t[-1, 1], res.odometry[-1, 1] - t[-1, 2])
@@ -238,6 +252,6 @@ def world_drive(
     con.print(f"drove {dist:.1f} m in {res.sim_s:.1f} s simulated ({res.real_time_factor:.0f}x real time); "
               f"odometry off by {odo_err:.2f} m at the end; collisions: {len(res.collisions)}"
               + (f"; stopped: {res.stopped}" if res.stopped else ""))
-    pic = drive_picture(world, res, dest, f"scripted drive on {world_dir.name}: {dist:.0f} m, "
-                        f"{len(res.collisions)} collision(s)")
+    pic = drive_picture(world, res, dest, f"scripted drive of {robot_v.name} on {world_dir.name}: {dist:.0f} m, "
+                        f"{len(res.collisions)} collision(s)", robot=robot_v)
     con.print(f"picture: {pic}")

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import collections
 import difflib
+import json
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
@@ -35,7 +36,7 @@ from navstress.seeding import rng
 
 __all__ = [
     "DelayedScans", "DroppedScans", "Fault", "FaultyNavigator", "ObservationFault",
-    "OdometryScale", "SmallFootprint", "apply_fault", "get_fault", "list_faults",
+    "OdometryScale", "SmallFootprint", "apply_fault", "get_fault", "list_faults", "small_footprint",
 ]
 
 NavigatorFactory = Callable[..., Navigator]
@@ -74,14 +75,47 @@ class FaultyNavigator:
         self.inner.close()
 
 
+#: The paper's footprint fault: its robot (1.14 m x 0.67 m) believed 0.84 m x 0.45 m. Any robot's
+#: believed footprint is its own scaled by these ratios: lengths (x) by 0.84/1.14, widths (y) by 0.45/0.67.
+PAPER_TRUE_M = (1.14, 0.67)
+PAPER_BELIEVED_M = (0.84, 0.45)
+
+
+def small_footprint(robot: RobotSpec) -> RobotSpec:
+    """What the navigator believes under ``small-footprint``: ``robot`` with its footprint scaled
+    by the paper's ratios, lengths (x) by 0.84/1.14 and widths (y) by 0.45/0.67, every other field
+    kept, named ``<name>-small-belief``. A box stays a box (its length and width scaled; the paper's
+    1.14 m x 0.67 m becomes exactly 0.84 m x 0.45 m, the paper's fault); a polygon's points are
+    scaled; a circle becomes the polygon of its outline (32 points) scaled, an ellipse (the two
+    ratios differ).
+
+        >>> r = small_footprint(RobotSpec())
+        >>> (r.name, r.length_m, r.width_m)
+        ('rmp400-small-belief', 0.84, 0.45)
+    """
+    (tl, tw), (bl, bw) = PAPER_TRUE_M, PAPER_BELIEVED_M
+    name = f"{robot.name}-small-belief"
+    fp = robot.footprint
+    if fp.shape == "box":
+        if (robot.length_m, robot.width_m) == PAPER_TRUE_M:  # the paper's robot: its figures, exactly
+            length, width = bl, bw
+        else:
+            length, width = robot.length_m * bl / tl, robot.width_m * bw / tw
+        return robot.model_copy(update={"name": name, "length_m": length, "width_m": width})
+    pts = robot.footprint_points() * np.array([bl / tl, bw / tw])
+    data = robot.model_dump(mode="json")
+    data.update(name=name, footprint={"shape": "polygon", "points": [[float(x), float(y)] for x, y in pts]})
+    # a mount on the body's edge may lie outside the believed (smaller) outline: no check to trip on
+    return RobotSpec.model_validate_json(json.dumps(data))
+
+
 class SmallFootprint(ObservationFault):
-    """The paper's fault: the navigator believes the robot is 0.84 m x 0.45 m
-    (:meth:`RobotSpec.footprint_fault`); every other field of the real robot is kept."""
+    """The paper's fault for any robot: the navigator believes the footprint of
+    :func:`small_footprint` (the RMP 400: 0.84 m x 0.45 m); every other field of the real robot
+    is kept."""
 
     def on_reset(self, mission: NavMission, robot: RobotSpec, seed: int) -> RobotSpec:
-        small = RobotSpec.footprint_fault()
-        return robot.model_copy(update={"name": small.name, "length_m": small.length_m,
-                                        "width_m": small.width_m})
+        return small_footprint(robot)
 
 
 class OdometryScale(ObservationFault):
@@ -213,8 +247,8 @@ class Fault:
 
 
 _FAULTS: dict[str, Fault] = {f.name: f for f in (
-    Fault("small-footprint", "navigator told the robot is 0.84 m x 0.45 m; the simulated one is "
-          "1.14 m x 0.67 m (the paper's fault)", wrapper=SmallFootprint),
+    Fault("small-footprint", "navigator told a footprint shrunk by the paper's ratios (length 0.84/1.14, "
+          "width 0.45/0.67): the RMP 400 believed 0.84 m x 0.45 m (the paper's fault)", wrapper=SmallFootprint),
     Fault("odometry-scale", "odometry distances scaled by 1.05 (scaled increments integrated)",
           wrapper=OdometryScale),
     Fault("dropped-scans", "30% of lidar scans dropped, drawn from the run seed",

@@ -30,7 +30,8 @@ from navstress.isolate import Worker
 from navstress.run.live import execute_live
 from navstress.run.mission import execute
 from navstress.run.record import RunRecord, RunTask
-from navstress.run.trace import TOPIC_PERCEIVED, read_movers, read_poses
+from navstress.run.robot import task_robot
+from navstress.run.trace import TOPIC_PERCEIVED, read_movers, read_poses, read_robot
 from navstress.seeding import derive_seed
 from navstress.world.world import World
 
@@ -51,16 +52,19 @@ def default_wall_limit_s(timeout_s: float) -> float:
 def plan_batch(world_dir: Path, out: Path, *, navigator: str, navigator_config: dict[str, Any], fault: str | None,
                runs: int, seed: int, timeout_s: float, goal_tolerance_m: float,
                record_lidar: bool = False, record_navigator: bool = False,
-               map_seed: int | None = None) -> list[RunTask]:
+               map_seed: int | None = None, robot: Any = None) -> list[RunTask]:
     """The tasks of ``runs`` runs on ``world_dir``; ``map_seed``: the world's seed (read from
-    the world when not given)."""
+    the world when not given); ``robot``: the simulated robot (a RobotSpec, a profile name or a
+    robot file; default the paper's rmp400)."""
     if map_seed is None:
         map_seed = World.load(world_dir).seed
+    planned = task_robot(robot)
     return [RunTask(run_id=f"run-{i:03d}", world_dir=str(world_dir), run_seed=derive_seed(seed, "run", i),
                     trace_path=str(out / f"run-{i:03d}.mcap"), navigator=navigator,
                     navigator_config=navigator_config, fault=fault, timeout_s=timeout_s,
                     goal_tolerance_m=goal_tolerance_m, run_index=i, experiment="single",
-                    record_lidar=record_lidar, record_navigator=record_navigator, map_seed=int(map_seed))
+                    record_lidar=record_lidar, record_navigator=record_navigator, map_seed=int(map_seed),
+                    robot=planned)
             for i in range(runs)]
 
 
@@ -186,5 +190,6 @@ def batch_picture(world_dir: Path, records: list[RunRecord], path: Path, title: 
             k = int(np.argmin(np.abs(truth[:, 0] - r.first_collision_s)))
             col = (float(truth[k, 1]), float(truth[k, 2]))
         movers = read_movers(r.trace) if world.movers else None
-        tracks.append(RunTrack(r.run_id, r.outcome, truth, perceived, col, movers, r.first_collision_s))
+        ring = read_robot(r.trace).footprint_points()  # the robot's true shape, where the run ended
+        tracks.append(RunTrack(r.run_id, r.outcome, truth, perceived, col, movers, r.first_collision_s, ring))
     return trajectories_png(world, tracks, path, title=title, perceived=len(records) == 1)

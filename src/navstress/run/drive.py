@@ -14,12 +14,15 @@ import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from navstress.errors import SpecError
 from navstress.nav.api import Command
-from navstress.run.figures import legend, save_png, world_axes
+from navstress.robot import RobotSpec
+from navstress.run.figures import draw_footprint, legend, save_png, world_axes
+from navstress.run.robot import robot_of
 from navstress.sim.config import SimConfig
 from navstress.sim.simulation import Simulation
 from navstress.world.export.images import draw_world
@@ -62,9 +65,11 @@ class DriveResult:
         return self.sim_s / self.wall_s if self.wall_s > 0 else float("inf")
 
 
-def drive(world: World, course: list[tuple[float, float, float]], *, seed: int = 0, lidar: bool = True) -> DriveResult:
-    """Play ``course`` open loop from the mission start in the real simulation."""
-    sim = Simulation(world, config=SimConfig(lidar_enabled=lidar), seed=seed)
+def drive(world: World, course: list[tuple[float, float, float]], *, seed: int = 0, lidar: bool = True,
+          robot: Any = None) -> DriveResult:
+    """Play ``course`` open loop from the mission start in the real simulation, with ``robot``
+    (a RobotSpec, a profile name or a robot file; default the paper's rmp400)."""
+    sim = Simulation(world, robot_of(robot), config=SimConfig(lidar_enabled=lidar), seed=seed)
     x0, y0, yaw0 = world.mission.start
     c, s = math.cos(yaw0), math.sin(yaw0)
     odo: list[tuple[float, float, float]] = []
@@ -90,12 +95,16 @@ def drive(world: World, course: list[tuple[float, float, float]], *, seed: int =
                        stopped=sim.stopped.reason if sim.stopped is not None else None, sim_s=sim.t, wall_s=wall)
 
 
-def drive_picture(world: World, res: DriveResult, path: str | Path, title: str) -> Path:
-    """Write a PNG of the real path and the odometry path over ``world``."""
+def drive_picture(world: World, res: DriveResult, path: str | Path, title: str, robot: RobotSpec | None = None) -> Path:
+    """Write a PNG of the real path and the odometry path over ``world``, with ``robot``'s
+    footprint (its true shape) where it started and where it ended."""
     fig, ax = world_axes(figsize=(8.2, 7.2), dpi=110)
     draw_world(ax, world, legend=False)
     if len(res.truth):
         ax.plot(res.truth[:, 1], res.truth[:, 2], "-", color="#d7191c", lw=2.0, label="real path", zorder=6)
+        ring = (robot or RobotSpec()).footprint_points()
+        draw_footprint(ax, ring, res.truth[0], label="robot (footprint)")
+        draw_footprint(ax, ring, res.truth[-1])
     if len(res.odometry):
         ax.plot(res.odometry[:, 0], res.odometry[:, 1], "--", color="#2b83ba", lw=1.5,
                 label="wheel odometry (from the start pose)", zorder=6)

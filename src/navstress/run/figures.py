@@ -48,9 +48,31 @@ class RunTrack:
     #: the movers of the run (``RunResult.movers`` / ``trace.read_movers``): times (m,), poses (m, n, 4)
     movers: tuple[np.ndarray, np.ndarray] | None = None
     collision_t: float | None = None  # when the first collision happened (where the movers were then)
+    #: the robot's true footprint (n, 2) in base_link (``RobotSpec.footprint_points``), drawn where
+    #: the run ended; None: not drawn
+    footprint: np.ndarray | None = None
 
 
 MOVER_COLOUR = "#2c5fd6"
+
+
+def footprint_at(ring: np.ndarray, pose: np.ndarray) -> np.ndarray:
+    """The footprint ``ring`` (n, 2, base_link) placed at a trajectory row ``pose`` (t, x, y, z,
+    yaw, ...): its outline (n, 2) in the map frame.
+
+        >>> footprint_at(np.array([[1.0, 0.0], [0.0, 1.0]]), np.array([0, 10, 20, 0, np.pi / 2])).round(6).tolist()
+        [[10.0, 21.0], [9.0, 20.0]]
+    """
+    yaw = float(pose[4])
+    c, s = np.cos(yaw), np.sin(yaw)
+    r = np.asarray(ring, dtype=np.float64)
+    out: np.ndarray = np.column_stack([pose[1] + c * r[:, 0] - s * r[:, 1], pose[2] + s * r[:, 0] + c * r[:, 1]])
+    return out
+
+
+def draw_footprint(ax: Any, ring: np.ndarray, pose: np.ndarray, colour: str = "black", label: str | None = None) -> None:
+    """The robot's outline (its true footprint ``ring``) at the trajectory row ``pose``."""
+    ax.add_patch(Polygon(footprint_at(ring, pose), closed=True, fill=False, ec=colour, lw=1.0, zorder=7, label=label))
 
 
 def movers_at(world: World, times: np.ndarray, poses: np.ndarray,
@@ -114,6 +136,8 @@ def draw_tracks(ax: Any, tracks: list[RunTrack], *, perceived: bool = False, wor
                     label=None if lab in seen else lab, zorder=6)
             ax.plot(tr.truth[-1, 1], tr.truth[-1, 2], "o", color=col, ms=5, mec="white", mew=0.8, zorder=7)
             seen.add(lab)
+            if tr.footprint is not None:
+                draw_footprint(ax, tr.footprint, tr.truth[-1], col)
         if perceived and tr.perceived is not None and len(tr.perceived):
             ax.plot(tr.perceived[:, 1], tr.perceived[:, 2], "--", color="#2b83ba", lw=1.2,
                     label=None if "perceived" in seen else "perceived (navigator's belief)", zorder=6)

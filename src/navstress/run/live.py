@@ -228,8 +228,7 @@ class LivePublisher(TraceMessages):
             self._channel(topic, cls)
         self._statics, self._collecting = [], True
         world_messages(self, world)
-        mount = robot.lidar
-        self.robot((robot.length_m, robot.width_m, robot.body_height_m), (mount.x_m, mount.y_m, mount.z_m), belief=True)
+        self.robot(robot, belief=True)
         self._collecting = False
         self._subscribed.wait(max(0.0, self.settings.wait_s))
         self._wall0 = time.monotonic() - sim.t / self.settings.speed

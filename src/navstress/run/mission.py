@@ -37,6 +37,7 @@ from navstress.robot import RobotSpec
 from navstress.run.metrics import drop_jitter, path_length, tortuousness
 from navstress.run.outcome import Classification, RunFacts, classify
 from navstress.run.record import RunRecord, RunTask
+from navstress.run.robot import check_stable, robot_of
 from navstress.run.trace import (BELIEF, FRAME, FRAME_ROBOT, TOPIC_MAP, TOPIC_PERCEIVED, TOPIC_TERRAIN, TOPIC_TRUTH,
                                  TraceMessages, TraceWriter)
 from navstress.seeding import derive_seed, rng
@@ -208,21 +209,25 @@ def true_pose(sim: Any) -> tuple[float, float, float, float, float, float, float
     return (sim.t, float(q[0]), float(q[1]), float(q[2]), yaw, pitch, roll)
 
 
-def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: RobotSpec | None = None,
+def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Any = None,
                 timeout_s: float = 400.0, goal_tolerance_m: float = 2.0, sim_config: Any = None,
                 trace: TraceWriter | None = None, record_lidar: bool = False, record_navigator: bool = False,
                 stop_on_collision: bool = True, watch: RunWatcher | None = None) -> RunResult:
     """Run ``navigator`` on ``world``'s mission in the simulation seeded by ``run_seed``.
 
-    ``robot`` is the simulated truth (default RobotSpec()); the navigator is told the same
-    robot (a fault wrapper may change what it believes). A collision ends the run by default
+    ``robot`` is the simulated truth: a :class:`RobotSpec`, a profile name (``"jackal"``), a
+    robot file path or a mapping (:func:`navstress.run.robot.robot_of`; default ``rmp400``,
+    the paper's robot); one the simulation cannot hold stable is refused before anything runs
+    (:func:`navstress.run.robot.check_stable`). The navigator is told the same robot (a fault
+    wrapper may change what it believes). The trace records it (name, digest, description). A collision ends the run by default
     (``stop_on_collision``: the operator's emergency stop), so Fail-Collision runs keep the
     time and place of their first collision. ``record_navigator`` records the navigator's own
     view (:class:`NavigatorView`) into the result and the trace. ``watch`` follows the run as it
     goes (:class:`RunWatcher`: the live view).
     """
-    robot = robot or RobotSpec()
+    robot = robot_of(robot)
     cfg = sim_config if sim_config is not None else SimConfig()
+    check_stable(robot, cfg)
     wall0 = time.perf_counter()
     events: list[tuple[float, str, str]] = []
     clouds: list[tuple[float, np.ndarray, tuple[float, float, float]]] = []
@@ -432,8 +437,7 @@ def _write_trace(tw: TraceWriter, world: World, r: RunResult, robot: RobotSpec) 
     if r.perceived is not None and belief:
         tw.poses(TOPIC_PERCEIVED, r.perceived)
         tw.transforms(FRAME, BELIEF + FRAME_ROBOT, r.perceived)
-    mount = robot.lidar
-    tw.robot((robot.length_m, robot.width_m, robot.body_height_m), (mount.x_m, mount.y_m, mount.z_m), belief=belief)
+    tw.robot(robot, belief=belief)
     for t, level, msg in r.events:
         tw.event(t, level, msg)
     for t, draw in r.drawings:
@@ -460,6 +464,7 @@ def execute(task: RunTask, watch: RunWatcher | None = None) -> RunRecord:
     sim_cfg = None
     if task.sim_overrides:
         sim_cfg = SimConfig(**task.sim_overrides)
+    robot = robot_of(task.robot)  # (an unusable robot is the task's error, as an unknown navigator)
     meta = {k: str(v) for k, v in {
         "run_id": task.run_id, "run_seed": task.run_seed, "map_seed": task.map_seed, "world_seed": world.seed,
         "navigator": task.navigator, "fault": task.fault or "", "timeout_s": task.timeout_s,
@@ -467,7 +472,7 @@ def execute(task: RunTask, watch: RunWatcher | None = None) -> RunRecord:
     trace_path = Path(task.trace_path)
     tw = TraceWriter(trace_path, meta)
     try:
-        res = run_mission(world, nav, run_seed=task.run_seed, timeout_s=task.timeout_s,
+        res = run_mission(world, nav, run_seed=task.run_seed, robot=robot, timeout_s=task.timeout_s,
                           goal_tolerance_m=task.goal_tolerance_m, sim_config=sim_cfg, trace=tw,
                           record_lidar=task.record_lidar, record_navigator=task.record_navigator, watch=watch)
         tw.close()

@@ -49,9 +49,16 @@ class RunTask:
     run_index: int = 0
     map_seed: int = 0
     sim_overrides: dict[str, Any] = field(default_factory=dict)
+    #: the simulated robot: None for the paper's rmp400 (the default), else its description as
+    #: canonical JSON text (:func:`navstress.run.robot.task_robot`; a profile name or a robot file
+    #: path is resolved too); the navigator is told it (or, under a fault, what it believes)
+    robot: str | None = None
 
     def to_json(self) -> str:
-        return _json.dumps(asdict(self), sort_keys=True)
+        d = asdict(self)
+        if d["robot"] is None:  # the default robot: the JSON (and a store's planned tasks) as before robots
+            del d["robot"]
+        return _json.dumps(d, sort_keys=True)
 
     @classmethod
     def from_json(cls, text: str) -> "RunTask":

@@ -8,11 +8,11 @@ What the bag holds (every stamp and bag time is the run's *simulated* time, as i
 | topic | type | from the trace |
 |---|---|---|
 | ``/tf`` | ``tf2_msgs/msg/TFMessage`` | ``/tf`` (``map -> base_link``, ``map -> perceived/base_link``) |
-| ``/tf_static`` | ``tf2_msgs/msg/TFMessage`` (transient local) | the lidar mounts (``base_link -> lidar``, ...) |
+| ``/tf_static`` | ``tf2_msgs/msg/TFMessage`` (transient local) | the sensor mounts (``base_link -> lidar``, ``base_link -> <mount name>``, and the same below ``perceived/base_link``) |
 | ``/truth/odom``, ``/perceived/odom`` | ``nav_msgs/msg/Odometry`` | the poses (twist left zero: the trace has no velocities) |
 | ``/rosout`` | ``rcl_interfaces/msg/Log`` | ``/events`` |
 | ``/world/markers`` | ``visualization_msgs/msg/MarkerArray`` (transient local) | ``/world/scene``: obstacles, start, goal |
-| ``/robot/markers`` | ``visualization_msgs/msg/MarkerArray`` (transient local) | ``/robot/body`` |
+| ``/robot/markers`` | ``visualization_msgs/msg/MarkerArray`` (transient local) | ``/robot/body``: the body (a CUBE for a box footprint, a TRIANGLE_LIST prism for a circle or a polygon) and the footprint's outline on the ground (a LINE_STRIP) |
 | ``/world/movers`` | ``visualization_msgs/msg/MarkerArray`` | ``/world/movers`` |
 | ``/world/terrain`` | ``sensor_msgs/msg/PointCloud2`` (transient local) | ``/world/terrain``: one point (x, y, z) per height sample |
 | ``/cmd_vel`` | ``geometry_msgs/msg/TwistStamped`` | ``/nav/cmd`` |
@@ -173,7 +173,7 @@ def _convert(bag: _Bag, topic: str, t_ns: int, m: Any) -> None:
         tf = T["geometry_msgs/msg/TransformStamped"](
             header=bag.header(t_ns, m.parent_frame_id), child_frame_id=m.child_frame_id,
             transform=T["geometry_msgs/msg/Transform"](translation=bag.vec(m.translation), rotation=bag.quat(m.rotation)))
-        static = m.child_frame_id.endswith("lidar")
+        static = m.parent_frame_id != FRAME  # base_link -> a sensor mount (lidar, ...): fixed on the robot
         bag.put("/tf_static" if static else "/tf", T["tf2_msgs/msg/TFMessage"](transforms=[tf]), t_ns, latched=static)
     elif topic in _ODOM:
         name, child = _ODOM[topic]

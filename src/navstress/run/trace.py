@@ -1,10 +1,12 @@
 """Run traces: one MCAP file per run, with Foxglove schemas (protobuf encoding).
 
 Open a trace in Foxglove to see the run: ``/tf`` (``foxglove.FrameTransform``: the frame tree
-``map -> base_link -> lidar`` from the true pose, and ``map -> perceived/base_link ->
-perceived/lidar`` from the navigator's belief, so a follow camera can ride ``base_link`` and the
-drift shows between the two), ``/robot/body`` (``foxglove.SceneUpdate``: the robot's box locked
-to each ``base_link``, the belief's translucent), ``/truth/pose`` and ``/perceived/pose``
+``map -> base_link -> lidar`` (and ``base_link -> <mount name>`` for each sensor mount of the
+robot) from the true pose, and ``map -> perceived/base_link -> perceived/lidar`` from the
+navigator's belief, so a follow camera can ride ``base_link`` and the drift shows between the
+two), ``/robot/body`` (``foxglove.SceneUpdate``: the robot's true shape locked to each
+``base_link``, the belief's translucent: a cube for a box footprint, a prism of the outline for a
+circle or a polygon, and the footprint's outline on the ground), ``/truth/pose`` and ``/perceived/pose``
 (``foxglove.PoseInFrame``), ``/events`` (``foxglove.Log``: collisions, errors, end of run),
 ``/world/scene`` (``foxglove.SceneUpdate``: obstacles as cubes, start and goal),
 ``/world/movers`` (``foxglove.SceneUpdate``, one per run of the movers' controller (10 Hz): every
@@ -25,11 +27,15 @@ by log time then order of submission) when the file is closed. The file is writt
 temporary name and renamed into place when complete (DESIGN invariant 4). Each channel's
 messages carry sequence numbers 1, 2, 3, ... in file order.
 
+The robot is the file's ``navstress.robot`` metadata (:func:`robot_metadata`: name, digest,
+description, footprint, mounts; :func:`read_robot`; a trace without it is the rmp400's).
+
 The analysis reads trajectories back with :func:`read_poses`, the movers with :func:`read_movers`.
 """
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import struct
@@ -70,7 +76,8 @@ from mcap_protobuf.decoder import DecoderFactory
 from mcap_protobuf.writer import Writer
 
 from navstress import _files
-from navstress.errors import StoreError
+from navstress.errors import NavstressError, StoreError
+from navstress.robot import PROFILES, Mount, RobotSpec
 from navstress.nav.api import DebugDraw, DebugLine, DebugPoints, DebugText
 from navstress.run.record import cap_message
 
@@ -95,6 +102,8 @@ MESH_MAX_CELLS = 80
 #: The robot's frames: the true pose's, and the navigator's belief (``perceived/`` prefixed).
 FRAME_ROBOT, FRAME_LIDAR = "base_link", "lidar"
 BELIEF = "perceived/"
+#: The name of the trace's metadata record of the robot (:func:`robot_metadata`).
+ROBOT_METADATA = "navstress.robot"
 MOVER_COLOUR = Color(r=0.2, g=0.35, b=0.85, a=1.0)
 
 LEVELS = {"debug": 1, "info": 2, "warning": 3, "error": 4, "fatal": 5}
@@ -195,6 +204,50 @@ def command_class() -> Any:
     return _COMMAND_CLASS
 
 
+def mount_frames(robot: RobotSpec) -> list[tuple[str, tuple[float, float, float], tuple[float, float, float]]]:
+    """The robot's sensor frames below ``base_link``: (name, xyz, rpy) of each mount, and
+    ``lidar`` at the simulation's lidar position when the robot names no ``lidar`` mount."""
+    out = [(name, m.xyz, m.rpy) for name, m in robot.mounts.items()]
+    if "lidar" not in robot.mounts:
+        lm = robot.lidar
+        out.insert(0, (FRAME_LIDAR, (lm.x_m, lm.y_m, lm.z_m), (0.0, 0.0, 0.0)))
+    return out
+
+
+def box_robot(size: tuple[float, float, float], lidar: tuple[float, float, float]) -> RobotSpec:
+    """A RobotSpec of a box ``size`` (length, width, height) with its lidar at ``lidar``, the rest
+    the default's (built without the checks across fields: only its shape is drawn)."""
+    lx, ly, lz = (float(v) for v in lidar)
+    return RobotSpec.model_construct(**{**RobotSpec().__dict__, "name": "box", "length_m": float(size[0]),
+                                        "width_m": float(size[1]), "body_height_m": float(size[2]),
+                                        "mounts": {"lidar": Mount(xyz=(lx, ly, lz))}})
+
+
+def prism(ring: np.ndarray, z0: float, z1: float) -> tuple[np.ndarray, np.ndarray]:
+    """A closed prism over the convex counter-clockwise polygon ``ring`` (n, 2) from ``z0`` to
+    ``z1``: vertices (2n, 3) and outward-facing triangles (4n - 4, 3)."""
+    n = len(ring)
+    verts = np.vstack([np.column_stack([ring, np.full(n, z0)]), np.column_stack([ring, np.full(n, z1)])])
+    tris = []
+    for i in range(n):
+        j = (i + 1) % n
+        tris += [(i, j, n + j), (i, n + j, n + i)]  # side
+    for i in range(1, n - 1):
+        tris += [(0, i + 1, i), (n, n + i, n + i + 1)]  # bottom (facing down), top (facing up)
+    return verts.astype(np.float64), np.array(tris, dtype=np.int64)
+
+
+def robot_metadata(robot: RobotSpec) -> dict[str, str]:
+    """The trace's ``navstress.robot`` metadata: ``name``, ``digest``, ``description`` (the
+    RobotSpec as canonical JSON), and for viewers ``footprint`` (the outline's points in
+    ``base_link``, JSON) and ``mounts`` (name -> xyz, rpy, JSON)."""
+    desc = json.dumps(robot.model_dump(mode="json"), sort_keys=True, separators=(",", ":"))
+    return {"name": robot.name, "digest": robot.digest, "description": desc,
+            "footprint": json.dumps([[round(float(x), 9), round(float(y), 9)] for x, y in robot.footprint_points()]),
+            "mounts": json.dumps({n: {"xyz": list(xyz), "rpy": list(rpy)} for n, xyz, rpy in mount_frames(robot)},
+                                 sort_keys=True)}
+
+
 class TraceMessages:
     """The messages of a run's trace, built from the run's data (one method per kind) and handed
     to :meth:`_put`: :class:`TraceWriter` files them, :class:`navstress.run.live.LivePublisher`
@@ -227,22 +280,45 @@ class TraceMessages:
                                  translation=Vector3(x=x, y=y, z=z), rotation=quaternion(yaw, pitch, roll))
             self._put(TOPIC_TF, msg, _ns(t))
 
-    def robot(self, size: tuple[float, float, float], lidar: tuple[float, float, float], *, belief: bool) -> None:
-        """The robot's body (a box of ``size``, centred on its frame) and its lidar mount: a static
-        ``base_link -> lidar`` transform, and one ``/robot/body`` SceneUpdate whose entities are
-        locked to ``base_link`` (opaque) and, with ``belief``, to ``perceived/base_link``
-        (translucent), so that the drift between truth and belief shows as two bodies."""
+    def robot(self, robot: RobotSpec | tuple[float, float, float], lidar: tuple[float, float, float] | None = None, *,
+              belief: bool) -> None:
+        """The robot (a RobotSpec; or, as before robots were data, a box's (length, width, height)
+        and its ``lidar`` mount (x, y, z)): its sensor mounts as static transforms ``base_link -> <mount name>`` (each
+        mount of the RobotSpec, and ``lidar`` where the simulation's lidar is when the robot names
+        no such mount), and one ``/robot/body`` SceneUpdate whose entities are locked to
+        ``base_link`` (opaque) and, with ``belief``, to ``perceived/base_link`` (translucent), so
+        that the drift between truth and belief shows as two bodies. The body is the footprint
+        raised to the body's height (a box footprint: a cube; a circle or a polygon: a prism of
+        its outline), and the footprint's outline is drawn on the ground (``footprint`` lines)."""
+        if not isinstance(robot, RobotSpec):
+            robot = box_robot(robot, lidar if lidar is not None else (0.35, 0.0, 0.75))
         frames = [FRAME_ROBOT] + ([BELIEF + FRAME_ROBOT] if belief else [])
         ents = []
+        h = robot.body_height_m
+        ring = robot.footprint_points()
+        ground = -robot.wheel_radius_m  # base_link is at the axle height
         for frame in frames:
             prefix = frame[: -len(FRAME_ROBOT)]
-            self.transforms(frame, prefix + FRAME_LIDAR, np.array([[0.0, *lidar, 0.0, 0.0, 0.0]]))
+            for name, xyz, rpy in mount_frames(robot):
+                self.transforms(frame, prefix + name, np.array([[0.0, *xyz, rpy[2], rpy[1], rpy[0]]]))
             alpha = 1.0 if not prefix else 0.35
-            body = CubePrimitive(pose=Pose(position=Vector3(), orientation=Quaternion(w=1.0)),
-                                 size=Vector3(x=size[0], y=size[1], z=size[2]),
-                                 color=Color(r=0.95, g=0.6, b=0.1, a=alpha))
-            ents.append(SceneEntity(timestamp=_stamp(0.0), frame_id=frame, id=f"{prefix}robot", frame_locked=True,
-                                    cubes=[body]))
+            colour = Color(r=0.95, g=0.6, b=0.1, a=alpha)
+            outline = LinePrimitive(type=LinePrimitive.LINE_STRIP, pose=Pose(orientation=Quaternion(w=1.0)),
+                                    thickness=0.02, scale_invariant=False, color=Color(r=0.1, g=0.1, b=0.1, a=alpha),
+                                    points=[Point3(x=float(x), y=float(y), z=ground)
+                                            for x, y in np.vstack([ring, ring[:1]]).tolist()])
+            if robot.footprint.shape == "box":
+                body = CubePrimitive(pose=Pose(position=Vector3(), orientation=Quaternion(w=1.0)),
+                                     size=Vector3(x=robot.length_m, y=robot.width_m, z=h), color=colour)
+                ents.append(SceneEntity(timestamp=_stamp(0.0), frame_id=frame, id=f"{prefix}robot",
+                                        frame_locked=True, cubes=[body], lines=[outline]))
+            else:
+                verts, tris = prism(ring, -h / 2, h / 2)
+                body_t = TriangleListPrimitive(pose=Pose(orientation=Quaternion(w=1.0)), color=colour,
+                                               points=[Point3(x=x, y=y, z=z) for x, y, z in verts.tolist()],
+                                               indices=tris.ravel().tolist())
+                ents.append(SceneEntity(timestamp=_stamp(0.0), frame_id=frame, id=f"{prefix}robot",
+                                        frame_locked=True, triangles=[body_t], lines=[outline]))
         self._put(TOPIC_ROBOT, SceneUpdate(entities=ents), 0)
 
     def event(self, t: float, level: str, message: str, name: str = "navstress") -> None:
@@ -377,6 +453,18 @@ class TraceWriter(TraceMessages):
         self._w = Writer(self._f, compression=CompressionType.ZSTD)
         self._w._writer.add_metadata("navstress.run", {k: str(v) for k, v in (metadata or {}).items()})
         self._pending: list[tuple[int, int, str, Any]] = []  # (log_time, submission order, topic, message)
+        self._robot_written = False
+
+    def robot(self, robot: RobotSpec | tuple[float, float, float], lidar: tuple[float, float, float] | None = None, *,
+              belief: bool) -> None:
+        """As :meth:`TraceMessages.robot`, and the robot's ``navstress.robot`` metadata
+        (:func:`robot_metadata`; :func:`read_robot` reads it back)."""
+        if not isinstance(robot, RobotSpec):
+            robot = box_robot(robot, lidar if lidar is not None else (0.35, 0.0, 0.75))
+        if not self._robot_written:
+            self._w._writer.add_metadata(ROBOT_METADATA, robot_metadata(robot))
+            self._robot_written = True
+        super().robot(robot, belief=belief)
 
     def _put(self, topic: str, msg: Any, log_time: int) -> None:
         """Queue one message; :meth:`close` writes the queue in log-time order."""
@@ -685,9 +773,26 @@ def read_movers(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray]:
     return np.array(ts), np.array(rows, dtype=np.float64).reshape(len(ts), -1, 4)
 
 
-def read_metadata(path: str | os.PathLike[str]) -> dict[str, str]:
+def read_metadata(path: str | os.PathLike[str], name: str = "navstress.run") -> dict[str, str]:
+    """The trace's metadata record ``name`` (``navstress.run``: the run's seeds and settings;
+    ``navstress.robot``: :func:`robot_metadata`), {} when it has none."""
     with open(path, "rb") as f:
         for md in make_reader(f).iter_metadata():
-            if md.name == "navstress.run":
+            if md.name == name:
                 return dict(md.metadata)
     return {}
+
+
+def read_robot(path: str | os.PathLike[str]) -> RobotSpec:
+    """The robot a trace was recorded with (its ``navstress.robot`` metadata); the paper's
+    ``rmp400`` for a trace written before robots were recorded. A description that is not a
+    valid robot is a :class:`~navstress.errors.StoreError` naming the trace."""
+    md = read_metadata(path, ROBOT_METADATA)
+    if "description" not in md:
+        return PROFILES["rmp400"]
+    try:
+        return RobotSpec.model_validate_json(md["description"])
+    except (ValueError, NavstressError) as err:
+        msg = " ".join(str(err).split())[:200]
+        raise StoreError(f"trace={os.fspath(path)!r} has a robot description that is not valid ({msg}); "
+                         "replay it from its campaign's store or record it again") from None

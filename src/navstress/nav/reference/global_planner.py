@@ -23,7 +23,7 @@ import navstress._jit  # noqa: F401  (numba's cache directory, before any @njit(
 from navstress.nav.api import NavMission
 from navstress.nav.reference.config import GlobalConfig, ReferenceConfig
 from navstress.nav.reference.navigator import ReferenceNavigator
-from navstress.nav.reference.planner import ArcEvaluation
+from navstress.nav.reference.planner import ArcEvaluation, footprint_half_extents
 from navstress.nav.reference.pose import Pose, wrap_angle
 from navstress.nav.reference.terrain_map import TerrainMap
 from navstress.robot import RobotSpec
@@ -190,7 +190,7 @@ class GlobalNavigator(ReferenceNavigator):
     def _on_cycle(self, t: float, pose: Pose) -> None:
         if t >= self._next_replan:
             g = self.gconfig
-            infl = 0.5 * self.robot.width_m + g.footprint_margin_m + g.inflation_margin_m
+            infl = footprint_half_extents(self.robot)[1] + g.footprint_margin_m + g.inflation_margin_m
             cost = cell_costs(self.terrain, infl, g.inflated_cost_factor, g.unknown_cost_factor)
             gi, gj = self.terrain.cell_of(*self.mission.goal)
             self.field = cost_to_go(cost, (gi, gj), self.terrain.cell_m)

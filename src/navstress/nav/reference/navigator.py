@@ -26,7 +26,8 @@ import numpy as np
 from navstress.errors import NavigatorError
 from navstress.nav.api import Command, DebugDraw, DebugLine, DebugText, NavMission, Observation, Status
 from navstress.nav.reference.config import ReferenceConfig
-from navstress.nav.reference.planner import _MAX_FP_CELLS, ArcEvaluation, ArcPlanner, _map_footprint_cells, node_cost
+from navstress.nav.reference.planner import (_MAX_FP_CELLS, ArcEvaluation, ArcPlanner, _map_footprint_cells,
+                                             footprint_half_extents, node_cost)
 from navstress.nav.reference.pose import Pose, PoseEstimator, wrap_angle
 from navstress.nav.reference.terrain_map import TerrainMap, step_threshold
 from navstress.robot import RobotSpec
@@ -234,8 +235,8 @@ class ReferenceNavigator:
     def _mark_under_robot(self, pose: Pose) -> None:
         t = self.terrain
         buf = self._fp_buf
-        n = _map_footprint_cells(t.constants, t.stats, pose.x, pose.y, pose.yaw, 0.5 * self.robot.length_m,
-                                 0.5 * self.robot.width_m, buf)
+        hl, hw = footprint_half_extents(self.robot)
+        n = _map_footprint_cells(t.constants, t.stats, pose.x, pose.y, pose.yaw, hl, hw, buf)
         if n > 0:  # the buffer's first n entries (footprint_cells without its copies)
             t.fill_unknown(buf[0, :n], buf[1, :n], (pose.x, pose.y), self.config.fill_radius_m,
                            pose.z - self._base_height)

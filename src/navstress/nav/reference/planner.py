@@ -4,7 +4,8 @@ Each cycle a fan of arcs starts at the perceived pose: ``forward_arcs`` arcs of 
 ``arc_length_m`` with curvatures evenly spaced in ``[-k_max, +k_max]`` (straight included), plus
 optionally a turn on the spot (its nodes are the current position at headings rotating toward
 the goal side). At each of the ``nodes_per_arc`` nodes the believed footprint (RobotSpec length x
-width plus margin, oriented along the arc) is laid on the map; the cells it overlaps (exactly:
+width plus margin, oriented along the arc; a circle or polygon footprint by its bounding rectangle,
+:func:`footprint_half_extents`) is laid on the map; the cells it overlaps (exactly:
 positive-area overlap of the oriented rectangle with the cell square) give the node's cost:
 
 * infinite if a *fine* obstacle cell (the DTM's 0.1 m obstacle layer) overlaps the footprint,
@@ -753,6 +754,28 @@ class ArcEvaluation:
         return out
 
 
+def footprint_half_extents(robot: RobotSpec) -> tuple[float, float]:
+    """(half length, half width) of the rectangle the planner checks for the believed ``robot``:
+    the smallest rectangle centred on ``base_link`` and aligned with it that holds the whole
+    footprint. A box footprint is that rectangle (``length_m / 2``, ``width_m / 2``); a circle
+    of radius r gives (r, r); a convex polygon (max |x|, max |y|) of its points: conservative (the
+    rectangle never leaves out a part of the robot; it covers more than the robot where the
+    shape is round or off-centre).
+
+        >>> footprint_half_extents(RobotSpec())
+        (0.57, 0.335)
+        >>> footprint_half_extents(RobotSpec(footprint={"shape": "polygon", "points": [(0.4, 0), (-0.2, 0.3), (-0.2, -0.1)]}))
+        (0.4, 0.3)
+    """
+    if robot.footprint.shape == "box":
+        return 0.5 * robot.length_m, 0.5 * robot.width_m
+    pts = robot.footprint_points() if robot.footprint.shape == "polygon" else None
+    if pts is None:
+        r = float(robot.footprint.radius_m or 0.5 * robot.length_m)
+        return r, r
+    return float(np.max(np.abs(pts[:, 0]))), float(np.max(np.abs(pts[:, 1])))
+
+
 class ArcPlanner:
     """The P3D arc fan and election for a believed robot (module doc).
 
@@ -764,8 +787,9 @@ class ArcPlanner:
     def __init__(self, config: ReferenceConfig, robot: RobotSpec) -> None:
         self.config = config
         self.robot = robot
-        self.half_length = 0.5 * robot.length_m + config.footprint_margin_m
-        self.half_width = 0.5 * robot.width_m + config.footprint_margin_m
+        hl, hw = footprint_half_extents(robot)  # a circle or a polygon: its bounding rectangle (conservative)
+        self.half_length = hl + config.footprint_margin_m
+        self.half_width = hw + config.footprint_margin_m
         kmax = config.max_curvature_per_m
         u = np.linspace(-1.0, 1.0, config.forward_arcs)
         self.curvatures = kmax * (u * np.abs(u) if config.curvature_spacing == "quadratic" else u)
