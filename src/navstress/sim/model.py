@@ -168,11 +168,15 @@ def _robot_xml(robot: RobotSpec, cfg: SimConfig, pose: tuple[float, float, float
                  f'group="{ROBOT_GROUP}" '
                  f'contype="{GROUND_BIT}" conaffinity="{GROUND_BIT}" condim="3" {fric} rgba="0.1 0.1 0.1 1"/>')
         if wh.steered:  # a steering hinge (z) between the chassis and the wheel
+            # its limit: the inner wheel's Ackermann angle at the bicycle model's limit
+            t = math.tan(dm.max_steer_rad)
+            L = robot.wheelbase_m
+            lock = math.atan2(L * t, L - abs(wh.y) * t)
             ms = 0.1 * mw
             wheels.append(
                 f'<body name="steer_{n}" pos="{_xml_float(wh.x)} {_xml_float(wh.y)} 0">'
                 f'<joint name="steer_{n}" type="hinge" axis="0 0 1" '
-                f'range="{_xml_float(-dm.max_steer_rad)} {_xml_float(dm.max_steer_rad)}" '
+                f'range="{_xml_float(-lock)} {_xml_float(lock)}" '
                 f'armature="{_xml_float(dm.armature_kgm2)}" damping="{_xml_float(dm.steer_kv)}"/>'
                 f'<inertial pos="0 0 0" mass="{_xml_float(ms)}" diaginertia="{_xml_float(ms * r * r / 4)} '
                 f'{_xml_float(ms * r * r / 4)} {_xml_float(ms * r * r / 4)}"/>'
@@ -205,7 +209,7 @@ def _robot_xml(robot: RobotSpec, cfg: SimConfig, pose: tuple[float, float, float
         f'forcerange="{_xml_float(-dm.torque_nm)} {_xml_float(dm.torque_nm)}"/>' for w in dm.wheels if w.driven)
     act += "".join(
         f'<position name="steer_{w.name}" joint="steer_{w.name}" kp="{_xml_float(dm.steer_kp)}" '
-        f'ctrlrange="{_xml_float(-dm.max_steer_rad)} {_xml_float(dm.max_steer_rad)}"/>'
+        f'ctrllimited="false"/>'
         for w in dm.wheels if w.steered)
     return body, act
 

@@ -14,9 +14,10 @@ one, the base's acceleration limits, and each wheel holding its integrated angle
 (right - left) / (m track), or the gyro's when ``odom_heading: gyro``.
 
 **Calibration.** ``track_multiplier`` None: :func:`derived_multiplier` (docs/simulation.md,
-"Drive types": Coulomb friction says 1 + <x^2>/(track/2)^2 for wheels at x along the side; this
-simulator's sliding contacts turn a skid steer a little less than that, and the measured factor
-is fitted over a family of geometries).
+"Drive types": Coulomb friction with equal loads says 1 + <x^2>/(track/2)^2 for wheels at x along
+a side; this simulator's contacts resist the turn more than that, nearly linearly in
+wheelbase/track, and the derived value is the simulator's own, measured over a family of
+geometries: :data:`MEASURED`).
 """
 
 from __future__ import annotations
@@ -27,9 +28,16 @@ from navstress.sim.drives import SKID_STEER, DriveModel, Wheel, gyro_gains, moto
 #: Wheel names per side by wheels_per_side (front first).
 NAMES: dict[int, tuple[str, ...]] = {1: ("",), 2: ("front", "rear"), 3: ("front", "mid", "rear"),
                                      4: ("front", "mid_front", "mid_rear", "rear")}
-#: The simulator's turn-in-place multiplier is about 1 + SIM_SLOPE * wheelbase / track (fitted, see
-#: docs/simulation.md "Drive types": measured over wheelbase/track 0.4 .. 1.4).
-SIM_SLOPE = 1.9
+#: What this simulator's skid steer turns with: the effective-track multiplier measured in closed
+#: loop, turning in place and at half speed at half the top turn rate, for wheelbase/track = 0.5,
+#: 1.0, 1.5, by time step (s) and wheels per side (``benchmarks/skid_calibration.py`` on the
+#: husky (10 ms) and jackal (5 ms) profiles; docs/simulation.md, "Drive types"). Open-loop runs at
+#: 17 and 40 kg gave the same figures: the friction is Coulomb's, independent of the load.
+MEASURED: dict[float, dict[int, tuple[float, float, float]]] = {
+    0.01: {2: (1.828, 3.091, 4.068), 3: (1.664, 2.876, 4.167), 4: (1.655, 2.729, 3.911)},
+    0.005: {2: (1.665, 2.535, 3.312), 3: (1.604, 2.392, 3.25), 4: (1.574, 2.335, 3.121)},
+}
+MEASURED_RATIOS = (0.5, 1.0, 1.5)
 #: The time step a skid steer needs (s): 10 ms with wheels of SMALL_WHEEL_M radius or more, 5 ms
 #: with smaller ones (docs/simulation.md, "Drive types": the friction rewrite uses the slip of the
 #: step before; a small wheel's slip changes faster, and a Jackal-class base then rocks in a hard
@@ -57,12 +65,26 @@ def coulomb_multiplier(robot: RobotSpec) -> float:
     return 1.0 + sum(x * x for x in xs) / len(xs) / (b * b)
 
 
+def timestep(robot: RobotSpec) -> float:
+    """The time step this skid steer needs (:data:`SMALL_WHEEL_M`)."""
+    return TIMESTEP_S if robot.wheel_radius_m >= SMALL_WHEEL_M else SMALL_TIMESTEP_S
+
+
 def derived_multiplier(robot: RobotSpec) -> float:
-    """``track_multiplier`` of a spec that leaves it None: what this simulator's skid steer turns in
-    place with, 1 + :data:`SIM_SLOPE` * wheelbase / track (1 with one wheel a side)."""
-    if robot.wheels_per_side == 1:
+    """``track_multiplier`` of a spec that leaves it None: what this simulator's skid steer turns
+    with at the robot's time step, interpolated in :data:`MEASURED` (piecewise linear in
+    wheelbase / track through (0, 1) and the measured points, the last slope beyond them; 1 with
+    one wheel a side)."""
+    n = robot.wheels_per_side
+    if n == 1:
         return 1.0
-    return 1.0 + SIM_SLOPE * robot.wheelbase_m / robot.track_m
+    rho = robot.wheelbase_m / robot.track_m
+    xs = (0.0,) + MEASURED_RATIOS
+    ys = (1.0,) + MEASURED[timestep(robot)][n]
+    for i in range(1, len(xs)):
+        if rho <= xs[i] or i == len(xs) - 1:
+            return ys[i - 1] + (ys[i] - ys[i - 1]) * (rho - xs[i - 1]) / (xs[i] - xs[i - 1])
+    raise AssertionError("unreachable")
 
 
 def model(robot: RobotSpec) -> DriveModel:
@@ -80,4 +102,4 @@ def model(robot: RobotSpec) -> DriveModel:
                       caster_radius_m=0.0, track_multiplier=float(mult), torque_nm=torque, kv=kv,
                       armature_kgm2=arm, hold_gain=robot.wheel_hold_gain, yaw_kp=kp, yaw_ki=ki,
                       odom_gyro=robot.odom_heading == "gyro",
-                      timestep_s=TIMESTEP_S if robot.wheel_radius_m >= SMALL_WHEEL_M else SMALL_TIMESTEP_S)
+                      timestep_s=timestep(robot))
