@@ -111,7 +111,7 @@ def _flat(size: float) -> World:
 @functools.lru_cache(maxsize=1)
 def _rough() -> World:
     from navstress.world.generate import generate  # the generator only for the rough leg
-    from navstress.world.spec import parse_spec
+    from navstress.world.spec import parse_spec  # (as above)
 
     return generate(parse_spec({"size_m": [100, 100], "ground": {"subdivisions": 4, "deformation": 2.0}}), 1)
 

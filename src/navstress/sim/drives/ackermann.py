@@ -19,7 +19,7 @@ of the two steering hinges), or the gyro's (``odom_heading: gyro``).
 from __future__ import annotations
 
 from navstress.robot import RobotSpec
-from navstress.sim.drives import ACKERMANN, GRAVITY, DriveModel, Wheel, motor_figures
+from navstress.sim.drives.common import ACKERMANN, GRAVITY, DriveModel, Wheel, motor_figures
 
 #: Below this speed (m/s) an Ackermann base does not try to turn (the bicycle model has no angle).
 MIN_TURN_SPEED = 0.05

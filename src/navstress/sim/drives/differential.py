@@ -16,7 +16,7 @@ as the Create 3 base fuses its IMU).
 from __future__ import annotations
 
 from navstress.robot import RobotSpec
-from navstress.sim.drives import CASTER_LOAD_SHARE, DIFFERENTIAL, DriveModel, Wheel, gyro_gains, motor_figures
+from navstress.sim.drives.common import CASTER_LOAD_SHARE, DIFFERENTIAL, DriveModel, Wheel, gyro_gains, motor_figures
 
 TIMESTEP_S = 0.01
 

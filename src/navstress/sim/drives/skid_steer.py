@@ -23,7 +23,7 @@ geometries: :data:`MEASURED`).
 from __future__ import annotations
 
 from navstress.robot import RobotSpec
-from navstress.sim.drives import SKID_STEER, DriveModel, Wheel, gyro_gains, motor_figures
+from navstress.sim.drives.common import SKID_STEER, DriveModel, Wheel, gyro_gains, motor_figures
 
 #: Wheel names per side by wheels_per_side (front first).
 NAMES: dict[int, tuple[str, ...]] = {1: ("",), 2: ("front", "rear"), 3: ("front", "mid", "rear"),
