@@ -40,5 +40,7 @@ def drive_model(robot: RobotSpec) -> DriveModel:
         dm = differential.model(robot)
     else:
         dm = ackermann.model(robot)
-    exact = robot.wheel_radius_m < EXACT_CONTACTS_BELOW_M or any(w.steered for w in dm.wheels)
+    # the skid-steer calibration table holds for the exact contacts: a derived multiplier needs them
+    exact = (robot.wheel_radius_m < EXACT_CONTACTS_BELOW_M or any(w.steered for w in dm.wheels)
+             or (robot.drive == "skid-steer" and robot.track_multiplier is None))
     return replace(dm, exact_contacts=exact) if exact else dm

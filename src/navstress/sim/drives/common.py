@@ -22,7 +22,8 @@ TORQUE_MU = 0.84
 KV_RATE = 51.8
 ARMATURE_SHARE = 0.0518
 GRAVITY = 9.81
-#: Wheels smaller than this (m), and every steered wheel, get the exact sphere-terrain contacts
+#: Wheels smaller than this (m), every steered wheel, and every skid steer whose multiplier is
+#: derived (``skid_steer.MEASURED`` was measured with them) get the exact sphere-terrain contacts
 #: (``_step.sphere_terrain_contacts``) instead of MuJoCo's sphere-hfield collision, which places
 #: a small sphere's contacts off its lowest point on the heightfield's cells (0.4 m): a steered wheel
 #: then cannot turn (the off-centre lateral force holds it) and a small base rocks on flat ground.
