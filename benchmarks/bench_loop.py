@@ -11,7 +11,12 @@ ArcPlanner.evaluate; the rest of the navigator = step minus those two; movers = 
 controller runs, Simulation._step_movers, inside physics+sensors), with the mean cost per
 call of map integration (per scan) and planning (per 10 Hz cycle).
 
+``--robots`` runs the same for other robot profiles (default: the paper's ``rmp400`` alone, whose
+section names are unchanged for ``side_by_side.py``; another profile's sections start with its
+name in brackets).
+
     taskset -c 1 .venv/bin/python benchmarks/bench_loop.py [--seconds 60] [--repeat 3]
+    taskset -c 1 .venv/bin/python benchmarks/bench_loop.py --robots husky,jackal,turtlebot4,f1tenth
 """
 
 from __future__ import annotations
@@ -27,6 +32,7 @@ from navstress.nav.api import Command
 from navstress.nav.reference.navigator import ReferenceNavigator
 from navstress.nav.reference.planner import ArcPlanner
 from navstress.nav.reference.terrain_map import TerrainMap
+from navstress.robot import RobotSpec, profile
 from navstress.run.mission import run_mission
 from navstress.sim import Simulation
 from navstress.sim.lidar import Lidar
@@ -82,7 +88,15 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3,
                     help="runs of the full loop per world (wall time on a shared or virtual machine varies "
                          "by +-5-10 %%: the median and the range are printed)")
+    ap.add_argument("--robots", default="rmp400", help="comma-separated robot profiles")
     args = ap.parse_args()
+    for name in args.robots.split(","):
+        bench_robot(profile(name.strip()), args.seconds, args.repeat)
+
+
+def bench_robot(robot: RobotSpec, seconds: float, repeat: int) -> None:
+    """The three worlds with ``robot``."""
+    tag = "" if robot.name == "rmp400" else f"[{robot.name}] "
     worlds = {
         "flat, 6% trees (seed 1)": generate(parse_spec({"size_m": [100, 100], "obstacles": {"obstruction": {"tree": 6}}}), 1),
         "flat, 6% trees, 20 movers (seed 1)": generate(parse_spec(MOVERS_WORLD), 1),
@@ -90,11 +104,12 @@ def main() -> None:
     }
     # warm up the numba caches outside the timing
     # (20 s: past the scan manoeuvre, so the planning kernels are loaded too)
-    run_mission(worlds["s=4 d=2 (seed 1)"], ReferenceNavigator(), run_seed=0, timeout_s=20.0)
-    run_mission(worlds["flat, 6% trees, 20 movers (seed 1)"], ReferenceNavigator(), run_seed=0, timeout_s=5.0)
+    run_mission(worlds["s=4 d=2 (seed 1)"], ReferenceNavigator(), run_seed=0, timeout_s=20.0, robot=robot)
+    run_mission(worlds["flat, 6% trees, 20 movers (seed 1)"], ReferenceNavigator(), run_seed=0, timeout_s=5.0,
+                robot=robot)
     for name, world in worlds.items():
-        sim = Simulation(world, seed=3)
-        base_wall = scripted(sim, args.seconds)
+        sim = Simulation(world, robot, seed=3)
+        base_wall = scripted(sim, seconds)
         base_ratio = sim.t / base_wall
         TIMES.clear()
         CALLS.clear()
@@ -102,18 +117,18 @@ def main() -> None:
                 timed(ReferenceNavigator, "step", "nav"), timed(TerrainMap, "integrate", "map"),
                 timed(ArcPlanner, "evaluate", "plan"), timed(Simulation, "_step_movers", "movers")]
         t0 = time.perf_counter()
-        r = run_mission(world, ReferenceNavigator(), run_seed=3, timeout_s=args.seconds)
+        r = run_mission(world, ReferenceNavigator(), run_seed=3, timeout_s=seconds, robot=robot)
         wall = time.perf_counter() - t0
         for u in undo:
             u()
         # the same run again without the timers (same seed: the same work), for the spread
         ratios, cpu_ratios = [r.duration_s / wall], []
-        for _ in range(max(0, args.repeat - 1)):
+        for _ in range(max(0, repeat - 1)):
             t1, c1 = time.perf_counter(), time.process_time()
-            r2 = run_mission(world, ReferenceNavigator(), run_seed=3, timeout_s=args.seconds)
+            r2 = run_mission(world, ReferenceNavigator(), run_seed=3, timeout_s=seconds, robot=robot)
             cpu_ratios.append(r2.duration_s / (time.process_time() - c1))
             ratios.append(r2.duration_s / (time.perf_counter() - t1))
-        print(f"== {name}: {r.duration_s:.0f} s simulated, outcome {r.classification.outcome.value} "
+        print(f"== {tag}{name}: {r.duration_s:.0f} s simulated, outcome {r.classification.outcome.value} "
               f"({r.classification.reason})")
         print(f"  full loop      : {r.duration_s / wall:6.1f} x real time  ({wall:.2f} s wall, with the timers below)")
         if len(ratios) > 1:

@@ -123,7 +123,8 @@ class RobotSpec(BaseModel):
     yaw_kp: float = Field(1.0, ge=0)
     yaw_ki: float = Field(4.0, ge=0)
     track_multiplier: float | None = Field(
-        3.4, gt=0, description="skid steer: effective track / track, in the firmware and the odometry; None: from geometry")
+        3.4, gt=0, description=("skid steer: effective track / track, in the firmware and the odometry; None: the "
+                                "simulator's calibration for the geometry (docs/simulation.md, Drive types)"))
     odom_heading: Literal["wheels", "gyro"] = Field("wheels", description="odometry heading from the wheels or the gyro")
     # --- limits
     max_speed_mps: float = Field(1.2, gt=0, description="top linear speed used by navigation")

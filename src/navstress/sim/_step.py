@@ -45,6 +45,7 @@ from navstress.errors import SimulationError
 from navstress.sim.mjabi import (CF_DIST, CF_FRAME, CF_FRICTION, CF_POS, CI_EFC, CI_EXCLUDE, CI_GEOM, CI_GEOM1, CI_GEOM2,
                                  add_contact, contact_row, contacts, fwd_position_collision,
                                  fwd_position_constraints, mj_fwdVelocity, mj_step2)
+from navstress.sim.drives import ACKERMANN, MAX_WHEELS
 from navstress.sim.model import MjSlotArrays, PoolArrays, fill_obstacle_slots
 
 # status bits returned by run_steps
@@ -67,9 +68,11 @@ STATE = np.dtype([
     ("tv", _F), ("tw", _F),  # the command in effect (drive firmware targets)
     ("v", _F), ("w", _F),  # ramped speed and yaw rate
     ("yaw_i", _F),  # yaw-rate PI integral
-    ("ref", _F, (4,)),  # wheel angle references (each wheel tracks its integrated speed command)
+    ("ref", _F, (MAX_WHEELS,)),  # wheel angle references (each wheel tracks its integrated speed command)
+    ("steer", _F),  # ackermann: the bicycle steering angle commanded now (rate limited)
     ("odom_x", _F), ("odom_y", _F), ("odom_yaw", _F),  # wheel odometry pose
-    ("odom_a", _F, (4,)),  # wheel angles at the last odometry sample (FL, RL, FR, RR)
+    ("odom_a", _F, (MAX_WHEELS,)),  # wheel angles at the last odometry sample (PARAMS.wheel_qpos order)
+    ("odom_gyro_yaw", _F),  # the chassis yaw at the last odometry sample (gyro heading)
     ("odom_t", _F), ("odom_v", _F), ("odom_w", _F),  # last odometry sample time, speed, yaw rate
     ("imu_bias", _F), ("imu_t", _F),  # IMU yaw bias (random walk) and last sample time
     ("n_imu", _I), ("n_pose", _I),  # next unused value of the noise rows IMU_NOISE / POSE_NOISE
@@ -86,12 +89,23 @@ STATE = np.dtype([
 PARAMS = np.dtype([
     ("model", _I), ("data", _I), ("ncon_addr", _I), ("contact_field", _I),  # mjabi.Addresses
     ("chassis", _I), ("bumper", _I), ("terrain", _I),  # body, geom, geom ids
-    ("wheel_body", _I, (4,)), ("wheel_qpos", _I, (4,)), ("wheel_dof", _I, (4,)),  # FL, RL, FR, RR
+    ("n_wheels", _I),  # wheels of the drive model (the first n entries of the wheel arrays)
+    ("wheel_body", _I, (MAX_WHEELS,)), ("wheel_qpos", _I, (MAX_WHEELS,)), ("wheel_dof", _I, (MAX_WHEELS,)),
+    ("wheel_x", _F, (MAX_WHEELS,)), ("wheel_y", _F, (MAX_WHEELS,)),  # wheel centres in base_link
+    ("wheel_act", _I, (MAX_WHEELS,)),  # velocity actuator of each wheel (-1: passive)
+    ("axle_body", _I, (MAX_WHEELS,)),  # body whose y axis is the wheel's axle (the chassis or a steering body)
+    ("steer_act", _I, (MAX_WHEELS,)), ("steer_qpos", _I, (MAX_WHEELS,)),  # steering hinge of each wheel (-1: none)
+    ("odom_side", _I, (MAX_WHEELS,)),  # odometry: 1 a left encoder, 2 a right one, 0 not used
+    ("odom_inv_l", _F), ("odom_inv_r", _F),  # 1 / number of left / right odometry wheels
+    ("odom_gyro", _I),  # odometry heading from the gyro (the chassis yaw) instead of the wheels
+    ("drive", _I),  # navstress.sim.drives: SKID_STEER, DIFFERENTIAL, ACKERMANN
+    ("wheelbase", _F), ("rear_x", _F),  # ackermann: bicycle model
+    ("max_steer", _F), ("steer_step", _F), ("min_turn_speed", _F),  # steering limit, rate limit per step
     ("warning_ids", _I, (len(BAD_WARNINGS),)),  # BAD_WARNINGS
     ("dt", _F),  # time step (s)
     ("dv", _F), ("dw", _F),  # speed / yaw-rate change per step at the acceleration limits
     ("skid", _F), ("kp", _F), ("ki", _F),  # skid factor, yaw-rate PI gains
-    ("half_track", _F), ("wheel_radius", _F), ("hold", _F),  # drive geometry, wheel-angle hold gain
+    ("wheel_radius", _F), ("hold", _F),  # wheel radius, wheel-angle hold gain
     ("mu", _F), ("friction_floor", _F), ("slip_eps", _F),  # skid-steer friction rewrite
     ("max_speed", _F),  # body speed above which the physics is unstable
     ("size_x", _F), ("size_y", _F), ("margin", _F),  # map size, margin of the left-map stop
@@ -323,7 +337,6 @@ def _align_wheel_contacts(cf: np.ndarray, ci: np.ndarray, p: Any, qvel: np.ndarr
     cm, cpos = xmat[p.chassis], xpos[p.chassis]
     wbody, wdof, mu, floor, eps = p.wheel_body, p.wheel_dof, p.mu, p.friction_floor, p.slip_eps
     k = 0
-    ax, ay, az = cm[1], cm[4], cm[7]  # wheel axle = chassis y axis
     wx = cm[0] * qvel[3] + cm[1] * qvel[4] + cm[2] * qvel[5]
     wy = cm[3] * qvel[3] + cm[4] * qvel[4] + cm[5] * qvel[5]
     wz = cm[6] * qvel[3] + cm[7] * qvel[4] + cm[8] * qvel[5]
@@ -335,6 +348,12 @@ def _align_wheel_contacts(cf: np.ndarray, ci: np.ndarray, p: Any, qvel: np.ndarr
         if w < 0:
             continue
         nx, ny, nz = cf[i, fi], cf[i, fi + 1], cf[i, fi + 2]
+        ab = p.axle_body[w]
+        if ab != p.chassis:  # a steered wheel: its axle is its steering body's y axis
+            sm = xmat[ab]
+            ax, ay, az = sm[1], sm[4], sm[7]
+        else:
+            ax, ay, az = cm[1], cm[4], cm[7]
         tx = ay * nz - az * ny
         ty = az * nx - ax * nz
         tz = ax * ny - ay * nx
@@ -520,40 +539,106 @@ def sphere_terrain_contacts(sphere: Sphere, hf: np.ndarray, grid: HFieldGrid,
 def _drive(s: Any, p: Any, qpos: np.ndarray, qvel: np.ndarray, ctrl: np.ndarray,
            wqpos: np.ndarray) -> None:  # pragma: no cover - compiled
     """Robot firmware: ramp to the acceleration limits, yaw-rate PI on the gyro, wheel-angle hold
-    (``s``: a :data:`STATE` record, ``p``: a :data:`PARAMS` record).
+    (``s``: a :data:`STATE` record, ``p``: a :data:`PARAMS` record); Ackermann steering in
+    :func:`_drive_ackermann`.
 
     Each wheel tracks the integral of its speed command (bounded lag 0.5 rad), so a stopped
     robot holds on a slope instead of creeping at torque / kv."""
     dt = p.dt
     s.v += min(max(s.tv - s.v, -p.dv), p.dv)
     s.w += min(max(s.tw - s.w, -p.dw), p.dw)
+    if p.drive == ACKERMANN:
+        _drive_ackermann(s, p, qpos, ctrl, wqpos)
+        return
     err = s.w - qvel[5]  # free joint: body-frame angular velocity
     s.yaw_i = min(max(s.yaw_i + err * dt, -0.5), 0.5)
     dw_cmd = p.skid * s.w + p.kp * err + p.ki * s.yaw_i
-    left = (s.v - dw_cmd * p.half_track) / p.wheel_radius
-    right = (s.v + dw_cmd * p.half_track) / p.wheel_radius
-    ref = s.ref
-    for i in range(4):
-        cmd = left if i < 2 else right
+    ref, wy, act = s.ref, p.wheel_y, p.wheel_act
+    for i in range(p.n_wheels):
+        cmd = (s.v - dw_cmd * wy[i]) / p.wheel_radius
         a = qpos[wqpos[i]]
         e = min(max(ref[i] + cmd * dt - a, -0.5), 0.5)
         ref[i] = a + e
-        ctrl[i] = cmd + p.hold * e
+        ctrl[act[i]] = cmd + p.hold * e
 
 
 @numba.njit(cache=True)
-def odom_update(s: Any, p: Any, a0: float, a1: float, a2: float, a3: float, t: float) -> None:  # pragma: no cover
-    """``WheelOdometry.update`` (the reference in ``tests/oracles/sensors.py``) on the :data:`STATE` record ``s`` with
-    the :data:`PARAMS` record ``p`` (same arithmetic): wheel angles FL, RL, FR, RR at time ``t``;
-    exact-arc integration."""
-    oa = s.odom_a
-    d0, d1, d2, d3 = a0 - oa[0], a1 - oa[1], a2 - oa[2], a3 - oa[3]
-    oa[0], oa[1], oa[2], oa[3] = a0, a1, a2, a3
+def _drive_ackermann(s: Any, p: Any, qpos: np.ndarray, ctrl: np.ndarray,
+                     wqpos: np.ndarray) -> None:  # pragma: no cover - compiled
+    """Ackermann firmware (:mod:`navstress.sim.drives.ackermann`): the ramped twist through the
+    bicycle model about the rear axle to a steering angle (limit, rate limit), each steered wheel to
+    its Ackermann angle, each driven wheel at its contact point's speed."""
+    v, w, L = s.v, s.w, p.wheelbase
+    if abs(v) >= p.min_turn_speed:
+        target = math.atan(L * w / v)
+    elif w != 0.0:
+        target = math.copysign(p.max_steer, w)
+    else:
+        target = 0.0
+    target = min(max(target, -p.max_steer), p.max_steer)
+    s.steer += min(max(target - s.steer, -p.steer_step), p.steer_step)
+    t = math.tan(s.steer)
+    wk = v * t / L  # the yaw rate of this steering at this speed
+    ref, act = s.ref, p.wheel_act
+    for i in range(p.n_wheels):
+        y = p.wheel_y[i]
+        vx, vy = v - wk * y, wk * (p.wheel_x[i] - p.rear_x)
+        if p.steer_act[i] >= 0:
+            d = math.atan2(L * t, L - y * t)
+            ctrl[p.steer_act[i]] = d
+            roll = vx * math.cos(d) + vy * math.sin(d)
+        else:
+            roll = vx
+        if act[i] < 0:
+            continue
+        cmd = roll / p.wheel_radius
+        a = qpos[wqpos[i]]
+        e = min(max(ref[i] + cmd * p.dt - a, -0.5), 0.5)
+        ref[i] = a + e
+        ctrl[act[i]] = cmd + p.hold * e
+
+
+@numba.njit(cache=True)
+def odom_update(s: Any, p: Any, qpos: np.ndarray, t: float) -> None:  # pragma: no cover
+    """``WheelOdometry.update`` (the reference in ``tests/oracles/sensors.py``) on the :data:`STATE`
+    record ``s`` with the :data:`PARAMS` record ``p`` (same arithmetic), the wheel angles read from
+    ``qpos`` at time ``t``: each side's travel is the radius times its encoders' mean rotation
+    (``PARAMS.odom_side``); the heading change (right - left) / track, or (ackermann) the travel
+    times the measured bicycle steering tangent / wheelbase, or (``odom_gyro``) the chassis yaw
+    change; exact-arc integration."""
+    oa, wq, side = s.odom_a, p.wheel_qpos, p.odom_side
+    suml = sumr = 0.0
+    nl = nr = 0
+    for i in range(p.n_wheels):
+        a = qpos[wq[i]]
+        d = a - oa[i]
+        oa[i] = a
+        if side[i] == 1:
+            suml = d if nl == 0 else suml + d
+            nl += 1
+        elif side[i] == 2:
+            sumr = d if nr == 0 else sumr + d
+            nr += 1
     r = p.odom_radius
-    dl = r * 0.5 * (d0 + d1)
-    dr = r * 0.5 * (d2 + d3)
+    dl = r * p.odom_inv_l * suml
+    dr = r * p.odom_inv_r * sumr
     ds = 0.5 * (dl + dr)
-    dth = (dr - dl) / p.odom_track
+    if p.odom_gyro != 0:
+        gy = _euler(qpos)[0]
+        dth = _wrap(gy - s.odom_gyro_yaw)
+        s.odom_gyro_yaw = gy
+    elif p.drive == ACKERMANN:
+        tsum = 0.0
+        ns = 0
+        L = p.wheelbase
+        for i in range(p.n_wheels):
+            if p.steer_qpos[i] >= 0:
+                tj = math.tan(qpos[p.steer_qpos[i]])
+                tsum += L * tj / (L + p.wheel_y[i] * tj)
+                ns += 1
+        dth = ds * (tsum / max(ns, 1)) / L
+    else:
+        dth = (dr - dl) / p.odom_track
     yaw = s.odom_yaw
     if abs(dth) > 1e-9:
         k = ds / dth
@@ -618,7 +703,7 @@ def _fire(k: int, s: Any, p: Any, qpos: np.ndarray, qvel: np.ndarray, wqpos: np.
             row = samples[sn, nsamp[sn]]
             row[0] = t
             if sn == ODOM:  # integrated here; the row is the reading (t, x, y, yaw, v, omega)
-                odom_update(s, p, qpos[wqpos[0]], qpos[wqpos[1]], qpos[wqpos[2]], qpos[wqpos[3]], t)
+                odom_update(s, p, qpos, t)
                 row[1], row[2], row[3], row[4], row[5] = s.odom_x, s.odom_y, s.odom_yaw, s.odom_v, s.odom_w
             else:
                 yaw, pitch, roll = _euler(qpos)

@@ -21,6 +21,13 @@ from navstress.errors import SpecError
 from navstress.sim.lidar import LidarConfig
 
 
+#: Drive figures that moved from ``sim:`` to the robot (``sim.<key>`` -> ``robot.<field>``).
+MOVED_TO_ROBOT: dict[str, str] = {
+    "skid_factor": "track_multiplier", "wheel_torque_nm": "wheel_torque_nm", "wheel_kv": "wheel_kv",
+    "wheel_armature": "wheel_armature_kgm2", "wheel_hold_gain": "wheel_hold_gain", "yaw_kp": "yaw_kp",
+    "yaw_ki": "yaw_ki"}
+
+
 @dataclass(frozen=True)
 class SimConfig:
     """Physics and sensor settings. Rates in Hz, times in seconds, angles in radians."""
@@ -31,13 +38,6 @@ class SimConfig:
     friction: float = 0.8  # wheel-ground Coulomb coefficient (dry dirt / grass)
     friction_floor: float = 0.05  # smallest directional share of the friction limit
     slip_eps_mps: float = 0.005  # below this slip speed both directions keep full (static) friction
-    wheel_torque_nm: float = 60.0  # per-wheel motor torque limit
-    wheel_kv: float = 100.0  # wheel velocity-servo gain, N m per rad/s
-    wheel_hold_gain: float = 5.0  # wheel-angle hold of the drive firmware, (rad/s) per rad of lag
-    wheel_armature: float = 0.1  # reflected rotor inertia of the geared wheel motor, kg m^2
-    skid_factor: float = 3.4  # effective-track expansion of the skid steer (calibrated on flat ground)
-    yaw_kp: float = 1.0  # drive firmware yaw-rate loop (gyro feedback), per unit rate error
-    yaw_ki: float = 4.0
     max_speed_mps: float = 20.0  # any body speed above this is physics instability
     analytic_wheel_contacts: bool = False  # exact sphere-mesh wheel contacts instead of MuJoCo's hfield collision
     obstacle_pool: int = 32  # obstacle slots near the robot in MuJoCo (0: every obstacle, static)
@@ -83,7 +83,7 @@ class SimConfig:
             elif isinstance(default, float):
                 if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v):
                     raise SpecError(f"sim.{f.name}", v, "a finite number")
-        positive = ("timestep_s", "friction", "wheel_torque_nm", "wheel_kv", "skid_factor",
+        positive = ("timestep_s", "friction",
                     "odom_rate_hz", "imu_rate_hz", "pose_rate_hz", "observer_rate_hz", "max_speed_mps",
                     "flip_threshold_rad")
         for name in positive:
@@ -93,8 +93,7 @@ class SimConfig:
         if self.timestep_s > 0.02:
             raise SpecError("sim.timestep_s", self.timestep_s, "at most 0.02 s for stable contacts",
                             "use the default 0.01")
-        nonneg = ("friction_floor", "wheel_hold_gain", "slip_eps_mps", "wheel_armature", "obstacle_margin_m",
-                  "yaw_kp", "yaw_ki", "map_margin_m",
+        nonneg = ("friction_floor", "slip_eps_mps", "obstacle_margin_m", "map_margin_m",
                   "collision_debounce_s", "command_latency_s", "command_latency_jitter_s", "rate_jitter",
                   "pose_pos_std_m", "pose_att_std_rad", "imu_att_std_rad", "imu_rate_std_rps",
                   "imu_yaw_drift_rps")
@@ -116,6 +115,9 @@ class SimConfig:
             raise SpecError("sim", data, "a mapping of SimConfig fields")
         known = [f.name for f in fields(cls)]
         for k in data:
+            if k in MOVED_TO_ROBOT:
+                raise SpecError(f"sim.{k}", data[k], "no drive figure in sim: the robot carries it",
+                                f"set robot.{MOVED_TO_ROBOT[k]} instead")
             if k not in known:
                 raise SpecError(f"sim.{k}", data[k], "a SimConfig field (check its spelling); one of "
                                 + ", ".join(known))

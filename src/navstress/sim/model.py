@@ -42,6 +42,7 @@ import navstress._jit  # noqa: F401  (numba's cache directory, before any @njit(
 from navstress.errors import SimulationError
 from navstress.robot import RobotSpec
 from navstress.sim.config import SimConfig
+from navstress.sim.drives import MAX_WHEELS, WHEEL_MASS_FRACTION, drive_model
 from navstress.world.world import World
 
 TERRAIN_GROUP = 0
@@ -53,8 +54,6 @@ MOVER_BIT = 4  # movers touch only the bumper (whose conaffinity has this bit on
 MOVER_GROUP = 2
 HFIELD_BASE_M = 1.0
 FLAT_ELEVATION_M = 1e-3
-CHASSIS_CLEARANCE_M = 0.12  # belly height above the ground
-WHEEL_MASS_FRACTION = 0.05  # of the total mass, each wheel
 PARK_Z_M = -1.0e4  # where unused obstacle slots wait (far below any terrain)
 
 
@@ -119,52 +118,99 @@ def world_to_mjcf(world: World) -> str:
             f"<asset>\n{asset}\n</asset>\n<worldbody>\n{body}\n</worldbody>\n</mujoco>\n")
 
 
+def _robot_asset(robot: RobotSpec) -> str:
+    """Asset xml of the robot: the bumper's prism of a polygon footprint ("" otherwise)."""
+    if robot.footprint.shape != "polygon":
+        return ""
+    h = robot.body_height_m / 2
+    pts = robot.footprint_points()
+    vert = " ".join(f"{_xml_float(x)} {_xml_float(y)} {_xml_float(z)}" for z in (-h, h) for x, y in pts)
+    return f'<mesh name="bumper" vertex="{vert}"/>'
+
+
+def _bumper_geom(robot: RobotSpec) -> str:
+    """The bumper's type and size attributes: a box, an upright cylinder or the footprint prism."""
+    fp, L, W, H = robot.footprint, robot.length_m, robot.width_m, robot.body_height_m
+    if fp.shape == "circle":
+        assert fp.radius_m is not None
+        return f'type="cylinder" size="{_xml_float(fp.radius_m)} {_xml_float(H / 2)}"'
+    if fp.shape == "polygon":
+        return 'type="mesh" mesh="bumper"'
+    return f'type="box" size="{_xml_float(L / 2)} {_xml_float(W / 2)} {_xml_float(H / 2)}"'
+
+
 def _robot_xml(robot: RobotSpec, cfg: SimConfig, pose: tuple[float, float, float, float],
                movers: bool = False) -> tuple[str, str]:
     """(worldbody xml, actuator xml) of the robot placed at (x, y, z_ground, yaw); ``movers``: the
-    bumper touches movers too."""
+    bumper touches movers too. The wheels, casters and steering come from the drive model
+    (:mod:`navstress.sim.drives`); the polygon bumper's mesh is in :func:`_robot_asset`."""
     x, y, zg, yaw = pose
+    dm = drive_model(robot)
     r = robot.wheel_radius_m
     mw = WHEEL_MASS_FRACTION * robot.mass_kg
-    mc = robot.mass_kg - 4 * mw
+    mc = robot.mass_kg - len(dm.wheels) * mw
     L, W, H = robot.length_m, robot.width_m, robot.body_height_m
-    zc = CHASSIS_CLEARANCE_M + H / 2 - r  # chassis box centre relative to the axle height
-    ixx = mc * (W**2 + H**2) / 12
-    iyy = mc * (L**2 + H**2) / 12
-    izz = mc * (L**2 + W**2) / 12
+    zc = robot.ground_clearance_m + H / 2 - r  # chassis box centre relative to the axle height
+    if robot.inertia_kgm2 is not None:
+        ixx, iyy, izz = robot.inertia_kgm2
+    else:
+        ixx = mc * (W**2 + H**2) / 12
+        iyy = mc * (L**2 + H**2) / 12
+        izz = mc * (L**2 + W**2) / 12
     bx = max(robot.wheelbase_m / 2, 0.05)
     by = max(robot.track_m / 2 - robot.wheel_width_m / 2 - 0.01, 0.05)
     fric = f'friction="{_xml_float(cfg.friction)} 0.005 0.0001"'
     wheels = []
-    names = ("front_left", "rear_left", "front_right", "rear_right")
-    for i, (sxn, syn) in enumerate(((1, 1), (-1, 1), (1, -1), (-1, -1))):
-        wheels.append(
-            f'<body name="wheel_{names[i]}" '
-            f'pos="{_xml_float(sxn * robot.wheelbase_m / 2)} {_xml_float(syn * robot.track_m / 2)} 0">'
-            f'<joint name="wheel_{names[i]}" type="hinge" axis="0 1 0" armature="{_xml_float(cfg.wheel_armature)}"/>'
-            f'<geom name="wheel_{names[i]}" type="sphere" size="{_xml_float(r)}" mass="{_xml_float(mw)}" '
-            f'group="{ROBOT_GROUP}" '
-            f'contype="{GROUND_BIT}" conaffinity="{GROUND_BIT}" condim="3" {fric} rgba="0.1 0.1 0.1 1"/>'
-            f"</body>")
+    for wh in dm.wheels:
+        n = wh.name
+        wheel = (f'<joint name="wheel_{n}" type="hinge" axis="0 1 0" armature="{_xml_float(dm.armature_kgm2)}"/>'
+                 f'<geom name="wheel_{n}" type="sphere" size="{_xml_float(r)}" mass="{_xml_float(mw)}" '
+                 f'group="{ROBOT_GROUP}" '
+                 f'contype="{GROUND_BIT}" conaffinity="{GROUND_BIT}" condim="3" {fric} rgba="0.1 0.1 0.1 1"/>')
+        if wh.steered:  # a steering hinge (z) between the chassis and the wheel
+            # its limit: the inner wheel's Ackermann angle at the bicycle model's limit
+            t = math.tan(dm.max_steer_rad)
+            L = robot.wheelbase_m
+            lock = math.atan2(L * t, L - abs(wh.y) * t)
+            ms = 0.1 * mw
+            wheels.append(
+                f'<body name="steer_{n}" pos="{_xml_float(wh.x)} {_xml_float(wh.y)} 0">'
+                f'<joint name="steer_{n}" type="hinge" axis="0 0 1" '
+                f'range="{_xml_float(-lock)} {_xml_float(lock)}" '
+                f'armature="{_xml_float(dm.armature_kgm2)}" damping="{_xml_float(dm.steer_kv)}"/>'
+                f'<inertial pos="0 0 0" mass="{_xml_float(ms)}" diaginertia="{_xml_float(ms * r * r / 4)} '
+                f'{_xml_float(ms * r * r / 4)} {_xml_float(ms * r * r / 4)}"/>'
+                f'<body name="wheel_{n}" pos="0 0 0">{wheel}</body></body>')
+        else:
+            wheels.append(f'<body name="wheel_{n}" pos="{_xml_float(wh.x)} {_xml_float(wh.y)} 0">{wheel}</body>')
+    casters = "".join(
+        f'<geom name="caster_{i}" type="sphere" size="{_xml_float(dm.caster_radius_m)}" '
+        f'pos="{_xml_float(cx)} {_xml_float(cy)} {_xml_float(dm.caster_radius_m - r)}" mass="0" '
+        f'group="{ROBOT_GROUP}" contype="{GROUND_BIT}" conaffinity="{GROUND_BIT}" condim="1" priority="1" '
+        f'rgba="0.1 0.1 0.1 1"/>' for i, (cx, cy) in enumerate(dm.casters))
     lm = robot.lidar
     bumper_aff = OBSTACLE_BIT | (MOVER_BIT if movers else 0)
     body = (
         f'<body name="chassis" pos="{_xml_float(x)} {_xml_float(y)} {_xml_float(zg + r + 0.002)}" '
         f'euler="0 0 {_xml_float(yaw)}">'
         f'<freejoint name="chassis"/>'
-        f'<inertial pos="0 0 {_xml_float(zc)}" mass="{_xml_float(mc)}" '
+        f'<inertial pos="{_xml_float(dm.com_x_m) if dm.com_x_m else "0"} 0 {_xml_float(zc)}" mass="{_xml_float(mc)}" '
         f'diaginertia="{_xml_float(ixx)} {_xml_float(iyy)} {_xml_float(izz)}"/>'
         f'<geom name="belly" type="box" size="{_xml_float(bx)} {_xml_float(by)} {_xml_float(H / 2)}" '
         f'pos="0 0 {_xml_float(zc)}" mass="0" '
         f'group="{ROBOT_GROUP}" contype="{GROUND_BIT}" conaffinity="{GROUND_BIT}" {fric} rgba="0.8 0.3 0.1 1"/>'
-        f'<geom name="bumper" type="box" size="{_xml_float(L / 2)} {_xml_float(W / 2)} {_xml_float(H / 2)}" '
+        f'<geom name="bumper" {_bumper_geom(robot)} '
         f'pos="0 0 {_xml_float(zc)}" mass="0" '
         f'group="{ROBOT_GROUP}" contype="{OBSTACLE_BIT}" conaffinity="{bumper_aff}" rgba="0.8 0.3 0.1 0.3"/>'
         f'<site name="lidar" pos="{_xml_float(lm.x_m)} {_xml_float(lm.y_m)} {_xml_float(lm.z_m)}"/>'
-        + "".join(wheels) + "</body>")
+        + casters + "".join(wheels) + "</body>")
     act = "".join(
-        f'<velocity name="wheel_{n}" joint="wheel_{n}" kv="{_xml_float(cfg.wheel_kv)}" '
-        f'forcerange="{_xml_float(-cfg.wheel_torque_nm)} {_xml_float(cfg.wheel_torque_nm)}"/>' for n in names)
+        f'<velocity name="wheel_{w.name}" joint="wheel_{w.name}" kv="{_xml_float(dm.kv)}" '
+        f'forcerange="{_xml_float(-dm.torque_nm)} {_xml_float(dm.torque_nm)}"/>' for w in dm.wheels if w.driven)
+    act += "".join(
+        f'<position name="steer_{w.name}" joint="steer_{w.name}" kp="{_xml_float(dm.steer_kp)}" '
+        f'ctrllimited="false"/>'
+        for w in dm.wheels if w.steered)
     return body, act
 
 
@@ -197,10 +243,10 @@ class RobotModel:
 
     model: mujoco.MjModel
     chassis_body: int
-    wheel_bodies: np.ndarray  # (4,) FL, RL, FR, RR
-    wheel_dofs: np.ndarray  # (4,) dof index of each wheel hinge
-    wheel_qpos: np.ndarray  # (4,) qpos index of each wheel hinge
-    wheel_of_geom: np.ndarray  # (ngeom,) wheel index 0..3, or -1
+    wheel_bodies: np.ndarray  # (n,) the drive model's wheels in order (skid steer: FL, RL, FR, RR)
+    wheel_dofs: np.ndarray  # (n,) dof index of each wheel hinge
+    wheel_qpos: np.ndarray  # (n,) qpos index of each wheel hinge
+    wheel_of_geom: np.ndarray  # (ngeom,) wheel index 0..n-1, or -1
     obstacle_of_geom: np.ndarray  # (ngeom,) obstacle index, or -1
     bumper_geom: int
     lidar_site: int
@@ -209,6 +255,10 @@ class RobotModel:
     slot_bodies: np.ndarray  # (K,) mocap body of each slot
     mover_geoms: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # (n,) geom of each mover (World.movers order)
     mover_mocap: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # (n,) mocap index of each mover body
+    wheel_act: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # (n,) actuator of each wheel, -1: passive
+    axle_bodies: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # (n,) body whose y axis is the wheel's axle
+    steer_qpos: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # (k,) qpos of each steering hinge
+    steer_act: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # (k,) its position actuator
 
 
 def build_model(world: World, robot: RobotSpec = RobotSpec(), cfg: SimConfig = SimConfig(),
@@ -232,6 +282,9 @@ def build_model(world: World, robot: RobotSpec = RobotSpec(), cfg: SimConfig = S
     if world.movers:
         wbody += "\n" + _movers_xml(world)
     rbody, act = _robot_xml(robot, cfg, (sx, sy, zg, syaw), movers=bool(world.movers))
+    rasset = _robot_asset(robot)
+    if rasset:
+        asset += "\n" + rasset
     xml = (f'<mujoco model="navstress">\n<compiler angle="radian"/>\n'
            f'<option timestep="{_xml_float(cfg.timestep_s)}" integrator="implicitfast" solver="Newton" '
            f'iterations="{cfg.solver_iterations}" ls_iterations="10" cone="pyramidal"/>\n'
@@ -247,7 +300,10 @@ def build_model(world: World, robot: RobotSpec = RobotSpec(), cfg: SimConfig = S
         return int(mujoco.mj_name2id(m, t, n))
 
     G, B, J = mujoco.mjtObj.mjOBJ_GEOM, mujoco.mjtObj.mjOBJ_BODY, mujoco.mjtObj.mjOBJ_JOINT
-    names = ("front_left", "rear_left", "front_right", "rear_right")
+    dm = drive_model(robot)
+    names = tuple(w.name for w in dm.wheels)
+    if len(names) > MAX_WHEELS:
+        raise SimulationError(f"{len(names)} wheels: at most {MAX_WHEELS}")
     wheel_of_geom = -np.ones(m.ngeom, np.int64)
     obstacle_of_geom = -np.ones(m.ngeom, np.int64)
     for i, n in enumerate(names):
@@ -266,7 +322,14 @@ def build_model(world: World, robot: RobotSpec = RobotSpec(), cfg: SimConfig = S
         slot_geoms=np.array([name(G, f"obstacle_slot_{k}") for k in range(obstacle_pool)], np.int64),
         slot_bodies=np.array([name(B, f"obstacle_slot_{k}") for k in range(obstacle_pool)], np.int64),
         mover_geoms=np.array([name(G, f"mover_{mv.id}") for mv in world.movers], np.int64),
-        mover_mocap=np.array([m.body_mocapid[name(B, f"mover_{mv.id}")] for mv in world.movers], np.int64))
+        mover_mocap=np.array([m.body_mocapid[name(B, f"mover_{mv.id}")] for mv in world.movers], np.int64),
+        wheel_act=np.array([name(mujoco.mjtObj.mjOBJ_ACTUATOR, f"wheel_{w.name}") if w.driven else -1
+                            for w in dm.wheels], np.int64),
+        axle_bodies=np.array([name(B, f"steer_{w.name}") if w.steered else name(B, "chassis") for w in dm.wheels],
+                             np.int64),
+        steer_qpos=np.array([m.jnt_qposadr[name(J, f"steer_{w.name}")] for w in dm.wheels if w.steered], np.int64),
+        steer_act=np.array([name(mujoco.mjtObj.mjOBJ_ACTUATOR, f"steer_{w.name}") for w in dm.wheels if w.steered],
+                           np.int64))
     m.geom_contype[rm.slot_geoms] = 0  # parked
     return rm
 

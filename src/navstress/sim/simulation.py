@@ -15,7 +15,9 @@ truth (real poses, collisions, stop events) for the run's classification.
 
 from __future__ import annotations
 
+import dataclasses
 import math
+
 import mujoco
 import numpy as np
 
@@ -24,6 +26,7 @@ from navstress.nav.api import Command, Imu, LidarScan, Observation, Odometry, Po
 from navstress.robot import RobotSpec
 from navstress.seeding import rng
 from navstress.sim.config import SimConfig
+from navstress.sim.drives import MAX_WHEELS, DriveModel, ackermann, drive_model
 from navstress.sim.lidar import Lidar, build_scene
 from navstress.sim import _step as step_loop
 from navstress.sim import mjabi
@@ -38,6 +41,22 @@ _SAMPLES = 64  # raw sensor samples buffered in the compiled loop between flushe
 #: Control period of the movers (s): their controller (:mod:`navstress.sim.movers`) runs every
 #: this long from the robot's true state; in between each mover body moves linearly.
 MOVER_PERIOD_S = 0.1
+
+
+def effective_config(robot: RobotSpec, config: SimConfig) -> SimConfig:
+    """``config`` with the time step the robot's drive model needs, when that is smaller
+    (docs/simulation.md, "Drive types")."""
+    dt = drive_model(robot).timestep_s
+    if config.timestep_s <= dt:
+        return config
+    return dataclasses.replace(config, timestep_s=dt)
+
+
+def _pad(a: np.ndarray, fill: float) -> np.ndarray:
+    """``a`` padded with ``fill`` to :data:`MAX_WHEELS` entries (the loop's wheel arrays)."""
+    out = np.full(MAX_WHEELS, fill, dtype=a.dtype)
+    out[: a.size] = a
+    return out
 
 
 class Simulation:
@@ -63,6 +82,9 @@ class Simulation:
             raise SpecError("seed", seed, "an integer >= 0")
         mjabi.check_layout()
         self.world, self.robot, self.config, self.seed = world, robot, config, seed
+        self.drive: DriveModel = drive_model(robot)
+        config = effective_config(robot, config)
+        self.config = config
         # a pool never needs more slots than the world has obstacles (with n <= K obstacles the slots
         # fill the same way, lowest free first, and none is ever missing); an obstacle-free world has
         # no slot bodies at all: every empty slot is a mocap body that costs kinematics and
@@ -78,12 +100,13 @@ class Simulation:
             self._pool = ObstaclePool(rm, world, robot, config.obstacle_margin_m)
             self._pool.update(d)
         # wheel-ground contacts come from _step.sphere_terrain_contacts, not MuJoCo's hfield collision
+        exact = cfg.analytic_wheel_contacts or self.drive.exact_contacts
         wgeoms = np.flatnonzero(rm.wheel_of_geom >= 0)[np.argsort(rm.wheel_of_geom[rm.wheel_of_geom >= 0])]
-        tmpl = step_loop.contact_template(m, d, wgeoms, 0) if cfg.analytic_wheel_contacts else np.zeros(mjabi.CF)
+        tmpl = step_loop.contact_template(m, d, wgeoms, 0) if exact else np.zeros(mjabi.CF)
         # the contacts are rewritten (and added) after mj_fwdPosition, which computes constraint
         # islands from the contacts; the robot is one kinematic tree: one island, none needed
         m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_ISLAND)
-        if cfg.analytic_wheel_contacts:
+        if exact:
             m.geom_contype[wgeoms] = 0
             m.geom_conaffinity[wgeoms] = 0
         terrain = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "terrain")
@@ -93,7 +116,7 @@ class Simulation:
         grid = np.array([m.geom_pos[terrain][0] - hsz[0], m.geom_pos[terrain][1] - hsz[1], 2 * hsz[0] / (ncol - 1),
                          2 * hsz[1] / (nrow - 1)])  # x0, y0, dx, dy of hf
         wheel_arrays = step_loop.WheelContactArrays(
-            wgeoms.astype(np.int64) if cfg.analytic_wheel_contacts else np.zeros(0, np.int64), hf, tmpl,
+            wgeoms.astype(np.int64) if exact else np.zeros(0, np.int64), hf, tmpl,
             np.zeros((4, 7)))
         mujoco.mj_forward(m, d)
         self._timing = [rng(seed, "sim", "timing", n) for n in _SENSORS]
@@ -124,8 +147,14 @@ class Simulation:
         self._event_buf = np.zeros((128, step_loop.EVENT_COLS))
         # compiled-loop state and constants (named records, see _step.STATE / PARAMS) and arrays
         r = robot
-        wheel_angles = d.qpos[rm.wheel_qpos]
+        dm = self.drive
+        nw = len(dm.wheels)
+        wheel_angles = np.zeros(MAX_WHEELS)
+        wheel_angles[:nw] = d.qpos[rm.wheel_qpos]
+        q0 = d.qpos
+        yaw0 = math.atan2(2.0 * (q0[3] * q0[6] + q0[4] * q0[5]), 1.0 - 2.0 * (q0[5] * q0[5] + q0[6] * q0[6]))
         self._state = step_loop.new_state(cmd_k=step_loop.NO_CMD, ref=wheel_angles, odom_a=wheel_angles,
+                                          odom_gyro_yaw=yaw0,
                                           next_k=next_k, mover_k=0 if self._mover_every else step_loop.NO_CMD,
                                           # noise and jitter rows: drawn on first use
                                           n_imu=step_loop.NOISE_BATCH, n_pose=step_loop.NOISE_BATCH,
@@ -141,18 +170,35 @@ class Simulation:
         bad = [int(w) for w in step_loop.BAD_WARNINGS]
         pool = self._pool
         adr = mjabi.addresses(m, d)
+        steer_act, steer_qpos = -np.ones(nw, np.int64), -np.ones(nw, np.int64)
+        k_steer = 0
+        for i, w in enumerate(dm.wheels):
+            if w.steered:
+                steer_act[i], steer_qpos[i] = rm.steer_act[k_steer], rm.steer_qpos[k_steer]
+                k_steer += 1
+        # odometry encoders: every driven wheel (ackermann: the rear wheels)
+        odom_side = np.array([(1 if w.side > 0 else 2) if (w.driven and not w.steered) else 0 for w in dm.wheels],
+                             np.int64)
         self._params = step_loop.new_params(
             model=adr.model, data=adr.data, ncon_addr=adr.ncon, contact_field=adr.contact_field,
             chassis=rm.chassis_body, bumper=rm.bumper_geom, terrain=terrain,
-            wheel_body=rm.wheel_bodies, wheel_qpos=rm.wheel_qpos, wheel_dof=rm.wheel_dofs, warning_ids=bad,
+            n_wheels=nw, wheel_body=_pad(rm.wheel_bodies, -1), wheel_qpos=_pad(rm.wheel_qpos, -1),
+            wheel_dof=_pad(rm.wheel_dofs, -1), wheel_x=_pad(np.array([w.x for w in dm.wheels]), 0.0),
+            wheel_y=_pad(np.array([w.y for w in dm.wheels]), 0.0), wheel_act=_pad(rm.wheel_act, -1),
+            axle_body=_pad(rm.axle_bodies, -1), steer_act=_pad(steer_act, -1), steer_qpos=_pad(steer_qpos, -1),
+            odom_side=_pad(odom_side, 0), odom_inv_l=1.0 / max(1, int(np.sum(odom_side == 1))),
+            odom_inv_r=1.0 / max(1, int(np.sum(odom_side == 2))), odom_gyro=int(dm.odom_gyro), drive=dm.kind,
+            wheelbase=r.wheelbase_m, rear_x=-r.wheelbase_m / 2, max_steer=dm.max_steer_rad,
+            steer_step=dm.max_steer_rate_rps * self._dt, min_turn_speed=ackermann.MIN_TURN_SPEED,
+            warning_ids=bad,
             period=[1.0 / hz if hz > 0 else 1.0 for hz in rates],
             dt=self._dt, dv=r.max_accel_mps2 * self._dt, dw=r.max_yaw_accel_rps2 * self._dt,
-            skid=cfg.skid_factor, kp=cfg.yaw_kp, ki=cfg.yaw_ki,
-            half_track=r.track_m / 2, wheel_radius=r.wheel_radius_m, hold=cfg.wheel_hold_gain,
+            skid=dm.track_multiplier, kp=dm.yaw_kp, ki=dm.yaw_ki,
+            wheel_radius=r.wheel_radius_m, hold=dm.hold_gain,
             mu=cfg.friction, friction_floor=cfg.friction_floor, slip_eps=cfg.slip_eps_mps,
             max_speed=cfg.max_speed_mps, size_x=rm.map_size[0], size_y=rm.map_size[1], margin=cfg.map_margin_m,
             cos_flip=math.cos(cfg.flip_threshold_rad), debounce=cfg.collision_debounce_s,
-            odom_radius=r.wheel_radius_m, odom_track=r.track_m * cfg.skid_factor,
+            odom_radius=r.wheel_radius_m, odom_track=r.track_m * dm.track_multiplier,
             jitter=int(cfg.jitter), rate_jitter=cfg.rate_jitter, noise=int(cfg.noise),
             imu_att=cfg.imu_att_std_rad, imu_rate=cfg.imu_rate_std_rps, imu_drift=cfg.imu_yaw_drift_rps,
             pose_pos=cfg.pose_pos_std_m, pose_att=cfg.pose_att_std_rad,

@@ -14,6 +14,7 @@ import pytest
 
 from navstress.errors import SimulationError, SpecError
 from navstress.nav.api import Command, Observation
+from navstress.robot import RobotSpec
 from navstress.sim import SimConfig, Simulation
 from navstress.world.world import Obstacle
 
@@ -197,8 +198,9 @@ def test_lidar_scans_come_at_their_rate_in_the_sensor_frame() -> None:
 
 
 def test_unstable_physics_raises_simulation_error() -> None:
-    cfg = SimConfig(lidar_enabled=False, timestep_s=0.02, wheel_torque_nm=1e7, wheel_kv=1e7)
-    sim = Simulation(flat(), config=cfg, seed=0, start=(20.0, 20.0, 0.0))
+    cfg = SimConfig(lidar_enabled=False, timestep_s=0.02)
+    robot = RobotSpec(wheel_torque_nm=1e7, wheel_kv=1e7)
+    sim = Simulation(flat(), robot, config=cfg, seed=0, start=(20.0, 20.0, 0.0))
     sim.command(Command(1.2, 1.0))
     with pytest.raises(SimulationError, match=r"physics became unstable at t=.*"):
         sim.advance(3.0)

@@ -152,9 +152,15 @@ def test_compiled_odometry_and_batched_imu_equal_the_reference() -> None:
     S = K.new_state()[0]
     P = np.zeros(1, K.PARAMS)[0]
     P["odom_radius"], P["odom_track"] = 0.26, 1.8
+    # four wheels FL, RL, FR, RR at qpos 7..10 (the chassis' free joint first), left, left, right, right
+    P["n_wheels"], P["wheel_qpos"][:4], P["odom_side"][:4] = 4, [7, 8, 9, 10], [1, 1, 2, 2]
+    P["odom_inv_l"] = P["odom_inv_r"] = 0.5
+    qpos = np.zeros(11)
+    qpos[3] = 1.0
     for k in range(12):
         ref = od.update(angles[k], float(t[k]))
-        K.odom_update(S, P, *angles[k], float(t[k]))
+        qpos[7:11] = angles[k]
+        K.odom_update(S, P, qpos, float(t[k]))
         got = (S["odom_x"], S["odom_y"], S["odom_yaw"], S["odom_v"], S["odom_w"])
         np.testing.assert_allclose(got, (ref.x, ref.y, ref.yaw, ref.v, ref.omega), rtol=1e-12, atol=1e-12)
     rows = np.column_stack([t, g.normal(0, 1, (12, 6))])
@@ -294,8 +300,8 @@ def test_params_need_every_field_and_state_only_known_ones() -> None:
         K.new_params(**full, not_a_field=1)
     with pytest.raises(TypeError, match="not_a_field"):
         K.new_state(not_a_field=1)
-    s = K.new_state(k=3, ref=np.arange(4.0))
-    assert s[0]["k"] == 3 and list(s[0]["ref"]) == [0.0, 1.0, 2.0, 3.0] and s[0]["cmd_v"] == 0.0
+    s = K.new_state(k=3, ref=np.arange(8.0))
+    assert s[0]["k"] == 3 and list(s[0]["ref"]) == [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0] and s[0]["cmd_v"] == 0.0
 
 
 def test_loop_arrays_flatten_the_groups_in_order() -> None:
