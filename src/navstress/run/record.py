@@ -19,7 +19,14 @@ from dataclasses import asdict, dataclass, field, fields
 from typing import Any
 
 from navstress import _json
+from navstress._models import parse
+from navstress.robot import RobotSpec
 from navstress.run.outcome import Outcome
+
+#: The default robot (``rmp400``, the paper's): its name and description digest, what every record
+#: made before robots existed is of.
+DEFAULT_ROBOT = "rmp400"
+DEFAULT_ROBOT_DIGEST = RobotSpec().digest
 
 
 #: The start of the reason of every record of a run whose world could not be generated: the world
@@ -49,9 +56,20 @@ class RunTask:
     run_index: int = 0
     map_seed: int = 0
     sim_overrides: dict[str, Any] = field(default_factory=dict)
+    #: the simulated robot, a RobotSpec's JSON mapping (None: the default ``RobotSpec()``, rmp400)
+    robot: dict[str, Any] | None = None
+
+    def robot_spec(self) -> RobotSpec:
+        """The robot of this run (the default ``RobotSpec()`` when ``robot`` is None)."""
+        return RobotSpec() if self.robot is None else parse(RobotSpec, self.robot, prefix="robot")
 
     def to_json(self) -> str:
-        return _json.dumps(asdict(self), sort_keys=True)
+        """JSON text of the task (a task of the default robot leaves ``robot`` out: the text of
+        before robots existed)."""
+        d = asdict(self)
+        if d["robot"] is None:
+            del d["robot"]
+        return _json.dumps(d, sort_keys=True)
 
     @classmethod
     def from_json(cls, text: str) -> "RunTask":
@@ -114,6 +132,8 @@ class RunRecord:
     first_collision_s: float | None
     errors: list[str]
     trace: str | None  # path of the MCAP trace relative to the campaign dir (or absolute), None if none
+    robot: str = DEFAULT_ROBOT  # the simulated robot's name
+    robot_digest: str = DEFAULT_ROBOT_DIGEST  # its description's digest (RobotSpec.digest)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "reason", cap_message(str(self.reason)))
@@ -128,10 +148,14 @@ class RunRecord:
     @classmethod
     def from_row(cls, row: dict[str, Any]) -> "RunRecord":
         names = {f.name for f in fields(cls)}
-        d = {k: row[k] for k in names}
+        d = {k: row[k] for k in names if k in row or k not in _ROBOT_COLUMNS}  # (old rows: the default robot)
         d["config"] = json.loads(d["config"]) if isinstance(d["config"], str) else d["config"]
         d["errors"] = json.loads(d["errors"]) if isinstance(d["errors"], str) else d["errors"]
         return cls(**d)
+
+
+#: The record's robot columns (absent from rows made before robots existed: the default robot's).
+_ROBOT_COLUMNS = ("robot", "robot_digest")
 
 
 def ungenerated(r: RunRecord) -> bool:
