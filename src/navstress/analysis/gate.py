@@ -45,7 +45,8 @@ from scipy import stats as _st
 
 from navstress import _files
 from navstress._percent import percent, percent_vs, setting
-from navstress.analysis.stats import MAX_REASON_CHARS, NOMINAL, config_key, fault_name, reason_line
+from navstress.analysis.stats import (MAX_REASON_CHARS, NOMINAL, config_key, fault_name, reason_line, variants,
+                                      with_variants)
 from navstress.campaign.store import Store
 from navstress.errors import SpecError, StoreError
 from navstress.run.outcome import Outcome
@@ -302,16 +303,17 @@ def gate(directory: str | Path, rule: GateRule, *, navigators: tuple[str, ...] |
         spec = store.spec
         recorded, planned = store.progress()
         planned_ids = store.planned_ids()
-        records = store.records() if recorded else []
+        records = with_variants(spec, store.records()) if recorded else []
         recorded_at = _recorded_at(store) if recorded else {}
     if not recorded:
         raise StoreError(f"campaign={str(root)!r} is invalid: expected a campaign with recorded runs (it has "
                          f"none of its {planned} planned runs); run it first with `navstress campaign run`")
-    nav_names = [n.name for n in spec.navigators]
+    nav_names = variants(spec)  # several robots: navigator@robot (a navigator's name: each of its robots)
+    plain = [n.name for n in spec.navigators if n.name not in nav_names]
     fault_names = list(dict.fromkeys(fault_name(f) for e in spec.experiments for f in spec.faults_of(e)))
-    _check_names("navigator", navigators, nav_names)
+    _check_names("navigator", navigators, nav_names + plain)
     _check_names("fault", faults, fault_names)
-    navs = set(navigators or nav_names)
+    navs = {v for v in nav_names if not navigators or any(v == n or v.startswith(n + "@") for n in navigators)}
     fset = set(faults or (NOMINAL,))
 
     Key = tuple[str, str, str, str]  # experiment, config, navigator, fault
