@@ -356,15 +356,20 @@ class CampaignSpec(BaseModel):
 
     def canonical_json(self) -> str:
         """A stable text of the validated spec (used to refuse resuming with another spec; an
-        experiment without its own ``runs_per_map``, an adaptive rule without indifference, and a
-        spec that does not record the navigator's view, have the same text as before those keys
-        existed)."""
+        experiment without its own ``runs_per_map``, an adaptive rule without indifference, a spec
+        that does not record the navigator's view, and one of the default robot (no ``robot:``, or
+        ``robot: rmp400``), have the same text as before those keys existed). A robot is there
+        with its whole description: a changed robot file changes the digest."""
         data = self.model_dump(mode="json")
         if not data["record_navigator"]:
             del data["record_navigator"]
-        for owner in (data, *data["experiments"]):  # no robot given: the text of before robots existed
+        # no robot given, or the default robot (rmp400) alone: the text of before robots existed
+        # (an experiment's own default robot only when the campaign's is the default too)
+        plain = (None, RobotSpec().model_dump(mode="json"), [RobotSpec().model_dump(mode="json")])
+        top_default = data.get("robot") in plain and data.get("robots") in plain
+        for owner in (data, *data["experiments"]):
             for key in ("robot", "robots"):
-                if owner.get(key) is None:
+                if owner.get(key) is None or (top_default and owner.get(key) in plain):
                     owner.pop(key, None)
         for exp in data["experiments"]:
             if exp.get("runs_per_map") is None:

@@ -13,9 +13,12 @@ search specs use for a ``robot:`` written inline.)
 
 from __future__ import annotations
 
+import json
 from typing import Any
 
-from navstress._models import parse
+from pydantic import ValidationError
+
+from navstress._models import parse, spec_error
 from navstress.errors import SpecError
 from navstress.robot.profiles import profile
 from navstress.robot.spec import RobotSpec
@@ -42,5 +45,12 @@ def robot_from_mapping(data: Any, field: str = "robot") -> RobotSpec:
         base = profile(base_name)
     except SpecError as err:
         raise SpecError(f"{field}.base", base_name, err.expected, err.fix) from None
-    merged = {**base.model_dump(mode="json", exclude_unset=False), **over}
-    return parse(RobotSpec, merged, prefix=field)
+    merged = {**base.model_dump(mode="json"), **over}
+    try:  # JSON mode: a list stands for a tuple at every depth (caster_positions, footprint.points)
+        text = json.dumps(merged, allow_nan=False)
+    except (TypeError, ValueError):
+        return parse(RobotSpec, merged, prefix=field)  # (names the field that is not JSON data)
+    try:
+        return RobotSpec.model_validate_json(text)
+    except ValidationError as err:
+        raise spec_error(err, merged, model=RobotSpec, prefix=field) from None

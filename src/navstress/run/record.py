@@ -19,7 +19,9 @@ from dataclasses import asdict, dataclass, field, fields
 from typing import Any
 
 from navstress import _json
-from navstress._models import parse
+from pydantic import ValidationError
+
+from navstress._models import spec_error
 from navstress.robot import RobotSpec
 from navstress.run.outcome import Outcome
 
@@ -61,7 +63,12 @@ class RunTask:
 
     def robot_spec(self) -> RobotSpec:
         """The robot of this run (the default ``RobotSpec()`` when ``robot`` is None)."""
-        return RobotSpec() if self.robot is None else parse(RobotSpec, self.robot, prefix="robot")
+        if self.robot is None:
+            return RobotSpec()
+        try:  # JSON mode: the lists of the JSON text stand for the description's tuples
+            return RobotSpec.model_validate_json(_json.dumps(self.robot))
+        except ValidationError as err:
+            raise spec_error(err, self.robot, model=RobotSpec, prefix="robot") from None
 
     def to_json(self) -> str:
         """JSON text of the task (a task of the default robot leaves ``robot`` out: the text of
