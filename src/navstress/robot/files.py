@@ -8,7 +8,7 @@ search specs use for a ``robot:`` written inline.)
     >>> robot_from_mapping({"base": "jackal", "mass_kg": -1}, field="robots[1]")
     Traceback (most recent call last):
     ...
-    navstress.errors.SpecError: robots[1].mass_kg=-1 is invalid: expected a number > 0
+    navstress.errors.SpecError: robots[1].mass_kg=-1 is invalid: expected a value > 0.0
 """
 
 from __future__ import annotations
