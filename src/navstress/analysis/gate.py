@@ -245,6 +245,8 @@ class GateResult:
     recorded: int
     planned: int
     configs: tuple[ConfigResult, ...]
+    #: the campaign's robots, (name, digest); several: each configuration's navigator is navigator@robot
+    robots: tuple[tuple[str, str], ...] = ()
 
     @property
     def passed(self) -> bool:
@@ -274,6 +276,7 @@ class GateResult:
         return {"campaign": self.campaign, "passed": self.passed, "min_success": self.rule.min_success,
                 "confidence": self.rule.confidence, "max_collisions": self.rule.max_collisions,
                 "recorded": self.recorded, "planned": self.planned,
+                "robots": [{"name": n, "digest": d} for n, d in self.robots],
                 "configurations": [c.to_json(self.rule) for c in self.configs]}
 
 
@@ -331,7 +334,8 @@ def gate(directory: str | Path, rule: GateRule, *, navigators: tuple[str, ...] |
         raise SpecError("--fault", ",".join(sorted(fset)), f"a stack the campaign ran (its faults: {ran})",
                         f"gate them by name, e.g. --fault {fault_names[0]}" if fault_names else None)
     configs = tuple(_judge(k, by_map, rule) for k, by_map in worlds.items())
-    return GateResult(spec.name, str(root), rule, recorded, planned, configs)
+    return GateResult(spec.name, str(root), rule, recorded, planned, configs,
+                      tuple((r.name, r.digest) for r in spec.all_robots()))
 
 
 def _recorded_at(store: Store) -> dict[str, float]:
