@@ -39,6 +39,7 @@ copy and the store is next opened for writing).
 
 from __future__ import annotations
 
+import csv
 import errno
 import fcntl
 import json
@@ -834,8 +835,18 @@ def _short(v: Any) -> str:
 
 
 def read_export(path: str | Path) -> list[dict[str, Any]]:
-    """Read back an exported runs table (CSV or Parquet) as rows with typed values."""
-    return read_table(path, _EXPORT_KINDS, nullable=("trace",))
+    """Read back an exported runs table (CSV or Parquet) as rows with typed values (an export made
+    before robots existed: its runs are the default robot's, ``robot`` and ``robot_digest`` filled)."""
+    kinds = dict(_EXPORT_KINDS)
+    if Path(path).suffix != ".parquet":
+        with open(path, newline="", encoding="utf-8") as f:
+            head = set(next(csv.reader(f), []))
+        kinds = {c: k for c, k in kinds.items() if c in head or c not in ROBOT_COLUMNS}
+    rows = read_table(path, kinds, nullable=("trace",))
+    for row in rows:
+        for c in ROBOT_COLUMNS:
+            row.setdefault(c, _DEFAULT_ROBOT[c])
+    return rows
 
 
 def _record(row: dict[str, Any], root: Path) -> RunRecord:

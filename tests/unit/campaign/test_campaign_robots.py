@@ -19,7 +19,7 @@ from hypothesis import strategies as st
 
 from navstress.campaign.plan import plan
 from navstress.campaign.spec import parse_campaign, spec_yaml
-from navstress.campaign.store import DB_NAME, Store
+from navstress.campaign.store import DB_NAME, Store, read_export
 from navstress.errors import SpecError, StoreError
 from navstress.robot import PROFILES, RobotSpec
 from navstress.run.batch import failure_record
@@ -262,3 +262,19 @@ def test_extend_keeps_the_robots(tmp_path: Path) -> None:
         added = s.extend(parse_campaign({**base, "experiments": [*base["experiments"], {"name": "more"}]}))
         assert added == 2 * 2 * 2  # 2 navigators x 2 faults x 2 runs
         assert {t.robot_spec().name for t in s.plan().tasks} == {"jackal"}
+
+
+def test_an_export_made_before_robots_reads_back_as_rmp400(tmp_path: Path) -> None:
+    with Store.create(tmp_path / "c", parse_campaign(_spec())) as s:
+        _fill(s)
+        out = s.export("csv")
+    with open(out, newline="") as f:
+        rows = list(csv.DictReader(f))
+    old = tmp_path / "old.csv"
+    with open(old, "w", newline="") as f:  # the columns of an export of before robots existed
+        w = csv.DictWriter(f, [c for c in rows[0] if c not in ("robot", "robot_digest")], extrasaction="ignore")
+        w.writeheader()
+        w.writerows(rows)
+    back = read_export(old)
+    assert len(back) == len(rows) and {(r["robot"], r["robot_digest"]) for r in back} == {("rmp400", RobotSpec().digest)}
+    assert [r["run_id"] for r in back] == [r["run_id"] for r in read_export(out)]
