@@ -12,6 +12,7 @@ import json
 import os
 import subprocess
 import sys
+from dataclasses import replace
 from html.parser import HTMLParser
 from pathlib import Path
 from typing import Any
@@ -23,9 +24,11 @@ from navstress.analysis.analyze import analyze
 from navstress.analysis.compare import Arm, compare
 from navstress.analysis.gate import GateRule, gate
 from navstress.analysis.report import build_report
+from navstress.campaign.spec import parse_campaign
 from navstress.campaign.store import Store
 from navstress.errors import SpecError
 from navstress.robot import PROFILES
+from navstress.run.batch import failure_record
 
 ROOT = Path(__file__).resolve().parents[3]
 COIN = "tests.support.navigators.campaign_navs:Coin"
@@ -122,3 +125,20 @@ def test_gate_and_exports_per_robot(ran: Path) -> None:
     with open(ran / "runs.csv", newline="") as f:
         rows = list(csv.DictReader(f))
     assert {(r["robot"], r["robot_digest"]) for r in rows} == {(n, PROFILES[n].digest) for n in ROBOTS}
+
+
+def _synthetic(d: Path, robot: str) -> None:
+    """A campaign of one robot, its records made by hand (the same outcomes whatever the robot)."""
+    data = {**_spec(), "robot": robot, "navigators": [{"name": "nav-a-v1"}]}
+    del data["robots"]
+    with Store.create(d, parse_campaign(data)) as s:
+        for i, t in enumerate(s.plan().tasks):
+            s.add(replace(failure_record(t, "synthetic"), outcome="success" if i % 2 else "fail-error"))
+
+
+def test_compare_two_campaigns_of_one_robot_each(tmp_path: Path) -> None:
+    _synthetic(tmp_path / "a", "rmp400")
+    _synthetic(tmp_path / "b", "jackal")
+    cmp = compare(tmp_path / "a", Arm("nav-a-v1"), Arm("nav-a-v1"), tmp_path / "b")
+    assert cmp.overall.pairs == 2 and cmp.robot_a.startswith("rmp400 (") and cmp.robot_b.startswith("jackal (")
+    assert cmp.to_json()["b"]["robot"] == f"jackal ({PROFILES['jackal'].digest})"
