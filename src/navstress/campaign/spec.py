@@ -563,14 +563,27 @@ def check_robots(spec: CampaignSpec) -> None:
             if first[0] != r.digest:
                 raise SpecError(f"experiments[{i}].robot", r.name, f"one description per robot name (the robot "
                                 f"{r.name!r} of {first[1]} is described otherwise)", "give one of them another name")
-        for cfg in exp.configurations(spec.world):
-            free = cfg.world_spec().mission.free_radius_m
-            for r in spec.robots_of(exp):
-                if 0 < free < r.half_diagonal_m:
-                    at = f"experiments[{i}]" + (f".worlds[{cfg.key}]" if exp.worlds is not None else f".sweep[{cfg.key}]")
-                    raise SpecError(f"{at}.mission.free_radius_m", free, f"a free disc the robot {r.name!r} fits in "
-                                    f"(its half diagonal is {r.half_diagonal_m:.3g} m)",
-                                    f"raise world.mission.free_radius_m to at least {r.half_diagonal_m:.3g}")
+        # every free disc (the configurations' worlds are parsed once, for every robot)
+        largest = max(spec.robots_of(exp), key=lambda r: r.half_diagonal_m)
+        frees = {f"experiments[{i}]" + (f".worlds[{cfg.key}]" if exp.worlds is not None else f".sweep[{cfg.key}]"):
+                 free for cfg, free in _free_radii(exp, spec.world)}
+        for at, free in frees.items():
+            if 0 < free < largest.half_diagonal_m:
+                raise SpecError(f"{at}.mission.free_radius_m", free, f"a free disc the robot {largest.name!r} fits in "
+                                f"(its half diagonal is {largest.half_diagonal_m:.3g} m)",
+                                f"raise world.mission.free_radius_m to at least {largest.half_diagonal_m:.3g}")
+
+
+def _free_radii(exp: ExperimentSpec, base: dict[str, Any]) -> list[tuple["Configuration", float]]:
+    """(configuration, its ``mission.free_radius_m``) of each configuration of ``exp``, from the
+    mappings (the configurations were validated as WorldSpecs before): without parsing them again."""
+    default = WorldSpec.model_fields["mission"].default.free_radius_m
+    out = []
+    for cfg in exp.configurations(base):
+        mission = cfg.world.get("mission")
+        free = mission.get("free_radius_m", default) if isinstance(mission, dict) else default
+        out.append((cfg, float(free)))
+    return out
 
 
 def check_campaign(spec: CampaignSpec, *, max_runs: int | None = MAX_PLANNED_RUNS) -> CampaignSpec:
