@@ -32,7 +32,7 @@ from navstress.analysis.difficulty import (LEVEL_RANK, LEVELS, Difficulty, Diffi
 from navstress.analysis.fault_power import FaultPower, LevelPower, by_level, fault_power
 from navstress.analysis.indeterminism import Curve, config_curves
 from navstress.analysis.stats import (NOMINAL, OUTCOMES, ConfigStats, Refused, config_key, config_stats, fault_name,
-                                      planned_configs, split_refused)
+                                      planned_configs, split_refused, variants, with_variants)
 from navstress.analysis.trajectories import TrajectoryCache
 from navstress.analysis.verdicts import Verdicts, VerdictRule, rule_of, rules_of, verdicts
 from navstress.campaign.store import Store
@@ -80,6 +80,9 @@ class Analysis:
     #: per configuration with a map the world generator refused: those maps, their runs (every
     #: navigator and fault) and the first reason; their runs are in no statistic
     refused: dict[tuple[str, str], Refused] = field(default_factory=dict)
+    #: the campaign's robots, (name, digest) in spec order; in a campaign of several, each
+    #: navigator above is ``navigator@robot`` (:func:`navstress.analysis.stats.variants`)
+    robots: list[tuple[str, str]] = field(default_factory=list)
 
     @property
     def refused_runs(self) -> int:
@@ -129,6 +132,7 @@ class Analysis:
         """A JSON-able summary (numbers only; no trajectories)."""
         return {
             "campaign": self.name, "navigator": self.navigator, "navigators": self.shown_navigators,
+            "robots": [{"name": n, "digest": d} for n, d in self.robots],
             "done": self.done, "planned": self.planned,
             "outcomes": self.outcome_counts,
             "refused": {"runs": self.refused_runs, "maps": self.refused_maps,
@@ -188,12 +192,12 @@ def analyze(directory: str | Path, *, params: DifficultyParams | None = None, na
     cache = cache or TrajectoryCache()
     with Store.open(root) as store:
         spec = store.spec
-        records = store.records()
+        records = with_variants(store.spec, store.records())
         done, planned = store.progress()
         per_exp_all = store.per_experiment()
         maps = store.plan().maps
         planned_runs = store.planned_by_config()
-    navs = [n.name for n in spec.navigators]
+    navs = variants(spec)
     nav = navigator or navs[0]
     if nav not in navs:
         raise SpecError("navigator", nav, f"one of the campaign's navigators {navs}")
@@ -263,4 +267,5 @@ def analyze(directory: str | Path, *, params: DifficultyParams | None = None, na
                     per_experiment=per_exp, records=records, stats=stats, nominal=nominal, difficulty=diff,
                     ranges=ranges, overlaps=overlaps, indeterminism=indet, power=power, power_levels=power_levels,
                     correlations=corr, world_dirs=world_dirs, dt=dt, infeasible=infeasible, navigators=navs,
-                    only_navigator=navigator, verdicts=verd, explicit=explicit, refused=refused)
+                    only_navigator=navigator, verdicts=verd, explicit=explicit, refused=refused,
+                    robots=[(r.name, r.digest) for r in spec.all_robots()])

@@ -40,7 +40,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import statistics
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -49,7 +49,8 @@ from scipy import stats as _st
 
 from navstress._percent import percent, setting
 from navstress.analysis.fault_power import collided
-from navstress.analysis.stats import NOMINAL, _check, config_key, fault_name, params_text, reason_line, wilson
+from navstress.analysis.stats import (NOMINAL, _check, config_key, fault_name, params_text, reason_line, variants,
+                                      wilson, with_variants)
 from navstress.campaign.spec import CampaignSpec
 from navstress.campaign.store import Store
 from navstress.errors import SpecError, StoreError
@@ -73,8 +74,9 @@ class Arm:
 
 
 def parse_arm(text: str, flag: str = "--a") -> Arm:
-    """``NAV`` or ``NAV:FAULT`` (``NAV:nominal`` is ``NAV``); SpecError naming ``flag`` otherwise."""
-    expected = "NAV or NAV:FAULT, e.g. reference-v1 or reference-v1:small-footprint"
+    """``NAV`` or ``NAV:FAULT`` (``NAV:nominal`` is ``NAV``); in a campaign of several robots NAV
+    is ``navigator@robot``; SpecError naming ``flag`` otherwise."""
+    expected = "NAV or NAV:FAULT, e.g. reference-v1 or reference-v1:small-footprint (or reference-v1@jackal)"
     parts = text.split(":")
     if len(parts) > 2 or not all(p.strip() == p and p for p in parts):
         raise SpecError(flag, text, expected, "list navigators and faults with `navstress campaign status DIR`")
@@ -320,6 +322,9 @@ class Comparison:
     #: pairs left out because either side's map was refused by the world generator, and the first reason
     refused_pairs: int = 0
     refused_reason: str | None = None
+    #: the robot of each side's runs (name and description digest; several: joined by ", ")
+    robot_a: str = ""
+    robot_b: str = ""
 
     @property
     def significant(self) -> list[PairedStats]:
@@ -371,8 +376,10 @@ class Comparison:
                 f"exact McNemar p = {_p(o.p_collision)}")
 
     def to_json(self) -> dict[str, Any]:
-        return {"a": {"navigator": self.a.navigator, "fault": self.a.fault, "campaign": str(self.dir_a)},
-                "b": {"navigator": self.b.navigator, "fault": self.b.fault, "campaign": str(self.dir_b)},
+        return {"a": {"navigator": self.a.navigator, "fault": self.a.fault, "campaign": str(self.dir_a),
+                      "robot": self.robot_a},
+                "b": {"navigator": self.b.navigator, "fault": self.b.fault, "campaign": str(self.dir_b),
+                      "robot": self.robot_b},
                 "confidence": self.confidence, "alpha": self.alpha,
                 "interval": "Newcombe hybrid score, paired (1998, method 10)",
                 "interval_unpaired": "Newcombe hybrid score, independent (1998, method 10)",
@@ -394,7 +401,7 @@ def _p(p: float) -> str:
 
 
 def _arms(spec: CampaignSpec) -> tuple[list[str], list[str]]:
-    navs = [n.name for n in spec.navigators]
+    navs = variants(spec)  # a campaign of several robots: navigator@robot
     faults: list[str] = []
     for exp in spec.experiments:
         for f in spec.faults_of(exp):
@@ -431,9 +438,10 @@ def _check_same_design(sa: CampaignSpec, sb: CampaignSpec, da: Path, db: Path,
 
 
 def first_navigator(directory: str | Path) -> Arm:
-    """The nominal runs of the first navigator of the campaign in ``directory``."""
+    """The nominal runs of the first navigator of the campaign in ``directory`` (on its first
+    robot, in a campaign of several)."""
     with Store.open(directory) as store:
-        return Arm(store.spec.navigators[0].name)
+        return Arm(variants(store.spec)[0])
 
 
 def _index(records: list[RunRecord], arm: Arm) -> dict[PairKey, RunRecord]:
@@ -456,12 +464,12 @@ def compare(dir_a: str | Path, a: Arm, b: Arm, dir_b: str | Path | None = None, 
         raise SpecError("--b", b.label, f"another navigator or fault than --a ({a.label}) in one campaign",
                         "or give two campaign directories")
     with Store.open(pa) as store:
-        spec_a, rec_a = store.spec, store.records()
+        spec_a, rec_a = store.spec, with_variants(store.spec, store.records())
     if same:
         spec_b, rec_b = spec_a, rec_a
     else:
         with Store.open(pb) as store:
-            spec_b, rec_b = store.spec, store.records()
+            spec_b, rec_b = store.spec, with_variants(store.spec, store.records())
     _check_arm(spec_a, a, "--a", pa)
     _check_arm(spec_b, b, "--b", pb)
     for d, recs in ((pa, rec_a), (pb, rec_b)):
@@ -509,4 +517,11 @@ def compare(dir_a: str | Path, a: Arm, b: Arm, dir_b: str | Path | None = None, 
                      f" (first: {why})")
     return Comparison(a=a, b=b, dir_a=pa, dir_b=pb, confidence=confidence, alpha=alpha, configs=configs,
                       overall=overall, unpaired_a=lone_a, unpaired_b=lone_b, notes=notes,
-                      refused_pairs=len(refused), refused_reason=why)
+                      refused_pairs=len(refused), refused_reason=why, robot_a=_robot(ia.values()),
+                      robot_b=_robot(ib.values()))
+
+
+def _robot(records: Iterable[RunRecord]) -> str:
+    """The robot of an arm's runs: ``name (digest)``; several (a navigator named without its robot
+    across two campaigns of one robot each cannot mix them: an arm is one campaign's) joined."""
+    return ", ".join(dict.fromkeys(f"{r.robot} ({r.robot_digest})" for r in records))

@@ -45,7 +45,8 @@ from scipy import stats as _st
 
 from navstress import _files
 from navstress._percent import percent, percent_vs, setting
-from navstress.analysis.stats import MAX_REASON_CHARS, NOMINAL, config_key, fault_name, reason_line
+from navstress.analysis.stats import (MAX_REASON_CHARS, NOMINAL, config_key, fault_name, reason_line, variants,
+                                      with_variants)
 from navstress.campaign.store import Store
 from navstress.errors import SpecError, StoreError
 from navstress.run.outcome import Outcome
@@ -244,6 +245,8 @@ class GateResult:
     recorded: int
     planned: int
     configs: tuple[ConfigResult, ...]
+    #: the campaign's robots, (name, digest); several: each configuration's navigator is navigator@robot
+    robots: tuple[tuple[str, str], ...] = ()
 
     @property
     def passed(self) -> bool:
@@ -273,6 +276,7 @@ class GateResult:
         return {"campaign": self.campaign, "passed": self.passed, "min_success": self.rule.min_success,
                 "confidence": self.rule.confidence, "max_collisions": self.rule.max_collisions,
                 "recorded": self.recorded, "planned": self.planned,
+                "robots": [{"name": n, "digest": d} for n, d in self.robots],
                 "configurations": [c.to_json(self.rule) for c in self.configs]}
 
 
@@ -302,16 +306,17 @@ def gate(directory: str | Path, rule: GateRule, *, navigators: tuple[str, ...] |
         spec = store.spec
         recorded, planned = store.progress()
         planned_ids = store.planned_ids()
-        records = store.records() if recorded else []
+        records = with_variants(spec, store.records()) if recorded else []
         recorded_at = _recorded_at(store) if recorded else {}
     if not recorded:
         raise StoreError(f"campaign={str(root)!r} is invalid: expected a campaign with recorded runs (it has "
                          f"none of its {planned} planned runs); run it first with `navstress campaign run`")
-    nav_names = [n.name for n in spec.navigators]
+    nav_names = variants(spec)  # several robots: navigator@robot (a navigator's name: each of its robots)
+    plain = [n.name for n in spec.navigators if n.name not in nav_names]
     fault_names = list(dict.fromkeys(fault_name(f) for e in spec.experiments for f in spec.faults_of(e)))
-    _check_names("navigator", navigators, nav_names)
+    _check_names("navigator", navigators, nav_names + plain)
     _check_names("fault", faults, fault_names)
-    navs = set(navigators or nav_names)
+    navs = {v for v in nav_names if not navigators or any(v == n or v.startswith(n + "@") for n in navigators)}
     fset = set(faults or (NOMINAL,))
 
     Key = tuple[str, str, str, str]  # experiment, config, navigator, fault
@@ -329,7 +334,8 @@ def gate(directory: str | Path, rule: GateRule, *, navigators: tuple[str, ...] |
         raise SpecError("--fault", ",".join(sorted(fset)), f"a stack the campaign ran (its faults: {ran})",
                         f"gate them by name, e.g. --fault {fault_names[0]}" if fault_names else None)
     configs = tuple(_judge(k, by_map, rule) for k, by_map in worlds.items())
-    return GateResult(spec.name, str(root), rule, recorded, planned, configs)
+    return GateResult(spec.name, str(root), rule, recorded, planned, configs,
+                      tuple((r.name, r.digest) for r in spec.all_robots()))
 
 
 def _recorded_at(store: Store) -> dict[str, float]:

@@ -298,12 +298,22 @@ def _first(main: str, sub: str = "") -> str:
 
 # ---- sections ---------------------------------------------------------------------------------
 
+def _robots_line(a: Analysis) -> str:
+    """Which robot the results are for: the one robot, or the robots, each result (table row,
+    figure) then being one ``navigator@robot``'s."""
+    items = ", ".join(f'<span class="robot" data-robot="{_e(n)}" data-digest="{_e(d)}">{_e(n)}</span>' for n, d in a.robots)
+    if len(a.robots) <= 1:
+        return f'robot <b id="robots">{items}</b>'
+    return (f'robots <b id="robots">{items}</b>: every table row and figure is one navigator on one robot '
+            '(<i>navigator@robot</i>), never two robots together')
+
+
 def _summary(a: Analysis) -> str:
     out = [f'<h1>Campaign <span id="campaign-name">{_e(a.name)}</span></h1>',
            f'<p class="note">Directory <code>{_e(a.root)}</code>; report written {_e(time.strftime("%Y-%m-%d %H:%M"))}; '
            f'difficulty, indeterminism and correlations use the nominal runs of <b id="difficulty-navigator">'
            f'{_e(a.navigator)}</b>; runs shown: <span id="shown-navigators">{_e(", ".join(a.shown_navigators))}'
-           '</span>.</p>',
+           f'</span>; {_robots_line(a)}.</p>',
            '<h2 id="summary">Summary</h2>',
            f'<p>Runs recorded: <b id="runs-done" data-value="{a.done}">{a.done}</b> of '
            f'<b id="runs-planned" data-value="{a.planned}">{a.planned}</b> planned.</p>']
@@ -323,7 +333,8 @@ def _summary(a: Analysis) -> str:
                    for o, n in a.outcome_counts.items())
     rows += (f'<tr><td class="l">on maps the world generator refused (never run)</td>'
              f'<td id="refused-runs" data-value="{a.refused_runs}">{a.refused_runs}</td></tr>')
-    out.append(f'<table id="outcome-counts"><tr><th class="l">outcome (all navigators and faults)</th>'
+    everyone = "all navigators and faults" if len(a.robots) <= 1 else "all navigators, robots and faults"
+    out.append(f'<table id="outcome-counts"><tr><th class="l">outcome ({everyone})</th>'
                f'<th>runs</th></tr>{rows}</table>')
     if a.refused_runs:
         items = "".join(f'<li data-experiment="{_e(e)}" data-config="{_e(k)}" data-value="{len(r.maps)}">{_e(e)} / '

@@ -25,6 +25,8 @@ the first map's reason).
 
 from __future__ import annotations
 
+import dataclasses
+
 import math
 import statistics
 from collections.abc import Iterable
@@ -35,7 +37,7 @@ from scipy import stats as _st
 
 from navstress import _json
 from navstress._tables import NOMINAL as NOMINAL  # the fault of the nominal stack
-from navstress.campaign.plan import config_key_of
+from navstress.campaign.plan import config_key_of, variant
 from navstress.errors import SpecError
 from navstress.run.outcome import Outcome
 from navstress.run.record import RunRecord, cap_message, ungenerated
@@ -240,11 +242,44 @@ def planned_configs(spec: Any, runs: dict[tuple[str, str, str, str], int] | None
     for exp in spec.experiments:
         per = spec.maps_of(exp) * spec.max_runs_of(exp)
         for cfg in exp.configurations(spec.world):
-            for nav in spec.navigators:
+            for name in variants(spec, exp):
                 for f in spec.faults_of(exp):
-                    n = per if runs is None else runs.get((exp.name, cfg.key, nav.name, fault_name(f)), per)
-                    out.append(PlannedConfig(exp.name, cfg.key, dict(cfg.values), nav.name, fault_name(f), n))
+                    n = per if runs is None else runs.get((exp.name, cfg.key, name, fault_name(f)), per)
+                    out.append(PlannedConfig(exp.name, cfg.key, dict(cfg.values), name, fault_name(f), n))
     return out
+
+
+# ---- robots: a campaign of several robots is analysed per (navigator, robot) -----------------
+#
+# Every analysis groups runs by navigator (and fault): in a campaign of several robots the
+# "navigator" of a run is its variant ``navigator@robot`` (the run id's navigator part,
+# :func:`navstress.campaign.plan.variant`), so no statistic, table row or figure ever pools two
+# robots. A campaign of one robot is analysed as before (its robot named beside the results).
+
+
+def variants(spec: Any, exp: Any = None) -> list[str]:
+    """The navigators of ``spec`` as analysed (of experiment ``exp``, default every experiment):
+    their names, or ``navigator@robot`` for each robot in a campaign of several robots."""
+    if not spec.several_robots:
+        return [n.name for n in spec.navigators]
+    robots = spec.robots_of(exp) if exp is not None else spec.all_robots()
+    return [variant(n.name, r.name) for n in spec.navigators for r in robots]
+
+
+def with_variants(spec: Any, records: list[RunRecord]) -> list[RunRecord]:
+    """``records`` as analysed: unchanged in a campaign of one robot; in a campaign of several,
+    each with its ``navigator`` the variant ``navigator@robot``."""
+    if not spec.several_robots:
+        return records
+    return [dataclasses.replace(r, navigator=variant(r.navigator, r.robot)) for r in records]
+
+
+def robots_text(spec: Any) -> str:
+    """The campaign's robots in words: ``robot rmp400 (digest ...)`` or ``robots rmp400, jackal``."""
+    rs = spec.all_robots()
+    if len(rs) == 1:
+        return f"robot {rs[0].name} (digest {rs[0].digest})"
+    return "robots " + ", ".join(f"{r.name} ({r.digest})" for r in rs)
 
 
 def params_text(params: dict[str, Any]) -> str:

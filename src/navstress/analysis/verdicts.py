@@ -41,7 +41,7 @@ from scipy.stats import binomtest
 
 from navstress import __version__
 from navstress._tables import Kind, read_table, write_table
-from navstress.analysis.stats import config_key, fault_name
+from navstress.analysis.stats import config_key, fault_name, with_variants
 from navstress.campaign.store import Store
 from navstress.errors import SpecError
 from navstress.run.outcome import Outcome
@@ -323,6 +323,6 @@ def export_verdicts(directory: str | Path, table: str, fmt: str, dest: Path) -> 
     """``campaign export --table verdicts|configurations``: write the table (the spec and the
     version in a Parquet file's metadata); returns the path and its number of rows."""
     with Store.open(directory) as store:
-        v = verdicts(store.records(), rule_of(store.spec), rules=rules_of(store.spec))
+        v = verdicts(with_variants(store.spec, store.records()), rule_of(store.spec), rules=rules_of(store.spec))
         meta = {"navstress.version": __version__, "navstress.table": table, "navstress.spec": store.spec_text()}
     return write_verdicts(v, fmt, dest, meta, table), len(v.rows(table))

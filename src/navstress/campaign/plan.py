@@ -12,7 +12,10 @@ is the entry's own (not derived); its run seeds are derived as above (config_key
 another experiment listing the same world gets fresh run seeds.
 
 ``run_id`` = ``f"{experiment}/{config_key}/m{map}/r{run}/{navigator}/{fault or 'nominal'}"``,
-stable across plans of the same spec (the resume key).
+stable across plans of the same spec (the resume key). A campaign of several robots (``robots:``)
+runs every run on each robot, with the same seeds (paired), and names the robot in the navigator
+part: ``.../r{run}/{navigator}@{robot}/{fault}``; a campaign of one robot keeps the form above
+(its records name the robot: ``RunRecord.robot``, ``robot_digest``).
 
 Adaptive repetition: the runs of one *stream* (experiment, configuration, map, navigator,
 fault) are planned up to the rule's ``max``; which of them are *due* is a function of the
@@ -38,6 +41,7 @@ from typing import Any
 from navstress._tables import NOMINAL as NOMINAL  # the fault of the nominal stack
 from navstress._tables import config_key_of as config_key_of  # the configuration key of a run
 from navstress.campaign.spec import CampaignSpec
+from navstress.robot import RobotSpec
 from navstress.run.record import RunTask
 from navstress.seeding import derive_seed
 from navstress.sequential import AdaptiveRule, should_continue
@@ -61,7 +65,7 @@ SUCCESS = "success"
 
 @dataclass(frozen=True)
 class Stream:
-    """The runs of one (experiment, configuration, map, navigator, fault), in run order, and
+    """The runs of one (experiment, configuration, map, navigator, robot, fault), in run order, and
     the adaptive ``rule`` that decides how many of them run (None: all of them)."""
 
     run_ids: tuple[str, ...]
@@ -132,12 +136,26 @@ class Plan:
 
 def run_id(experiment: str, config_key: str, map_index: int, run_index: int, navigator: str,
            fault: str | None) -> str:
+    """The run id; ``navigator`` is :func:`variant` (``name@robot`` in a campaign of several robots)."""
     return f"{experiment}/{config_key}/m{map_index}/r{run_index}/{navigator}/{fault or NOMINAL}"
+
+
+def variant(navigator: str, robot: str | None) -> str:
+    """The navigator part of a run id and trace name: ``navigator``, or ``navigator@robot`` in a
+    campaign of several robots (``robot`` given)."""
+    return navigator if robot is None else f"{navigator}@{robot}"
 
 
 def world_path(experiment: str, config_key: str, map_index: int) -> str:
     """Where a map's world lives, relative to the campaign directory."""
     return f"worlds/{experiment}/{config_key}/m{map_index}"
+
+
+def variant_of(rid: str, navigator: str) -> str:
+    """The navigator part of run id ``rid`` when it is ``navigator`` or ``navigator@robot`` (a
+    campaign of several robots), else ``navigator``."""
+    part = rid.split("/")[-2] if rid.count("/") >= 5 else navigator
+    return part if part == navigator or part.startswith(navigator + "@") else navigator
 
 
 def trace_path(experiment: str, config_key: str, map_index: int, run_index: int, navigator: str,
@@ -160,8 +178,13 @@ def plan(spec: CampaignSpec, root: str | Path) -> Plan:
     maps: list[MapJob] = []
     tasks: list[RunTask] = []
     streams: list[Stream] = []
+    several = spec.several_robots
+    default_digest = RobotSpec().digest
     for exp in spec.experiments:
         faults = spec.faults_of(exp)
+        robots = spec.robots_of(exp)
+        # the default robot travels as None: its tasks are the tasks of before robots existed
+        robots_json = [None if r.digest == default_digest else r.model_dump(mode="json") for r in robots]
         rule = spec.rule_of(exp)
         for cfg in exp.configurations(spec.world):
             for m in range(spec.maps_of(exp)):
@@ -169,21 +192,25 @@ def plan(spec: CampaignSpec, root: str | Path) -> Plan:
                 wdir = base / world_path(exp.name, cfg.key, m)
                 maps.append(MapJob(key=f"{exp.name}/{cfg.key}/m{m}", experiment=exp.name, config_key=cfg.key,
                                    map_index=m, map_seed=ms, world=cfg.world, world_dir=str(wdir)))
-                ids: dict[tuple[str, str | None], list[str]] = {(n.name, f): [] for n in spec.navigators
+                ids: dict[tuple[str, str | None], list[str]] = {(variant(n.name, r.name if several else None), f): []
+                                                                for n in spec.navigators for r in robots
                                                                 for f in faults}
                 for r in range(spec.max_runs_of(exp)):
                     rs = run_seed(spec.seed, exp.name, cfg.key, m, r)
                     for nav in spec.navigators:
-                        for fault in faults:
-                            rid = run_id(exp.name, cfg.key, m, r, nav.name, fault)
-                            ids[(nav.name, fault)].append(rid)
-                            trace = base / trace_path(exp.name, cfg.key, m, r, nav.name, fault)
-                            tasks.append(RunTask(
-                                run_id=rid, world_dir=str(wdir), run_seed=rs, trace_path=str(trace),
-                                navigator=nav.name, navigator_config=dict(nav.config), fault=fault,
-                                timeout_s=spec.timeout_s, goal_tolerance_m=spec.goal_tolerance_m,
-                                record_lidar=spec.record_lidar, record_navigator=spec.record_navigator,
-                                experiment=exp.name, config=dict(cfg.values),
-                                map_index=m, run_index=r, map_seed=ms, sim_overrides=dict(spec.sim)))
+                        for robot, robot_json in zip(robots, robots_json):
+                            name = variant(nav.name, robot.name if several else None)
+                            for fault in faults:
+                                rid = run_id(exp.name, cfg.key, m, r, name, fault)
+                                ids[(name, fault)].append(rid)
+                                trace = base / trace_path(exp.name, cfg.key, m, r, name, fault)
+                                tasks.append(RunTask(
+                                    run_id=rid, world_dir=str(wdir), run_seed=rs, trace_path=str(trace),
+                                    navigator=nav.name, navigator_config=dict(nav.config), fault=fault,
+                                    timeout_s=spec.timeout_s, goal_tolerance_m=spec.goal_tolerance_m,
+                                    record_lidar=spec.record_lidar, record_navigator=spec.record_navigator,
+                                    experiment=exp.name, config=dict(cfg.values),
+                                    map_index=m, run_index=r, map_seed=ms, sim_overrides=dict(spec.sim),
+                                    robot=robot_json))
                 streams.extend(Stream(tuple(v), rule) for v in ids.values())
     return Plan(maps=tuple(maps), tasks=tuple(tasks), streams=tuple(streams), root=str(base))

@@ -52,6 +52,8 @@ from pydantic import BaseModel, Field, field_validator, model_validator
 from navstress import _json
 from navstress._models import SPEC_CONFIG, parse
 from navstress.errors import SpecError
+from navstress.robot import PROFILES, RobotSpec, resolve_robot
+from navstress.robot.files import robot_from_mapping
 from navstress.seeding import MAX_SEED
 from navstress.sequential import AdaptiveRule, check_rule
 from navstress.specfile import parse_text, read_text
@@ -262,6 +264,8 @@ class ExperimentSpec(BaseModel):
     overrides: dict[str, Any] = Field(default_factory=dict)
     faults: list[str | None] | None = None  # None: the campaign's faults
     runs_per_map: int | AdaptiveRuns | None = None  # None: the campaign's
+    robot: RobotSpec | None = None  # None: the campaign's robot(s)
+    robots: list[RobotSpec] | None = Field(None, min_length=1)  # None: the campaign's
 
     @field_validator("name")
     @classmethod
@@ -337,6 +341,8 @@ class CampaignSpec(BaseModel):
     record_lidar: bool = False
     record_navigator: bool = False
     sim: dict[str, Any] = Field(default_factory=dict, description="simulation overrides passed to every run")
+    robot: RobotSpec | None = Field(None, description="the robot of every run (None: rmp400); see robots")
+    robots: list[RobotSpec] | None = Field(None, min_length=1, description="several robots: every run for each")
 
     @field_validator("name")
     @classmethod
@@ -350,12 +356,21 @@ class CampaignSpec(BaseModel):
 
     def canonical_json(self) -> str:
         """A stable text of the validated spec (used to refuse resuming with another spec; an
-        experiment without its own ``runs_per_map``, an adaptive rule without indifference, and a
-        spec that does not record the navigator's view, have the same text as before those keys
-        existed)."""
+        experiment without its own ``runs_per_map``, an adaptive rule without indifference, a spec
+        that does not record the navigator's view, and one of the default robot (no ``robot:``, or
+        ``robot: rmp400``), have the same text as before those keys existed). A robot is there
+        with its whole description: a changed robot file changes the digest."""
         data = self.model_dump(mode="json")
         if not data["record_navigator"]:
             del data["record_navigator"]
+        # no robot given, or the default robot (rmp400) alone: the text of before robots existed
+        # (an experiment's own default robot only when the campaign's is the default too)
+        plain = (None, RobotSpec().model_dump(mode="json"), [RobotSpec().model_dump(mode="json")])
+        top_default = data.get("robot") in plain and data.get("robots") in plain
+        for owner in (data, *data["experiments"]):
+            for key in ("robot", "robots"):
+                if owner.get(key) is None or (top_default and owner.get(key) in plain):
+                    owner.pop(key, None)
         for exp in data["experiments"]:
             if exp.get("runs_per_map") is None:
                 exp.pop("runs_per_map", None)
@@ -379,6 +394,30 @@ class CampaignSpec(BaseModel):
         """The adaptive rule of ``exp``'s runs, None when it runs a fixed number per map."""
         r = exp.runs_per_map if exp.runs_per_map is not None else self.runs_per_map
         return r.rule() if isinstance(r, AdaptiveRuns) else None
+
+    def robots_of(self, exp: ExperimentSpec) -> list[RobotSpec]:
+        """The robots ``exp`` runs each of its runs on: its own ``robots``/``robot``, else the
+        campaign's, else the default robot (``rmp400``)."""
+        for owner in (exp, self):
+            if owner.robots is not None:
+                return list(owner.robots)
+            if owner.robot is not None:
+                return [owner.robot]
+        return [RobotSpec()]
+
+    def all_robots(self) -> list[RobotSpec]:
+        """Every robot of the campaign, once each (by name), in the order first listed."""
+        out: dict[str, RobotSpec] = {}
+        for exp in self.experiments:
+            for r in self.robots_of(exp):
+                out.setdefault(r.name, r)
+        return list(out.values())
+
+    @property
+    def several_robots(self) -> bool:
+        """Whether the campaign runs more than one robot: its run ids then name the robot
+        (``.../r<j>/<navigator>@<robot>/<fault>``, :func:`navstress.campaign.plan.run_id`)."""
+        return len(self.all_robots()) > 1
 
     def maps_of(self, exp: ExperimentSpec) -> int:
         """Maps per configuration of ``exp``: ``maps_per_config``, or 1 for explicit worlds."""
@@ -418,7 +457,8 @@ def planned_runs(spec: CampaignSpec) -> int:
             n *= rng.count()
         if exp.worlds is not None:
             n = len(exp.worlds)
-        total += n * spec.maps_of(exp) * spec.max_runs_of(exp) * len(spec.navigators) * len(spec.faults_of(exp))
+        total += (n * spec.maps_of(exp) * spec.max_runs_of(exp) * len(spec.navigators) * len(spec.faults_of(exp))
+                  * len(spec.robots_of(exp)))
     return total
 
 
@@ -434,15 +474,116 @@ def check_plan_size(spec: CampaignSpec, max_runs: int | None = MAX_PLANNED_RUNS)
     return n
 
 
-def parse_campaign(data: Any, *, max_runs: int | None = MAX_PLANNED_RUNS) -> CampaignSpec:
+def parse_campaign(data: Any, *, max_runs: int | None = MAX_PLANNED_RUNS,
+                   base_dir: str | Path | None = None) -> CampaignSpec:
     """Validate a mapping into a CampaignSpec and check every configuration (SpecError on bad input).
 
     Checks, before anything runs: every field, the plan's size (at most ``max_runs`` runs, None:
     no limit; checked before any sweep is expanded), every swept path exists in WorldSpec, every
-    configuration validates as a WorldSpec, experiment names are unique, no duplicate navigator/fault."""
+    configuration validates as a WorldSpec, experiment names are unique, no duplicate navigator/fault,
+    every robot known and fitting the worlds' free areas. ``robot:`` and ``robots:`` entries (a
+    profile name, a robot file relative to ``base_dir`` (default: the working directory), or a
+    mapping with an optional ``base:`` profile and overrides) become RobotSpecs here
+    (:func:`resolve_robots`)."""
     if not isinstance(data, dict):
         raise SpecError("campaign", type(data).__name__, "a mapping of fields at the top level")
-    return check_campaign(parse(CampaignSpec, data), max_runs=max_runs)
+    return check_campaign(parse(CampaignSpec, resolve_robots(data, base_dir)), max_runs=max_runs)
+
+
+#: What a ``robot:`` entry may be, in words (errors).
+ROBOT_REF = ("a robot profile name, a robot file (.yaml, .yml, .json, .urdf, .xml), or a mapping of "
+             "RobotSpec fields with an optional base: profile")
+
+
+def resolve_robot_ref(ref: Any, field: str, base_dir: str | Path | None = None) -> RobotSpec:
+    """The RobotSpec of one ``robot:`` entry of a spec (SpecError naming ``field``, e.g.
+    ``robots[1]``, with a "did you mean" for an unknown profile). A relative file path is taken
+    relative to ``base_dir`` (the spec file's folder)."""
+    if isinstance(ref, RobotSpec):
+        return ref
+    if isinstance(ref, dict):
+        return robot_from_mapping(ref, where=field, base_dir=Path(base_dir) if base_dir is not None else None)
+    if not isinstance(ref, str) or not ref:
+        raise SpecError(field, ref, ROBOT_REF)
+    if base_dir is not None and ref.lower().endswith((".yaml", ".yml", ".json", ".urdf", ".xml")):
+        if not Path(ref).is_absolute():
+            ref = str(Path(base_dir) / ref)
+    try:
+        return resolve_robot(ref)
+    except SpecError as err:
+        inner = err.field if err.field != "robot" else ""
+        where = field if not inner else (f"{field}.{inner[6:]}" if inner.startswith("robot.") else f"{field}.{inner}")
+        raise SpecError(where, err.value, err.expected, err.fix) from None
+
+
+def resolve_robots(data: dict[str, Any], base_dir: str | Path | None = None) -> dict[str, Any]:
+    """``data`` (a campaign spec's mapping) with each ``robot:`` / ``robots:`` entry, at the top
+    level and in each experiment, replaced by its RobotSpec (see :func:`resolve_robot_ref`);
+    ``data`` itself is not changed. A null entry stays null (the default)."""
+    out = dict(data)
+
+    def fix(owner: dict[str, Any], where: str) -> None:
+        if owner.get("robot") is not None:
+            owner["robot"] = resolve_robot_ref(owner["robot"], f"{where}robot", base_dir)
+        refs = owner.get("robots")
+        if refs is not None:
+            if not isinstance(refs, list) or not refs:
+                raise SpecError(f"{where}robots", refs, f"a non-empty list, each {ROBOT_REF}")
+            owner["robots"] = [resolve_robot_ref(r, f"{where}robots[{i}]", base_dir) for i, r in enumerate(refs)]
+
+    fix(out, "")
+    exps = out.get("experiments")
+    if isinstance(exps, list):
+        out["experiments"] = [dict(e) if isinstance(e, dict) else e for e in exps]
+        for i, e in enumerate(out["experiments"]):
+            if isinstance(e, dict):
+                fix(e, f"experiments[{i}].")
+    return out
+
+
+def check_robots(spec: CampaignSpec) -> None:
+    """The robots of ``spec``: not both ``robot`` and ``robots``; names unique in a list; one
+    description per name across the campaign (records, reports and comparisons tell robots apart
+    by name); each robot fits in every world's start and goal free discs (its half diagonal at
+    most ``mission.free_radius_m``, where one is asked for). SpecError naming the field."""
+    owners: list[tuple[str, Any]] = [("", spec), *((f"experiments[{i}].", e) for i, e in enumerate(spec.experiments))]
+    for where, owner in owners:
+        if owner.robot is not None and owner.robots is not None:
+            raise SpecError(f"{where}robot", owner.robot.name, "either robot or robots, not both",
+                            "list every robot under robots")
+        names = [r.name for r in owner.robots or ()]
+        for j, n in enumerate(names):
+            if n in names[:j]:
+                raise SpecError(f"{where}robots[{j}].name", n, "a name unique among the robots",
+                                "give one of them a name: of its own")
+    seen: dict[str, tuple[str, str]] = {}
+    for i, exp in enumerate(spec.experiments):
+        for r in spec.robots_of(exp):
+            first = seen.setdefault(r.name, (r.digest, f"experiments[{i}]"))
+            if first[0] != r.digest:
+                raise SpecError(f"experiments[{i}].robot", r.name, f"one description per robot name (the robot "
+                                f"{r.name!r} of {first[1]} is described otherwise)", "give one of them another name")
+        # every free disc (the configurations' worlds are parsed once, for every robot)
+        largest = max(spec.robots_of(exp), key=lambda r: r.half_diagonal_m)
+        frees = {f"experiments[{i}]" + (f".worlds[{cfg.key}]" if exp.worlds is not None else f".sweep[{cfg.key}]"):
+                 free for cfg, free in _free_radii(exp, spec.world)}
+        for at, free in frees.items():
+            if 0 < free < largest.half_diagonal_m:
+                raise SpecError(f"{at}.mission.free_radius_m", free, f"a free disc the robot {largest.name!r} fits in "
+                                f"(its half diagonal is {largest.half_diagonal_m:.3g} m)",
+                                f"raise world.mission.free_radius_m to at least {largest.half_diagonal_m:.3g}")
+
+
+def _free_radii(exp: ExperimentSpec, base: dict[str, Any]) -> list[tuple["Configuration", float]]:
+    """(configuration, its ``mission.free_radius_m``) of each configuration of ``exp``, from the
+    mappings (the configurations were validated as WorldSpecs before): without parsing them again."""
+    default = WorldSpec.model_fields["mission"].default.free_radius_m
+    out = []
+    for cfg in exp.configurations(base):
+        mission = cfg.world.get("mission")
+        free = mission.get("free_radius_m", default) if isinstance(mission, dict) else default
+        out.append((cfg, float(free)))
+    return out
 
 
 def check_campaign(spec: CampaignSpec, *, max_runs: int | None = MAX_PLANNED_RUNS) -> CampaignSpec:
@@ -489,11 +630,12 @@ def check_campaign(spec: CampaignSpec, *, max_runs: int | None = MAX_PLANNED_RUN
         raise SpecError("navigators", names, "navigator names without duplicates")
     check_faults(spec.faults, names=False)
     check_fault_names([f for e in spec.experiments for f in spec.faults_of(e)])
+    check_robots(spec)
     return spec
 
 
 #: The order of the fields in the text of a spec made in code (:func:`spec_yaml`).
-TEXT_ORDER = ("name", "seed", "world", "navigators", "faults", "maps_per_config", "runs_per_map", "timeout_s",
+TEXT_ORDER = ("name", "seed", "world", "robot", "robots", "navigators", "faults", "maps_per_config", "runs_per_map", "timeout_s",
               "goal_tolerance_m", "record_lidar", "record_navigator", "sim", "experiments")
 
 
@@ -510,11 +652,21 @@ def spec_yaml(spec: CampaignSpec) -> str:
             continue
         if name == "navigators":
             data[name] = [n.model_dump(mode="json", exclude_none=True) for n in spec.navigators]
+        elif name == "robot" and spec.robot is not None:
+            data[name] = robot_text(spec.robot)
+        elif name == "robots" and spec.robots is not None:
+            data[name] = [robot_text(r) for r in spec.robots]
         elif name == "experiments":
             data[name] = [e.model_dump(mode="json", include=e.model_fields_set) for e in spec.experiments]
         else:
             data[name] = plain[name]
     return yaml.safe_dump(data, sort_keys=False)
+
+
+def robot_text(robot: RobotSpec) -> Any:
+    """How a spec's text writes ``robot``: its profile's name when it is that profile, else its
+    fields (a mapping that reads back as the same robot)."""
+    return robot.name if PROFILES.get(robot.name) == robot else robot.model_dump(mode="json")
 
 
 def load_campaign(path: str | Path, *, max_runs: int | None = MAX_PLANNED_RUNS) -> tuple[CampaignSpec, str]:
@@ -525,14 +677,15 @@ def load_campaign(path: str | Path, *, max_runs: int | None = MAX_PLANNED_RUNS) 
     alias expansion)."""
     p = Path(path)
     text = read_text(p, field="campaign")
-    return parse_campaign_text(text, str(p), max_runs=max_runs), text
+    return parse_campaign_text(text, str(p), max_runs=max_runs, base_dir=p.parent), text
 
 
-def parse_campaign_text(text: str, name: str = "campaign", *,
-                        max_runs: int | None = MAX_PLANNED_RUNS) -> CampaignSpec:
-    """Parse and validate campaign YAML/JSON text (``name`` is what an error names)."""
+def parse_campaign_text(text: str, name: str = "campaign", *, max_runs: int | None = MAX_PLANNED_RUNS,
+                        base_dir: str | Path | None = None) -> CampaignSpec:
+    """Parse and validate campaign YAML/JSON text (``name`` is what an error names; ``base_dir``:
+    where robot files are, see :func:`parse_campaign`)."""
     data = parse_text(text, field="campaign", name=name)
-    return parse_campaign(data if data is not None else {}, max_runs=max_runs)
+    return parse_campaign(data if data is not None else {}, max_runs=max_runs, base_dir=base_dir)
 
 
 # ---- helpers -------------------------------------------------------------------------

@@ -39,6 +39,7 @@ copy and the store is next opened for writing).
 
 from __future__ import annotations
 
+import csv
 import errno
 import fcntl
 import json
@@ -57,11 +58,12 @@ from typing import IO, Any, Literal
 
 from navstress import __version__, _files, _json
 from navstress._tables import FORMATS, Kind, read_table, write_table
-from navstress.campaign.plan import NOMINAL, Plan, config_key_of, plan, trace_path, world_path
+from navstress.campaign.plan import (NOMINAL, Plan, config_key_of, plan, trace_path, variant, variant_of,
+                                     world_path)
 from navstress.campaign.spec import CampaignSpec, parse_campaign_text, spec_yaml
 from navstress.errors import SpecError, StoreError
 from navstress.run.outcome import Outcome
-from navstress.run.record import RunRecord, RunTask
+from navstress.run.record import DEFAULT_ROBOT, DEFAULT_ROBOT_DIGEST, RunRecord, RunTask
 from navstress.world.world import world_descriptors
 
 DB_NAME = "campaign.sqlite"
@@ -72,6 +74,9 @@ OUTCOMES: tuple[str, ...] = tuple(o.value for o in Outcome)
 
 #: The ``runs`` table columns, in order (RunRecord fields).
 COLUMNS: tuple[str, ...] = tuple(f.name for f in fields(RunRecord))
+#: The runs table's robot columns: added (the default robot's name and digest in every row) to a
+#: store made before robots existed when it is opened for writing; read as those values until then.
+ROBOT_COLUMNS = ("robot", "robot_digest")
 _TYPES = {"map_index": "INTEGER", "run_index": "INTEGER", "map_seed": "INTEGER", "run_seed": "INTEGER",
           "collisions": "INTEGER", "duration_s": "REAL", "wall_s": "REAL", "goal_distance_m": "REAL",
           "path_length_m": "REAL", "tortuousness": "REAL", "first_collision_s": "REAL"}
@@ -106,7 +111,8 @@ _OUR_NAMES = {SPEC_NAME, "worlds", "traces", LOCK_NAME, DB_NAME, *_CREATION_LEFT
 #: directory, beside a world directory ``m<k>`` (group 1).
 _WORLD_TEMP = re.compile(r"^\.(m\d+)\.(?:old|[a-z0-9_]{8})$")
 #: Columns every store's tables must have (checked when a store is opened).
-_REQUIRED = {"meta": ("key", "value"), "planned": ("run_id", "seq", "task"), "runs": COLUMNS}
+_REQUIRED = {"meta": ("key", "value"), "planned": ("run_id", "seq", "task"),
+             "runs": tuple(c for c in COLUMNS if c not in ROBOT_COLUMNS)}
 
 
 class _Connection(sqlite3.Connection):
@@ -194,6 +200,11 @@ class Store:
         self.con = con
         self.spec = spec
         self._lock = lock
+        #: how each runs column is selected ('r.robot', or the default's value for a store made
+        #: before robots existed, opened for reading)
+        have = {r[1] for r in con.execute("PRAGMA table_info(runs)")}
+        self._select = ", ".join(f"r.{c}" if c in have else f"{_sql_text(_DEFAULT_ROBOT[c])} AS {c}"
+                                 for c in COLUMNS)
 
     # ---- opening ---------------------------------------------------------------------
     @classmethod
@@ -224,6 +235,10 @@ class Store:
                 except BaseException:
                     store.con.close()
                     raise
+                why = robot_change(store.spec, spec)
+                if why is not None and store.spec.digest() != spec.digest():
+                    store.con.close()
+                    raise StoreError(f"output={str(d)!r} holds campaign {store.spec.name!r} {why}")
                 if store.spec.digest() != spec.digest():
                     store.con.close()
                     raise StoreError(f"output={str(d)!r} holds campaign {store.spec.name!r} made from a different "
@@ -310,6 +325,8 @@ class Store:
             if meta.get("schema") != SCHEMA_VERSION:
                 raise StoreError(f"campaign={str(d)!r} has store schema {meta.get('schema')!r}, expected "
                                  f"{SCHEMA_VERSION} (made by another navstress version); use that version to read it")
+            if lock is not None:
+                _robot_columns(con)
             _check_types(con, d)
             try:
                 spec = _spec_from_json(meta["spec_json"])
@@ -375,6 +392,9 @@ class Store:
         elif parse_campaign_text(spec_text, "spec_text", max_runs=None).digest() != spec.digest():
             raise SpecError("spec_text", spec_text[:60] + ("..." if len(spec_text) > 60 else ""),
                             "the text of the spec given with it (it becomes spec.yaml)")
+        changed = robot_change(self.spec, spec)
+        if changed is not None:
+            raise StoreError(f"campaign={str(self.root)!r} cannot be extended with spec {spec.name!r}: it {changed}")
         why = extension_error(self.spec, spec)
         if why is not None:
             raise StoreError(f"campaign={str(self.root)!r} cannot be extended with spec {spec.name!r}: {why}; a spec "
@@ -502,6 +522,7 @@ class Store:
         row = record.to_row()
         if row["trace"]:
             row["trace"] = _rel(row["trace"], self.root)
+        row["robot"], row["robot_digest"] = self._robot_of(record.run_id)
         vals = [row[c] for c in COLUMNS] + [time.time()]
         self.con.execute("BEGIN IMMEDIATE")
         try:
@@ -513,6 +534,16 @@ class Store:
             self._rollback()
             raise
         return cur.rowcount == 1
+
+    def _robot_of(self, run_id: str) -> tuple[str, str]:
+        """(name, digest) of the robot ``run_id`` was planned on: what its record is stored with,
+        whichever path made the record (a run, a failure, a world that could not be generated)."""
+        row = self.con.execute("SELECT task FROM planned WHERE run_id = ?", (run_id,)).fetchone()
+        robot = json.loads(row[0]).get("robot") if row is not None else None
+        if robot is None:
+            return DEFAULT_ROBOT, DEFAULT_ROBOT_DIGEST
+        spec = RunTask(run_id, "", 0, "", robot=robot).robot_spec()
+        return spec.name, spec.digest
 
     def _rollback(self) -> None:
         if self.con.in_transaction:
@@ -547,7 +578,7 @@ class Store:
 
     def records(self, experiment: str | None = None) -> list[RunRecord]:
         """Every recorded run (of ``experiment`` only, when given), in plan order."""
-        q = f"SELECT {', '.join('r.' + c for c in COLUMNS)} FROM runs r LEFT JOIN planned p USING (run_id)"
+        q = f"SELECT {self._select} FROM runs r LEFT JOIN planned p USING (run_id)"
         if experiment is None:
             rows = self.con.execute(q + " ORDER BY p.seq")
         else:
@@ -585,8 +616,8 @@ class Store:
         p = self.plan()
         cfg = {m.world_dir: (m.experiment, m.config_key) for m in p.maps}
         out: Counter[tuple[str, str, str, str]] = self._at_most(
-            lambda t: (*cfg[t.world_dir], t.navigator, t.fault or NOMINAL)) if self.adaptive else Counter(
-            (*cfg[t.world_dir], t.navigator, t.fault or NOMINAL) for t in p.tasks)
+            lambda t: (*cfg[t.world_dir], variant_of(t.run_id, t.navigator), t.fault or NOMINAL)) if self.adaptive \
+            else Counter((*cfg[t.world_dir], variant_of(t.run_id, t.navigator), t.fault or NOMINAL) for t in p.tasks)
         return dict(out)
 
     def progress(self) -> tuple[int, int]:
@@ -619,7 +650,10 @@ class Store:
         return out
 
     def per_navigator(self) -> list[tuple[str, str, int, int, dict[str, int]]]:
-        """(navigator, fault, recorded, planned, outcome counts) per navigator and fault, in spec order."""
+        """(navigator, fault, recorded, planned, outcome counts) per navigator and fault, in spec order
+        (a campaign of several robots: per ``navigator@robot``, never two robots in one row)."""
+        if self.spec.several_robots:
+            return self._per_variant()
         out = []
         most = self._at_most(lambda t: (t.navigator, t.fault)) if self.adaptive else None
         for nav in self.spec.navigators:
@@ -636,6 +670,26 @@ class Store:
                     counts[o] = n
                 out.append((nav.name, f or "nominal", sum(counts.values()), int(planned), counts))
         return out
+
+    def _per_variant(self) -> list[tuple[str, str, int, int, dict[str, int]]]:
+        """:meth:`per_navigator` of a campaign of several robots: per (navigator@robot, fault)."""
+        p = self.plan()
+        outcomes = self.outcomes()
+        key = {t.run_id: (variant_of(t.run_id, t.navigator), t.fault) for t in p.tasks}
+        planned: Counter[tuple[str, str | None]] = Counter()
+        if self.adaptive:
+            for st in p.streams:
+                planned[key[st.run_ids[0]]] += st.at_most(outcomes)
+        else:
+            planned.update(key.values())
+        counts: dict[tuple[str, str | None], dict[str, int]] = {k: {o: 0 for o in OUTCOMES} for k in planned}
+        for rid, o in outcomes.items():
+            if rid in key:
+                counts[key[rid]][o] += 1
+        order = [(variant(n.name, r.name), f) for n in self.spec.navigators for r in self.spec.all_robots()
+                 for f in dict.fromkeys(f for e in self.spec.experiments for f in self.spec.faults_of(e))]
+        return [(v, f or NOMINAL, sum(counts[(v, f)].values()), planned[(v, f)], counts[(v, f)])
+                for v, f in order if planned[(v, f)]]
 
     def mean_wall_s(self) -> float | None:
         v = self.con.execute("SELECT AVG(wall_s) FROM runs").fetchone()[0]
@@ -656,7 +710,7 @@ class Store:
         if fmt not in FORMATS:
             raise SpecError("format", fmt, "csv or parquet")
         dest = Path(out) if out is not None else self.root / f"runs.{fmt}"
-        q = (f"SELECT {', '.join('r.' + c for c in COLUMNS)}, p.task AS task FROM runs r "
+        q = (f"SELECT {self._select}, p.task AS task FROM runs r "
              "LEFT JOIN planned p USING (run_id) ORDER BY p.seq")
         rows = [dict(r) for r in self.con.execute(q)]
         configs = [json.loads(r["config"]) for r in rows]
@@ -717,6 +771,40 @@ def _world_descriptors(root: Path, world_dirs: list[str | None]) -> dict[str | N
     return out
 
 
+_DEFAULT_ROBOT = {"robot": DEFAULT_ROBOT, "robot_digest": DEFAULT_ROBOT_DIGEST}
+
+
+def _sql_text(v: str) -> str:
+    return "'" + v.replace("'", "''") + "'"
+
+
+def _robot_columns(con: sqlite3.Connection) -> None:
+    """Add the robot columns to the runs table of a store made before robots existed (its runs
+    are all of the default robot, ``rmp400``: the columns' default)."""
+    have = {r[1] for r in con.execute("PRAGMA table_info(runs)")}
+    for c in ROBOT_COLUMNS:
+        if c not in have:
+            con.execute(f"ALTER TABLE runs ADD COLUMN {c} TEXT NOT NULL DEFAULT {_sql_text(_DEFAULT_ROBOT[c])}")
+
+
+def robot_change(stored: CampaignSpec, given: CampaignSpec) -> str | None:
+    """How ``given`` changes the robots of the campaign ``stored`` (None: it does not): a robot of
+    the same name described otherwise (its file or overrides changed: its digest differs), or a
+    campaign of one robot given several (its run ids would change). Said as the end of a sentence
+    ``campaign 'x' ...``."""
+    was = {r.name: r.digest for r in stored.all_robots()}
+    for r in given.all_robots():
+        if r.name in was and was[r.name] != r.digest:
+            return (f"whose robot {r.name!r} is described otherwise now (digest {was[r.name]}, given {r.digest}: its "
+                    "robot file or overrides changed); restore that description, give the changed robot another "
+                    "name in a new campaign, or choose a new -o")
+    if stored.several_robots != given.several_robots:
+        return (f"of {len(was)} robot{'s' if len(was) > 1 else ''}, given {len(given.all_robots())}: a campaign keeps "
+                "its number of robots (its run ids name the robot only when it has several); run the robots in a "
+                "new campaign (-o)")
+    return None
+
+
 def extension_error(stored: CampaignSpec, given: CampaignSpec) -> str | None:
     """What keeps ``given`` from extending ``stored`` (None: it does, or it is ``stored``)."""
     a, b = json.loads(stored.canonical_json()), json.loads(given.canonical_json())
@@ -747,8 +835,18 @@ def _short(v: Any) -> str:
 
 
 def read_export(path: str | Path) -> list[dict[str, Any]]:
-    """Read back an exported runs table (CSV or Parquet) as rows with typed values."""
-    return read_table(path, _EXPORT_KINDS, nullable=("trace",))
+    """Read back an exported runs table (CSV or Parquet) as rows with typed values (an export made
+    before robots existed: its runs are the default robot's, ``robot`` and ``robot_digest`` filled)."""
+    kinds = dict(_EXPORT_KINDS)
+    if Path(path).suffix != ".parquet":
+        with open(path, newline="", encoding="utf-8") as f:
+            head = set(next(csv.reader(f), []))
+        kinds = {c: k for c, k in kinds.items() if c in head or c not in ROBOT_COLUMNS}
+    rows = read_table(path, kinds, nullable=("trace",))
+    for row in rows:
+        for c in ROBOT_COLUMNS:
+            row.setdefault(c, _DEFAULT_ROBOT[c])
+    return rows
 
 
 def _record(row: dict[str, Any], root: Path) -> RunRecord:
@@ -819,7 +917,8 @@ def _task_fields() -> tuple[dict[str, frozenset[type]], frozenset[str]]:
     may not be left out (those without a default)."""
     kinds: dict[str, frozenset[type]] = {
         "str": frozenset({str}), "int": frozenset({int}), "float": frozenset({int, float}),
-        "bool": frozenset({bool}), "str | None": frozenset({str, type(None)}), "dict[str, Any]": frozenset({dict})}
+        "bool": frozenset({bool}), "str | None": frozenset({str, type(None)}), "dict[str, Any]": frozenset({dict}),
+        "dict[str, Any] | None": frozenset({dict, type(None)})}
     types = {f.name: kinds[str(f.type)] for f in fields(RunTask)}
     return types, frozenset(f.name for f in fields(RunTask) if f.default is MISSING and f.default_factory is MISSING)
 
@@ -850,6 +949,8 @@ def _check_types(con: sqlite3.Connection, root: Path) -> None:
     for table, cols in RULES.items():
         if table not in tables:
             continue  # attempts: stores made before it existed (the required tables are checked before)
+        have = {r[1] for r in con.execute(f"PRAGMA table_info({table})")}
+        cols = {c: col for c, col in cols.items() if c in have}  # (the robot columns of an old store)
         where = " OR ".join(col.bad_sql(c) for c, col in cols.items())
         bad = con.execute(f"SELECT rowid, * FROM {table} WHERE {where} LIMIT 1").fetchone()
         if bad is not None:
@@ -914,9 +1015,15 @@ def _task_error(task: dict[str, Any], row: dict[str, Any]) -> str | None:
         if task[name] != v or type(task[name]) is not type(v):
             return f"field {name}={_clip(task[name], 40)} is not the row's {name} ({_clip(v, 40)})"
     key = config_key_of(row["run_id"], row["experiment"], row["config"])
+    nav = variant_of(row["run_id"], row["navigator"])
+    if nav != row["navigator"]:  # a campaign of several robots: the run id names the task's robot
+        robot = task.get("robot")
+        name = robot.get("name", DEFAULT_ROBOT) if isinstance(robot, dict) else DEFAULT_ROBOT
+        if nav != variant(row["navigator"], str(name)):
+            return f"field robot (named {_clip(name, 40)}) is not the run id's robot"
     for name, path in (("world_dir", world_path(row["experiment"], key, row["map_index"])),
                        ("trace_path", trace_path(row["experiment"], key, row["map_index"], row["run_index"],
-                                                 row["navigator"], row["fault"]))):
+                                                 nav, row["fault"]))):
         if task[name] != path:
             return f"field {name}={_clip(task[name], 40)} is not this run's {path!r} in the campaign directory"
     if min(task.get("map_seed", 0), task["run_seed"]) < 0:
@@ -945,6 +1052,29 @@ def _check_runs(con: sqlite3.Connection, root: Path) -> None:
                              f"{_clip(row['p_config'], 40)}")
     for row in con.execute("SELECT rowid AS rowid_, run_id, errors FROM runs WHERE errors IS NOT '[]'"):
         _json_of(root, "runs", row, row["rowid_"], "errors", list)
+    _check_robots(con, root)
+
+
+def _check_robots(con: sqlite3.Connection, root: Path) -> None:
+    """Each record's robot (name, digest) is its planned task's (one query: the distinct triples)."""
+    if not set(ROBOT_COLUMNS) <= {r[1] for r in con.execute("PRAGMA table_info(runs)")}:
+        return  # a store made before robots existed, read only: every run is the default robot's
+    known: dict[str | None, tuple[str, str]] = {None: (DEFAULT_ROBOT, DEFAULT_ROBOT_DIGEST)}
+    q = ("SELECT json_extract(p.task, '$.robot') AS planned, r.robot, r.robot_digest, MIN(r.rowid) AS rowid_, "
+         "MIN(r.run_id) AS run_id FROM runs r JOIN planned p USING (run_id) GROUP BY 1, 2, 3")
+    for row in con.execute(q):
+        planned = row["planned"]
+        if planned not in known:
+            try:
+                r = RunTask("", "", 0, "", robot=json.loads(planned)).robot_spec()
+                known[planned] = (r.name, r.digest)
+            except (ValueError, TypeError) as err:
+                raise _bad_value(root, "planned", f"run_id={_clip(row['run_id'])}", "task",
+                                 f"its robot is not a robot description: {err}") from None
+        for c, want in zip(ROBOT_COLUMNS, known[planned]):
+            if row[c] != want:
+                raise _bad_value(root, "runs", _row_name("runs", row, row["rowid_"]), c,
+                                 f"{_clip(row[c])} is not its planned run's {want!r}")
 
 
 def _bad_value(root: Path, table: str, row: str, column: str, why: str) -> StoreError:

@@ -103,6 +103,9 @@ def analyze_cmd(
                "generator refused, left out of every statistic") if a.refused_runs else ""
     con.print(literal(f"campaign {a.name}: {a.done}/{a.planned} runs recorded; "
                       + ", ".join(f"{n} {o}" for o, n in a.outcome_counts.items()) + refused))
+    robots = ", ".join(f"{n} ({d})" for n, d in a.robots)
+    con.print(literal(f"robot {robots}" if len(a.robots) <= 1 else
+                      f"robots {robots}: each result below is one navigator@robot's"))
     if not a.done:
         con.print("no run recorded yet: nothing to analyse")
     t = Table(title=f"Difficulty (nominal runs of {a.navigator})")

@@ -44,7 +44,8 @@ def _row(c: PairedStats, holm: bool, ratio: float = 1.0) -> list[str]:
 
 def _print(cmp: Comparison) -> None:
     con = console()
-    typer.echo(literal(f"A = {cmp.a.label} ({cmp.dir_a}), B = {cmp.b.label} ({cmp.dir_b}): "
+    typer.echo(literal(f"A = {cmp.a.label} ({cmp.dir_a}; robot {cmp.robot_a}), B = {cmp.b.label} ({cmp.dir_b}; "
+                      f"robot {cmp.robot_b}): "
                       f"{cmp.overall.pairs} pairs of runs with the same map and run seeds"))
     typer.echo(literal(cmp.headline()))
     t = Table(title=f"B against A, paired runs (success rates; {setting(cmp.confidence)} intervals of B - A in "

@@ -25,7 +25,7 @@ import numpy as np
 
 from navstress import _files, _json
 from navstress._tables import NOMINAL, config_key_of
-from navstress.errors import NavstressError
+from navstress.errors import NavstressError, SpecError
 from navstress.isolate import Worker
 from navstress.run.live import execute_live
 from navstress.run.mission import execute
@@ -77,7 +77,17 @@ def failure_record(task: RunTask, reason: str, wall_s: float = 0.0) -> RunRecord
         run_index=task.run_index, map_seed=task.map_seed, run_seed=task.run_seed, navigator=task.navigator,
         fault=task.fault, outcome="fail-other", reason=reason, duration_s=0.0, wall_s=wall_s,
         goal_distance_m=math.nan, path_length_m=0.0, tortuousness=0.0, collisions=0, first_collision_s=None,
-        errors=[reason], trace=None)
+        errors=[reason], trace=None, **_robot_columns(task))
+
+
+def _robot_columns(task: RunTask) -> dict[str, str]:
+    """The record's robot and robot_digest for ``task`` (a robot description that no longer
+    validates: its name as planned, no digest; a campaign store fills both in from its plan)."""
+    try:
+        robot = task.robot_spec()
+    except SpecError:
+        return {"robot": str((task.robot or {}).get("name", "unknown")), "robot_digest": ""}
+    return {"robot": robot.name, "robot_digest": robot.digest}
 
 
 def drop_partial_trace(task: RunTask) -> None:

@@ -464,7 +464,7 @@ def execute(task: RunTask, watch: RunWatcher | None = None) -> RunRecord:
     sim_cfg = None
     if task.sim_overrides:
         sim_cfg = SimConfig(**task.sim_overrides)
-    robot = robot_of(task.robot)  # (an unusable robot is the task's error, as an unknown navigator)
+    robot = task.robot_spec()  # (an unusable robot is the task's error, as an unknown navigator)
     meta = {k: str(v) for k, v in {
         "run_id": task.run_id, "run_seed": task.run_seed, "map_seed": task.map_seed, "world_seed": world.seed,
         "navigator": task.navigator, "fault": task.fault or "", "timeout_s": task.timeout_s,
@@ -488,4 +488,5 @@ def execute(task: RunTask, watch: RunWatcher | None = None) -> RunRecord:
         duration_s=res.duration_s, wall_s=time.perf_counter() - wall0,
         goal_distance_m=f.goal_distance_m if math.isfinite(f.goal_distance_m) else math.nan,  # NaN = unknown
         path_length_m=res.path_length_m, tortuousness=res.tortuousness, collisions=f.collisions,
-        first_collision_s=f.first_collision_s, errors=errors, trace=os.fspath(trace_path))
+        first_collision_s=f.first_collision_s, errors=errors, trace=os.fspath(trace_path),
+        robot=robot.name, robot_digest=robot.digest)

@@ -19,7 +19,16 @@ from dataclasses import asdict, dataclass, field, fields
 from typing import Any
 
 from navstress import _json
+from pydantic import ValidationError
+
+from navstress._models import spec_error
+from navstress.robot import RobotSpec
 from navstress.run.outcome import Outcome
+
+#: The default robot (``rmp400``, the paper's): its name and description digest, what every record
+#: made before robots existed is of.
+DEFAULT_ROBOT = "rmp400"
+DEFAULT_ROBOT_DIGEST = RobotSpec().digest
 
 
 #: The start of the reason of every record of a run whose world could not be generated: the world
@@ -49,14 +58,23 @@ class RunTask:
     run_index: int = 0
     map_seed: int = 0
     sim_overrides: dict[str, Any] = field(default_factory=dict)
-    #: the simulated robot: None for the paper's rmp400 (the default), else its description as
-    #: canonical JSON text (:func:`navstress.run.robot.task_robot`; a profile name or a robot file
-    #: path is resolved too); the navigator is told it (or, under a fault, what it believes)
-    robot: str | None = None
+    #: the simulated robot, a RobotSpec's JSON mapping (None: the default ``RobotSpec()``, rmp400)
+    robot: dict[str, Any] | None = None
+
+    def robot_spec(self) -> RobotSpec:
+        """The robot of this run (the default ``RobotSpec()`` when ``robot`` is None)."""
+        if self.robot is None:
+            return RobotSpec()
+        try:  # JSON mode: the lists of the JSON text stand for the description's tuples
+            return RobotSpec.model_validate_json(_json.dumps(self.robot))
+        except ValidationError as err:
+            raise spec_error(err, self.robot, model=RobotSpec, prefix="robot") from None
 
     def to_json(self) -> str:
+        """JSON text of the task (a task of the default robot leaves ``robot`` out: the text of
+        before robots existed)."""
         d = asdict(self)
-        if d["robot"] is None:  # the default robot: the JSON (and a store's planned tasks) as before robots
+        if d["robot"] is None:
             del d["robot"]
         return _json.dumps(d, sort_keys=True)
 
@@ -121,6 +139,8 @@ class RunRecord:
     first_collision_s: float | None
     errors: list[str]
     trace: str | None  # path of the MCAP trace relative to the campaign dir (or absolute), None if none
+    robot: str = DEFAULT_ROBOT  # the simulated robot's name
+    robot_digest: str = DEFAULT_ROBOT_DIGEST  # its description's digest (RobotSpec.digest)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "reason", cap_message(str(self.reason)))
@@ -135,10 +155,14 @@ class RunRecord:
     @classmethod
     def from_row(cls, row: dict[str, Any]) -> "RunRecord":
         names = {f.name for f in fields(cls)}
-        d = {k: row[k] for k in names}
+        d = {k: row[k] for k in names if k in row or k not in _ROBOT_COLUMNS}  # (old rows: the default robot)
         d["config"] = json.loads(d["config"]) if isinstance(d["config"], str) else d["config"]
         d["errors"] = json.loads(d["errors"]) if isinstance(d["errors"], str) else d["errors"]
         return cls(**d)
+
+
+#: The record's robot columns (absent from rows made before robots existed: the default robot's).
+_ROBOT_COLUMNS = ("robot", "robot_digest")
 
 
 def ungenerated(r: RunRecord) -> bool:

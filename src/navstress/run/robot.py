@@ -9,13 +9,12 @@ has none and reads as the paper's ``rmp400`` (:func:`navstress.run.trace.read_ro
 
     >>> robot_of("jackal").name, robot_of(None).name
     ('jackal', 'rmp400')
-    >>> task_robot(None) is None, task_robot("rmp400") is None, robot_of(task_robot("jackal")).name
+    >>> task_robot(None) is None, task_robot("rmp400") is None, RunTask("r", "w", 0, "t", robot=task_robot("jackal")).robot_spec().name
     (True, True, 'jackal')
 """
 
 from __future__ import annotations
 
-import importlib
 import json
 from collections.abc import Mapping
 from dataclasses import replace
@@ -25,6 +24,7 @@ from typing import Any
 from navstress.errors import SpecError
 from navstress.robot import PROFILES, RobotSpec, resolve_robot
 from navstress.run.record import RunTask
+from navstress.sim.validation import require_stable
 
 
 def robot_of(ref: Any, field: str | None = None) -> RobotSpec:
@@ -53,13 +53,13 @@ def description(robot: RobotSpec) -> str:
     return json.dumps(robot.model_dump(mode="json"), sort_keys=True, separators=(",", ":"))
 
 
-def task_robot(ref: Any) -> str | None:
+def task_robot(ref: Any) -> dict[str, Any] | None:
     """What a :class:`RunTask` carries of the robot ``ref``: None for the paper's robot (the
     default: a task of it keeps its JSON, and its store, as before robots), else the whole
-    description as JSON text (:func:`description`), so that a replay simulates the same robot
-    even after a profile or a robot file changed."""
+    description as a JSON mapping (:func:`description`'s), so that a replay simulates the same
+    robot even after a profile or a robot file changed (:meth:`RunTask.robot_spec` reads it)."""
     robot = robot_of(ref)
-    return None if robot == PROFILES["rmp400"] else description(robot)
+    return None if robot == PROFILES["rmp400"] else dict(json.loads(description(robot)))
 
 
 def with_recorded_robot(task: RunTask, trace: str | Path) -> RunTask:
@@ -75,12 +75,6 @@ def with_recorded_robot(task: RunTask, trace: str | Path) -> RunTask:
 
 def check_stable(robot: RobotSpec, config: Any = None) -> None:
     """Refuse (one-line error) a robot the simulation cannot hold stable on flat ground at its own
-    top speed: :func:`navstress.sim.validation.require_stable`, called before every run. (Looked
-    up by name: the module comes with the drive models; until it is there nothing is checked.)"""
-    try:
-        validation = importlib.import_module("navstress.sim.validation")
-    except ModuleNotFoundError as err:
-        if err.name not in ("navstress.sim.validation",):
-            raise
-        return
-    validation.require_stable(robot, config)
+    top speed: :func:`navstress.sim.validation.require_stable` (cached per robot and
+    configuration), called before every run."""
+    require_stable(robot, config)

@@ -43,7 +43,8 @@ from navstress._models import parse
 from navstress.campaign.executors import CampaignRunner, check_workers, open_runner
 from navstress.campaign.registry import DEFAULT_EXECUTOR, check_executor
 from navstress.campaign.scheduler import RecordCallback
-from navstress.campaign.spec import AdaptiveRuns, CampaignSpec, ExperimentSpec, WorldEntry, check_campaign, parse_campaign
+from navstress.campaign.spec import (AdaptiveRuns, CampaignSpec, ExperimentSpec, WorldEntry, check_campaign, parse_campaign,
+                                    robot_text)
 from navstress.campaign.store import DB_NAME, Store
 from navstress.errors import NavstressError, SpecError, StoreError
 from navstress.run.record import RunRecord
@@ -565,7 +566,7 @@ def write_suite(spec: SearchSpec, result: SearchResult, root: Path) -> Path | No
             "runs_per_map": spec.confirm_runs,
             "navigators": [spec.navigator.model_dump(mode="json", exclude_none=True)],
             "faults": list(spec.faults), "timeout_s": spec.timeout_s, "goal_tolerance_m": spec.goal_tolerance_m,
-            "sim": spec.sim}
+            "sim": spec.sim, **({} if spec.robot is None else {"robot": robot_text(spec.robot)})}
     path: Path | None = None
     if ok:
         parse_campaign(data, max_runs=None)  # the suite is a valid campaign spec

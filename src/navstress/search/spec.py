@@ -33,8 +33,9 @@ from pydantic import BaseModel, Field, field_validator, model_validator
 
 from navstress._models import SPEC_CONFIG, parse, unoptional
 from navstress.campaign.spec import (AdaptiveRuns, NavigatorSpec, check_base_world, check_faults, check_name, deep_merge,
-                                    is_name, repetition)
+                                    is_name, repetition, resolve_robot_ref)
 from navstress.errors import MISSING, SpecError
+from navstress.robot import RobotSpec
 from navstress.search.objectives import DESCRIPTORS
 from navstress.seeding import MAX_SEED
 from navstress.specfile import parse_text, read_text
@@ -227,6 +228,7 @@ class SearchSpec(BaseModel):
     timeout_s: float = Field(400.0, gt=0.0, le=86_400.0)
     goal_tolerance_m: float = Field(2.0, gt=0.0)
     sim: dict[str, Any] = Field(default_factory=dict, description="simulation overrides passed to every run")
+    robot: RobotSpec | None = Field(None, description="the robot of every run (None: rmp400)")
 
     @model_validator(mode="before")
     @classmethod
@@ -268,9 +270,11 @@ class SearchSpec(BaseModel):
 
     def campaign_fields(self) -> dict[str, Any]:
         """The fields of the search's campaign spec besides its experiments (name, seed, base world,
-        one navigator, faults, repetition, timeout, tolerance, simulation overrides), as values of
-        :class:`~navstress.campaign.spec.CampaignSpec`'s fields, in the order its text shows them."""
-        return {"name": self.name, "seed": self.seed, "world": copy.deepcopy(self.world),
+        one navigator, faults, repetition, timeout, tolerance, simulation overrides, the robot when
+        one is given), as values of :class:`~navstress.campaign.spec.CampaignSpec`'s fields, in the
+        order its text shows them."""
+        robot = {} if self.robot is None else {"robot": self.robot}
+        return {"name": self.name, "seed": self.seed, "world": copy.deepcopy(self.world), **robot,
                 "navigators": [self.navigator], "faults": list(self.faults), "maps_per_config": 1,
                 "runs_per_map": self.runs_per_candidate, "timeout_s": self.timeout_s,
                 "goal_tolerance_m": self.goal_tolerance_m, "sim": copy.deepcopy(self.sim)}
@@ -452,7 +456,7 @@ def _check_options(data: dict[str, Any]) -> None:
                             "remove it or check its spelling")
 
 
-def parse_search(data: Any) -> SearchSpec:
+def parse_search(data: Any, base_dir: str | Path | None = None) -> SearchSpec:
     """Validate a mapping into a SearchSpec (SpecError on bad input).
 
     Checks, before anything runs: every field and no unknown one; the objective and the algorithm
@@ -460,9 +464,12 @@ def parse_search(data: Any) -> SearchSpec:
     parameter, once, with a range low < high (whole numbers for ``kind: int``); every corner of the
     space makes a valid world; the budget holds at least one generation; the fault-revealing
     objective's fault and the nominal stack are among the faults; the descriptors are two known
-    ones with ranges."""
+    ones with ranges; the robot (``robot:``, as in a campaign spec: a profile, a file relative to
+    ``base_dir``, a mapping with ``base:`` and overrides) is known and fits the free areas."""
     if not isinstance(data, dict):
         raise SpecError("search", type(data).__name__, "a mapping of fields at the top level")
+    if data.get("robot") is not None:
+        data = {**data, "robot": resolve_robot_ref(data["robot"], "robot", base_dir)}
     _check_options(data)
     budget = data.get("budget")
     if isinstance(budget, dict):
@@ -472,7 +479,12 @@ def parse_search(data: Any) -> SearchSpec:
     spec = parse(SearchSpec, data)
     if spec.budget.runs > MAX_BUDGET_RUNS:
         raise SpecError("budget.runs", spec.budget.runs, f"at most {MAX_BUDGET_RUNS:,} runs")
-    check_base_world(spec.world)
+    base = check_base_world(spec.world)
+    if spec.robot is not None and 0 < base.mission.free_radius_m < spec.robot.half_diagonal_m:
+        r = spec.robot
+        raise SpecError("world.mission.free_radius_m", base.mission.free_radius_m, f"a free disc the robot {r.name!r} "
+                        f"fits in (its half diagonal is {r.half_diagonal_m:.3g} m)",
+                        f"raise it to at least {r.half_diagonal_m:.3g}")
     params = spec.space.parameters
     if not params and not spec.space.map_seed and spec.space.moves is None:
         raise SpecError("space", "no parameters and map_seed: false",
@@ -553,13 +565,14 @@ def load_search(path: str | Path) -> tuple[SearchSpec, str]:
     """Read and validate a search YAML/JSON file; returns the spec and the text as given."""
     p = Path(path)
     text = read_text(p, field="search")
-    return parse_search_text(text, str(p)), text
+    return parse_search_text(text, str(p), base_dir=p.parent), text
 
 
-def parse_search_text(text: str, name: str = "search") -> SearchSpec:
-    """Parse and validate search YAML/JSON text (``name`` is what an error names)."""
+def parse_search_text(text: str, name: str = "search", base_dir: str | Path | None = None) -> SearchSpec:
+    """Parse and validate search YAML/JSON text (``name`` is what an error names; ``base_dir``:
+    where a robot file is)."""
     data = parse_text(text, field="search", name=name)
-    return parse_search(data if data is not None else {})
+    return parse_search(data if data is not None else {}, base_dir)
 
 
 def with_budget(spec: SearchSpec, runs: int, field: str = "--budget") -> SearchSpec:

@@ -15,6 +15,7 @@ from test_analyze_report import _Cells
 from typer.testing import CliRunner
 
 from navstress.analysis.analyze import analyze
+from navstress.robot import RobotSpec
 from navstress.analysis.report import build_report
 from navstress.analysis.stats import clopper_pearson
 from navstress.analysis.verdicts import (CONFIGURATION_COLUMNS, DEFAULT_CONFIDENCE, DEFAULT_THRESHOLD,
@@ -66,7 +67,8 @@ def test_analyze_json_gains_verdicts_and_keeps_its_keys(camp: Path) -> None:
     old = {"campaign", "navigator", "navigators", "done", "planned", "outcomes", "difficulty", "configurations",
            "level_ranges", "overlaps", "indeterminism", "fault_power", "fault_power_by_level",
            "descriptor_correlations", "missing"}
-    assert old < set(j) and set(j) - old == {"verdicts", "refused"}
+    assert old < set(j) and set(j) - old == {"verdicts", "refused", "robots"}
+    assert j["robots"] == [{"name": "rmp400", "digest": RobotSpec().digest}]  # (tests/unit/analysis/test_robots_analysis.py)
     assert j["refused"] == {"runs": 0, "maps": 0, "configurations": []}  # (tests/unit/analysis/test_refused_maps.py)
     v = j["verdicts"]
     assert (v["threshold"], v["confidence"], v["flaky_band"], v["interval"]) == (0.8, 0.95, [0.1, 0.9],

@@ -4,7 +4,6 @@ JSON documents, and the one-line refusals."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -17,8 +16,6 @@ from tests.support.cli_run import cli
 
 EXAMPLES = Path(__file__).resolve().parents[3] / "examples" / "robots"
 REFS = [*sorted(PROFILES), str(EXAMPLES / "our_jackal.yaml"), str(EXAMPLES / "small_diff.yaml")]
-HAVE_VALIDATION = importlib.util.find_spec("navstress.sim.validation") is not None
-NO_VALIDATION = "navstress.sim.validation (helper 'drives') is not in this tree yet"
 
 
 def test_list_shows_every_profile_with_its_figures() -> None:
@@ -86,7 +83,6 @@ def test_bad_input_is_one_line_exit_2(argv: list[str], field: str, tmp_path: Pat
     assert not (tmp_path / "x.pdf").exists()
 
 
-@pytest.mark.skipif(not HAVE_VALIDATION, reason=NO_VALIDATION)
 @pytest.mark.parametrize("ref", [*sorted(PROFILES), str(EXAMPLES / "small_diff.yaml")])
 def test_check_passes_the_shipped_robots(ref: str) -> None:
     code, out, err = cli("robot", "check", ref, "--quick", "--json")
@@ -98,7 +94,6 @@ def test_check_passes_the_shipped_robots(ref: str) -> None:
     assert code == 0 and text.rstrip().endswith("PASS")
 
 
-@pytest.mark.skipif(not HAVE_VALIDATION, reason=NO_VALIDATION)
 def test_check_fails_with_exit_1_on_a_robot_it_cannot_hold(tmp_path: Path) -> None:
     bad = tmp_path / "tippy.yaml"  # a tall, narrow, light base at a high speed with a huge torque
     bad.write_text("base: jackal\nwidth_m: 0.12\ntrack_m: 0.1\nbody_height_m: 0.9\nmass_kg: 2.0\n"
