@@ -59,6 +59,7 @@ class OutputCommand:
     name: str
     args: tuple[str, ...]
     kind: str
+    suffix: str = ".x"  # of the file names the link tests give it (a picture command needs its own)
 
     def argv(self, root: Path, out: str) -> list[str]:
         return [a.replace("{root}", str(root)).replace("{out}", out) for a in self.args]
@@ -70,7 +71,7 @@ OUTPUT_COMMANDS = [
     *[OutputCommand(f"world export {f}", ("world", "export", "{root}/w", "--format", f, "-o", "{out}"), "file")
       for f in ("mjcf", "sdf", "gltf", "glb", "obj", "png")],
     OutputCommand("world drive", ("world", "drive", "{root}/w", "--course", "0.5,0,0.5", "-o", "{out}"), "file"),
-    OutputCommand("robot show", ("robot", "show", "jackal", "-o", "{out}"), "file"),
+    OutputCommand("robot show", ("robot", "show", "jackal", "-o", "{out}"), "file", ".svg"),
     OutputCommand("run", ("run", "{root}/w", "--timeout", "0.5", "-o", "{out}"), "dir"),
     OutputCommand("demo", ("demo", "-o", "{out}"), "dir"),
     OutputCommand("campaign init", ("campaign", "init", "-o", "{out}"), "file"),

@@ -193,7 +193,7 @@ def test_file_outputs_never_write_through_a_link(inputs: Path, tmp_path: Path, c
     argv_of = cmd.argv  # type: ignore[attr-defined]
     learn = tmp_path / "learn"
     learn.mkdir()
-    code, so, se = invoke(argv_of(inputs, str(learn / "out.x")))
+    code, so, se = invoke(argv_of(inputs, str(learn / f"out{cmd.suffix}")))  # type: ignore[attr-defined]
     assert code == 0, se
     written = sorted(p.name for p in learn.iterdir())
     assert written, "the command wrote nothing"
@@ -207,7 +207,7 @@ def test_file_outputs_never_write_through_a_link(inputs: Path, tmp_path: Path, c
         for tmp in (f".{w}.tmp", f".{w}.partial"):
             plant(out / tmp, "file", outside)
     before = outside_of(tmp_path, out)
-    argv = argv_of(inputs, str(out / "out.x"))
+    argv = argv_of(inputs, str(out / f"out{cmd.suffix}"))  # type: ignore[attr-defined]
     code, so, se = invoke(argv)
     if code != 0:
         assert_one_line_error(code, so, se, argv)
@@ -521,6 +521,7 @@ REVIEWED = {
     ("world/world.py", 'with open(tmp / TERRAIN_NPZ, "wb") as f:'): "inside its new mkdtemp folder",
     ("world/world.py", 'shutil.rmtree(tmp, ignore_errors=True)'): "its own mkdtemp folder",
     ("world/export/images.py", 'fig.savefig(buf, format="png", dpi=dpi)'): "into memory",
+    ("robot/describe.py", 'fig.savefig(buf, format=fmt[1:])'): "into memory",
     ("world/export/images.py", 'shutil.rmtree(out, ignore_errors=True)'): "the world folder it made just now",
     ("search/driver.py", '(tmp / "suite.yaml").write_text(text + yaml.safe_dump(data, sort_keys=False), encoding="utf-8")'):
         "inside .suite.tmp, made just now (a link there refused)",

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import collections
 import difflib
-import json
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
@@ -29,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from navstress._json import dumps
 from navstress.errors import NavigatorError
 from navstress.nav.api import Command, NavMission, Navigator, Observation, Odometry, Status
 from navstress.robot import RobotSpec
@@ -106,7 +106,7 @@ def small_footprint(robot: RobotSpec) -> RobotSpec:
     data = robot.model_dump(mode="json")
     data.update(name=name, footprint={"shape": "polygon", "points": [[float(x), float(y)] for x, y in pts]})
     # a mount on the body's edge may lie outside the believed (smaller) outline: no check to trip on
-    return RobotSpec.model_validate_json(json.dumps(data))
+    return RobotSpec.model_validate_json(dumps(data))
 
 
 class SmallFootprint(ObservationFault):

@@ -36,8 +36,11 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from pydantic import ValidationError
+
+from navstress._json import dumps
 from navstress import specfile
-from navstress._models import parse
+from navstress._models import parse, spec_error
 from navstress.errors import SpecError
 from navstress.robot.profiles import PROFILES
 from navstress.robot.spec import Footprint, Mount, RobotSpec
@@ -220,6 +223,13 @@ def robot_from_mapping(data: Any, *, where: str = "robot", base_dir: Path | None
     if not all(isinstance(k, str) for k in data):
         bad = next(k for k in data if not isinstance(k, str))
         raise SpecError(f"{where}.{bad}", data[bad], "a robot field (its name is a string)")
+    if set(RobotSpec.model_fields) <= set(data) and "base" not in data:
+        # a whole description, as navstress writes it (a store's spec, a search's spec, a trace):
+        # taken as it is (JSON mode: its lists stand for the description's tuples)
+        try:
+            return RobotSpec.model_validate_json(dumps(dict(data)))
+        except ValidationError as err:
+            raise spec_error(err, dict(data), model=RobotSpec, prefix=where) from None
     _check_keys(data, where)
     start, base = _start(data, where)
     start, links = _with_body(data, start, where, base_dir)

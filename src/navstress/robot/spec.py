@@ -24,13 +24,13 @@ Footprint points, wheel and caster positions and sensor mounts are in this frame
 from __future__ import annotations
 
 import hashlib
-import json
 import math
 from typing import Annotated, Literal
 
 import numpy as np
 from pydantic import BaseModel, Field, model_validator
 
+from navstress._json import dumps
 from navstress._models import LIST, SPEC_CONFIG
 from navstress.errors import SpecError
 
@@ -182,7 +182,7 @@ class RobotSpec(BaseModel):
         data = self.model_dump(mode="json")
         if data.get("body_source") is None:
             data.pop("body_source", None)  # the digests of robots without a body file stay as they were
-        text = json.dumps(data, sort_keys=True, separators=(",", ":"))
+        text = dumps(data, sort_keys=True, separators=(",", ":"))
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
     @classmethod

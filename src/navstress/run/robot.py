@@ -21,6 +21,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from navstress._json import dumps
 from navstress.errors import SpecError
 from navstress.robot import PROFILES, RobotSpec, resolve_robot
 from navstress.run.record import RunTask
@@ -50,7 +51,7 @@ def robot_of(ref: Any, field: str | None = None) -> RobotSpec:
 
 def description(robot: RobotSpec) -> str:
     """The robot as canonical JSON (the text its :attr:`~RobotSpec.digest` hashes)."""
-    return json.dumps(robot.model_dump(mode="json"), sort_keys=True, separators=(",", ":"))
+    return dumps(robot.model_dump(mode="json"), sort_keys=True, separators=(",", ":"))
 
 
 def task_robot(ref: Any) -> dict[str, Any] | None:

@@ -35,7 +35,6 @@ The analysis reads trajectories back with :func:`read_poses`, the movers with :f
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import struct
@@ -75,6 +74,7 @@ from mcap.writer import CompressionType
 from mcap_protobuf.decoder import DecoderFactory
 from mcap_protobuf.writer import Writer
 
+from navstress._json import dumps
 from navstress import _files
 from navstress.errors import NavstressError, StoreError
 from navstress.robot import PROFILES, Mount, RobotSpec
@@ -241,10 +241,10 @@ def robot_metadata(robot: RobotSpec) -> dict[str, str]:
     """The trace's ``navstress.robot`` metadata: ``name``, ``digest``, ``description`` (the
     RobotSpec as canonical JSON), and for viewers ``footprint`` (the outline's points in
     ``base_link``, JSON) and ``mounts`` (name -> xyz, rpy, JSON)."""
-    desc = json.dumps(robot.model_dump(mode="json"), sort_keys=True, separators=(",", ":"))
+    desc = dumps(robot.model_dump(mode="json"), sort_keys=True, separators=(",", ":"))
     return {"name": robot.name, "digest": robot.digest, "description": desc,
-            "footprint": json.dumps([[round(float(x), 9), round(float(y), 9)] for x, y in robot.footprint_points()]),
-            "mounts": json.dumps({n: {"xyz": list(xyz), "rpy": list(rpy)} for n, xyz, rpy in mount_frames(robot)},
+            "footprint": dumps([[round(float(x), 9), round(float(y), 9)] for x, y in robot.footprint_points()]),
+            "mounts": dumps({n: {"xyz": list(xyz), "rpy": list(rpy)} for n, xyz, rpy in mount_frames(robot)},
                                  sort_keys=True)}
 
 

@@ -51,7 +51,7 @@ from navstress.run.record import RunRecord
 from navstress.search.objectives import (Confirmation, by_world, confirm, descriptor_values, evaluate,
                                          get_descriptor, world_feasible)
 from navstress.search.space import Candidate, Space
-from navstress.search.spec import SearchSpec, as_search_error, load_search, with_budget
+from navstress.search.spec import SearchSpec, as_search_error, load_search, spec_data, with_budget
 from navstress.world.world import World
 
 #: The experiment of the elites' confirmation runs.
@@ -457,7 +457,7 @@ def _generations(spec: SearchSpec, space: Space, algo: Any, runner: CampaignRunn
 
 def _write_spec(root: Path, spec: SearchSpec) -> None:
     """``search.yaml``: the spec as run (its budget override included)."""
-    _files.write_atomic(root / SEARCH_SPEC_NAME, yaml.safe_dump(spec.model_dump(mode="json", exclude_unset=True),
+    _files.write_atomic(root / SEARCH_SPEC_NAME, yaml.safe_dump(spec_data(spec),
                                                                 sort_keys=False))
 
 

@@ -575,9 +575,18 @@ def parse_search_text(text: str, name: str = "search", base_dir: str | Path | No
     return parse_search(data if data is not None else {}, base_dir)
 
 
+def spec_data(spec: SearchSpec) -> dict[str, Any]:
+    """``spec`` as the mapping a user would write: the fields set, and its robot's whole
+    description (a robot's fields are all needed: a partial one reads back as another robot)."""
+    data = spec.model_dump(mode="json", exclude_unset=True)
+    if spec.robot is not None:
+        data["robot"] = spec.robot.model_dump(mode="json")
+    return data
+
+
 def with_budget(spec: SearchSpec, runs: int, field: str = "--budget") -> SearchSpec:
     """``spec`` with ``budget.runs`` replaced (validated again; an error names ``field``)."""
-    data = spec.model_dump(mode="json", exclude_unset=True)
+    data = spec_data(spec)
     data["budget"] = {**data["budget"], "runs": runs}
     try:
         return parse_search(data)

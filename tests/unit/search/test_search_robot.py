@@ -52,7 +52,7 @@ def test_no_robot_is_the_search_it_always_was() -> None:
     ("jackall", "robot", "did you mean jackal"),
     ({"base": "huskyy"}, "robot.base", "did you mean husky"),
     ({"base": "jackal", "mass_kg": -2}, "robot.mass_kg", "> 0"),
-    ({"base": "jackal", "wheel_count": 4}, "robot.wheel_count", "check its spelling"),
+    ({"base": "jackal", "wheel_count": 4}, "robot.wheel_count", "expected a robot field"),
     ([1], "robot", "robot profile name"),
 ])
 def test_bad_robot_names_its_field(robot: Any, field: str, words: str) -> None:

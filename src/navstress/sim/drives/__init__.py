@@ -13,7 +13,7 @@ own there. docs/simulation.md ("Drive types") explains the models, their calibra
     >>> [w.name for w in drive_model(profile("rmp400")).wheels]
     ['front_left', 'rear_left', 'front_right', 'rear_right']
     >>> drive_model(profile("turtlebot4")).casters
-    ((0.12, 0.0),)
+    ((0.125, 0.0),)
 """
 
 from __future__ import annotations
