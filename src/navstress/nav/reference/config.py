@@ -21,12 +21,13 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, TypeVar
 
 from pydantic import BaseModel, Field, model_validator
 
 from navstress._models import SPEC_CONFIG, parse
 from navstress.errors import SpecError
+from navstress.robot import RobotSpec
 from navstress.specfile import load_file
 
 __all__ = ["GlobalConfig", "ReferenceConfig", "load_config", "parse_config"]
@@ -60,13 +61,13 @@ class ReferenceConfig(BaseModel):
     turn_in_place_penalty_m: float = Field(1.0, ge=0.0, description="extra goal-distance charged to turning on the spot (it makes no progress)")
     # --- costs ---
     max_slope_deg: float = Field(25.0, gt=0.0, lt=90.0, description="footprint plane tilt above which a node is untraversable")
-    max_roughness_m: float = Field(0.2, gt=0.0, description="max |residual| of cell heights to the footprint plane above which a node is untraversable")
+    max_roughness_m: float | None = Field(None, gt=0.0, description="max |residual| of cell heights to the footprint plane above which a node is untraversable; null: follows the believed robot, min(0.2, max(0.1, wheel radius + ground clearance)) (the RMP 400's 0.2)")
     slope_weight: float = Field(1.0, ge=0.0, description="cost per node at the max slope")
     roughness_weight: float = Field(1.0, ge=0.0, description="cost per node at the max roughness")
     goal_weight: float = Field(1.0, gt=0.0, description="cost per meter of remaining distance to the goal from an arc's end")
     election_threshold: float = Field(15.0, gt=0.0, description="an arc whose summed node cost exceeds this is not electable (15 = 15 nodes at the max slope; 12, a mean of ~20 deg, refused the way out of pits the robot had driven down into at 19 deg)")
     unknown_cell_cost: float = Field(math.inf, allow_inf_nan=True, description="cost of a node whose footprint touches a never-seen cell (infinite: the paper's P3D)")
-    obstacle_height_m: float = Field(0.3, gt=0.0, description="a cell is an obstacle when it rises this much (plus the max-slope allowance) above its 3x3 neighbourhood's ground")
+    obstacle_height_m: float | None = Field(None, gt=0.0, description="a cell is an obstacle when it rises this much (plus the max-slope allowance) above its 3x3 neighbourhood's ground; null: follows the believed robot, min(0.3, max(0.1, wheel radius + ground clearance)) (the RMP 400's 0.3)")
     exempt_current_footprint: bool = Field(True, description="cells under the robot's current (margined) footprint are not checked at the nodes: an obstacle cell dilated into the margin does not forbid driving away from it")
     footprint_margin_m: float = Field(0.0, ge=0.0, le=2.0, description="added on every side of the believed RobotSpec footprint (hard: a node whose margined footprint touches an obstacle is infinite)")
     clearance_margin_m: float = Field(0.3, ge=0.0, le=5.0, description="soft clearance: a node whose footprint grown by this much (beyond the hard margin) touches an obstacle cell costs clearance_cost more")
@@ -148,3 +149,34 @@ def load_config(path: str | Path, *, cls: type[ReferenceConfig] = ReferenceConfi
     if not isinstance(data, dict):
         raise SpecError("config", str(p), "a mapping of parameters at the top level")
     return parse_config(data, cls=cls)
+
+
+C = TypeVar("C", bound=ReferenceConfig)
+
+#: The thresholds of a robot the RMP 400's size or larger (the paper's figures), and the least any
+#: robot gets (below it the lidar's noise on the ground would read as obstacles).
+OBSTACLE_HEIGHT_MAX_M, ROUGHNESS_MAX_M, THRESHOLD_MIN_M = 0.3, 0.2, 0.1
+
+
+def for_robot(config: C, robot: RobotSpec) -> C:
+    """``config`` with the thresholds it leaves to the robot (``obstacle_height_m``,
+    ``max_roughness_m`` null) set from the believed robot: what its wheels and belly clear,
+    ``wheel_radius_m + ground_clearance_m``, bounded to [0.1, 0.3] m and [0.1, 0.2] m. A step the
+    robot cannot climb must be an obstacle to its planner: with the RMP 400's fixed 0.3 m, a
+    Jackal's lidar 0.3 m above the ground saw box trees as passable and drove into them.
+
+        >>> from navstress.robot import profile
+        >>> c = for_robot(ReferenceConfig(), profile("rmp400"))
+        >>> (c.obstacle_height_m, c.max_roughness_m)
+        (0.3, 0.2)
+        >>> c = for_robot(ReferenceConfig(), profile("jackal"))
+        >>> (round(c.obstacle_height_m, 4), round(c.max_roughness_m, 4))
+        (0.1615, 0.1615)
+    """
+    clear = robot.wheel_radius_m + robot.ground_clearance_m
+    update: dict[str, float] = {}
+    if config.obstacle_height_m is None:
+        update["obstacle_height_m"] = min(OBSTACLE_HEIGHT_MAX_M, max(THRESHOLD_MIN_M, clear))
+    if config.max_roughness_m is None:
+        update["max_roughness_m"] = min(ROUGHNESS_MAX_M, max(THRESHOLD_MIN_M, clear))
+    return config.model_copy(update=update) if update else config

@@ -38,7 +38,7 @@ import numba as nb
 import numpy as np
 
 import navstress._jit  # noqa: F401  (numba's cache directory, before any @njit(cache=True))
-from navstress.nav.reference.config import ReferenceConfig
+from navstress.nav.reference.config import ReferenceConfig, for_robot
 from navstress.nav.reference.terrain_map import TerrainMap, cell_ground
 from navstress.robot import RobotSpec
 
@@ -720,7 +720,7 @@ def node_cost(planner: "ArcPlanner", terrain: TerrainMap, x: float, y: float, ya
     cfg = planner.config
     uc = float(cfg.unknown_cell_cost if unknown_cost is None else unknown_cost)
     c, _, _ = _single(terrain, x, y, yaw, planner.half_length, planner.half_width,
-                      max_slope_tan=math.tan(math.radians(cfg.max_slope_deg)), max_rough=cfg.max_roughness_m,
+                      max_slope_tan=math.tan(math.radians(cfg.max_slope_deg)), max_rough=planner.max_rough,
                       w_s=cfg.slope_weight, w_r=cfg.roughness_weight, unknown_cost=uc)
     return c
 
@@ -785,7 +785,9 @@ class ArcPlanner:
     """
 
     def __init__(self, config: ReferenceConfig, robot: RobotSpec) -> None:
-        self.config = config
+        self.config = for_robot(config, robot)  # the thresholds it leaves to the robot, set
+        assert self.config.max_roughness_m is not None
+        self.max_rough: float = self.config.max_roughness_m
         self.robot = robot
         hl, hw = footprint_half_extents(robot)  # a circle or a polygon: its bounding rectangle (conservative)
         self.half_length = hl + config.footprint_margin_m
@@ -810,7 +812,7 @@ class ArcPlanner:
             self._cycle = new_cycle(ox=terrain.origin[0], oy=terrain.origin[1], cell=terrain.cell_m,
                                     step=terrain.step_m, sub=terrain.sub, hl=self.half_length, hw=self.half_width,
                                     rx=0.0, ry=0.0, ryaw=0.0, exempt=int(cfg.exempt_current_footprint),
-                                    max_slope_tan=self._max_slope_tan, max_rough=cfg.max_roughness_m,
+                                    max_slope_tan=self._max_slope_tan, max_rough=self.max_rough,
                                     w_s=cfg.slope_weight, w_r=cfg.roughness_weight,
                                     unknown_cost=float(cfg.unknown_cell_cost), clear_m=cfg.clearance_margin_m,
                                     clear_cost=cfg.clearance_cost, length=cfg.arc_length_m, spin_dir=0,
