@@ -22,19 +22,30 @@ import threading
 from typing import Any
 
 
+#: After the command, how long the reader waits for bytes still on their way through the
+#: pseudo-terminal (the kernel hands them to the reading end asynchronously: under load they can
+#: arrive after the writing end is closed) before it gives up; normally the closed writing end
+#: ends the read at once (EIO).
+DRAIN_GRACE_S = 3.0
+
+
 def _drain(fd: int, out: bytearray, stop: threading.Event) -> None:
+    idle = 0.0
     while True:
         ready, _, _ = select.select([fd], [], [], 0.05)
         if ready:
             try:
                 chunk = os.read(fd, 65536)
-            except OSError:
+            except OSError:  # EIO: the writing end is closed and everything was read
                 return
             if not chunk:
                 return
             out.extend(chunk)
+            idle = 0.0
         elif stop.is_set():
-            return
+            idle += 0.05
+            if idle >= DRAIN_GRACE_S:
+                return
 
 
 def run(argv: list[str], mode: str) -> dict[str, Any]:
