@@ -25,7 +25,7 @@ import numpy as np
 
 from navstress.errors import NavigatorError
 from navstress.nav.api import Command, DebugDraw, DebugLine, DebugText, NavMission, Observation, Status
-from navstress.nav.reference.config import ReferenceConfig, for_robot
+from navstress.nav.reference.config import ReferenceConfig
 from navstress.nav.reference.planner import (_MAX_FP_CELLS, ArcEvaluation, ArcPlanner, _map_footprint_cells,
                                              footprint_half_extents, node_cost)
 from navstress.nav.reference.pose import Pose, PoseEstimator, wrap_angle
@@ -65,9 +65,9 @@ class ReferenceNavigator:
         self.robot = robot
         self.seed = int(seed)
         self._rng = rng(self.seed, self.name)
-        cfg = for_robot(cfg, robot)  # the thresholds left to the robot (docs/navigator.md)
-        assert cfg.obstacle_height_m is not None
         self.planner = ArcPlanner(cfg, robot)
+        cfg = self.planner.config  # with the thresholds it leaves to the robot set (config.for_robot)
+        assert cfg.obstacle_height_m is not None
         self.pom = PoseEstimator(mission.start, cfg.pose_tau_xy_s, cfg.pose_tau_yaw_s, cfg.history_s)
         step = step_threshold(cfg.obstacle_height_m, cfg.max_slope_deg, cfg.cell_m)
         self.terrain = TerrainMap.covering([mission.start[:2], mission.goal], cfg.map_margin_m, cfg.cell_m,
