@@ -21,7 +21,7 @@ LAYERS: dict[str, int] = {
     "navstress._console": 0, "navstress._files": 0, "navstress._flags": 0, "navstress._jit": 0,
     "navstress._paths": 0, "navstress._tables": 0, "navstress.sequential": 0, "navstress._json": 0,
     "navstress._percent": 0, "navstress._models": 0, "navstress._bar": 0,
-    "navstress.robot": 1,
+    "navstress.robot": 1, "navstress.sensors": 1,
     # the navigator side and the world side, side by side (neither imports the other)
     "navstress.nav": 2, "navstress.isolate": 2, "navstress.world": 2,
     "navstress.sim": 3,

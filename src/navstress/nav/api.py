@@ -20,14 +20,21 @@ from __future__ import annotations
 import math
 import signal
 from dataclasses import dataclass, field
-from typing import Literal, Protocol, runtime_checkable
+from collections.abc import Mapping
+from typing import Any, Literal, Protocol, runtime_checkable
 
 import numpy as np
 
 from navstress.robot import RobotSpec
+from navstress.sensors.kinds.depth import DepthImage
+from navstress.sensors.kinds.imu import Imu
+from navstress.sensors.kinds.lidar2d import LaserScan
+from navstress.sensors.kinds.lidar3d import LidarScan
+from navstress.sensors.kinds.odometry import Odometry
+from navstress.sensors.kinds.pose import PoseReading
 
 __all__ = [
-    "Command", "DebugDraw", "DebugLine", "DebugPoints", "DebugText", "Imu", "InvalidAnswer", "LidarScan",
+    "Command", "DebugDraw", "DepthImage", "LaserScan", "DebugLine", "DebugPoints", "DebugText", "Imu", "InvalidAnswer", "LidarScan",
     "NavMission", "Navigator", "Observation", "Odometry", "PoseReading", "Status", "check_answer", "check_debug",
     "raised_by_navigator",
 ]
@@ -47,57 +54,6 @@ class NavMission:
 
 
 @dataclass(frozen=True, eq=False)
-class LidarScan:
-    """One full lidar revolution.
-
-    ``points``: (N, 3) float32 hit points in the *sensor* frame (x forward, y left, z up),
-    rays without a return omitted. ``t``: simulated time the scan was taken. ``mount``:
-    sensor position (x, y, z) in the robot frame. The navigator places the scan in its map
-    with its own pose estimate at time ``t``: the true pose is never given.
-    """
-
-    t: float
-    points: np.ndarray
-    mount: tuple[float, float, float]
-
-
-@dataclass(frozen=True)
-class Odometry:
-    """Wheel odometry integrated from wheel rotation, in the odometry frame (starts at 0, 0, 0)."""
-
-    t: float
-    x: float
-    y: float
-    yaw: float
-    v: float  # linear speed estimate, m/s
-    omega: float  # yaw rate estimate, rad/s
-
-
-@dataclass(frozen=True)
-class PoseReading:
-    """The pose sensor (the paper's "Pose"): noisy position and attitude in the map frame."""
-
-    t: float
-    x: float
-    y: float
-    z: float
-    yaw: float
-    pitch: float
-    roll: float
-
-
-@dataclass(frozen=True)
-class Imu:
-    """Attitude (roll, pitch; yaw drifts) and body angular rates."""
-
-    t: float
-    roll: float
-    pitch: float
-    yaw: float
-    rates: tuple[float, float, float]  # body-frame angular velocity, rad/s
-
-
-@dataclass(frozen=True, eq=False)
 class Observation:
     """Everything a navigator gets at one control cycle. Sensor fields are the latest readings
     taken since the previous cycle; ``None`` when that sensor produced nothing new."""
@@ -106,7 +62,18 @@ class Observation:
     odom: Odometry
     imu: Imu
     pose: PoseReading | None = None
+    #: the 3-D lidars' scans (every ``lidar3d`` sensor's, in the order taken): where navigators
+    #: written before sensors were declared read them
     scans: tuple[LidarScan, ...] = field(default_factory=tuple)
+    #: every reading since the previous cycle by sensor name (the robot's ``sensors``, see
+    #: docs/sensors.md): a tuple each, in the order taken; a sensor with no new reading is absent.
+    #: The built-in sensors are here too: ``odom`` and ``imu`` (the latest), ``pose`` (when new).
+    readings: Mapping[str, tuple[Any, ...]] = field(default_factory=dict)
+
+    def latest(self, name: str) -> Any:
+        """The newest reading of sensor ``name`` since the previous cycle, or None."""
+        r = self.readings.get(name)
+        return r[-1] if r else None
 
 
 @dataclass(frozen=True)
@@ -132,7 +99,8 @@ class Status:
 class Navigator(Protocol):
     """The contract every navigation stack under test implements (in-process).
 
-    ``reset`` is called once per run before the first ``step``; all randomness inside the
+    ``reset`` is called once per run before the first ``step``; the robot it gets names its
+    sensors (``robot.sensors``: name, kind, mount, parameters; never None there); all randomness inside the
     navigator must come from ``seed``. ``step`` is called at the navigator's control rate on
     simulated time. ``close`` releases resources; it is always called, even after an error.
 

@@ -43,7 +43,8 @@ from navstress import specfile
 from navstress._models import parse, spec_error
 from navstress.errors import SpecError
 from navstress.robot.profiles import PROFILES
-from navstress.robot.spec import Footprint, Mount, RobotSpec
+from navstress.robot.spec import Footprint, Mount, RobotSpec, check_mount
+from navstress.sensors import Sensor, default_suite, suite_from_list
 
 #: Keys of a robot file besides the RobotSpec's fields.
 FILE_KEYS = ("base", "urdf", "mjcf", "wheels")
@@ -223,7 +224,7 @@ def robot_from_mapping(data: Any, *, where: str = "robot", base_dir: Path | None
     if not all(isinstance(k, str) for k in data):
         bad = next(k for k in data if not isinstance(k, str))
         raise SpecError(f"{where}.{bad}", data[bad], "a robot field (its name is a string)")
-    if set(RobotSpec.model_fields) <= set(data) and "base" not in data:
+    if set(RobotSpec.model_fields) - {"sensors"} <= set(data) and "base" not in data:
         # a whole description, as navstress writes it (a store's spec, a search's spec, a trace):
         # taken as it is (JSON mode: its lists stand for the description's tuples)
         try:
@@ -245,9 +246,40 @@ def robot_from_mapping(data: Any, *, where: str = "robot", base_dir: Path | None
     if "name" not in over:
         rest = [k for k in data if k not in ("base", "name")]
         merged["name"] = (base if not rest else f"{base or 'robot'}-custom") if base else "robot"
+    if merged.get("sensors") is not None:
+        mounts = {k: v if isinstance(v, Mount) else parse(Mount, v, prefix=f"{where}.mounts.{k}")
+                  for k, v in (merged.get("mounts") or {"lidar": Mount(xyz=(0.35, 0.0, 0.75))}).items()}
+        merged["sensors"] = suite_from_list(merged["sensors"], where=f"{where}.sensors", mounts=mounts)
     robot = parse(RobotSpec, merged, prefix=where)
     check_physical(robot, where)
     return robot
+
+
+def with_sensors(robot: RobotSpec, *, sensors: Any = None, sensors_add: Any = None,
+                 where: str = "") -> RobotSpec:
+    """``robot`` with a spec's ``sensors:`` (replacing the robot's suite) and ``sensors_add:``
+    (added to it; to its default suite when it has none) applied; unchanged when both are None.
+    ``where`` prefixes the keys in error lines (``experiments[0].``)."""
+    if sensors is None and sensors_add is None:
+        return robot
+    base: tuple[Sensor, ...] = robot.sensors if robot.sensors is not None else default_suite(robot.mounts)
+    suite = base
+    if sensors is not None:
+        suite = suite_from_list(sensors, where=f"{where}sensors", mounts=robot.mounts)
+        for i, s in enumerate(suite):
+            check_mount(robot, f"{where}sensors[{i}].mount", s.mount)
+    if sensors_add is not None:
+        n0 = len(suite)
+        suite = suite_from_list(sensors_add, where=f"{where}sensors_add", mounts=robot.mounts, base=suite)
+        for i, s in enumerate(suite[n0:]):
+            check_mount(robot, f"{where}sensors_add[{i}].mount", s.mount)
+    data = robot.model_dump()
+    data["sensors"] = suite
+    data["mounts"] = robot.mounts
+    try:
+        return RobotSpec.model_validate(data, strict=False)
+    except ValidationError as err:
+        raise spec_error(err, data, model=RobotSpec, prefix=f"{where}robot") from None
 
 
 def load_robot(ref: Any, *, where: str = "robot") -> RobotSpec:

@@ -33,6 +33,7 @@ from pydantic import BaseModel, Field, model_validator
 from navstress._json import dumps
 from navstress._models import LIST, SPEC_CONFIG
 from navstress.errors import SpecError
+from navstress.sensors import Mount as Mount, Sensor
 
 #: The drive types the simulation knows (one module each under ``navstress.sim.drives``).
 DRIVES = ("skid-steer", "differential", "ackermann")
@@ -40,14 +41,6 @@ Drive = Literal["skid-steer", "differential", "ackermann"]
 Vec3 = tuple[float, float, float]
 #: (x, y); a YAML/JSON list is taken for it (inside a list of points too), its items stay strict
 Point = Annotated[tuple[float, float], Field(strict=LIST)]
-
-
-class Mount(BaseModel):
-    """Where a sensor sits on the robot: position (m) and roll, pitch, yaw (rad) in ``base_link``."""
-
-    model_config = SPEC_CONFIG
-    xyz: Vec3 = Field(strict=LIST)
-    rpy: Vec3 = Field((0.0, 0.0, 0.0), strict=LIST)
 
 
 class LidarMount(BaseModel):
@@ -133,6 +126,10 @@ class RobotSpec(BaseModel):
     max_yaw_accel_rps2: float = Field(2.0, gt=0, description="angular acceleration limit")
     # --- sensors
     mounts: dict[str, Mount] = Field(default_factory=lambda: {"lidar": Mount(xyz=(0.35, 0.0, 0.75))})
+    #: the sensors the robot carries (navstress.sensors); None: its default suite, one ``lidar3d``
+    #: named ``lidar`` on the ``lidar`` mount with the figures of ``sim.lidar`` (the paper's unit).
+    #: Odometry, IMU and pose are built in. Left out of the digest when None.
+    sensors: tuple[Sensor, ...] | None = Field(None, strict=LIST)
     # --- the body file the figures were read from (None: none; left out of the digest then)
     body_source: BodySource | None = None
 
@@ -180,8 +177,9 @@ class RobotSpec(BaseModel):
         """First 16 hex digits of the sha256 of the description (canonical JSON): two robots with
         the same digest are simulated the same."""
         data = self.model_dump(mode="json")
-        if data.get("body_source") is None:
-            data.pop("body_source", None)  # the digests of robots without a body file stay as they were
+        for key in ("body_source", "sensors"):
+            if data.get(key) is None:
+                data.pop(key, None)  # the digests of robots without a body file stay as they were
         text = dumps(data, sort_keys=True, separators=(",", ":"))
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
@@ -194,6 +192,10 @@ class RobotSpec(BaseModel):
 def _signed_area(pts: np.ndarray) -> float:
     x, y = pts[:, 0], pts[:, 1]
     return float(0.5 * (np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
+
+
+#: How far beyond its footprint and above its body a sensor mount may be (a mast, an arm).
+REACH_M = 1.5
 
 
 def _refuse(field: str, value: object, expected: str, fix: str | None = None) -> None:
@@ -248,17 +250,35 @@ def check_robot_spec(r: RobotSpec) -> None:
         for f in ("max_steer_rad", "max_steer_rate_rps"):
             if getattr(r, f) is None:
                 _refuse(f, None, "a number > 0 for an ackermann drive (its steering limit and rate)")
-    for name, m in r.mounts.items():
-        x, y, z = m.xyz
-        if z + r.wheel_radius_m < 0:
-            _refuse(f"mounts.{name}.xyz", list(m.xyz),
-                    f"a mount above the ground (z >= -{r.wheel_radius_m:g}, the axle height is z = 0)")
-        zb0 = r.ground_clearance_m - r.wheel_radius_m
-        zb1 = zb0 + r.body_height_m
-        pts = r.footprint_points()
-        if zb0 < z < zb1 and _contains(pts, x, y, margin=1e-3):
-            _refuse(f"mounts.{name}.xyz", list(m.xyz), "a mount on or outside the body, not inside it",
-                    f"raise z to the top of the body ({zb1:g}) or move it to the footprint's edge")
+    where_mounts = [(f"mounts.{n}", m) for n, m in r.mounts.items()]
+    where_mounts += [(f"sensors[{i}].mount", s.mount) for i, s in enumerate(r.sensors or ())]
+    names = [s.name for s in r.sensors or ()]
+    for i, n in enumerate(names):
+        if n in names[:i]:
+            _refuse(f"sensors[{i}].name", n, "a name no other sensor of the robot has", "name each sensor once")
+    for where, m in where_mounts:
+        check_mount(r, where, m)
+
+def check_mount(r: RobotSpec, where: str, m: Mount) -> None:
+    """A mount of ``r`` (a sensor's or a named one) above the ground, not inside the body, within
+    :data:`REACH_M` of the body; SpecError naming ``where.xyz`` otherwise."""
+    x, y, z = m.xyz
+    reach = REACH_M
+    top = r.ground_clearance_m - r.wheel_radius_m + r.body_height_m
+    if abs(x) > r.length_m / 2 + reach or abs(y) > r.width_m / 2 + reach or z > top + reach:
+        _refuse(f"{where}.xyz", list(m.xyz),
+                f"a mount within the robot's reach: at most {reach:g} m beyond its footprint "
+                f"(|x| <= {r.length_m / 2 + reach:g}, |y| <= {r.width_m / 2 + reach:g}) and {reach:g} m above "
+                f"its body (z <= {top + reach:g})", "check the units (meters) and the axes (x forward, z up)")
+    if z + r.wheel_radius_m < 0:
+        _refuse(f"{where}.xyz", list(m.xyz),
+                f"a mount above the ground (z >= -{r.wheel_radius_m:g}, the axle height is z = 0)")
+    zb0 = r.ground_clearance_m - r.wheel_radius_m
+    zb1 = zb0 + r.body_height_m
+    pts = r.footprint_points()
+    if zb0 < z < zb1 and _contains(pts, x, y, margin=1e-3):
+        _refuse(f"{where}.xyz", list(m.xyz), "a mount on or outside the body, not inside it",
+                f"raise z to the top of the body ({zb1:g}) or move it to the footprint's edge")
 
 
 def _convex(pts: np.ndarray) -> bool:

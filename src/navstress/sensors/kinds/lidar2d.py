@@ -1,0 +1,110 @@
+"""``lidar2d``: a planar scanning range finder. ``beams`` rays in the sensor's x-y plane over a
+field of view ``fov_deg`` centred on the sensor's +x (the first beam at ``-fov/2``, the last at
+``+fov/2``; a 360-degree scanner's beams ``360/beams`` apart from -180 degrees). The beams leave
+the mount pose: on a slope, or when the body pitches, they hit the ground as a real scanner's do.
+Ranges outside [``min_range_m``, ``max_range_m``] are no return (``inf``); each range gets
+N(0, ``range_noise_std_m``) noise; each return is lost with ``dropout_prob``.
+
+Reading: :class:`LaserScan` (the ranges, as ``sensor_msgs/LaserScan`` has them).
+
+Profiles (sources in docs/sensors.md): ``ust10`` (Hokuyo UST-10LX class, the default), ``tim571``
+(SICK TiM571 class), ``rplidar_a2`` (Slamtec RPLIDAR A2 class, 360 degrees).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from pydantic import Field, model_validator
+
+from navstress.errors import SpecError
+from navstress.sensors.base import SensorKind, SensorParams
+
+
+class Lidar2dParams(SensorParams):
+    """A planar scanner's figures (defaults: Hokuyo UST-10LX class)."""
+
+    fov_deg: float = Field(270.0, gt=0, le=360.0, description="field of view, centred on +x")
+    beams: int = Field(1081, ge=1, le=100_000, description="rays per scan")
+    rate_hz: float = Field(40.0, gt=0)
+    min_range_m: float = Field(0.06, ge=0)
+    max_range_m: float = Field(10.0, gt=0)
+    range_noise_std_m: float = Field(0.02, ge=0)
+    dropout_prob: float = Field(0.0, ge=0, lt=1, description="chance that a return is lost")
+
+    @model_validator(mode="after")
+    def _check(self) -> "Lidar2dParams":
+        if self.max_range_m <= self.min_range_m:
+            raise SpecError("max_range_m", self.max_range_m, f"a distance > min_range_m={self.min_range_m}")
+        if self.beams == 1 and self.fov_deg < 360.0:
+            pass  # one beam straight ahead
+        return self
+
+    @property
+    def angle_min(self) -> float:
+        """Angle of the first beam (rad)."""
+        if self.fov_deg >= 360.0:
+            return -math.pi
+        return -math.radians(self.fov_deg) / 2 if self.beams > 1 else 0.0
+
+    @property
+    def angle_increment(self) -> float:
+        """Angle between beams (rad)."""
+        if self.fov_deg >= 360.0:
+            return 2 * math.pi / self.beams
+        return math.radians(self.fov_deg) / (self.beams - 1) if self.beams > 1 else 0.0
+
+
+@dataclass(frozen=True, eq=False)
+class LaserScan:
+    """One sweep of a planar scanner, as ``sensor_msgs/LaserScan`` has it.
+
+    ``ranges``: (beams,) float32 meters, ``inf`` where there is no return; beam ``i`` points at
+    ``angle_min + i * angle_increment`` in the sensor's x-y plane (counter-clockwise from +x).
+    ``t``: simulated time of the sweep; ``mount`` and ``rpy``: the sensor's pose in ``base_link``;
+    ``sensor``: its name."""
+
+    t: float
+    ranges: np.ndarray
+    angle_min: float
+    angle_increment: float
+    range_min: float
+    range_max: float
+    mount: tuple[float, float, float]
+    rpy: tuple[float, float, float]
+    sensor: str
+
+    @property
+    def angles(self) -> np.ndarray:
+        """Each beam's angle (rad), (beams,)."""
+        return self.angle_min + self.angle_increment * np.arange(self.ranges.shape[0])
+
+    def points(self) -> np.ndarray:
+        """The returns as (N, 3) float32 points in the sensor frame (no-return beams left out)."""
+        a = self.angles
+        ok = np.isfinite(self.ranges)
+        r = self.ranges[ok].astype(np.float64)
+        return np.stack([r * np.cos(a[ok]), r * np.sin(a[ok]), np.zeros_like(r)], axis=1).astype(np.float32)
+
+
+def beams(p: Lidar2dParams) -> tuple[np.ndarray, np.ndarray]:
+    """(elevations, azimuths) in radians: one elevation (0), the beams' angles."""
+    return np.zeros(1), p.angle_min + p.angle_increment * np.arange(p.beams)
+
+
+PROFILES: dict[str, dict[str, object]] = {
+    # Hokuyo UST-10LX: 270 deg, 0.25 deg steps (1081 beams), 0.06-10 m, 40 Hz (25 ms), +-40 mm
+    "ust10": {},
+    # SICK TiM571: 270 deg, 0.33 deg steps (811 beams), 0.05-25 m, 15 Hz, statistical error 20 mm
+    "tim571": {"fov_deg": 270.0, "beams": 811, "rate_hz": 15.0, "min_range_m": 0.05, "max_range_m": 25.0,
+               "range_noise_std_m": 0.02},
+    # Slamtec RPLIDAR A2M8: 360 deg, 0.9 deg at 10 Hz (400 beams), 0.15-12 m, about 1 % of range
+    "rplidar_a2": {"fov_deg": 360.0, "beams": 400, "rate_hz": 10.0, "min_range_m": 0.15, "max_range_m": 12.0,
+                   "range_noise_std_m": 0.03},
+}
+
+KIND = SensorKind(name="lidar2d", params=Lidar2dParams, profiles=PROFILES, default_profile="ust10",
+                  reading=LaserScan, caster="columns", summary="planar scanning range finder (LaserScan)",
+                  beams=beams)
