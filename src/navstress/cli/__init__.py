@@ -57,6 +57,7 @@ MOUNTS: dict[str, tuple[str, str]] = {
     "trace": ("navstress.cli.trace", "Export a run's trace to other tools (a ROS 2 bag for RViz)."),
     "nav": ("navstress.cli.nav", "Navigators under test: list them, list faults, check conformance."),
     "robot": ("navstress.cli.robot", "Robots: list the profiles, show a robot (figures and a drawing), check its simulation."),
+    "sensor": ("navstress.cli.sensor", "Sensors: list the kinds a robot may carry and their profiles."),
     "campaign": ("navstress.cli.campaign", "Plan, run, follow and export campaigns of many runs."),
     "search": ("navstress.cli.search", "Search for the worlds where a stack fails (a ready spec: `navstress search init`)."),
     "gate": ("navstress.cli.gate", "Exit 0 if every gated configuration meets the success bar with confidence, 1 if not (CI)."),

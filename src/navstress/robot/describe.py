@@ -22,6 +22,7 @@ import numpy as np
 from navstress import _files
 from navstress.errors import SpecError
 from navstress.robot.spec import RobotSpec
+from navstress.sensors import Sensor, default_suite
 
 #: Picture formats of ``robot show -o`` (by the file's suffix).
 FORMATS = (".svg", ".png")
@@ -102,9 +103,36 @@ def figures(r: RobotSpec) -> dict[str, Any]:
     out["odom_heading"] = r.odom_heading
     out["mounts"] = {k: {"xyz": list(m.xyz), "rpy": list(m.rpy),
                          "height_above_ground_m": m.xyz[2] + r.wheel_radius_m} for k, m in r.mounts.items()}
+    out["sensors"] = [sensor_figures(x, r) for x in sensor_suite(r)]
     if r.body_source is not None:
         out["body_source"] = r.body_source.model_dump(mode="json")
     return out
+
+
+def sensor_suite(r: RobotSpec) -> tuple[Sensor, ...]:
+    """The sensors ``r`` carries: its own, or its default suite."""
+    return r.sensors if r.sensors is not None else default_suite(r.mounts)
+
+
+def sensor_summary(kind: str, p: dict[str, Any]) -> str:
+    """A sensor's main figures in a few words (``navstress robot show``, ``navstress sensor list``)."""
+    if kind == "lidar3d":
+        return (f"{p['channels']} ch {p['min_elevation_deg']:g}..{p['max_elevation_deg']:g} deg x "
+                f"{p['azimuth_steps']} steps, {p['min_range_m']:g}-{p['max_range_m']:g} m, {p['rate_hz']:g} Hz")
+    if kind == "lidar2d":
+        return (f"{p['fov_deg']:g} deg, {p['beams']} beams, {p['min_range_m']:g}-{p['max_range_m']:g} m, "
+                f"{p['rate_hz']:g} Hz")
+    if kind == "depth":
+        return (f"{p['width']} x {p['height']} px, {p['hfov_deg']:g} deg wide, {p['min_range_m']:g}-"
+                f"{p['max_range_m']:g} m, {p['rate_hz']:g} Hz")
+    return ", ".join(f"{k} {v}" for k, v in p.items())
+
+
+def sensor_figures(x: Sensor, r: RobotSpec) -> dict[str, Any]:
+    """One sensor of ``navstress robot show --json``."""
+    return {"name": x.name, "kind": x.kind, "profile": x.profile, "xyz": list(x.mount.xyz),
+            "rpy": list(x.mount.rpy), "height_above_ground_m": x.mount.xyz[2] + r.wheel_radius_m,
+            "default": r.sensors is None, "params": dict(x.params), "summary": sensor_summary(x.kind, x.params)}
 
 
 def describe(r: RobotSpec) -> dict[str, Any]:
@@ -134,6 +162,10 @@ def rows(r: RobotSpec) -> list[tuple[str, str]]:
             for name, m in v.items():
                 out.append((f"mount {name}", f"xyz {_text(m['xyz'])}, rpy {_text(m['rpy'])}, "
                                              f"{m['height_above_ground_m']:.3g} m above the ground"))
+        elif k == "sensors":
+            for x in v:
+                out.append((f"sensor {x['name']}" + (" (default)" if x["default"] else ""),
+                            f"{x['kind']} {x['profile']}: {x['summary']}; xyz {_text(x['xyz'])}, rpy {_text(x['rpy'])}"))
         else:
             out.append((k, _text(v)))
     for i, (x, y, s) in enumerate(wheel_layout(r)):
@@ -145,7 +177,7 @@ def draw(r: RobotSpec) -> Any:
     """The top view of ``r`` on a matplotlib Figure of its own."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
-    from matplotlib.patches import Circle, FancyArrow, Polygon, Rectangle
+    from matplotlib.patches import Circle, FancyArrow, Polygon, Rectangle, Wedge
 
     fig = Figure(figsize=(6.4, 5.6), dpi=110, layout="constrained")
     FigureCanvasAgg(fig)
@@ -173,6 +205,15 @@ def draw(r: RobotSpec) -> Any:
                                 width=0.006 * scale, color="#d7191c", length_includes_head=True))
         ax.annotate(f"{name} (z {m.xyz[2] + r.wheel_radius_m:.2f} m)", (x, y), xytext=(6, 6),
                     textcoords="offset points", fontsize=8, color="#d7191c")
+    for i, sn in enumerate(sensor_suite(r)):
+        fov = float({"lidar2d": sn.params.get("fov_deg"), "depth": sn.params.get("hfov_deg")}.get(sn.kind) or 360.0)
+        (sx, sy, _z), yaw = sn.mount.xyz, math.degrees(sn.mount.rpy[2])
+        wedge = Wedge((sx, sy), 0.25 * scale, yaw - fov / 2, yaw + fov / 2, facecolor="#fdae61", alpha=0.25,
+                      edgecolor="#e66101", linewidth=0.8, label="sensor fields of view" if i == 0 else None)
+        wedge.set_gid(f"sensor-{sn.name}")
+        ax.add_patch(wedge)
+        ax.annotate(f"{sn.name}: {sn.kind}", (sx, sy), xytext=(6, -12 - 10 * i), textcoords="offset points", fontsize=7.5,
+                    color="#a6400a")
     a = 0.18 * scale
     ax.add_patch(FancyArrow(0, 0, a, 0, width=0.008 * scale, color="#c0392b", length_includes_head=True, gid="base_link"))
     ax.add_patch(FancyArrow(0, 0, 0, a, width=0.008 * scale, color="#1a9641", length_includes_head=True))

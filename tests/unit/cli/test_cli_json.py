@@ -36,6 +36,7 @@ STDOUT_JSON = [
     ("gate", ["{c}", "--min-success", "0.5", "--junit", "{t}/gate.xml", "--json"], "configurations"),
     ("run", ["{w}", "-o", "{t}/run", "--timeout", "0.3", "--runs", "2", "--json"], "records"),
     ("robot show", ["{w}/robot.yaml", "--json"], "figures"),
+    ("sensor list", ["{k}", "--json"], "lidar2d"),
     ("robot check", ["{w}/robot.yaml", "--quick", "--json"], "legs"),
 ]
 #: (command path, argv after it) for every --json that takes a FILE: it is written, stdout is the text.
@@ -61,7 +62,7 @@ def dirs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
 
 
 def _argv(cmd: str, args: list[str], dirs: dict[str, Path], tmp: Path) -> list[str]:
-    sub = {"{c}": str(dirs["c"]), "{w}": str(dirs["w"]), "{t}": str(tmp)}
+    sub = {"{c}": str(dirs["c"]), "{w}": str(dirs["w"]), "{t}": str(tmp), "{k}": str(dirs.get("k", "lidar2d"))}
     out = []
     for a in args:
         for k, v in sub.items():
@@ -136,6 +137,6 @@ def test_run_json_stdout_stays_one_document_when_the_navigator_prints(dirs: dict
 @pytest.mark.parametrize(("cmd", "args", "key"), STDOUT_JSON, ids=[" ".join([c, *a]) for c, a, _ in STDOUT_JSON])
 def test_bad_input_leaves_stdout_empty(cmd: str, args: list[str], key: str, tmp_path: Path) -> None:
     """Exit 2 with the one error line on stderr: a CI step reading stdout gets no half document."""
-    missing = {"c": tmp_path / "no-campaign", "w": tmp_path / "no-world"}
+    missing = {"c": tmp_path / "no-campaign", "w": tmp_path / "no-world", "k": Path("no-such-kind")}
     code, out, err = invoke(_argv(cmd, args, missing, tmp_path))
     assert code == 2 and out == "" and err.startswith("error: "), (code, out, err)

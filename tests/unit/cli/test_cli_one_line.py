@@ -47,6 +47,7 @@ BAD_INPUT: dict[str, list[str]] = {
     "replay": ["replay", "{root}/nope", "a/b"],
     "robot check": ["robot", "check", "no-such-robot"],
     "robot list": ["robot", "list", "extra"],
+    "sensor list": ["sensor", "list", "extra"],
     "robot show": ["robot", "show", "{root}/nope.yaml"],
     "report": ["report", "{root}/nope", "-o", "{root}/r.html"],
     "run": ["run", "{root}/nope", "-o", "{root}/runout"],
