@@ -140,6 +140,26 @@ def _terrain_pass(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarray,
     flat = fast and mip[1, top] == gtop
     W = float(ncx)
     H = float(ncy)
+    if flat and 0.0 <= oxc <= W and 0.0 <= oyc <= H and oz > gtop:
+        # the common case in closed form: from above a flat map, inside it, a ray meets the
+        # ground where it comes down to gtop, if that point is inside the map and within range
+        # (the march's answer up to rounding at the map's edge and at max_depth)
+        wm = W * cell
+        hm = H * cell
+        gz = gtop - oz
+        for v in range(out.shape[0]):
+            zv = zs[v]
+            for u in range(out.shape[1]):
+                yu = ys[u]
+                dx = rot[0, 0] + yu * rot[0, 1] + zv * rot[0, 2]
+                dy = rot[1, 0] + yu * rot[1, 1] + zv * rot[1, 2]
+                dz = rot[2, 0] + yu * rot[2, 1] + zv * rot[2, 2]
+                ts = gz / dz
+                x = ox + ts * dx
+                y = oy + ts * dy
+                hit = (dz < 0.0) & (ts <= max_depth) & (x >= 0.0) & (x <= wm) & (y >= 0.0) & (y <= hm)
+                out[v, u] = ts if hit else INF
+        return
     for v in range(out.shape[0]):
         zv = zs[v]
         for u in range(out.shape[1]):
@@ -185,7 +205,8 @@ def _plain_shapes(boxes: np.ndarray, discs: np.ndarray, origin: np.ndarray, rot:
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def _footprint(corners: np.ndarray, origin: np.ndarray, rot: np.ndarray, ys: np.ndarray, zs: np.ndarray,
-               fx: float, fy: float, cx: float, cy: float, max_depth: float, win: np.ndarray) -> float:
+               fx: float, fy: float, cx: float, cy: float, max_depth: float, win: np.ndarray,
+               scratch: np.ndarray) -> float:
     """The pixels a convex shape inside the box hull of ``corners`` (8, 3, world) can be seen
     through: ``win`` = (u0, u1, v0, v1) inclusive (empty when u1 < u0); returns the shape's
     nearest possible depth (with a margin). Culled (empty): behind the camera, beyond max_depth, or
@@ -202,9 +223,9 @@ def _footprint(corners: np.ndarray, origin: np.ndarray, rot: np.ndarray, ys: np.
     out_r = True
     out_t = True
     out_b = True
-    pxs = np.empty(n)
-    pys = np.empty(n)
-    pzs = np.empty(n)
+    pxs = scratch[0]
+    pys = scratch[1]
+    pzs = scratch[2]
     for k in range(n):
         px = corners[k, 0] - origin[0]
         py = corners[k, 1] - origin[1]
@@ -271,13 +292,25 @@ def _fast_shapes(boxes: np.ndarray, discs: np.ndarray, origin: np.ndarray, rot: 
     ox, oy, oz = origin[0], origin[1], origin[2]
     corners = np.empty((8, 3))
     win = np.empty(4, np.int64)
+    scratch = np.empty((3, 8))
+    # a hit within max_depth is within reach = max_depth * |the longest pixel direction| of the
+    # camera: shapes whose bounding sphere lies farther are skipped before their footprint
+    ymax = max(abs(ys[0]), abs(ys[ys.shape[0] - 1]))
+    zmax = max(abs(zs[0]), abs(zs[zs.shape[0] - 1]))
+    reach = max_depth * math.sqrt(1.0 + ymax * ymax + zmax * zmax) * (1.0 + 1e-9) + 1e-9
     for i in range(discs.shape[0]):
         r = discs[i, 2]
+        hz = 0.5 * (discs[i, 4] - discs[i, 3])
+        ex = discs[i, 0] - ox
+        ey = discs[i, 1] - oy
+        ez = 0.5 * (discs[i, 3] + discs[i, 4]) - oz
+        if math.sqrt(ex * ex + ey * ey + ez * ez) - math.sqrt(2.0 * r * r + hz * hz) > reach:
+            continue
         for k in range(8):
             corners[k, 0] = discs[i, 0] + (r if k & 1 else -r)
             corners[k, 1] = discs[i, 1] + (r if k & 2 else -r)
             corners[k, 2] = discs[i, 4] if k & 4 else discs[i, 3]
-        near = _footprint(corners, origin, rot, ys, zs, fx, fy, cx, cy, max_depth, win)
+        near = _footprint(corners, origin, rot, ys, zs, fx, fy, cx, cy, max_depth, win, scratch)
         cyl = Cylinder(discs[i, 0], discs[i, 1], r, discs[i, 3], discs[i, 4])
         for v in range(win[2], win[3] + 1):
             zv = zs[v]
@@ -291,11 +324,23 @@ def _fast_shapes(boxes: np.ndarray, discs: np.ndarray, origin: np.ndarray, rot: 
                 t = _ray_cylinder(cyl, Ray(ox, oy, oz, dx, dy, dz))
                 if t < out[v, u]:
                     out[v, u] = t
-    for i in range(boxes.shape[0]):
+    # boxes: footprints first, then the boxes near first (pixels already nearer skip them)
+    nb = boxes.shape[0]
+    nears = np.empty(nb)
+    wins = np.empty((nb, 4), np.int64)
+    live = np.empty(nb, np.int64)
+    nl = 0
+    for i in range(nb):
         c = boxes[i, 7]
         s = boxes[i, 8]
         hx = boxes[i, 3]
         hy = boxes[i, 4]
+        hz = 0.5 * (boxes[i, 6] - boxes[i, 5])
+        ex = boxes[i, 0] - ox
+        ey = boxes[i, 1] - oy
+        ez = 0.5 * (boxes[i, 5] + boxes[i, 6]) - oz
+        if math.sqrt(ex * ex + ey * ey + ez * ez) - math.sqrt(hx * hx + hy * hy + hz * hz) > reach:
+            continue
         for k in range(8):
             ax = hx if k & 1 else -hx
             ay = hy if k & 2 else -hy
@@ -303,13 +348,41 @@ def _fast_shapes(boxes: np.ndarray, discs: np.ndarray, origin: np.ndarray, rot: 
             corners[k, 1] = boxes[i, 1] + s * ax + c * ay
             corners[k, 2] = boxes[i, 6] if k & 4 else boxes[i, 5]
         # (the corners are the box's up to rounding: the footprint's margins cover it)
-        near = _footprint(corners, origin, rot, ys, zs, fx, fy, cx, cy, max_depth, win)
-        box = Box(boxes[i, 0], boxes[i, 1], c, s, hx, hy, boxes[i, 5], boxes[i, 6])
-        for v in range(win[2], win[3] + 1):
+        nears[i] = _footprint(corners, origin, rot, ys, zs, fx, fy, cx, cy, max_depth, win, scratch)
+        if win[1] >= win[0] and win[3] >= win[2]:
+            wins[i, :] = win
+            live[nl] = i
+            nl += 1
+    order = live[:nl][np.argsort(nears[live[:nl]], kind="mergesort")]
+    for e in range(nl):
+        i = order[e]
+        _box_window(boxes, i, origin, rot, ys, zs, wins[i, 0], wins[i, 1], wins[i, 2], wins[i, 3], nears[i], out)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _box_window(boxes: np.ndarray, i: int, origin: np.ndarray, rot: np.ndarray, ys: np.ndarray, zs: np.ndarray,
+                u0: int, u1: int, v0: int, v1: int, near: float, out: np.ndarray) -> None:
+    """Lower out[v0:v1+1, u0:u1+1] with box ``i``'s hits. The slab test of :func:`_ray_box` in
+    the box's frame, the pixel's direction there linear in (y_u, z_v) and one reciprocal per axis
+    (hits within rounding of ``_ray_box``'s); rows whose pixels all are nearer than ``near`` are
+    skipped. A sensor exactly on one of the box's face planes takes ``_ray_box`` itself (a ray
+    parallel to that face would give 0 x inf there)."""
+    ox, oy, oz = origin[0], origin[1], origin[2]
+    c = boxes[i, 7]
+    s = boxes[i, 8]
+    hx = boxes[i, 3]
+    hy = boxes[i, 4]
+    zb = boxes[i, 5]
+    zt = boxes[i, 6]
+    px = ox - boxes[i, 0]
+    py = oy - boxes[i, 1]
+    lx = c * px + s * py
+    ly = -s * px + c * py
+    if lx == hx or lx == -hx or ly == hy or ly == -hy or oz == zb or oz == zt:
+        box = Box(boxes[i, 0], boxes[i, 1], c, s, hx, hy, zb, zt)
+        for v in range(v0, v1 + 1):
             zv = zs[v]
-            for u in range(win[0], win[1] + 1):
-                if out[v, u] <= near:
-                    continue
+            for u in range(u0, u1 + 1):
                 yu = ys[u]
                 dx = rot[0, 0] + yu * rot[0, 1] + zv * rot[0, 2]
                 dy = rot[1, 0] + yu * rot[1, 1] + zv * rot[1, 2]
@@ -317,6 +390,49 @@ def _fast_shapes(boxes: np.ndarray, discs: np.ndarray, origin: np.ndarray, rot: 
                 t = _ray_box(box, Ray(ox, oy, oz, dx, dy, dz))
                 if t < out[v, u]:
                     out[v, u] = t
+        return
+    a0 = c * rot[0, 0] + s * rot[1, 0]
+    a1 = c * rot[0, 1] + s * rot[1, 1]
+    a2 = c * rot[0, 2] + s * rot[1, 2]
+    b0 = -s * rot[0, 0] + c * rot[1, 0]
+    b1 = -s * rot[0, 1] + c * rot[1, 1]
+    b2 = -s * rot[0, 2] + c * rot[1, 2]
+    g0 = rot[2, 0]
+    g1 = rot[2, 1]
+    g2 = rot[2, 2]
+    xl = -hx - lx
+    xh = hx - lx
+    yl = -hy - ly
+    yh = hy - ly
+    zl = zb - oz
+    zh = zt - oz
+    for v in range(v0, v1 + 1):
+        zv = zs[v]
+        row = out[v]
+        far = False
+        for u in range(u0, u1 + 1):
+            far |= row[u] > near
+        if not far:
+            continue
+        ax = a0 + zv * a2
+        bx = b0 + zv * b2
+        gx = g0 + zv * g2
+        for u in range(u0, u1 + 1):  # branch-free: vectorised
+            yu = ys[u]
+            ix = 1.0 / (ax + yu * a1)
+            iy = 1.0 / (bx + yu * b1)
+            iz = 1.0 / (gx + yu * g1)
+            tx1 = xl * ix
+            tx2 = xh * ix
+            ty1 = yl * iy
+            ty2 = yh * iy
+            tz1 = zl * iz
+            tz2 = zh * iz
+            tn = max(max(min(tx1, tx2), min(ty1, ty2)), min(tz1, tz2))
+            tf = min(min(max(tx1, tx2), max(ty1, ty2)), max(tz1, tz2))
+            t = tn if tn >= 0.0 else tf
+            t = t if (tn <= tf) & (tf >= 0.0) else INF
+            row[u] = min(row[u], t)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
