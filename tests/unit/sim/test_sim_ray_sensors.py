@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from navstress.errors import SpecError
-from navstress.nav.api import Command, LaserScan, LidarScan
+from navstress.nav.api import Command, DepthImage, LaserScan, LidarScan
 from navstress.robot import profile
 from navstress.robot.files import with_sensors
 from navstress.sim.config import SimConfig
@@ -105,3 +105,17 @@ def test_lidar_off_casts_nothing_and_nine_sensors_are_refused() -> None:
     assert all(set(o.readings) <= {"odom", "imu", "pose"} for o in obs)
     with pytest.raises(SpecError):
         _run([{"name": f"s{i}", "kind": "lidar2d"} for i in range(9)])
+
+
+def test_a_depth_camera_beside_the_laser_gives_depth_images() -> None:
+    cam = {"name": "cam", "kind": "depth", "profile": "d435", "width": 64, "height": 48, "rate_hz": 15.0,
+           "mount": {"xyz": [0.1, 0.0, 0.3], "rpy": [0.0, 0.0, 0.0]}}
+    obs = _run([LASER, cam])
+    imgs = [r for o in obs for r in o.readings.get("cam", ())]
+    assert len(imgs) == pytest.approx(15, abs=1)
+    im = imgs[-1]
+    assert isinstance(im, DepthImage) and im.depth.shape == (48, 64) and im.depth.dtype == np.float32
+    assert im.sensor == "cam" and (im.cx, im.cy) == (32.0, 24.0) and im.fx > 0
+    assert np.isfinite(im.depth).any()  # the ground ahead and the trees
+    # the laser's readings do not change with the camera beside it
+    assert _ranges(obs, "front_laser") == _ranges(_run([LASER]), "front_laser")
