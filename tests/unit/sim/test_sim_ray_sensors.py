@@ -80,8 +80,8 @@ def test_same_seed_same_readings_and_another_seed_others() -> None:
 
 def test_a_second_sensor_leaves_the_first_ones_readings_alone() -> None:
     """Streams keyed by name: adding a sensor (before or after) changes nothing of the first one."""
-    noisy = dict(LASER, dropout_prob=0.05)
-    other = {"name": "rear", "kind": "lidar2d", "profile": "rplidar_a2", "dropout_prob": 0.1,
+    noisy = dict(LASER, dropout_prob=0.05, rate_hz=7.0)  # 7 Hz: the rate jitter moves it by whole steps
+    other = {"name": "rear", "kind": "lidar2d", "profile": "rplidar_a2", "dropout_prob": 0.1, "rate_hz": 7.0,
              "mount": {"xyz": [-0.1, 0.0, 0.35], "rpy": [0.0, 0.0, math.pi]}}
     alone = _ranges(_run([noisy]), "front_laser")
     assert _ranges(_run([noisy, other]), "front_laser") == alone
