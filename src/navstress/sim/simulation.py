@@ -15,7 +15,6 @@ truth (real poses, collisions, stop events) for the run's classification.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from typing import Any
 
@@ -33,6 +32,7 @@ from navstress.sim.drives import MAX_WHEELS, DriveModel, ackermann, drive_model
 from navstress.sensors import Sensor
 from navstress.sim.lidar import Lidar, build_scene
 from navstress.sim.rays import Lidar3dCaster, RayCaster, caster
+from navstress.sim.suite import effective_config as effective_config  # (re-exported: its old home)
 from navstress.sim.suite import suite
 from navstress.sim import _step as step_loop
 from navstress.sim import mjabi
@@ -47,15 +47,6 @@ _SAMPLES = 64  # raw sensor samples buffered in the compiled loop between flushe
 #: Control period of the movers (s): their controller (:mod:`navstress.sim.movers`) runs every
 #: this long from the robot's true state; in between each mover body moves linearly.
 MOVER_PERIOD_S = 0.1
-
-
-def effective_config(robot: RobotSpec, config: SimConfig) -> SimConfig:
-    """``config`` with the time step the robot's drive model needs, when that is smaller
-    (docs/simulation.md, "Drive types")."""
-    dt = drive_model(robot).timestep_s
-    if config.timestep_s <= dt:
-        return config
-    return dataclasses.replace(config, timestep_s=dt)
 
 
 def _pad(a: np.ndarray, fill: float) -> np.ndarray:
