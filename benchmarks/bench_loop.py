@@ -114,11 +114,11 @@ def bench_laser2d(seconds: float, repeat: int, navigator: str | None) -> None:
     from navstress.sim.rays import Lidar2dCaster
 
     if navigator is None:
-        names = {s.name for s in list_navigators()}
+        names = {f"{s.base}-v{s.version}" for s in list_navigators()}
         navigator = "reference-2d-v1" if "reference-2d-v1" in names else "reference-v1"
     robot = with_sensors(profile("jackal"), sensors=[{"name": "front_laser", "kind": "lidar2d", "profile": "ust10"}])
     world = generate(parse_spec({"size_m": [100, 100], "obstacles": {"obstruction": {"tree": 6}}}), 1, robot=robot)
-    run_mission(world, make_navigator(navigator), run_seed=0, timeout_s=5.0, robot=robot)  # warm-up
+    run_mission(world, make_navigator(navigator), run_seed=0, timeout_s=20.0, robot=robot)  # warm-up (compiles)
     ratios, cpu = [], []
     for i in range(max(1, repeat)):
         TIMES.clear()
