@@ -17,6 +17,7 @@ from navstress.errors import SpecError
 from navstress.robot import RobotSpec
 from navstress.sensors import Sensor, check_rates, default_suite
 from navstress.sim.config import SimConfig
+from navstress.sim.drives import drive_model
 from navstress.sim.lidar import LidarConfig
 
 
@@ -38,10 +39,17 @@ def suite(robot: RobotSpec, config: SimConfig) -> tuple[Sensor, ...]:
                             "no sim.lidar with a robot that lists its sensors",
                             "set the lidar's figures in its entry of sensors: (docs/sensors.md)")
         out = robot.sensors
-    from navstress.sim.simulation import effective_config  # simulation imports this module
-
     check_rates(out, effective_config(robot, config).timestep_s)
     return out
+
+
+def effective_config(robot: RobotSpec, config: SimConfig) -> SimConfig:
+    """``config`` with the time step the robot's drive model needs, when that is smaller
+    (docs/simulation.md, "Drive types")."""
+    dt = drive_model(robot).timestep_s
+    if config.timestep_s <= dt:
+        return config
+    return dataclasses.replace(config, timestep_s=dt)
 
 
 def lidar_config(sensor: Sensor) -> LidarConfig:

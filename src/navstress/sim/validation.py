@@ -34,7 +34,8 @@ from navstress.nav.api import Command
 from navstress.robot import RobotSpec
 from navstress.sim.config import SimConfig
 from navstress.sim.drives import ACKERMANN, DIFFERENTIAL, drive_model
-from navstress.sim.simulation import Simulation, effective_config
+from navstress.sim.simulation import Simulation
+from navstress.sim.suite import effective_config
 from navstress.world.world import World
 
 #: Speed tracking: |measured - commanded| <= max(V_TOL_MPS, V_TOL_REL * |commanded|).
