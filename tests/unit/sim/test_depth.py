@@ -87,6 +87,22 @@ def test_flat_ground_pitched_down(fast: bool, pitch_deg: float, ground: float, s
 
 
 @FAST
+@pytest.mark.parametrize("yaw_deg", [0.0, 90.0, 180.0, -90.0, 45.0])
+def test_flat_ground_ends_at_the_maps_edge(fast: bool, yaw_deg: float) -> None:
+    """Near the map's edge, looking out: the ground ends there (no terrain outside the map)."""
+    size = 20.0
+    p = DepthParams(width=40, height=30, max_range_m=25.0)
+    cam = DepthCamera(flat_scene(0.0, size), p, fast=fast)
+    m = Mount(xyz=(0.0, 0.0, 1.0), rpy=(0.0, math.radians(8.0), 0.0))
+    yaw = math.radians(yaw_deg)
+    q = qpos(size / 2 + 7.0 * math.cos(yaw), size / 2 + 7.0 * math.sin(yaw), 0.2, yaw=yaw)
+    want = expected(p, q, m, [lambda o, d: oracle.plane_z(o, d, 0.0, (0, size), (0, size))])
+    unbounded = expected(p, q, m, [lambda o, d: oracle.plane_z(o, d, 0.0)])
+    assert (np.isinf(want) & np.isfinite(unbounded)).sum() > 50  # the edge is in view
+    check(cam.depths(q, m), want)
+
+
+@FAST
 @pytest.mark.parametrize("yaw_deg", [0.0, 90.0, -135.0, 33.0])
 def test_fronto_parallel_wall_has_constant_depth(fast: bool, yaw_deg: float) -> None:
     """A wall facing the camera at distance D along its axis: every pixel on it reads D (the depth,
