@@ -50,8 +50,15 @@ def expected(p: DepthParams, q: np.ndarray, mount: Mount, surfaces: list) -> np.
 
 
 def same(a: np.ndarray, b: np.ndarray, tol: float = 1e-9) -> np.ndarray:
+    """Both inf, or both finite and within tol * (1 + |b|) (|finite - inf| <= tol * inf would pass)."""
     with np.errstate(invalid="ignore"):
-        return (np.isinf(a) & np.isinf(b)) | (np.abs(a - b) <= tol * (1.0 + np.abs(b)))
+        close = np.isfinite(a) & np.isfinite(b) & (np.abs(a - b) <= tol * (1.0 + np.abs(b)))
+    return (np.isinf(a) & np.isinf(b)) | close
+
+
+def test_same_tells_a_return_from_none() -> None:
+    assert not same(np.array([1.0, np.inf]), np.array([np.inf, 1.0])).any()
+    assert same(np.array([1.0, np.inf]), np.array([1.0 + 1e-12, np.inf])).all()
 
 
 def check(img: np.ndarray, want: np.ndarray, tol: float = 1e-9) -> None:
