@@ -35,7 +35,7 @@ when ``dropout_prob`` > 0): one ``random()`` per valid pixel in row-major order,
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit
@@ -46,12 +46,29 @@ from navstress.sensors.base import Mount
 from navstress.sensors.kinds.depth import DepthParams, rays
 from navstress.sim import _noise
 from navstress.sim._raybox import Cylinder, _ray_cylinder
-from navstress.sim._raycast import INF, Box, Ray, _ray_box, march_terrain
+from navstress.sim._raycast import INF, Box, Ray, TerrainGrid, _ray_box, march_terrain
 from navstress.sim.lidar import LidarScene
 
 __all__ = ["DepthCamera"]
 
 _NO_DISCS = np.zeros((0, 5))
+_E_GRID = len(TerrainGrid._fields)
+
+
+class Camera(NamedTuple):
+    """A camera's constants as the kernels read them: the pixel directions' y (per column,
+    descending) and z (per row, descending) in the sensor frame (x = 1), the intrinsics, the depth
+    limits and the path (``fast``)."""
+
+    ys: np.ndarray
+    zs: np.ndarray
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    min_depth: float
+    max_depth: float
+    fast: bool
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -126,10 +143,10 @@ def _pose(qpos: np.ndarray, mxyz: np.ndarray, mrot: np.ndarray, rot: np.ndarray,
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _terrain_pass(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarray, mnx: np.ndarray,
-                  origin: np.ndarray, rot: np.ndarray, ys: np.ndarray, zs: np.ndarray, max_depth: float, fast: bool,
-                  out: np.ndarray) -> None:
+def _terrain_pass(grid: TerrainGrid, cam: Camera, origin: np.ndarray, rot: np.ndarray, out: np.ndarray) -> None:
     """out[v, u] = the terrain's first hit (depth) through pixel (u, v), inf if none by max_depth."""
+    h, cell, mip, moff, mnx = grid.heights, grid.cell, grid.mip, grid.mip_offsets, grid.mip_widths
+    ys, zs, max_depth, fast = cam.ys, cam.zs, cam.max_depth, cam.fast
     ox, oy, oz = origin[0], origin[1], origin[2]
     oxc = ox / cell
     oyc = oy / cell
@@ -204,13 +221,13 @@ def _plain_shapes(boxes: np.ndarray, discs: np.ndarray, origin: np.ndarray, rot:
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _footprint(corners: np.ndarray, origin: np.ndarray, rot: np.ndarray, ys: np.ndarray, zs: np.ndarray,
-               fx: float, fy: float, cx: float, cy: float, max_depth: float, win: np.ndarray,
+def _footprint(corners: np.ndarray, origin: np.ndarray, rot: np.ndarray, cam: Camera, win: np.ndarray,
                scratch: np.ndarray) -> float:
     """The pixels a convex shape inside the box hull of ``corners`` (8, 3, world) can be seen
     through: ``win`` = (u0, u1, v0, v1) inclusive (empty when u1 < u0); returns the shape's
     nearest possible depth (with a margin). Culled (empty): behind the camera, beyond max_depth, or
     outside one of the field of view's four planes through the pixel centres at the image's edges."""
+    ys, zs, fx, fy, cx, cy, max_depth = cam.ys, cam.zs, cam.fx, cam.fy, cam.cx, cam.cy, cam.max_depth
     n = corners.shape[0]
     xmin = INF
     xmax = -INF
@@ -285,10 +302,10 @@ def _footprint(corners: np.ndarray, origin: np.ndarray, rot: np.ndarray, ys: np.
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _fast_shapes(boxes: np.ndarray, discs: np.ndarray, origin: np.ndarray, rot: np.ndarray, ys: np.ndarray,
-                 zs: np.ndarray, fx: float, fy: float, cx: float, cy: float, max_depth: float,
+def _fast_shapes(boxes: np.ndarray, discs: np.ndarray, origin: np.ndarray, rot: np.ndarray, cam: Camera,
                  out: np.ndarray) -> None:
     """Lower out[v, u] with the discs' and boxes' hits, shape-major over each shape's footprint."""
+    ys, zs, max_depth = cam.ys, cam.zs, cam.max_depth
     ox, oy, oz = origin[0], origin[1], origin[2]
     corners = np.empty((8, 3))
     win = np.empty(4, np.int64)
@@ -310,7 +327,7 @@ def _fast_shapes(boxes: np.ndarray, discs: np.ndarray, origin: np.ndarray, rot: 
             corners[k, 0] = discs[i, 0] + (r if k & 1 else -r)
             corners[k, 1] = discs[i, 1] + (r if k & 2 else -r)
             corners[k, 2] = discs[i, 4] if k & 4 else discs[i, 3]
-        near = _footprint(corners, origin, rot, ys, zs, fx, fy, cx, cy, max_depth, win, scratch)
+        near = _footprint(corners, origin, rot, cam, win, scratch)
         cyl = Cylinder(discs[i, 0], discs[i, 1], r, discs[i, 3], discs[i, 4])
         for v in range(win[2], win[3] + 1):
             zv = zs[v]
@@ -348,7 +365,7 @@ def _fast_shapes(boxes: np.ndarray, discs: np.ndarray, origin: np.ndarray, rot: 
             corners[k, 1] = boxes[i, 1] + s * ax + c * ay
             corners[k, 2] = boxes[i, 6] if k & 4 else boxes[i, 5]
         # (the corners are the box's up to rounding: the footprint's margins cover it)
-        nears[i] = _footprint(corners, origin, rot, ys, zs, fx, fy, cx, cy, max_depth, win, scratch)
+        nears[i] = _footprint(corners, origin, rot, cam, win, scratch)
         if win[1] >= win[0] and win[3] >= win[2]:
             wins[i, :] = win
             live[nl] = i
@@ -356,17 +373,19 @@ def _fast_shapes(boxes: np.ndarray, discs: np.ndarray, origin: np.ndarray, rot: 
     order = live[:nl][np.argsort(nears[live[:nl]], kind="mergesort")]
     for e in range(nl):
         i = order[e]
-        _box_window(boxes, i, origin, rot, ys, zs, wins[i, 0], wins[i, 1], wins[i, 2], wins[i, 3], nears[i], out)
+        _box_window(boxes, i, origin, rot, cam, wins[i], nears[i], out)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _box_window(boxes: np.ndarray, i: int, origin: np.ndarray, rot: np.ndarray, ys: np.ndarray, zs: np.ndarray,
-                u0: int, u1: int, v0: int, v1: int, near: float, out: np.ndarray) -> None:
-    """Lower out[v0:v1+1, u0:u1+1] with box ``i``'s hits. The slab test of :func:`_ray_box` in
+def _box_window(boxes: np.ndarray, i: int, origin: np.ndarray, rot: np.ndarray, cam: Camera, win: np.ndarray,
+                near: float, out: np.ndarray) -> None:
+    """Lower out[v0:v1+1, u0:u1+1] (``win`` = u0, u1, v0, v1) with box ``i``'s hits. The slab test of :func:`_ray_box` in
     the box's frame, the pixel's direction there linear in (y_u, z_v) and one reciprocal per axis
     (hits within rounding of ``_ray_box``'s); rows whose pixels all are nearer than ``near`` are
     skipped. A sensor exactly on one of the box's face planes takes ``_ray_box`` itself (a ray
     parallel to that face would give 0 x inf there)."""
+    ys, zs = cam.ys, cam.zs
+    u0, u1, v0, v1 = win[0], win[1], win[2], win[3]
     ox, oy, oz = origin[0], origin[1], origin[2]
     c = boxes[i, 7]
     s = boxes[i, 8]
@@ -436,27 +455,29 @@ def _box_window(boxes: np.ndarray, i: int, origin: np.ndarray, rot: np.ndarray, 
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def render_kernel(qpos: np.ndarray, mxyz: np.ndarray, mrot: np.ndarray, h: np.ndarray, cell: float,
-                  mip: np.ndarray, moff: np.ndarray, mnx: np.ndarray, boxes: np.ndarray, discs: np.ndarray,
-                  ys: np.ndarray, zs: np.ndarray, intr: np.ndarray, min_depth: float, max_depth: float, fast: bool,
-                  rot: np.ndarray, origin: np.ndarray, out: np.ndarray) -> int:
+def render_kernel(qpos: np.ndarray, mxyz: np.ndarray, mrot: np.ndarray, boxes: np.ndarray, discs: np.ndarray,
+                  rot: np.ndarray, origin: np.ndarray, out: np.ndarray, *arrays: Any) -> int:
     """One frame's noise-free depths into ``out`` (H, W) float64 (inf: no return); returns the
     number of valid pixels, or -1 (nothing computed) if the pose is bad. ``rot``, ``origin``
-    receive the sensor's world pose; ``intr`` = (fx, fy, cx, cy)."""
+    receive the sensor's world pose; ``arrays``: a :class:`TerrainGrid`'s fields, then a
+    :class:`Camera`'s (flattened as ``_raybox``'s entries take them: numba dispatches tuples of
+    arrays slower)."""
+    grid = TerrainGrid(*arrays[:_E_GRID])
+    cam = Camera(*arrays[_E_GRID:])
     if not _pose(qpos, mxyz, mrot, rot, origin):
         return -1
-    return _cast(h, cell, mip, moff, mnx, boxes, discs, ys, zs, intr, min_depth, max_depth, fast, rot, origin, out)
+    return _cast(grid, cam, boxes, discs, rot, origin, out)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _cast(h: np.ndarray, cell: float, mip: np.ndarray, moff: np.ndarray, mnx: np.ndarray, boxes: np.ndarray,
-          discs: np.ndarray, ys: np.ndarray, zs: np.ndarray, intr: np.ndarray, min_depth: float, max_depth: float,
-          fast: bool, rot: np.ndarray, origin: np.ndarray, out: np.ndarray) -> int:
-    _terrain_pass(h, cell, mip, moff, mnx, origin, rot, ys, zs, max_depth, fast, out)
-    if fast:
-        _fast_shapes(boxes, discs, origin, rot, ys, zs, intr[0], intr[1], intr[2], intr[3], max_depth, out)
+def _cast(grid: TerrainGrid, cam: Camera, boxes: np.ndarray, discs: np.ndarray, rot: np.ndarray, origin: np.ndarray,
+          out: np.ndarray) -> int:
+    _terrain_pass(grid, cam, origin, rot, out)
+    if cam.fast:
+        _fast_shapes(boxes, discs, origin, rot, cam, out)
     else:
-        _plain_shapes(boxes, discs, origin, rot, ys, zs, out)
+        _plain_shapes(boxes, discs, origin, rot, cam.ys, cam.zs, out)
+    min_depth, max_depth = cam.min_depth, cam.max_depth
     n = 0
     for v in range(out.shape[0]):
         for u in range(out.shape[1]):
@@ -503,7 +524,9 @@ class DepthCamera:
         r = rays(params)
         self._ys = np.ascontiguousarray(r[0, :, 1])
         self._zs = np.ascontiguousarray(r[:, 0, 2])
-        self._intr = np.array(params.intrinsics(), dtype=np.float64)
+        fx, fy, cx, cy = params.intrinsics()
+        self._cam = Camera(self._ys, self._zs, float(fx), float(fy), float(cx), float(cy), float(params.min_range_m),
+                           float(params.max_range_m), self.fast)
         self._out = np.empty((params.height, params.width))
         self.rotation = np.empty((3, 3))  # the last frame's sensor pose (world from sensor)
         self.origin = np.empty(3)
@@ -538,11 +561,9 @@ class DepthCamera:
         if boxes.ndim != 2 or boxes.shape[1] != 9 or boxes.dtype != np.float64:
             raise SpecError("scene_boxes", getattr(boxes, "shape", None), "float64 rows of LidarScene.boxes' 9 columns")
         d = _NO_DISCS if discs is None else np.ascontiguousarray(discs, dtype=np.float64).reshape(-1, 5)
-        p = self.params
         g = s.grid
-        n: int = render_kernel(q, self._mxyz, self._mrot, g.heights, g.cell, g.mip, g.mip_offsets, g.mip_widths, boxes, d,
-                               self._ys, self._zs, self._intr, float(p.min_range_m), float(p.max_range_m), self.fast,
-                               self.rotation, self.origin, self._out)
+        n: int = render_kernel(q, self._mxyz, self._mrot, boxes, d, self.rotation, self.origin, self._out, *g,
+                               *self._cam)
         if n < 0:
             raise SpecError("qpos", q[:7].tolist(), "a finite position and a unit quaternion (w, x, y, z)")
         return n

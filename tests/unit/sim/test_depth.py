@@ -50,8 +50,15 @@ def expected(p: DepthParams, q: np.ndarray, mount: Mount, surfaces: list) -> np.
 
 
 def same(a: np.ndarray, b: np.ndarray, tol: float = 1e-9) -> np.ndarray:
+    """Both inf, or both finite and within tol * (1 + |b|) (|finite - inf| <= tol * inf would pass)."""
     with np.errstate(invalid="ignore"):
-        return (np.isinf(a) & np.isinf(b)) | (np.abs(a - b) <= tol * (1.0 + np.abs(b)))
+        close = np.isfinite(a) & np.isfinite(b) & (np.abs(a - b) <= tol * (1.0 + np.abs(b)))
+    return (np.isinf(a) & np.isinf(b)) | close
+
+
+def test_same_tells_a_return_from_none() -> None:
+    assert not same(np.array([1.0, np.inf]), np.array([np.inf, 1.0])).any()
+    assert same(np.array([1.0, np.inf]), np.array([1.0 + 1e-12, np.inf])).all()
 
 
 def check(img: np.ndarray, want: np.ndarray, tol: float = 1e-9) -> None:
@@ -84,6 +91,22 @@ def test_flat_ground_pitched_down(fast: bool, pitch_deg: float, ground: float, s
     check(img.astype(np.float64), want, 1e-6)  # (float32 image)
     check(cam.depths(q, m), want)
     assert np.isfinite(want).any()
+
+
+@FAST
+@pytest.mark.parametrize("yaw_deg", [0.0, 90.0, 180.0, -90.0, 45.0])
+def test_flat_ground_ends_at_the_maps_edge(fast: bool, yaw_deg: float) -> None:
+    """Near the map's edge, looking out: the ground ends there (no terrain outside the map)."""
+    size = 20.0
+    p = DepthParams(width=40, height=30, max_range_m=25.0)
+    cam = DepthCamera(flat_scene(0.0, size), p, fast=fast)
+    m = Mount(xyz=(0.0, 0.0, 1.0), rpy=(0.0, math.radians(8.0), 0.0))
+    yaw = math.radians(yaw_deg)
+    q = qpos(size / 2 + 7.0 * math.cos(yaw), size / 2 + 7.0 * math.sin(yaw), 0.2, yaw=yaw)
+    want = expected(p, q, m, [lambda o, d: oracle.plane_z(o, d, 0.0, (0, size), (0, size))])
+    unbounded = expected(p, q, m, [lambda o, d: oracle.plane_z(o, d, 0.0)])
+    assert (np.isinf(want) & np.isfinite(unbounded)).sum() > 50  # the edge is in view
+    check(cam.depths(q, m), want)
 
 
 @FAST
