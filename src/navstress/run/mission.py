@@ -44,7 +44,6 @@ from navstress.seeding import derive_seed, rng
 from navstress.sim.config import SimConfig
 from navstress.sim.sensors import euler_from_mat
 from navstress.sim.simulation import Simulation
-from navstress.sim.suite import suite as sensor_suite
 from navstress.sensors import rotation_rpy
 from navstress.world.world import World
 
@@ -268,7 +267,7 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Any
             watch.start(world, robot, sim)
         next_cloud_t = 0.0
         # every sensor but the default lidar, through its kind's trace encoder (SensorRecorder's policy)
-        recorder = SensorRecorder(sensor_suite(robot, cfg)) if trace is not None else None
+        recorder = SensorRecorder(sim.sensors) if trace is not None else None
         while error is None:
             obs = sim.observe()
             if record_lidar:
