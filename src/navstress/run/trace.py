@@ -18,7 +18,10 @@ after each step, :meth:`TraceWriter.debug`),
 :func:`terrain_mesh`), ``/world/terrain`` (``foxglove.Grid``: ground heights), ``/nav/map`` (``foxglove.Grid``: the
 navigator's final perceived elevation map, NaN = unknown; runs that record the navigator's view
 have it once per simulated second before, each cut to its known cells), optionally ``/lidar``
-(``foxglove.PointCloud``, world frame). All timestamps are *simulated* time, so the same
+(``foxglove.PointCloud``, world frame: the default lidar's, with ``record_lidar``), and every other
+sensor of a robot that lists its sensors under ``/sensors/<name>``, written by its kind's ``trace``
+encoder (:meth:`TraceMessages.reading`; which readings: :class:`SensorRecorder`), its frame
+``base_link -> <name>`` in ``/tf``. All timestamps are *simulated* time, so the same
 seeds give a byte-identical file. Each message's log time is the simulated time of what it
 shows (a pose's measurement time, a scan's time), and messages are written to the file in
 log-time order whatever order they were handed over in (``mcap doctor

@@ -63,7 +63,9 @@ SUITES = [
      {"name": "cam", "kind": "depth", "profile": "d435", "width": 64, "height": 48}],
     [{"name": "rear", "kind": "lidar2d", "profile": "tim571", "mount": {"xyz": [-0.2, 0.05, 0.25], "rpy": [0, 0, 3.14159]}},
      {"name": "spin", "kind": "lidar2d", "profile": "rplidar_a2", "mount": {"xyz": [0, 0, 0.35], "rpy": [0.02, -0.1, 0.5]}},
-     {"name": "top", "kind": "lidar3d", "profile": "vlp16", "mount": {"xyz": [0.0, 0.0, 0.4], "rpy": [0, 0.05, 0]}}],
+     {"name": "top", "kind": "lidar3d", "profile": "vlp16", "mount": {"xyz": [0.0, 0.0, 0.4], "rpy": [0, 0.05, 0]}},
+     # named as the robot's lidar mount, mounted elsewhere: its frame is the sensor's
+     {"name": "lidar", "kind": "lidar2d", "mount": {"xyz": [0.1, 0.0, 0.2], "rpy": [0, 0, 0.3]}}],
     [{"name": "down_cam", "kind": "depth", "profile": "d435", "width": 33, "height": 17, "hfov_deg": 60,
       "vfov_deg": 40, "mount": {"xyz": [0.15, 0.0, 0.3], "rpy": [0.1, 0.4, -0.2]}},
      {"name": "os", "kind": "lidar3d", "profile": "os1_64"},
