@@ -102,3 +102,42 @@ def test_a_jackal_run_records_its_scans_and_images_in_the_trace_and_the_bag(sens
         assert "cam_optical" in children
         assert [ty for ty, _m in bag["/sensors/cam/depth"]] == ["sensor_msgs/msg/Image"] * 2
         assert [ty for ty, _m in bag["/sensors/cam/camera_info"]] == ["sensor_msgs/msg/CameraInfo"] * 2
+
+
+def test_the_live_view_advertises_and_sends_each_sensor_on_its_trace_topics() -> None:
+    """A real Foxglove server (port 0) and a real simulation: the sensors' topics are advertised
+    before the run, a scan and a depth frame go out on them after a step, and the default lidar's
+    /lidar gets nothing from a robot without one."""
+    from navstress.run.live import LivePublisher, LiveSettings
+    from navstress.sim.config import SimConfig
+    from navstress.sim.simulation import Simulation
+
+    class Watched(LivePublisher):
+        def __init__(self, settings: LiveSettings) -> None:
+            self.sent: list[tuple[str, str, int]] = []
+            super().__init__(settings)
+
+        def _put(self, topic: str, msg: Any, log_time: int) -> None:
+            self.sent.append((topic, msg.DESCRIPTOR.full_name, log_time))
+            super()._put(topic, msg, log_time)
+
+    robot = with_sensors(profile("jackal"), sensors=[LASER, CAM])
+    world = _world()
+    sim = Simulation(world, robot, SimConfig(), seed=2)
+    pub = Watched(LiveSettings(port=0, wait_s=0.0, speed=50.0))
+    try:
+        pub.start(world, robot, sim)
+        assert {"/sensors/front_laser", "/sensors/cam/depth", "/sensors/cam/calibration"} <= set(pub._channels)
+        for _ in range(3):
+            obs = sim.observe()
+            sim.command(Command(0.3, 0.0))
+            sim.advance(0.1)
+            pub.update(sim, obs, Seer(), [], [], None)
+    finally:
+        pub.close()
+    kinds = {(t, s) for t, s, _lt in pub.sent}
+    assert {("/sensors/front_laser", "foxglove.LaserScan"), ("/sensors/cam/depth", "foxglove.RawImage"),
+            ("/sensors/cam/calibration", "foxglove.CameraCalibration")} <= kinds
+    assert not any(t == "/lidar" for t, _s, _lt in pub.sent)
+    scan_times = [lt for t, _s, lt in pub.sent if t == "/sensors/front_laser"]
+    assert np.all(np.diff(scan_times) >= 0.1e9 - 1)  # at most one per 0.1 simulated s
