@@ -13,8 +13,15 @@ topics, schemas and protobuf encoding; log times are simulated time):
   (the navigator's belief, its ``perceived_trajectory()``'s last row), ``/nav/cmd``,
   ``/world/movers``, the new ``/events``, what the navigator drew (``/nav/debug``) and its map
   (``/nav/map``, once per simulated second);
-- ``/lidar``: the step's last scan in the ``lidar`` frame, at most once per 0.5 simulated
-  seconds;
+- ``/lidar``: the default lidar's last scan of the step in the ``lidar`` frame, at most once per
+  0.5 simulated seconds;
+- every other sensor of the robot (``RobotSpec.sensors``) on its trace topics, as its kind's
+  ``trace`` encoder writes them (a 2D scan: ``foxglove.LaserScan`` on ``/sensors/<name>``, drawn in
+  its frame by the 3D panel; a depth camera: ``foxglove.RawImage`` on ``/sensors/<name>/depth``
+  with its ``foxglove.CameraCalibration``, for the Image panel or projected in the 3D panel), at
+  most once per :data:`SENSOR_PERIOD_S` simulated seconds a sensor (and no more often than the
+  trace records them: :class:`~navstress.run.trace.SensorRecorder`); their frames are on ``/tf``
+  with the mounts;
 - at the end: the last events (the outcome) and the final map.
 
 What the server logs about its clients (a client that fails the handshake or sends a message the
@@ -54,8 +61,8 @@ from navstress.run.mission import NavigatorView, RunResult, attr_through_wrapper
 from navstress.run.record import RunRecord, RunTask
 from navstress.run.trace import (BELIEF, FRAME, FRAME_LIDAR, FRAME_ROBOT, TOPIC_CMD, TOPIC_DEBUG, TOPIC_EVENTS,
                                  TOPIC_LIDAR, TOPIC_MAP, TOPIC_MOVERS, TOPIC_PERCEIVED, TOPIC_ROBOT, TOPIC_SCENE,
-                                 TOPIC_TERRAIN, TOPIC_TERRAIN_MESH, TOPIC_TF, TOPIC_TRUTH, TraceMessages,
-                                 command_class)
+                                 TOPIC_TERRAIN, TOPIC_TERRAIN_MESH, TOPIC_TF, TOPIC_TRUTH, SensorRecorder,
+                                 TraceMessages, command_class, sensor_topics)
 
 if TYPE_CHECKING:
     from navstress.sim.simulation import Simulation
@@ -70,6 +77,8 @@ LINGER_S = 1.0
 BACKLOG = 32_768
 #: Most simulated seconds between two lidar clouds sent live.
 LIDAR_PERIOD_S = 0.5
+#: Fewest simulated seconds between two readings of one sensor sent live (a 40 Hz scanner: 10 a second).
+SENSOR_PERIOD_S = 0.1
 
 
 @dataclass(frozen=True)
@@ -199,6 +208,7 @@ class LivePublisher(TraceMessages):
         self._drawings_sent = 0
         self._maps_sent = 0
         self._next_lidar = 0.0
+        self._sensors = SensorRecorder((), SENSOR_PERIOD_S)
         self._wall0 = 0.0
 
     @property
@@ -226,6 +236,10 @@ class LivePublisher(TraceMessages):
         subscribes when it learns of a channel, and a message sent before that is lost to it.)"""
         for topic, cls in _topics().items():
             self._channel(topic, cls)
+        self._sensors = SensorRecorder(robot.sensors or (), SENSOR_PERIOD_S)
+        for sensor in self._sensors.sensors:
+            for topic, cls in sensor_topics(sensor).items():
+                self._channel(topic, cls)
         self._statics, self._collecting = [], True
         world_messages(self, world)
         self.robot(robot, belief=True)
@@ -262,10 +276,12 @@ class LivePublisher(TraceMessages):
         if movers:
             self.movers(np.array([sim.t]), sim.mover_poses()[None], [(mv.id, mv.kind, mv.shape, mv.size) for mv in movers])
         self._send_new(events, view)
-        scans = [s for s in obs.scans if len(s.points)]
+        scans = [s for s in obs.scans if len(s.points) and s.sensor == FRAME_LIDAR]
         if scans and scans[-1].t >= self._next_lidar - 1e-9:
             self._next_lidar = scans[-1].t + LIDAR_PERIOD_S
             self.points(scans[-1].t, scans[-1].points, frame=FRAME_LIDAR)
+        for sensor, reading in self._sensors.take(getattr(obs, "readings", {})):
+            self.reading(sensor, reading)
         delay = self._wall0 + sim.t / self.settings.speed - time.monotonic()
         if delay > 0:
             time.sleep(delay)

@@ -38,12 +38,13 @@ from navstress.run.metrics import drop_jitter, path_length, tortuousness
 from navstress.run.outcome import Classification, RunFacts, classify
 from navstress.run.record import RunRecord, RunTask
 from navstress.run.robot import check_stable, robot_of
-from navstress.run.trace import (BELIEF, FRAME, FRAME_ROBOT, TOPIC_MAP, TOPIC_PERCEIVED, TOPIC_TERRAIN, TOPIC_TRUTH,
-                                 TraceMessages, TraceWriter)
+from navstress.run.trace import (BELIEF, FRAME, FRAME_LIDAR, FRAME_ROBOT, TOPIC_MAP, TOPIC_PERCEIVED, TOPIC_TERRAIN,
+                                 TOPIC_TRUTH, SensorRecorder, TraceMessages, TraceWriter)
 from navstress.seeding import derive_seed, rng
 from navstress.sim.config import SimConfig
 from navstress.sim.sensors import euler_from_mat
 from navstress.sim.simulation import Simulation
+from navstress.sensors import rotation_rpy
 from navstress.world.world import World
 
 DEFAULT_CONTROL_RATE_HZ = 10.0
@@ -230,7 +231,7 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Any
     check_stable(robot, cfg)
     wall0 = time.perf_counter()
     events: list[tuple[float, str, str]] = []
-    clouds: list[tuple[float, np.ndarray, tuple[float, float, float]]] = []
+    clouds: list[tuple[float, np.ndarray, tuple[float, float, float], tuple[float, float, float]]] = []
     error: str | None = None
     nav_failure = False
     arrived = timed_out = False
@@ -265,13 +266,18 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Any
         if watch is not None:
             watch.start(world, robot, sim)
         next_cloud_t = 0.0
+        # every sensor but the default lidar, through its kind's trace encoder (SensorRecorder's policy)
+        recorder = SensorRecorder(sim.sensors) if trace is not None else None
         while error is None:
             obs = sim.observe()
             if record_lidar:
                 for scan in obs.scans:
-                    if scan.t >= next_cloud_t - 1e-9 and len(scan.points):
-                        clouds.append((scan.t, np.array(scan.points, dtype=np.float32), scan.mount))
+                    if scan.sensor == FRAME_LIDAR and scan.t >= next_cloud_t - 1e-9 and len(scan.points):
+                        clouds.append((scan.t, np.array(scan.points, dtype=np.float32), scan.mount, scan.rpy))
                         next_cloud_t = scan.t + LIDAR_TRACE_PERIOD_S
+            if recorder is not None and trace is not None:
+                for sensor, reading in recorder.take(obs.readings):
+                    trace.reading(sensor, reading)
             try:
                 out = check_answer(navigator.step(obs))
             except InvalidAnswer as err:
@@ -395,14 +401,16 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Any
         watch.finish(result, view)
     if trace is not None:
         _write_trace(trace, world, result, robot)
-        for t, pts, mount in clouds:
-            trace.points(t, _to_map_frame(pts, mount, truth, t))
+        for t, pts, mount, rpy in clouds:
+            trace.points(t, _to_map_frame(pts, mount, truth, t, rpy))
     return result
 
 
-def _to_map_frame(pts: np.ndarray, mount: tuple[float, float, float], truth: np.ndarray, t: float) -> np.ndarray:
+def _to_map_frame(pts: np.ndarray, mount: tuple[float, float, float], truth: np.ndarray, t: float,
+                  rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> np.ndarray:
     """Sensor-frame points into the map frame with the TRUE pose at ``t`` (interpolated between
-    observer samples, 10 Hz: a few cm off while turning; for visualisation only)."""
+    observer samples, 10 Hz: a few cm off while turning; for visualisation only); ``rpy``: the
+    sensor's mount rotation (none for the default lidar)."""
     from scipy.spatial.transform import Rotation, Slerp  # here: runs that record no lidar never import it
 
     ts = truth[:, 0]
@@ -415,7 +423,10 @@ def _to_map_frame(pts: np.ndarray, mount: tuple[float, float, float], truth: np.
         rot = Slerp([0.0, 1.0], rots)([w])[0]
     else:
         pos, rot = truth[0, 1:4], Rotation.from_euler("ZYX", truth[0, 4:7])
-    local = np.asarray(pts, dtype=np.float64) + np.asarray(mount)
+    local = np.asarray(pts, dtype=np.float64)
+    if any(rpy):
+        local = local @ rotation_rpy(*rpy).T
+    local = local + np.asarray(mount)
     out: np.ndarray = (rot.apply(local) + pos).astype(np.float32)
     return out
 

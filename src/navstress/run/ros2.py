@@ -8,7 +8,7 @@ What the bag holds (every stamp and bag time is the run's *simulated* time, as i
 | topic | type | from the trace |
 |---|---|---|
 | ``/tf`` | ``tf2_msgs/msg/TFMessage`` | ``/tf`` (``map -> base_link``, ``map -> perceived/base_link``) |
-| ``/tf_static`` | ``tf2_msgs/msg/TFMessage`` (transient local) | the sensor mounts (``base_link -> lidar``, ``base_link -> <mount name>``, and the same below ``perceived/base_link``) |
+| ``/tf_static`` | ``tf2_msgs/msg/TFMessage`` (transient local) | the sensor mounts (``base_link -> lidar``, ``base_link -> <mount name>``, ``base_link -> <sensor name>``, ``<camera> -> <camera>_optical``, and the same below ``perceived/base_link``) |
 | ``/truth/odom``, ``/perceived/odom`` | ``nav_msgs/msg/Odometry`` | the poses (twist left zero: the trace has no velocities) |
 | ``/rosout`` | ``rcl_interfaces/msg/Log`` | ``/events`` |
 | ``/world/markers`` | ``visualization_msgs/msg/MarkerArray`` (transient local) | ``/world/scene``: obstacles, start, goal |
@@ -20,6 +20,15 @@ What the bag holds (every stamp and bag time is the run's *simulated* time, as i
 | ``/nav/map`` | ``nav_msgs/msg/OccupancyGrid`` | ``/nav/map``, the perceived elevation: -1 unknown, else 0..100 over the grid's lowest..highest known cell (the metres are in ``/nav/map_points``) |
 | ``/nav/map_points`` | ``sensor_msgs/msg/PointCloud2`` | ``/nav/map``: one point per known cell, z its height |
 | ``/lidar`` | ``sensor_msgs/msg/PointCloud2`` | ``/lidar`` (frame ``map``) |
+| ``/sensors/<name>`` | ``sensor_msgs/msg/LaserScan`` (a ``lidar2d``), ``sensor_msgs/msg/PointCloud2`` (a ``lidar3d``) | ``/sensors/<name>`` (frame ``<name>``) |
+| ``/sensors/<name>/depth`` | ``sensor_msgs/msg/Image`` (``32FC1``) | ``/sensors/<name>/depth`` (frame ``<name>_optical``) |
+| ``/sensors/<name>/camera_info`` | ``sensor_msgs/msg/CameraInfo`` | ``/sensors/<name>/calibration`` |
+
+The sensors' topics are converted by their kind (``SensorKind.ros2``: Foxglove schema name ->
+converter, in the kind's module under ``navstress.sensors.kinds``); the sensor is found by the
+name in its topic among the trace's robot's sensors (its parameters give a scan's range limits and
+scan time). Every sensor frame (``base_link -> <name>``, a camera's ``<name> -> <name>_optical``)
+is in ``/tf_static``.
 
 The bag directory is written beside its destination under a temporary name and renamed into
 place when complete.
@@ -40,7 +49,9 @@ from navstress import _files
 from navstress.errors import SpecError
 from navstress.run.trace import (FRAME, TOPIC_CMD, TOPIC_DEBUG, TOPIC_EVENTS, TOPIC_LIDAR, TOPIC_MAP, TOPIC_MOVERS, TOPIC_PERCEIVED,
                                  TOPIC_ROBOT, TOPIC_SCENE, TOPIC_TERRAIN, TOPIC_TERRAIN_MESH, TOPIC_TF,
-                                 TOPIC_TRUTH, _messages)
+                                 TOPIC_TRUTH, _messages, read_robot)
+from navstress.sensors import Sensor, kinds
+from navstress.sensors.encode import sensor_of_topic
 
 
 def _latched() -> Any:
@@ -167,9 +178,12 @@ def _cells(vals: np.ndarray, x0: float, y0: float, cell: float) -> np.ndarray:
     return np.column_stack([x0 + (j + 0.5) * cell, y0 + (i + 0.5) * cell, vals[i, j]])
 
 
-def _convert(bag: _Bag, topic: str, t_ns: int, m: Any) -> None:
+def _convert(bag: _Bag, topic: str, t_ns: int, m: Any, sensors: dict[str, Sensor] | None = None) -> None:
     T = bag.t
-    if topic == TOPIC_TF:
+    name = sensor_of_topic(topic)
+    if name is not None:
+        _convert_sensor(bag, topic, t_ns, m, (sensors or {}).get(name))
+    elif topic == TOPIC_TF:
         tf = T["geometry_msgs/msg/TransformStamped"](
             header=bag.header(t_ns, m.parent_frame_id), child_frame_id=m.child_frame_id,
             transform=T["geometry_msgs/msg/Transform"](translation=bag.vec(m.translation), rotation=bag.quat(m.rotation)))
@@ -222,6 +236,34 @@ def _convert(bag: _Bag, topic: str, t_ns: int, m: Any) -> None:
         bag.put("/lidar", bag.cloud(t_ns, m.frame_id or FRAME, pts), t_ns)
 
 
+def _convert_sensor(bag: _Bag, topic: str, t_ns: int, m: Any, sensor: Sensor | None) -> None:
+    """A sensor's message through its kind's converter (by the message's Foxglove schema); a
+    sensor the robot does not name: the first kind that converts the schema; none: left out."""
+    schema = m.DESCRIPTOR.full_name
+    ks = kinds()
+    convert = ks[sensor.kind].ros2.get(schema) if sensor is not None and sensor.kind in ks else None
+    if convert is None:
+        convert = next((k.ros2[schema] for k in ks.values() if schema in k.ros2), None)
+    if convert is None:
+        return
+    for out, msg in convert(bag.t, topic, m, sensor):
+        bag.put(out, msg, t_ns)
+
+
+def _sensor_topics(path: Path) -> list[str]:
+    """The trace's topics under ``/sensors/`` (from its summary; [] when it has none)."""
+    from mcap.reader import make_reader
+
+    try:
+        with open(path, "rb") as f:
+            summary = make_reader(f).get_summary()
+    except Exception:  # the full read below says what is wrong with the file
+        return []
+    if summary is None:
+        return []
+    return sorted({ch.topic for ch in summary.channels.values() if sensor_of_topic(ch.topic) is not None})
+
+
 _TOPICS = [TOPIC_TF, TOPIC_TRUTH, TOPIC_PERCEIVED, TOPIC_EVENTS, TOPIC_SCENE, TOPIC_ROBOT, TOPIC_MOVERS, TOPIC_TERRAIN,
            TOPIC_TERRAIN_MESH, TOPIC_CMD, TOPIC_DEBUG, TOPIC_MAP, TOPIC_LIDAR]
 
@@ -235,14 +277,16 @@ def export_ros2(trace: str | os.PathLike[str], out: str | os.PathLike[str]) -> d
     src, dest = Path(trace), Path(out)
     if dest.exists() or dest.is_symlink():
         raise SpecError("--output", str(dest), "a path that does not exist yet (a ROS 2 bag is a new directory)")
-    messages = list(_messages(src, _TOPICS))  # reads (and checks) the whole trace before anything is written
+    messages = list(_messages(src, _TOPICS + _sensor_topics(src)))  # reads (and checks) the whole trace first
+    sensors = {s.name: s for s in read_robot(src).sensors or ()} if any(
+        sensor_of_topic(t) is not None for t, _n, _m in messages) else {}
     tmp = _files.temp_dir_beside(dest)
     try:
         bag_dir = tmp / dest.name
         with Writer(bag_dir, version=8, storage_plugin=StoragePlugin.MCAP) as w:
             bag = _Bag(w, get_typestore(Stores.ROS2_HUMBLE))
             for topic, t_ns, m in messages:
-                _convert(bag, topic, t_ns, m)
+                _convert(bag, topic, t_ns, m, sensors)
         _files.rename_into_place(bag_dir, dest)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)

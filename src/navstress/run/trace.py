@@ -18,7 +18,10 @@ after each step, :meth:`TraceWriter.debug`),
 :func:`terrain_mesh`), ``/world/terrain`` (``foxglove.Grid``: ground heights), ``/nav/map`` (``foxglove.Grid``: the
 navigator's final perceived elevation map, NaN = unknown; runs that record the navigator's view
 have it once per simulated second before, each cut to its known cells), optionally ``/lidar``
-(``foxglove.PointCloud``, world frame). All timestamps are *simulated* time, so the same
+(``foxglove.PointCloud``, world frame: the default lidar's, with ``record_lidar``), and every other
+sensor of a robot that lists its sensors under ``/sensors/<name>``, written by its kind's ``trace``
+encoder (:meth:`TraceMessages.reading`; which readings: :class:`SensorRecorder`), its frame
+``base_link -> <name>`` in ``/tf``. All timestamps are *simulated* time, so the same
 seeds give a byte-identical file. Each message's log time is the simulated time of what it
 shows (a pose's measurement time, a scan's time), and messages are written to the file in
 log-time order whatever order they were handed over in (``mcap doctor
@@ -38,7 +41,7 @@ from __future__ import annotations
 import math
 import os
 import struct
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
@@ -78,6 +81,7 @@ from navstress._json import dumps
 from navstress import _files
 from navstress.errors import NavstressError, StoreError
 from navstress.robot import PROFILES, Mount, RobotSpec
+from navstress.sensors import Sensor, kinds
 from navstress.nav.api import DebugDraw, DebugLine, DebugPoints, DebugText
 from navstress.run.record import cap_message
 
@@ -206,12 +210,80 @@ def command_class() -> Any:
 
 def mount_frames(robot: RobotSpec) -> list[tuple[str, tuple[float, float, float], tuple[float, float, float]]]:
     """The robot's sensor frames below ``base_link``: (name, xyz, rpy) of each mount, and
-    ``lidar`` at the simulation's lidar position when the robot names no ``lidar`` mount."""
+    ``lidar`` at the simulation's lidar position when the robot names no ``lidar`` mount; a robot
+    that lists its sensors (``RobotSpec.sensors``) adds a frame per sensor, named as the sensor, at
+    its mount (a sensor's mount wins over a robot mount of the same name)."""
     out = [(name, m.xyz, m.rpy) for name, m in robot.mounts.items()]
     if "lidar" not in robot.mounts:
         lm = robot.lidar
         out.insert(0, (FRAME_LIDAR, (lm.x_m, lm.y_m, lm.z_m), (0.0, 0.0, 0.0)))
+    for s in robot.sensors or ():
+        at = next((i for i, f in enumerate(out) if f[0] == s.name), None)
+        entry = (s.name, s.mount.xyz, s.mount.rpy)
+        if at is None:
+            out.append(entry)
+        else:
+            out[at] = entry
     return out
+
+
+def sensor_frames(robot: RobotSpec) -> list[tuple[str, str, tuple[float, float, float], tuple[float, float, float]]]:
+    """Frames below the sensors' own (parent, child, xyz, rpy): each kind's ``extra["frames"]``
+    (a depth camera's optical frame), for a robot that lists its sensors."""
+    out = []
+    for s in robot.sensors or ():
+        frames = kinds()[s.kind].extra.get("frames")
+        if callable(frames):
+            out.extend(frames(s))
+    return out
+
+
+def sensors_metadata(robot: RobotSpec) -> list[dict[str, Any]]:
+    """The sensors of the trace's robot metadata: name, kind, profile, mount (xyz, rpy), in the
+    suite's order (a robot that lists its sensors)."""
+    return [{"name": s.name, "kind": s.kind, "profile": s.profile,
+             "mount": {"xyz": list(s.mount.xyz), "rpy": list(s.mount.rpy)}} for s in robot.sensors or ()]
+
+
+def default_lidar(sensor: Sensor) -> bool:
+    """Whether ``sensor`` is the default lidar: the ``lidar3d`` named ``lidar`` (the default suite's),
+    recorded on :data:`TOPIC_LIDAR` with ``record_lidar`` as before sensors were declared; every
+    other sensor has its kind's topics under ``/sensors/<name>``."""
+    return sensor.kind == "lidar3d" and sensor.name == FRAME_LIDAR
+
+
+def recorded_sensors(sensors: Sequence[Sensor]) -> list[Sensor]:
+    """The sensors of a suite that a trace records through their kind's ``trace`` encoder."""
+    return [s for s in sensors if not default_lidar(s) and kinds()[s.kind].trace is not None]
+
+
+def sensor_topics(sensor: Sensor) -> dict[str, Any]:
+    """Every topic a sensor's kind writes for it, with its protobuf class (``extra["topics"]``)."""
+    topics = kinds()[sensor.kind].extra.get("topics")
+    return dict(topics(sensor)) if callable(topics) else {}
+
+
+class SensorRecorder:
+    """Which readings of a run's sensors go into its trace: every reading of each sensor of
+    :func:`recorded_sensors`, at most one per its kind's ``extra["trace_period_s"]`` of simulated
+    time (``min_period_s`` raises every period: the live view's). Pure bookkeeping: it reads the
+    readings, never changes them."""
+
+    def __init__(self, sensors: Sequence[Sensor], min_period_s: float = 0.0) -> None:
+        self.sensors = recorded_sensors(sensors)
+        self._period = {s.name: max(float(kinds()[s.kind].extra.get("trace_period_s", 0.0)), min_period_s)
+                        for s in self.sensors}
+        self._next = {s.name: -math.inf for s in self.sensors}
+
+    def take(self, readings: Mapping[str, Sequence[Any]]) -> list[tuple[Sensor, Any]]:
+        """The readings of ``readings`` (by sensor name, each in time order) to record now."""
+        out = []
+        for s in self.sensors:
+            for r in readings.get(s.name, ()):
+                if r.t >= self._next[s.name] - 1e-9:
+                    out.append((s, r))
+                    self._next[s.name] = r.t + self._period[s.name]
+        return out
 
 
 def box_robot(size: tuple[float, float, float], lidar: tuple[float, float, float]) -> RobotSpec:
@@ -240,12 +312,21 @@ def prism(ring: np.ndarray, z0: float, z1: float) -> tuple[np.ndarray, np.ndarra
 def robot_metadata(robot: RobotSpec) -> dict[str, str]:
     """The trace's ``navstress.robot`` metadata: ``name``, ``digest``, ``description`` (the
     RobotSpec as canonical JSON), and for viewers ``footprint`` (the outline's points in
-    ``base_link``, JSON) and ``mounts`` (name -> xyz, rpy, JSON)."""
-    desc = dumps(robot.model_dump(mode="json"), sort_keys=True, separators=(",", ":"))
-    return {"name": robot.name, "digest": robot.digest, "description": desc,
-            "footprint": dumps([[round(float(x), 9), round(float(y), 9)] for x, y in robot.footprint_points()]),
-            "mounts": dumps({n: {"xyz": list(xyz), "rpy": list(rpy)} for n, xyz, rpy in mount_frames(robot)},
-                                 sort_keys=True)}
+    ``base_link``, JSON), ``mounts`` (name -> xyz, rpy, JSON) and, for a robot that lists its
+    sensors, ``sensors`` (:func:`sensors_metadata`, JSON). A robot with the default suite
+    (``sensors`` None) leaves ``sensors`` out of its description and its metadata: its trace is
+    byte for byte the one of before sensors were declared."""
+    data = robot.model_dump(mode="json")
+    if data.get("sensors") is None:
+        data.pop("sensors", None)  # the default suite: the description of before sensors were declared
+    desc = dumps(data, sort_keys=True, separators=(",", ":"))
+    out = {"name": robot.name, "digest": robot.digest, "description": desc,
+           "footprint": dumps([[round(float(x), 9), round(float(y), 9)] for x, y in robot.footprint_points()]),
+           "mounts": dumps({n: {"xyz": list(xyz), "rpy": list(rpy)} for n, xyz, rpy in mount_frames(robot)},
+                           sort_keys=True)}
+    if robot.sensors is not None:
+        out["sensors"] = dumps(sensors_metadata(robot))
+    return out
 
 
 class TraceMessages:
@@ -301,6 +382,8 @@ class TraceMessages:
             prefix = frame[: -len(FRAME_ROBOT)]
             for name, xyz, rpy in mount_frames(robot):
                 self.transforms(frame, prefix + name, np.array([[0.0, *xyz, rpy[2], rpy[1], rpy[0]]]))
+            for parent, child, xyz, rpy in sensor_frames(robot):
+                self.transforms(prefix + parent, prefix + child, np.array([[0.0, *xyz, rpy[2], rpy[1], rpy[0]]]))
             alpha = 1.0 if not prefix else 0.35
             colour = Color(r=0.95, g=0.6, b=0.1, a=alpha)
             outline = LinePrimitive(type=LinePrimitive.LINE_STRIP, pose=Pose(orientation=Quaternion(w=1.0)),
@@ -345,6 +428,15 @@ class TraceMessages:
                          fields=[PackedElementField(name=n, offset=4 * i, type=PackedElementField.FLOAT32)
                                  for i, n in enumerate("xyz")], data=p.tobytes())
         self._put(TOPIC_LIDAR, msg, _ns(t))
+
+    def reading(self, sensor: Sensor, reading: Any) -> None:
+        """One reading of ``sensor`` as its kind's ``trace`` encoder writes it (a kind module
+        declares its topics and messages: ``/sensors/<name>...``), logged at the reading's time."""
+        encoder = kinds()[sensor.kind].trace
+        if encoder is None:
+            return
+        for topic, msg in encoder(reading, sensor):
+            self._put(topic, msg, _ns(reading.t))
 
     def scene(self, obstacles: list[dict[str, Any]], start: tuple[float, float, float], goal: tuple[float, float],
               ground_z: tuple[float, float]) -> None:

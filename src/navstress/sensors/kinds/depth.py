@@ -15,11 +15,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from pydantic import Field, model_validator
 
 from navstress.errors import SpecError
+from navstress.sensors import encode
 from navstress.sensors.base import SensorKind, SensorParams
 
 
@@ -91,6 +93,74 @@ PROFILES: dict[str, dict[str, object]] = {
     "d435": {},
 }
 
+#: Fewest simulated seconds between two recorded frames of one camera: a 424 x 240 frame is
+#: 407 kB of float32 (6.1 MB per simulated second at 15 Hz), so a trace keeps one a second
+#: (docs/traces.md has the figures).
+TRACE_PERIOD_S = 1.0
+
+
+def optical_frame(name: str) -> str:
+    """The camera's optical frame (z forward, x right, y down: REP 103's ``_optical`` frame)."""
+    return name + encode.OPTICAL_SUFFIX
+
+
+def frames(sensor: Any) -> list[tuple[str, str, tuple[float, float, float], tuple[float, float, float]]]:
+    """The optical frame below the sensor's: (parent, child, xyz, rpy)."""
+    return [(sensor.name, optical_frame(sensor.name), (0.0, 0.0, 0.0), encode.OPTICAL_RPY)]
+
+
+def trace_topics(sensor: Any) -> dict[str, Any]:
+    """A camera named N: ``/sensors/N/depth`` (``foxglove.RawImage``) and ``/sensors/N/calibration``
+    (``foxglove.CameraCalibration``)."""
+    from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
+    from foxglove_schemas_protobuf.RawImage_pb2 import RawImage
+
+    return {encode.topic(sensor.name, "depth"): RawImage, encode.topic(sensor.name, "calibration"): CameraCalibration}
+
+
+def calibration_matrices(fx: float, fy: float, cx: float, cy: float) -> tuple[list[float], list[float], list[float]]:
+    """K (3 x 3), R (3 x 3), P (3 x 4), row-major, as ``sensor_msgs/CameraInfo`` has them. ROS puts
+    pixel centres on integer coordinates, a :class:`DepthImage` at ``u + 0.5``: the principal point
+    moves by half a pixel."""
+    cxr, cyr = cx - 0.5, cy - 0.5
+    return ([fx, 0.0, cxr, 0.0, fy, cyr, 0.0, 0.0, 1.0], [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
+            [fx, 0.0, cxr, 0.0, 0.0, fy, cyr, 0.0, 0.0, 0.0, 1.0, 0.0])
+
+
+def trace(r: DepthImage, sensor: Any) -> list[tuple[str, Any]]:
+    """A frame as a ``foxglove.RawImage`` (``32FC1``: float32 metres, little-endian, ``inf`` no
+    return) and its ``foxglove.CameraCalibration`` (no distortion), both in the optical frame."""
+    (t_img, img_cls), (t_cal, cal_cls) = trace_topics(sensor).items()
+    d = np.ascontiguousarray(r.depth, dtype="<f4")
+    h, w = d.shape
+    frame, ts = optical_frame(sensor.name), encode.stamp(r.t)
+    k, rr, p = calibration_matrices(r.fx, r.fy, r.cx, r.cy)
+    return [(t_img, img_cls(timestamp=ts, frame_id=frame, width=w, height=h, encoding="32FC1", step=4 * w,
+                            data=d.tobytes())),
+            (t_cal, cal_cls(timestamp=ts, frame_id=frame, width=w, height=h, distortion_model="plumb_bob",
+                            D=[0.0] * 5, K=k, R=rr, P=p))]
+
+
+def ros2_image(types: Any, topic: str, m: Any, sensor: Any) -> list[tuple[str, Any]]:
+    """``foxglove.RawImage`` -> ``sensor_msgs/Image`` on the same topic (the bytes as they are)."""
+    return [(topic, types["sensor_msgs/msg/Image"](
+        header=encode.ros_header(types, m), height=m.height, width=m.width, encoding=m.encoding, is_bigendian=0,
+        step=m.step, data=np.frombuffer(m.data, dtype=np.uint8)))]
+
+
+def ros2_info(types: Any, topic: str, m: Any, sensor: Any) -> list[tuple[str, Any]]:
+    """``foxglove.CameraCalibration`` -> ``sensor_msgs/CameraInfo`` on ``.../camera_info`` (the ROS
+    name, beside the image)."""
+    out = topic.rsplit("/", 1)[0] + "/camera_info"
+    roi = types["sensor_msgs/msg/RegionOfInterest"](x_offset=0, y_offset=0, height=0, width=0, do_rectify=False)
+    return [(out, types["sensor_msgs/msg/CameraInfo"](
+        header=encode.ros_header(types, m), height=m.height, width=m.width, distortion_model=m.distortion_model,
+        d=np.array(m.D, dtype=np.float64), k=np.array(m.K, dtype=np.float64), r=np.array(m.R, dtype=np.float64),
+        p=np.array(m.P, dtype=np.float64), binning_x=0, binning_y=0, roi=roi))]
+
+
 KIND = SensorKind(name="depth", params=DepthParams, profiles=PROFILES, default_profile="d435",
                   reading=DepthImage, caster="pinhole", summary="ray-cast depth camera (depth image)",
-                  rays=rays)
+                  rays=rays, trace=trace,
+                  ros2={"foxglove.RawImage": ros2_image, "foxglove.CameraCalibration": ros2_info},
+                  extra={"topics": trace_topics, "trace_period_s": TRACE_PERIOD_S, "frames": frames})

@@ -15,11 +15,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from pydantic import Field, model_validator
 
 from navstress.errors import SpecError
+from navstress.sensors import encode
 from navstress.sensors.base import SensorKind, SensorParams
 
 
@@ -105,6 +107,38 @@ PROFILES: dict[str, dict[str, object]] = {
                    "range_noise_std_m": 0.03},
 }
 
+def trace_topics(sensor: Any) -> dict[str, Any]:
+    """The trace topic of a scanner named N: ``/sensors/N``, ``foxglove.LaserScan``."""
+    from foxglove_schemas_protobuf.LaserScan_pb2 import LaserScan as FoxgloveScan
+
+    return {encode.topic(sensor.name): FoxgloveScan}
+
+
+def trace(r: LaserScan, sensor: Any) -> list[tuple[str, Any]]:
+    """A scan as a ``foxglove.LaserScan`` on ``/sensors/<name>`` in the sensor's frame: beam ``i``
+    at ``start_angle + i * (end_angle - start_angle) / (beams - 1)``, the ranges as they are
+    (``inf``: no return, as REP 117 has it)."""
+    (t, cls), = trace_topics(sensor).items()
+    n = int(r.ranges.shape[0])
+    return [(t, cls(timestamp=encode.stamp(r.t), frame_id=sensor.name, pose=encode.identity_pose(),
+                    start_angle=r.angle_min, end_angle=r.angle_min + r.angle_increment * max(n - 1, 0),
+                    ranges=np.asarray(r.ranges, dtype=np.float64).tolist()))]
+
+
+def ros2_scan(types: Any, topic: str, m: Any, sensor: Any) -> list[tuple[str, Any]]:
+    """``foxglove.LaserScan`` -> ``sensor_msgs/LaserScan`` on the same topic (range limits and
+    scan time from the sensor's parameters when known; float32 ranges, no intensities)."""
+    n = len(m.ranges)
+    p = Lidar2dParams.model_validate(sensor.params) if sensor is not None else None
+    return [(topic, types["sensor_msgs/msg/LaserScan"](
+        header=encode.ros_header(types, m), angle_min=m.start_angle, angle_max=m.end_angle,
+        angle_increment=(m.end_angle - m.start_angle) / (n - 1) if n > 1 else 0.0, time_increment=0.0,
+        scan_time=1.0 / p.rate_hz if p is not None else 0.0, range_min=p.min_range_m if p is not None else 0.0,
+        range_max=p.max_range_m if p is not None else math.inf, ranges=np.asarray(m.ranges, dtype=np.float32),
+        intensities=np.zeros(0, np.float32)))]
+
+
 KIND = SensorKind(name="lidar2d", params=Lidar2dParams, profiles=PROFILES, default_profile="ust10",
                   reading=LaserScan, caster="columns", summary="planar scanning range finder (LaserScan)",
-                  beams=beams)
+                  beams=beams, trace=trace, ros2={"foxglove.LaserScan": ros2_scan},
+                  extra={"topics": trace_topics, "trace_period_s": 0.0})

@@ -13,11 +13,13 @@ to navstress before sensors were declared), ``vlp16``, ``os1_64``.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from pydantic import Field, model_validator
 
 from navstress.errors import SpecError
+from navstress.sensors import encode
 from navstress.sensors.base import SensorKind, SensorParams
 
 
@@ -82,6 +84,31 @@ PROFILES: dict[str, dict[str, object]] = {
                "rate_hz": 10.0, "max_range_m": 120.0, "min_range_m": 0.3, "range_noise_std_m": 0.015},
 }
 
+#: Fewest simulated seconds between two recorded scans of one lidar (as the default lidar's
+#: ``/lidar`` with ``record_lidar``: a 32 x 360 scan is up to 138 kB, a VLP-16's 346 kB).
+TRACE_PERIOD_S = 1.0
+
+
+def trace_topics(sensor: Any) -> dict[str, Any]:
+    """The trace topic of a lidar named N (not the default ``lidar``, which keeps ``/lidar``):
+    ``/sensors/N``, ``foxglove.PointCloud``."""
+    from foxglove_schemas_protobuf.PointCloud_pb2 import PointCloud
+
+    return {encode.topic(sensor.name): PointCloud}
+
+
+def trace(r: LidarScan, sensor: Any) -> list[tuple[str, Any]]:
+    """A scan as a ``foxglove.PointCloud`` (x, y, z float32) on ``/sensors/<name>`` in the
+    sensor's frame."""
+    return [(encode.topic(sensor.name), encode.point_cloud(r.t, sensor.name, r.points))]
+
+
+def ros2_cloud(types: Any, topic: str, m: Any, sensor: Any) -> list[tuple[str, Any]]:
+    """``foxglove.PointCloud`` -> ``sensor_msgs/PointCloud2`` (x, y, z float32) on the same topic."""
+    return [(topic, encode.ros_cloud(types, encode.ros_header(types, m), encode.cloud_points(m)))]
+
+
 KIND = SensorKind(name="lidar3d", params=Lidar3dParams, profiles=PROFILES, default_profile="hdl32",
                   reading=LidarScan, caster="columns", summary="spinning multi-channel lidar (point cloud)",
-                  beams=beams)
+                  beams=beams, trace=trace, ros2={"foxglove.PointCloud": ros2_cloud},
+                  extra={"topics": trace_topics, "trace_period_s": TRACE_PERIOD_S})
