@@ -36,6 +36,7 @@ from navstress.campaign.spec import (AdaptiveRuns, NavigatorSpec, check_base_wor
                                     is_name, repetition, resolve_robot_ref)
 from navstress.errors import MISSING, SpecError
 from navstress.robot import RobotSpec
+from navstress.run.sensors import apply_sensors, check_suite
 from navstress.search.objectives import DESCRIPTORS
 from navstress.seeding import MAX_SEED
 from navstress.specfile import parse_text, read_text
@@ -229,6 +230,9 @@ class SearchSpec(BaseModel):
     goal_tolerance_m: float = Field(2.0, gt=0.0)
     sim: dict[str, Any] = Field(default_factory=dict, description="simulation overrides passed to every run")
     robot: RobotSpec | None = Field(None, description="the robot of every run (None: rmp400)")
+    # applied to the robot when the spec is read (parse_search), then None
+    sensors: list[Any] | None = Field(None, description="the robot's sensor suite (replacing its own)")
+    sensors_add: list[Any] | None = Field(None, description="sensors added to the robot's suite")
 
     @model_validator(mode="before")
     @classmethod
@@ -470,6 +474,11 @@ def parse_search(data: Any, base_dir: str | Path | None = None) -> SearchSpec:
         raise SpecError("search", type(data).__name__, "a mapping of fields at the top level")
     if data.get("robot") is not None:
         data = {**data, "robot": resolve_robot_ref(data["robot"], "robot", base_dir)}
+    if data.get("sensors") is not None or data.get("sensors_add") is not None:
+        # the robot carries its suite from here on (its digest, the campaign's tasks)
+        robot = data["robot"] if data.get("robot") is not None else RobotSpec()
+        data = {**data, "robot": apply_sensors(robot, sensors=data.get("sensors"), sensors_add=data.get("sensors_add"))}
+    data = {k: v for k, v in data.items() if k not in ("sensors", "sensors_add")}
     _check_options(data)
     budget = data.get("budget")
     if isinstance(budget, dict):
@@ -485,6 +494,8 @@ def parse_search(data: Any, base_dir: str | Path | None = None) -> SearchSpec:
         raise SpecError("world.mission.free_radius_m", base.mission.free_radius_m, f"a free disc the robot {r.name!r} "
                         f"fits in (its half diagonal is {r.half_diagonal_m:.3g} m)",
                         f"raise it to at least {r.half_diagonal_m:.3g}")
+    if spec.robot is not None:
+        check_suite(spec.robot, spec.sim)
     params = spec.space.parameters
     if not params and not spec.space.map_seed and spec.space.moves is None:
         raise SpecError("space", "no parameters and map_seed: false",

@@ -13,12 +13,14 @@ to navstress before sensors were declared), ``vlp16``, ``os1_64``.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from pydantic import Field, model_validator
 
 from navstress.errors import SpecError
 from navstress.sensors.base import SensorKind, SensorParams
+from navstress.sensors.wirefields import array, f32, num, pose_fields, text, vec3
 
 
 class Lidar3dParams(SensorParams):
@@ -82,6 +84,19 @@ PROFILES: dict[str, dict[str, object]] = {
                "rate_hz": 10.0, "max_range_m": 120.0, "min_range_m": 0.3, "range_noise_std_m": 0.015},
 }
 
+
+def to_wire(r: LidarScan) -> dict[str, Any]:
+    """A cloud for the line protocol (version 2): ``points`` a base64 (N, 3) float32 array, sensor frame."""
+    return {**pose_fields(r), "points": f32(np.asarray(r.points).reshape(-1, 3))}
+
+
+def from_wire(d: dict[str, Any]) -> LidarScan:
+    """Inverse of :func:`to_wire`; ValueError naming the bad field."""
+    return LidarScan(t=num(d, "t"), points=array(d, "points", ndim=2, last=3), mount=vec3(d, "mount"),
+                     sensor=text(d, "sensor"), rpy=vec3(d, "rpy"))
+
+
 KIND = SensorKind(name="lidar3d", params=Lidar3dParams, profiles=PROFILES, default_profile="hdl32",
                   reading=LidarScan, caster="columns", summary="spinning multi-channel lidar (point cloud)",
-                  beams=beams)
+                  beams=beams,
+                  to_wire=to_wire, from_wire=from_wire)
