@@ -712,7 +712,7 @@ def check_sensors(spec: CampaignSpec) -> None:
 
 
 #: The order of the fields in the text of a spec made in code (:func:`spec_yaml`).
-TEXT_ORDER = ("name", "seed", "world", "robot", "robots", "navigators", "faults", "maps_per_config", "runs_per_map", "timeout_s",
+TEXT_ORDER = ("name", "seed", "world", "robot", "robots", "sensors", "sensors_add", "navigators", "faults", "maps_per_config", "runs_per_map", "timeout_s",
               "goal_tolerance_m", "record_lidar", "record_navigator", "sim", "experiments")
 
 

@@ -143,9 +143,9 @@ def check_suite(robot: RobotSpec, sim: Any = None, *,
     needs it) and no ``sim.lidar`` beside a suite the robot lists. ``sim``: a SimConfig or a
     spec's ``sim:`` mapping. SpecError naming ``field_of(sensor)`` (default
     ``sensors.<name>.rate_hz``)."""
-    cfg = sim if isinstance(sim, SimConfig) else SimConfig.from_mapping(dict(sim or {}))
     if robot.sensors is None:
-        return  # the default suite: sim.lidar's figures, checked with sim:
+        return  # the default suite: sim.lidar's figures, checked with sim: (check_runnable)
+    cfg = sim if isinstance(sim, SimConfig) else SimConfig.from_mapping(dict(sim or {}))
     if cfg.lidar != LidarConfig():
         raise SpecError("sim.lidar", dataclasses.asdict(cfg.lidar), "no sim.lidar with a robot that lists its sensors",
                         "set the lidar's figures in its entry of sensors: (docs/sensors.md)")
