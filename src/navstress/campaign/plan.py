@@ -189,7 +189,7 @@ def plan(spec: CampaignSpec, root: str | Path) -> Plan:
         for cfg in exp.configurations(spec.world):
             if cfg.sensor_values:  # a sweep of the robots' sensors: each configuration's own suites
                 swept = [cfg.robot(r) for r in robots]
-                cfg_json = [r.model_dump(mode="json") for r in swept]
+                cfg_json: list[dict[str, Any] | None] = [r.model_dump(mode="json") for r in swept]
             else:
                 cfg_json = robots_json
             for m in range(spec.maps_of(exp)):

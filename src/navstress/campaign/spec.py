@@ -42,6 +42,7 @@ import itertools
 import math
 import re
 import typing
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -54,6 +55,7 @@ from navstress._models import SPEC_CONFIG, parse
 from navstress.errors import SpecError
 from navstress.robot import PROFILES, RobotSpec, resolve_robot
 from navstress.robot.files import robot_from_mapping
+from navstress.sensors import Sensor
 from navstress.run.sensors import apply_sensor_values, apply_sensors, check_suite, is_sensor_path, sensor_path_kind
 from navstress.seeding import MAX_SEED
 from navstress.sequential import AdaptiveRule, check_rule
@@ -570,7 +572,7 @@ def resolve_robots(data: dict[str, Any], base_dir: str | Path | None = None) -> 
             owner["robots"] = [apply_sensors(r, sensors=given[0], sensors_add=given[1], where=where)
                                for r in src["robots"]]
         else:
-            base = src.get("robot") if src.get("robot") is not None else RobotSpec()
+            base: RobotSpec = src["robot"] if src.get("robot") is not None else RobotSpec()
             owner["robot"] = apply_sensors(base, sensors=given[0], sensors_add=given[1], where=where)
 
     top = suites(out)
@@ -705,10 +707,17 @@ def check_sensors(spec: CampaignSpec) -> None:
             at = f"{where}.sweep[{cfg.key}]."
             for r in robots:
                 rr = cfg.robot(r, where=at)
-                check_suite(rr, spec.sim, field_of=lambda s, at=at: f"{at}sensors.{s.name}.rate_hz")
+                check_suite(rr, spec.sim, field_of=_rate_field(at))
+        owner = where + "." if exp.robot is not None or exp.robots is not None else ""
         for r in robots:
-            owner = where + "." if exp.robot is not None or exp.robots is not None else ""
-            check_suite(r, spec.sim, field_of=lambda s, owner=owner: f"{owner}sensors.{s.name}.rate_hz")
+            check_suite(r, spec.sim, field_of=_rate_field(owner))
+
+
+def _rate_field(prefix: str) -> Callable[[Sensor], str]:
+    """The field a sensor's rate error names: ``PREFIXsensors.<name>.rate_hz``."""
+    def field(s: Sensor) -> str:
+        return f"{prefix}sensors.{s.name}.rate_hz"
+    return field
 
 
 #: The order of the fields in the text of a spec made in code (:func:`spec_yaml`).
