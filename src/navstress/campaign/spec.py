@@ -246,6 +246,8 @@ class WorldEntry(BaseModel):
     key: str
     map_seed: int = Field(strict=True, ge=0, le=MAX_MAP_SEED)
     world: dict[str, Any] = Field(default_factory=dict)
+    #: the robots' sensor values of this world (``sensors.<name>.<param>``: a search's candidate)
+    sensors: dict[str, Any] | None = None
 
     @field_validator("key")
     @classmethod
@@ -314,7 +316,7 @@ class ExperimentSpec(BaseModel):
         (in list order, with its map seed), with its WorldSpec."""
         merged = deep_merge(base, self.overrides)
         if self.worlds is not None:
-            return [Configuration(experiment=self.name, key=w.key, values=flatten(w.world),
+            return [Configuration(experiment=self.name, key=w.key, values={**flatten(w.world), **(w.sensors or {})},
                                   world=deep_merge(merged, w.world), map_seed=w.map_seed) for w in self.worlds]
         paths = list(self.sweep)
         short = _short_names(paths)
@@ -391,6 +393,9 @@ class CampaignSpec(BaseModel):
                 exp.pop("worlds", None)
             else:  # explicit worlds: no sweep key (both together are refused)
                 exp.pop("sweep", None)
+                for w in exp["worlds"]:
+                    if w.get("sensors") is None:  # a world without sensor values: its text of before
+                        w.pop("sensors", None)
         for owner in (data, *data["experiments"]):
             rpm = owner.get("runs_per_map")
             if isinstance(rpm, dict) and rpm["adaptive"].get("indifference") == 0.0:
@@ -702,7 +707,7 @@ def check_sensors(spec: CampaignSpec) -> None:
     for i, exp in enumerate(spec.experiments):
         where = f"experiments[{i}]"
         robots = spec.robots_of(exp)
-        swept = any(is_sensor_path(p) for p in exp.sweep)
+        swept = any(is_sensor_path(p) for p in exp.sweep) or any(w.sensors for w in exp.worlds or ())
         for cfg in exp.configurations(spec.world) if swept else []:
             at = f"{where}.sweep[{cfg.key}]."
             for r in robots:
@@ -744,6 +749,10 @@ def spec_yaml(spec: CampaignSpec) -> str:
             data[name] = [robot_text(r) for r in spec.robots]
         elif name == "experiments":
             data[name] = [e.model_dump(mode="json", include=e.model_fields_set) for e in spec.experiments]
+            for e in data[name]:
+                for w in e.get("worlds") or ():
+                    if w.get("sensors") is None:  # a world without sensor values: the text of before
+                        w.pop("sensors", None)
         else:
             data[name] = plain[name]
     return yaml.safe_dump(data, sort_keys=False)

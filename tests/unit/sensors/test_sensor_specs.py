@@ -9,6 +9,7 @@ from typing import Any
 import pytest
 
 from navstress.campaign.plan import plan
+from navstress.errors import SpecError
 from navstress.campaign.spec import parse_campaign
 from navstress.robot import RobotSpec, profile
 from navstress.robot.files import with_sensors
@@ -97,3 +98,35 @@ def test_a_profile_sweep_starts_from_the_profiles_figures() -> None:
     assert s.params["max_range_m"] == 25.0 and s.params["beams"] == 811
     (s,) = apply_sensor_values(r, {"sensors.front_laser.beams": 100}).sensors or ()
     assert s.params["max_range_m"] == 6.0 and s.params["beams"] == 100  # the entry's override kept
+
+
+def test_a_search_space_over_a_sensor() -> None:
+    """A search space's ``sensors.<name>.<param>``: each candidate's robot (its campaign world
+    entry's ``sensors``), never its world; the extremes checked when the spec is read."""
+    from navstress.search.driver import _entry
+    from navstress.search.space import Space
+
+    data = {**copy.deepcopy(SEARCH), "robot": "jackal", "sensors": [LASER]}
+    data["space"] = {"map_seed": False, "parameters": [
+        {"path": "sensors.front_laser.max_range_m", "low": 2, "high": 20},
+        {"path": "sensors.front_laser.beams", "low": 90, "high": 720, "kind": "int"}]}
+    spec = parse_search(data)
+    space = Space.from_spec(spec)
+    c = space.decode([0.5, 0.0])
+    assert c.world_overrides == {} and c.params == {"sensors.front_laser.max_range_m": 11.0,
+                                                     "sensors.front_laser.beams": 90}
+    cfg = parse_campaign({**spec.campaign_fields(), "robot": spec.robot,
+                          "experiments": [{"name": "g0", "worlds": [_entry(c).model_dump()]}]})
+    (task,) = [t for t in plan(cfg, "/tmp/sensor-plan").tasks][:1]
+    (s,) = task.robot_spec().sensors or ()
+    assert (s.params["max_range_m"], s.params["beams"]) == (11.0, 90)
+    # an explicit world without sensor values keeps its digest (the text of before)
+    plain = {**copy.deepcopy(CAMPAIGN), "experiments": [{"name": "e", "worlds": [{"key": "k", "map_seed": 1}]}]}
+    assert "sensors" not in parse_campaign(plain).canonical_json()
+    for bad, needle in ((("sensors.front_laser.rate_hz", 10, 500), "step rate"),
+                        (("sensors.front_laser.profile", 0, 1), "numeric sensor parameter"),
+                        (("sensors.back.max_range_m", 1, 2), "a sensor of the robot")):
+        data["space"]["parameters"] = [{"path": bad[0], "low": bad[1], "high": bad[2]}]
+        with pytest.raises(SpecError) as info:
+            parse_search(data)
+        assert needle in str(info.value), str(info.value)
