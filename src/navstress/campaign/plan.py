@@ -187,6 +187,11 @@ def plan(spec: CampaignSpec, root: str | Path) -> Plan:
         robots_json = [None if r.digest == default_digest else r.model_dump(mode="json") for r in robots]
         rule = spec.rule_of(exp)
         for cfg in exp.configurations(spec.world):
+            if cfg.sensor_values:  # a sweep of the robots' sensors: each configuration's own suites
+                swept = [cfg.robot(r) for r in robots]
+                cfg_json: list[dict[str, Any] | None] = [r.model_dump(mode="json") for r in swept]
+            else:
+                cfg_json = robots_json
             for m in range(spec.maps_of(exp)):
                 ms = cfg.map_seed if cfg.map_seed is not None else map_seed(spec.seed, exp.name, cfg.key, m)
                 wdir = base / world_path(exp.name, cfg.key, m)
@@ -198,7 +203,7 @@ def plan(spec: CampaignSpec, root: str | Path) -> Plan:
                 for r in range(spec.max_runs_of(exp)):
                     rs = run_seed(spec.seed, exp.name, cfg.key, m, r)
                     for nav in spec.navigators:
-                        for robot, robot_json in zip(robots, robots_json):
+                        for robot, robot_json in zip(robots, cfg_json):
                             name = variant(nav.name, robot.name if several else None)
                             for fault in faults:
                                 rid = run_id(exp.name, cfg.key, m, r, name, fault)

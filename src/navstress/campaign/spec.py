@@ -42,6 +42,7 @@ import itertools
 import math
 import re
 import typing
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -54,6 +55,8 @@ from navstress._models import SPEC_CONFIG, parse
 from navstress.errors import SpecError
 from navstress.robot import PROFILES, RobotSpec, resolve_robot
 from navstress.robot.files import robot_from_mapping
+from navstress.sensors import Sensor
+from navstress.run.sensors import apply_sensor_values, apply_sensors, check_suite, is_sensor_path, sensor_path_kind
 from navstress.seeding import MAX_SEED
 from navstress.sequential import AdaptiveRule, check_rule
 from navstress.specfile import parse_text, read_text
@@ -243,6 +246,8 @@ class WorldEntry(BaseModel):
     key: str
     map_seed: int = Field(strict=True, ge=0, le=MAX_MAP_SEED)
     world: dict[str, Any] = Field(default_factory=dict)
+    #: the robots' sensor values of this world (``sensors.<name>.<param>``: a search's candidate)
+    sensors: dict[str, Any] | None = None
 
     @field_validator("key")
     @classmethod
@@ -266,6 +271,9 @@ class ExperimentSpec(BaseModel):
     runs_per_map: int | AdaptiveRuns | None = None  # None: the campaign's
     robot: RobotSpec | None = None  # None: the campaign's robot(s)
     robots: list[RobotSpec] | None = Field(None, min_length=1)  # None: the campaign's
+    # applied to the experiment's robots when the spec is read (resolve_robots), then None
+    sensors: list[Any] | None = Field(None, description="the sensor suite of the experiment's robots (replacing theirs)")
+    sensors_add: list[Any] | None = Field(None, description="sensors added to the experiment's robots")
 
     @field_validator("name")
     @classmethod
@@ -308,7 +316,7 @@ class ExperimentSpec(BaseModel):
         (in list order, with its map seed), with its WorldSpec."""
         merged = deep_merge(base, self.overrides)
         if self.worlds is not None:
-            return [Configuration(experiment=self.name, key=w.key, values=flatten(w.world),
+            return [Configuration(experiment=self.name, key=w.key, values={**flatten(w.world), **(w.sensors or {})},
                                   world=deep_merge(merged, w.world), map_seed=w.map_seed) for w in self.worlds]
         paths = list(self.sweep)
         short = _short_names(paths)
@@ -319,7 +327,8 @@ class ExperimentSpec(BaseModel):
             key = ",".join(f"{short[p]}={_fmt(v)}" for p, v in values.items()) or "base"
             data = copy.deepcopy(merged)
             for p, v in values.items():
-                _set_path(data, p, v)
+                if not is_sensor_path(p):  # sensors.<name>.<param>: the robots' (Configuration.robot)
+                    _set_path(data, p, v)
             out.append(Configuration(experiment=self.name, key=key, values=values, world=data))
         return out
 
@@ -343,6 +352,9 @@ class CampaignSpec(BaseModel):
     sim: dict[str, Any] = Field(default_factory=dict, description="simulation overrides passed to every run")
     robot: RobotSpec | None = Field(None, description="the robot of every run (None: rmp400); see robots")
     robots: list[RobotSpec] | None = Field(None, min_length=1, description="several robots: every run for each")
+    # applied to every robot of the spec when it is read (resolve_robots), then None
+    sensors: list[Any] | None = Field(None, description="the sensor suite of every robot (replacing theirs)")
+    sensors_add: list[Any] | None = Field(None, description="sensors added to every robot's suite")
 
     @field_validator("name")
     @classmethod
@@ -371,6 +383,9 @@ class CampaignSpec(BaseModel):
             for key in ("robot", "robots"):
                 if owner.get(key) is None or (top_default and owner.get(key) in plain):
                     owner.pop(key, None)
+            for key in ("sensors", "sensors_add"):  # in the robots' descriptions once read
+                if owner.get(key) is None:
+                    owner.pop(key, None)
         for exp in data["experiments"]:
             if exp.get("runs_per_map") is None:
                 exp.pop("runs_per_map", None)
@@ -378,6 +393,9 @@ class CampaignSpec(BaseModel):
                 exp.pop("worlds", None)
             else:  # explicit worlds: no sweep key (both together are refused)
                 exp.pop("sweep", None)
+                for w in exp["worlds"]:
+                    if w.get("sensors") is None:  # a world without sensor values: its text of before
+                        w.pop("sensors", None)
         for owner in (data, *data["experiments"]):
             rpm = owner.get("runs_per_map")
             if isinstance(rpm, dict) and rpm["adaptive"].get("indifference") == 0.0:
@@ -443,6 +461,16 @@ class Configuration:
 
     def world_spec(self) -> WorldSpec:
         return parse_spec(self.world)
+
+    @property
+    def sensor_values(self) -> dict[str, Any]:
+        """The swept sensor paths (``sensors.<name>.<param>``) and their values."""
+        return {p: v for p, v in self.values.items() if is_sensor_path(p)}
+
+    def robot(self, robot: RobotSpec, where: str = "") -> RobotSpec:
+        """``robot`` with this configuration's sensor values set (itself when it sweeps none)."""
+        values = self.sensor_values
+        return apply_sensor_values(robot, values, where=where) if values else robot
 
 
 # ---- validation ----------------------------------------------------------------------
@@ -519,7 +547,13 @@ def resolve_robot_ref(ref: Any, field: str, base_dir: str | Path | None = None) 
 def resolve_robots(data: dict[str, Any], base_dir: str | Path | None = None) -> dict[str, Any]:
     """``data`` (a campaign spec's mapping) with each ``robot:`` / ``robots:`` entry, at the top
     level and in each experiment, replaced by its RobotSpec (see :func:`resolve_robot_ref`);
-    ``data`` itself is not changed. A null entry stays null (the default)."""
+    ``data`` itself is not changed. A null entry stays null (the default).
+
+    ``sensors:`` / ``sensors_add:`` (docs/sensors.md) are applied here and taken out of the
+    mapping: the top level's to every robot of the spec (the default robot, rmp400, when it names
+    none), an experiment's to the experiment's robots (its own, else the campaign's), after the
+    top level's. The robots then carry their suites: the tasks, the records' robot digests and
+    the spec's digest see them."""
     out = dict(data)
 
     def fix(owner: dict[str, Any], where: str) -> None:
@@ -531,13 +565,39 @@ def resolve_robots(data: dict[str, Any], base_dir: str | Path | None = None) -> 
                 raise SpecError(f"{where}robots", refs, f"a non-empty list, each {ROBOT_REF}")
             owner["robots"] = [resolve_robot_ref(r, f"{where}robots[{i}]", base_dir) for i, r in enumerate(refs)]
 
+    def suites(owner: dict[str, Any]) -> tuple[Any, Any]:
+        return owner.pop("sensors", None), owner.pop("sensors_add", None)
+
+    def apply(owner: dict[str, Any], given: tuple[Any, Any], where: str, default: dict[str, Any] | None) -> None:
+        """Apply ``given`` to ``owner``'s robots (or, when it names none, to ``default``'s)."""
+        if given == (None, None):
+            return
+        src = owner if owner.get("robot") is not None or owner.get("robots") is not None else (default or {})
+        if src.get("robots") is not None:
+            owner["robots"] = [apply_sensors(r, sensors=given[0], sensors_add=given[1], where=where)
+                               for r in src["robots"]]
+        else:
+            base: RobotSpec = src["robot"] if src.get("robot") is not None else RobotSpec()
+            owner["robot"] = apply_sensors(base, sensors=given[0], sensors_add=given[1], where=where)
+
+    top = suites(out)
     fix(out, "")
     exps = out.get("experiments")
+    exps = [dict(e) if isinstance(e, dict) else e for e in exps] if isinstance(exps, list) else exps
+    owns: list[tuple[Any, Any]] = []
+    for i, e in enumerate(exps if isinstance(exps, list) else []):
+        if isinstance(e, dict):
+            owns.append(suites(e))
+            fix(e, f"experiments[{i}].")
+    apply(out, top, "", None)  # the campaign's robots (the default one when it names none)
+    for i, e in enumerate(exps if isinstance(exps, list) else []):
+        if isinstance(e, dict):
+            own = owns.pop(0)
+            if e.get("robot") is not None or e.get("robots") is not None:
+                apply(e, top, "", None)  # an experiment's own robots get the campaign's sensors too
+            apply(e, own, f"experiments[{i}].", out)
     if isinstance(exps, list):
-        out["experiments"] = [dict(e) if isinstance(e, dict) else e for e in exps]
-        for i, e in enumerate(out["experiments"]):
-            if isinstance(e, dict):
-                fix(e, f"experiments[{i}].")
+        out["experiments"] = exps
     return out
 
 
@@ -559,8 +619,9 @@ def check_robots(spec: CampaignSpec) -> None:
     seen: dict[str, tuple[str, str]] = {}
     for i, exp in enumerate(spec.experiments):
         for r in spec.robots_of(exp):
-            first = seen.setdefault(r.name, (r.digest, f"experiments[{i}]"))
-            if first[0] != r.digest:
+            body = r.model_copy(update={"sensors": None}).digest  # its sensors may differ (experiments' sensors:)
+            first = seen.setdefault(r.name, (body, f"experiments[{i}]"))
+            if first[0] != body:
                 raise SpecError(f"experiments[{i}].robot", r.name, f"one description per robot name (the robot "
                                 f"{r.name!r} of {first[1]} is described otherwise)", "give one of them another name")
         # every free disc (the configurations' worlds are parsed once, for every robot)
@@ -606,9 +667,13 @@ def check_campaign(spec: CampaignSpec, *, max_runs: int | None = MAX_PLANNED_RUN
             raise SpecError(f"{where}.name", exp.name, "a name unique among experiments", "rename one of them")
         seen.add(exp.name)
         for path, rng in exp.sweep.items():
-            if not _path_exists(WorldSpec, path.split(".")):
+            if is_sensor_path(path):
+                for r in spec.robots_of(exp):
+                    sensor_path_kind(r, path, where=f"{where}.sweep.{path}", value=path)
+            elif not _path_exists(WorldSpec, path.split(".")):
                 raise SpecError(f"{where}.sweep", path, "a WorldSpec parameter path such as "
-                                "'obstacles.obstruction.tree', 'ground.deformation' or 'ground.subdivisions'",
+                                "'obstacles.obstruction.tree', 'ground.deformation' or 'ground.subdivisions', "
+                                "or a sensor's, sensors.<name>.<param>",
                                 "check the spelling against `navstress world` options")
             try:
                 rng.expand()
@@ -631,11 +696,37 @@ def check_campaign(spec: CampaignSpec, *, max_runs: int | None = MAX_PLANNED_RUN
     check_faults(spec.faults, names=False)
     check_fault_names([f for e in spec.experiments for f in spec.faults_of(e)])
     check_robots(spec)
+    check_sensors(spec)
     return spec
 
 
+def check_sensors(spec: CampaignSpec) -> None:
+    """Every robot's sensors as every configuration sets them (its ``sensors.<name>.<param>``
+    values) valid, and runnable by the simulation of ``spec.sim`` (:func:`check_suite`: rates at
+    most the step rate). SpecError naming the sweep's configuration, or the robot's sensor."""
+    for i, exp in enumerate(spec.experiments):
+        where = f"experiments[{i}]"
+        robots = spec.robots_of(exp)
+        swept = any(is_sensor_path(p) for p in exp.sweep) or any(w.sensors for w in exp.worlds or ())
+        for cfg in exp.configurations(spec.world) if swept else []:
+            at = f"{where}.sweep[{cfg.key}]."
+            for r in robots:
+                rr = cfg.robot(r, where=at)
+                check_suite(rr, spec.sim, field_of=_rate_field(at))
+        owner = where + "." if exp.robot is not None or exp.robots is not None else ""
+        for r in robots:
+            check_suite(r, spec.sim, field_of=_rate_field(owner))
+
+
+def _rate_field(prefix: str) -> Callable[[Sensor], str]:
+    """The field a sensor's rate error names: ``PREFIXsensors.<name>.rate_hz``."""
+    def field(s: Sensor) -> str:
+        return f"{prefix}sensors.{s.name}.rate_hz"
+    return field
+
+
 #: The order of the fields in the text of a spec made in code (:func:`spec_yaml`).
-TEXT_ORDER = ("name", "seed", "world", "robot", "robots", "navigators", "faults", "maps_per_config", "runs_per_map", "timeout_s",
+TEXT_ORDER = ("name", "seed", "world", "robot", "robots", "sensors", "sensors_add", "navigators", "faults", "maps_per_config", "runs_per_map", "timeout_s",
               "goal_tolerance_m", "record_lidar", "record_navigator", "sim", "experiments")
 
 
@@ -658,6 +749,10 @@ def spec_yaml(spec: CampaignSpec) -> str:
             data[name] = [robot_text(r) for r in spec.robots]
         elif name == "experiments":
             data[name] = [e.model_dump(mode="json", include=e.model_fields_set) for e in spec.experiments]
+            for e in data[name]:
+                for w in e.get("worlds") or ():
+                    if w.get("sensors") is None:  # a world without sensor values: the text of before
+                        w.pop("sensors", None)
         else:
             data[name] = plain[name]
     return yaml.safe_dump(data, sort_keys=False)

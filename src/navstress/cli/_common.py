@@ -21,13 +21,17 @@ from navstress.errors import SpecError, WorldFileError
 from navstress.nav.registry import load_config
 from navstress.robot import PROFILES, RobotSpec
 from navstress.run.robot import robot_of
+from navstress.run.sensors import apply_sensor_flags, check_suite
+from navstress.sensors import Sensor
+from navstress.sensors.text import entries_from_flags
 from navstress.seeding import MAX_SEED
 from navstress.world.world import is_world_dir
 
 __all__ = ["MAX_RUNS", "MAX_SEED", "MAX_TIMEOUT_S", "MAX_WALL_S", "MAX_WORKERS", "Stopped", "check_executor_flags", "NAV_CONFIG_HELP", "bounded_int",
            "check_file_out", "check_out_dir", "integer", "load_navigator_config", "number", "probe_writable",
            "LidarOpt", "LiveHostOpt", "LiveOpt", "LivePortOpt", "LiveWaitOpt", "NavigatorViewOpt", "SpeedOpt",
-           "live_banner", "live_settings", "resumable", "RobotOpt", "load_robot_flag"]
+           "live_banner", "live_settings", "resumable", "RobotOpt", "load_robot_flag", "SensorOpt", "SensorAddOpt",
+           "load_robot_flags"]
 
 #: Longest simulated run (one day, as a campaign spec's timeout_s) and longest wall-clock limit.
 MAX_TIMEOUT_S = 86_400.0
@@ -116,6 +120,39 @@ def load_robot_flag(raw: str | None) -> RobotSpec:
     if not raw.strip():
         raise SpecError("--robot", raw, "a robot profile (" + ", ".join(sorted(PROFILES)) + ") or a robot file")
     return robot_of(raw, field="--robot")
+
+
+SENSOR_SYNTAX = ("NAME=KIND[:PROFILE][,KEY=VALUE...]: KIND lidar2d, lidar3d or depth; PROFILE one of the kind's "
+                 "(lidar2d: ust10, tim571, rplidar_a2; lidar3d: hdl32, vlp16, os1_64; depth: d435); KEY a parameter of "
+                 "the kind (max_range_m=30, fov_deg=180, beams=360, rate_hz=15, ...), mount=NAME (a mount of the robot) or "
+                 "mount=X:Y:Z with rpy=R:P:Y (m, rad). Or a YAML/JSON file holding a list of sensor entries. docs/sensors.md.")
+SensorOpt = Annotated[list[str] | None, typer.Option("--sensor", metavar="SENSOR", help=(
+    "A sensor of the robot's suite, replacing the robot's own sensors (repeat it for several): " + SENSOR_SYNTAX
+    + " Example: --sensor front_laser=lidar2d:ust10,max_range_m=30,mount=0.12:0:0.3. The same suite a campaign "
+    "spec's sensors: gives."))]
+SensorAddOpt = Annotated[list[str] | None, typer.Option("--sensor-add", metavar="SENSOR", help=(
+    "A sensor added to the robot's suite (its own, or its default 32-channel lidar), repeatable: the same syntax "
+    "as --sensor; a campaign spec's sensors_add:. Example: --sensor-add cam=depth:d435."))]
+
+
+def load_robot_flags(raw: str | None, sensor: list[str] | None = None, sensor_add: list[str] | None = None,
+                     sim: Any = None) -> RobotSpec:
+    """``--robot`` with ``--sensor`` / ``--sensor-add`` applied (:func:`navstress.run.sensors.apply_sensor_flags`)
+    and its suite checked for the simulation (``sim``: a SimConfig, default the default one): one line
+    naming the flag for any bad sensor."""
+    robot = load_robot_flag(raw)
+    if not sensor and not sensor_add:
+        check_suite(robot, sim, field_of=lambda s: f"--robot sensors.{s.name}.rate_hz")  # a robot file's sensors
+        return robot
+    robot = apply_sensor_flags(robot, sensor, sensor_add)
+    added = {e.get("name") for e in entries_from_flags(sensor_add, flag="--sensor-add") or () if isinstance(e, dict)}
+
+    def field_of(s: Sensor) -> str:
+        flag = "--sensor-add" if s.name in added else "--sensor" if sensor else "--robot sensors."
+        return f"{flag} {s.name}.rate_hz" if flag != "--robot sensors." else f"{flag}{s.name}.rate_hz"
+
+    check_suite(robot, sim, field_of=field_of)
+    return robot
 
 
 # ---- what a run records and the live view (navstress run, navstress replay) -----------------------

@@ -8,7 +8,8 @@ from typing import Annotated, Any
 import typer
 
 from navstress._console import console
-from navstress.cli._common import MAX_WALL_S, NAV_CONFIG_HELP, RobotOpt, load_navigator_config, load_robot_flag, number
+from navstress.cli._common import (MAX_WALL_S, NAV_CONFIG_HELP, RobotOpt, SensorAddOpt, SensorOpt, load_navigator_config,
+                                   load_robot_flags, number)
 from navstress.errors import NavstressError, SpecError
 from navstress.isolate import Worker
 from navstress.nav.check import check_in_worker, format_report
@@ -45,15 +46,18 @@ def nav_check(
         "Wall-clock limit of each check in real seconds, > 0: a navigator that hangs fails the check "
         "it hangs in. Default 300.")) ] = "300",
     robot: RobotOpt = None,
+    sensor: SensorOpt = None,
+    sensor_add: SensorAddOpt = None,
 ) -> None:
     """Run the conformance checks on a navigator (in a worker process); exit 1 if any check fails.
 
     With --robot, the navigator is told that robot (its footprint, limits and sensor mounts) and
-    the synthetic scans come from its lidar mount."""
+    the synthetic scans come from its lidar mount; --sensor / --sensor-add give it another suite (the
+    navigator gets synthetic readings of every sensor kind it carries)."""
     wall_v = number("--wall-limit", wall_limit, f"a duration in seconds in (0, {MAX_WALL_S:g}]")
     if not 0 < wall_v <= MAX_WALL_S:
         raise SpecError("--wall-limit", wall_limit, f"a duration in seconds in (0, {MAX_WALL_S:g}]")
-    robot_v = load_robot_flag(robot)
+    robot_v = load_robot_flags(robot, sensor, sensor_add)
     cfg = load_navigator_config(navigator_config)
     with Worker(wall_v) as worker:
         # the same up-front check as `campaign run` (one line, exit 2); a navigator built to
@@ -66,7 +70,7 @@ def nav_check(
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 validate_config(name, cfg)
-        extra: dict[str, Any] = {"robot": robot_v} if robot is not None else {}
+        extra: dict[str, Any] = {"robot": robot_v} if robot is not None or sensor or sensor_add else {}
         report = check_in_worker(name, cfg or None, worker=worker, **extra)
     console().print(format_report(report))
     if not report.passed:

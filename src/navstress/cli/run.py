@@ -15,8 +15,9 @@ from navstress._console import console
 from navstress._json import pretty as dumps
 from navstress.campaign.store import OUTCOMES
 from navstress.cli._common import (MAX_RUNS, MAX_SEED, MAX_TIMEOUT_S, MAX_WALL_S, NAV_CONFIG_HELP, LidarOpt,
-                                   LiveHostOpt, LiveOpt, LivePortOpt, LiveWaitOpt, NavigatorViewOpt, RobotOpt, SpeedOpt,
-                                   bounded_int, live_banner, live_settings, load_navigator_config, load_robot_flag,
+                                   LiveHostOpt, LiveOpt, LivePortOpt, LiveWaitOpt, NavigatorViewOpt, RobotOpt, SensorAddOpt,
+                                   SensorOpt, SpeedOpt, bounded_int, live_banner, live_settings, load_navigator_config,
+                                   load_robot_flags,
                                    number)
 from navstress.errors import SpecError, WorldFileError
 from navstress.nav.registry import build_and_close
@@ -41,6 +42,8 @@ def run_cmd(
     fault: Annotated[str | None, typer.Option(metavar="NAME", help=(
         "Inject a named fault into the navigator (see `navstress nav faults`)."))] = None,
     robot: RobotOpt = None,
+    sensor: SensorOpt = None,
+    sensor_add: SensorAddOpt = None,
     runs: Annotated[str, typer.Option(metavar="N", help="Number of runs (each with its own run seed), in [1, 10000]. Default 1.")] = "1",
     seed: Annotated[str, typer.Option(metavar="N", help="Root seed of the run seeds, an integer in [0, 2**63-1]. Default 0.")] = "0",
     timeout: Annotated[str, typer.Option(metavar="S", help="Simulated-time limit of a run in seconds, in (0, 86400]. Default 400.")] = "400",
@@ -79,7 +82,7 @@ def run_cmd(
     settings = live_settings(live_host, live_port, live_wait, speed) if live else None
     if settings is not None and wall_v is None:  # paced to the wall clock, after waiting for a client
         wall_v = default_wall_limit_s(timeout_v / settings.speed) + settings.wait_s
-    robot_v = load_robot_flag(robot)
+    robot_v = load_robot_flags(robot, sensor, sensor_add)
     world = World.load(world_dir)  # a clear error for a non-world, before anything is written
     world_seed = world.seed
     check_robot_fits(world.mission.free_radius_m, robot_v, "--robot")
@@ -123,7 +126,7 @@ def run_cmd(
                           "records": [record_dict(r) for r in records]}))
         return
     table = Table(title=f"{navigator}{' + ' + fault if fault else ''} on {world_dir}"
-                        + (f" (robot {robot_v.name})" if robot is not None else ""))
+                        + (f" (robot {robot_v.name})" if robot is not None or sensor or sensor_add else ""))
     for col in ("run", "outcome", "sim s", "wall s", "goal m", "path m", "reason"):
         table.add_column(col)
     for r in records:

@@ -14,8 +14,8 @@ from typer import _click as click
 
 from navstress import _files
 from navstress._console import console, literal
-from navstress.cli._common import (MAX_SEED, RobotOpt, bounded_int, check_file_out, check_out_dir, load_robot_flag,
-                                   probe_writable)
+from navstress.cli._common import (MAX_SEED, RobotOpt, SensorAddOpt, SensorOpt, bounded_int, check_file_out,
+                                   check_out_dir, load_robot_flag, load_robot_flags, probe_writable)
 from navstress.errors import SpecError
 from navstress.run.drive import DEFAULT_COURSE, drive, drive_picture, parse_course
 from navstress.sim.model import world_to_mjcf
@@ -231,9 +231,11 @@ def world_drive(
         "straight, quarter turn on the spot, 12 m straight, a right curve, 15 m straight."))] = None,
     seed: Annotated[str, typer.Option(metavar="N", help="Run seed (sensor noise, jitter), an integer in [0, 2**63-1]. Default 0.")] = "0",
     robot: RobotOpt = None,
+    sensor: SensorOpt = None,
+    sensor_add: SensorAddOpt = None,
 ) -> None:
     """Drive a scripted course in the simulation and draw where the robot really went."""
-    robot_v = load_robot_flag(robot)
+    robot_v = load_robot_flags(robot, sensor, sensor_add)
     world = World.load(world_dir)
     check_robot_fits(world.mission.free_radius_m, robot_v, "--robot")
     segs = parse_course(course) if course is not None else DEFAULT_COURSE

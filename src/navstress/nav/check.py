@@ -24,6 +24,7 @@ an :class:`~navstress.nav.external.ExternalNavigator` to get a budget enforced.
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import time
 import traceback
@@ -63,6 +64,9 @@ from navstress.nav.registry import (
     resolve,
 )
 from navstress.robot import RobotSpec
+from navstress.sensors import Sensor, default_suite, kind
+from navstress.sensors.kinds.depth import DepthImage
+from navstress.sensors.kinds.lidar2d import LaserScan
 
 __all__ = [
     "CHECK_NAMES", "CheckReport", "CheckResult", "check_navigator", "flat_ground_scan",
@@ -147,22 +151,80 @@ def flat_ground_scan(robot: RobotSpec, t: float, *, azimuth_steps: int = 360,
 CHECK_MISSION = NavMission(start=(0.0, 0.0, 0.0), goal=(20.0, 10.0), goal_tolerance_m=2.0)
 
 
+def with_suite(robot: RobotSpec) -> RobotSpec:
+    """``robot`` as a navigator gets it at reset: its sensors listed (its default suite when it
+    lists none)."""
+    return robot if robot.sensors is not None else robot.model_copy(update={"sensors": default_suite(robot.mounts)})
+
+
+def _ground_ranges(robot: RobotSpec, sensor: Sensor, dirs: np.ndarray) -> np.ndarray:
+    """Distance along each direction ``dirs`` (..., 3), in the sensor frame, to the flat ground
+    from ``sensor``'s mount (chassis origin at axle height, robot level); ``inf``: no return
+    (upwards, or outside the sensor's range limits). Measured in units of ``|dirs|``."""
+    h = robot.wheel_radius_m + sensor.mount.xyz[2]
+    dz = dirs @ sensor.mount.rotation()[2]  # the z of each direction in base_link
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(dz < 0, h / -np.where(dz < 0, dz, -1.0), np.inf)
+    dist = t * np.linalg.norm(dirs, axis=-1)
+    lo, hi = float(sensor.params.get("min_range_m", 0.0)), float(sensor.params.get("max_range_m", np.inf))
+    return np.where((dist >= lo) & (dist <= hi) & (h > 0), t, np.inf)
+
+
+def ground_reading(robot: RobotSpec, sensor: Sensor, t: float, *, empty: bool = False) -> Any:
+    """The reading ``sensor`` takes of an infinite flat ground at time ``t``, computed analytically
+    (``empty``: the same sensor seeing nothing: no point, every range and depth ``inf``)."""
+    k = kind(sensor.kind)
+    p = sensor.config()
+    mount, rpy = tuple(float(v) for v in sensor.mount.xyz), tuple(float(v) for v in sensor.mount.rpy)
+    if k.name == "lidar2d":
+        _el, az = k.beams(p) if k.beams is not None else (None, np.zeros(0))
+        dirs = np.stack([np.cos(az), np.sin(az), np.zeros_like(az)], axis=-1)
+        r = np.full(len(az), np.inf) if empty else _ground_ranges(robot, sensor, dirs)
+        return LaserScan(t, r.astype(np.float32), p.angle_min, p.angle_increment, p.min_range_m, p.max_range_m,
+                         mount, rpy, sensor.name)  # type: ignore[arg-type]
+    if k.name == "depth":
+        dirs = k.rays(p) if k.rays is not None else np.zeros((0, 0, 3))
+        d = np.full(dirs.shape[:2], np.inf) if empty else _ground_ranges(robot, sensor, dirs)
+        fx, fy, cx, cy = p.intrinsics()
+        return DepthImage(t, d.astype(np.float32), fx, fy, cx, cy, mount, rpy, sensor.name)  # type: ignore[arg-type]
+    if k.beams is None:
+        raise ValueError(f"no synthetic reading for the {k.name} sensor kind")
+    el, az = k.beams(p)
+    ee, aa = np.meshgrid(el, az, indexing="ij")
+    dirs = np.stack([np.cos(ee) * np.cos(aa), np.cos(ee) * np.sin(aa), np.sin(ee)], axis=-1).reshape(-1, 3)
+    r = _ground_ranges(robot, sensor, dirs)
+    hit = np.isfinite(r)
+    pts = dirs[hit] * r[hit][:, None] if not empty else np.zeros((0, 3))
+    return LidarScan(t, pts.astype(np.float32), mount, sensor.name, rpy)  # type: ignore[arg-type]
+
+
 def synthetic_observations(robot: RobotSpec, n_steps: int, *, dt: float = 0.1,
                            speed: float = 0.5, azimuth_steps: int = 360) -> list[Observation]:
     """A scripted drive straight along +x from the origin at ``speed`` on flat ground.
 
-    Every cycle has a flat-ground scan; the pose sensor reads every second cycle (``None``
-    otherwise, as a slower sensor would). Not closed-loop: the script ignores the commands.
+    Every cycle has a flat-ground reading of every sensor the robot carries (``readings``, by
+    name: lidar3d clouds, lidar2d scans, depth images; its lidar3d clouds in ``scans`` too); the
+    pose sensor reads every second cycle (``None`` otherwise, as a slower sensor would). A robot
+    without its own suite gets the paper's lidar's scan of :func:`flat_ground_scan`, as before
+    sensors were declared. Not closed-loop: the script ignores the commands.
     """
-    scan0 = flat_ground_scan(robot, 0.0, azimuth_steps=azimuth_steps)
+    suite = robot.sensors
+    scan0 = flat_ground_scan(robot, 0.0, azimuth_steps=azimuth_steps) if suite is None else None
+    firsts = {s.name: ground_reading(robot, s, 0.0) for s in suite or ()}
     out = []
     for k in range(1, n_steps + 1):
         t = k * dt
         x = speed * t
         pose = PoseReading(t, x, 0.0, 0.0, 0.0, 0.0, 0.0) if k % 2 == 0 else None
-        scan = LidarScan(t - 0.5 * dt, scan0.points, scan0.mount)
-        out.append(Observation(t, Odometry(t, x, 0.0, 0.0, speed, 0.0),
-                               Imu(t, 0.0, 0.0, 0.0, (0.0, 0.0, 0.0)), pose, (scan,)))
+        odom, imu = Odometry(t, x, 0.0, 0.0, speed, 0.0), Imu(t, 0.0, 0.0, 0.0, (0.0, 0.0, 0.0))
+        if scan0 is not None:
+            scans: tuple[LidarScan, ...] = (LidarScan(t - 0.5 * dt, scan0.points, scan0.mount),)
+            readings: dict[str, tuple[Any, ...]] = {"lidar": scans}
+        else:
+            readings = {n: (dataclasses.replace(r, t=t - 0.5 * dt),) for n, r in firsts.items()}
+            scans = tuple(r[0] for r in readings.values() if isinstance(r[0], LidarScan))
+        readings.update({"odom": (odom,), "imu": (imu,), **({"pose": (pose,)} if pose is not None else {})})
+        out.append(Observation(t, odom, imu, pose, scans, readings))
     return out
 
 
@@ -173,13 +235,22 @@ def _empty_scan_observations(robot: RobotSpec, dt: float = 0.1) -> list[Observat
     def base(t: float) -> tuple[Odometry, Imu]:
         return Odometry(t, 0.0, 0.0, 0.0, 0.0, 0.0), Imu(t, 0.0, 0.0, 0.0, (0.0, 0.0, 0.0))
 
+    def seen(t: float) -> tuple[tuple[LidarScan, ...], dict[str, tuple[Any, ...]]]:
+        if robot.sensors is None:
+            return (LidarScan(t, empty, mount),), {"lidar": (LidarScan(t, empty, mount),)}
+        readings = {s.name: (ground_reading(robot, s, t, empty=True),) for s in robot.sensors}
+        return tuple(r[0] for r in readings.values() if isinstance(r[0], LidarScan)), readings
+
     o1, i1 = base(dt)
     o2, i2 = base(2 * dt)
     o3, i3 = base(3 * dt)
+    s1, r1 = seen(dt)
+    s3, r3 = seen(3 * dt)
+    p1 = PoseReading(dt, 0, 0, 0, 0, 0, 0)
     return [
-        Observation(dt, o1, i1, PoseReading(dt, 0, 0, 0, 0, 0, 0), (LidarScan(dt, empty, mount),)),
-        Observation(2 * dt, o2, i2, None, ()),
-        Observation(3 * dt, o3, i3, None, (LidarScan(3 * dt, empty, mount),)),
+        Observation(dt, o1, i1, p1, s1, {**r1, "odom": (o1,), "imu": (i1,), "pose": (p1,)}),
+        Observation(2 * dt, o2, i2, None, (), {"odom": (o2,), "imu": (i2,)}),
+        Observation(3 * dt, o3, i3, None, s3, {**r3, "odom": (o3,), "imu": (i3,)}),
     ]
 
 
@@ -305,6 +376,7 @@ def check_navigator(
     cfg = load_config(config)
     robot = robot or RobotSpec.model_validate({})
     obs = synthetic_observations(robot, n_steps, azimuth_steps=azimuth_steps)
+    given, robot = robot, with_suite(robot)  # what the navigator is told at reset: its sensors listed
     times: list[float] = []
     warmup: float | None = None
 
@@ -394,7 +466,7 @@ def check_navigator(
     nav_d = None
     try:
         nav_d = build()
-        run5 = _drive(nav_d, robot, seed, _empty_scan_observations(robot))
+        run5 = _drive(nav_d, robot, seed, _empty_scan_observations(given))
         times += run5.times
         results.append(CheckResult(
             "empty-scan", run5.invalid is None,

@@ -150,6 +150,8 @@ class ExternalNavigator:
         self._finalizer: weakref.finalize | None = None  # type: ignore[type-arg]
         self._want_debug = False
         self._debug: object = None  # the last step reply's "debug" field, decoded when asked
+        #: the protocol version the navigator answered hello with (wire.PROTOCOLS)
+        self.protocol = wire.PROTOCOL_VERSION
 
     # ------------------------------------------------------------ Navigator
 
@@ -167,13 +169,15 @@ class ExternalNavigator:
                 self._fail("protocol", f"sent an invalid message in reply to hello: expected "
                            f"type 'hello', got {reply.get('type')!r}")
                 return
-            if reply.get("protocol") != wire.PROTOCOL_VERSION:
-                self._fail("protocol", f"speaks protocol {reply.get('protocol')!r}, navstress "
-                           f"speaks {wire.PROTOCOL_VERSION}")
+            version = reply.get("protocol")
+            if isinstance(version, bool) or version not in wire.PROTOCOLS:
+                self._fail("protocol", f"speaks protocol {version!r}, navstress "
+                           f"speaks {' or '.join(map(str, wire.PROTOCOLS))}")
                 return
+            self.protocol = int(version)
             name = reply.get("name")
             self.remote_name = name if isinstance(name, str) else None
-        reply = self._request(wire.reset_message(mission, robot, seed), self.reset_budget_s, "reset")
+        reply = self._request(wire.reset_message(mission, robot, seed, self.protocol), self.reset_budget_s, "reset")
         if reply is None:
             return
         if reply.get("type") == "ok":
@@ -193,7 +197,8 @@ class ExternalNavigator:
             return self._error()
         t0 = time.monotonic()
         self._debug = None
-        reply = self._request(wire.step_message(obs, debug=self._want_debug), self.step_budget_s, "step")
+        reply = self._request(wire.step_message(obs, debug=self._want_debug, protocol=self.protocol),
+                              self.step_budget_s, "step")
         self.step_times_s.append(time.monotonic() - t0)
         if reply is None:
             return self._error()
@@ -528,7 +533,7 @@ def serve(navigator: Navigator, inp: IO[bytes], out: IO[bytes], *, name: str = "
             msg = wire.loads(raw)
             kind = msg["type"]
             if kind == "hello":
-                send({"type": "hello", "protocol": wire.PROTOCOL_VERSION, "name": name})
+                send({"type": "hello", "protocol": wire.LATEST, "name": name})  # every sensor's readings
             elif kind == "reset":
                 try:
                     with contextlib.redirect_stdout(sys.stderr):

@@ -20,6 +20,19 @@ when the host records the navigator's drawings)        ``{"type":"status","kind"
 
 Lidar points travel as base64 of little-endian float32 ``(N, 3)`` to keep lines compact.
 
+**Versions.** The host's ``hello`` says ``"protocol":1`` (every host speaks it); the navigator's
+reply names the version it speaks, 1 or 2 (:data:`PROTOCOLS`), and the host speaks that one from
+then on. Version 1 is byte for byte what it was before sensors were declared (a robot's reset
+carries no ``sensors`` field). Version 2 (docs/plugins.md, "Version 2: every sensor"):
+
+- ``reset``'s robot holds ``sensors``: the resolved suite (name, kind, profile, mount, params);
+- ``obs`` drops ``scans`` and adds ``readings``: by sensor name, the list of that sensor's
+  readings since the previous step, each an object with ``kind`` and the kind's fields
+  (``to_wire`` of its module under :mod:`navstress.sensors.kinds`); binary payloads (ranges,
+  points, depth images) are base64 arrays ``{"dtype":"<f4","shape":[..],"data":".."}``
+  (:func:`navstress.sensors.base.encode_array`) in the same line: one message per step, no
+  side channel to order or lose. ``odom``, ``imu`` and ``pose`` stay as in version 1.
+
     >>> from navstress.nav.api import Odometry, Imu, Observation
     >>> obs = Observation(0.1, Odometry(0.1, 0, 0, 0, 0, 0), Imu(0.1, 0, 0, 0, (0, 0, 0)))
     >>> decode_observation(encode_observation(obs)).odom.t
@@ -52,16 +65,20 @@ from navstress.nav.api import (
     check_debug,
 )
 from navstress.robot import RobotSpec
+from navstress.sensors import SensorKind, default_suite, kinds
 
 __all__ = [
     "PROTOCOL_VERSION", "WireError", "decode_command_or_status", "decode_mission",
     "decode_debug", "decode_observation", "decode_points", "dumps", "encode_command_or_status", "encode_debug",
     "encode_mission", "encode_observation", "encode_points", "loads", "step_message",
-    "reset_message", "hello_message", "close_message",
+    "reset_message", "hello_message", "close_message", "PROTOCOLS", "LATEST", "encode_readings", "decode_readings",
 ]
 
 PROTOCOL_VERSION = 1
-"""Bumped on any incompatible change of the message schema."""
+"""The version the host's ``hello`` names (the first; every host and navigator speaks it)."""
+PROTOCOLS = (1, 2)
+"""The versions navstress speaks; a navigator answers ``hello`` with one of them."""
+LATEST = PROTOCOLS[-1]
 
 
 class WireError(ValueError):
@@ -158,16 +175,79 @@ def decode_mission(d: dict[str, Any]) -> NavMission:
         raise WireError(f"invalid mission {d!r}: {e}") from None
 
 
-def reset_message(mission: NavMission, robot: RobotSpec, seed: int) -> dict[str, Any]:
+def reset_message(mission: NavMission, robot: RobotSpec, seed: int, protocol: int = 1) -> dict[str, Any]:
+    """A ``reset`` request. Version 1: the robot without ``sensors`` (as before they were
+    declared); version 2: with its resolved suite (the default one when it lists none)."""
+    data = robot.model_dump(mode="json")
+    if protocol >= 2:
+        if robot.sensors is None:
+            data["sensors"] = [s.model_dump(mode="json") for s in default_suite(robot.mounts)]
+    else:
+        data.pop("sensors", None)
     return {
         "type": "reset",
         "mission": encode_mission(mission),
-        "robot": robot.model_dump(mode="json"),
+        "robot": data,
         "seed": int(seed),
     }
 
 
-def encode_observation(obs: Observation) -> dict[str, Any]:
+def _kind_of(reading: Any) -> SensorKind:
+    for k in kinds().values():
+        if isinstance(reading, k.reading):
+            return k
+    raise WireError(f"no sensor kind reads {type(reading).__name__}")
+
+
+def encode_readings(readings: Any) -> dict[str, list[dict[str, Any]]]:
+    """Version 2's ``readings``: every sensor's readings by name, each ``{"kind", ...}``."""
+    out: dict[str, list[dict[str, Any]]] = {}
+    for name, items in readings.items():
+        enc = []
+        for r in items:
+            k = _kind_of(r)
+            if k.to_wire is None:
+                raise WireError(f"the {k.name} sensor kind has no line-protocol encoder")
+            enc.append({"kind": k.name, **k.to_wire(r)})
+        out[str(name)] = enc
+    return out
+
+
+def decode_readings(d: Any) -> dict[str, tuple[Any, ...]]:
+    """Inverse of :func:`encode_readings`; :class:`WireError` says which reading is bad."""
+    if not isinstance(d, dict):
+        raise WireError(f"readings is a {type(d).__name__}, not an object")
+    known = kinds()
+    out: dict[str, tuple[Any, ...]] = {}
+    for name, items in d.items():
+        if not isinstance(items, list):
+            raise WireError(f"readings.{name} is a {type(items).__name__}, not a list")
+        dec = []
+        for j, item in enumerate(items):
+            kname = item.get("kind") if isinstance(item, dict) else None
+            k = known.get(kname) if isinstance(kname, str) else None
+            if k is None or k.from_wire is None:
+                raise WireError(f"readings.{name}[{j}] has no known kind ({kname!r:.40}); kinds: "
+                                + ", ".join(known))
+            try:
+                dec.append(k.from_wire({kk: v for kk, v in item.items() if kk != "kind"}))
+            except (ValueError, TypeError, KeyError) as e:
+                raise WireError(f"readings.{name}[{j}] is not a {k.name} reading: {e}") from None
+        out[str(name)] = tuple(dec)
+    return out
+
+
+def encode_observation(obs: Observation, protocol: int = 1) -> dict[str, Any]:
+    """The ``obs`` of a step request in version ``protocol`` (see the module's text)."""
+    if protocol >= 2:
+        out = _encode_v1(obs)
+        del out["scans"]  # every lidar3d's scans are in readings
+        out["readings"] = encode_readings(obs.readings)
+        return out
+    return _encode_v1(obs)
+
+
+def _encode_v1(obs: Observation) -> dict[str, Any]:
     o, i = obs.odom, obs.imu
     out: dict[str, Any] = {
         "t": float(obs.t),
@@ -196,10 +276,10 @@ def encode_observation(obs: Observation) -> dict[str, Any]:
     return out
 
 
-def step_message(obs: Observation, *, debug: bool = False) -> dict[str, Any]:
+def step_message(obs: Observation, *, debug: bool = False, protocol: int = 1) -> dict[str, Any]:
     """A ``step`` request; ``debug``: the host records the navigator's drawing (``"debug": true``),
     which the navigator may then add to its reply (:func:`encode_debug`)."""
-    msg: dict[str, Any] = {"type": "step", "obs": encode_observation(obs)}
+    msg: dict[str, Any] = {"type": "step", "obs": encode_observation(obs, protocol)}
     if debug:
         msg["debug"] = True
     return msg
@@ -246,7 +326,20 @@ def decode_debug(d: object) -> DebugDraw:
 
 
 def decode_observation(d: dict[str, Any]) -> Observation:
-    """Inverse of :func:`encode_observation` (for navigators written in Python)."""
+    """Inverse of :func:`encode_observation` (for navigators written in Python), either version:
+    with ``readings`` (version 2), ``scans`` are the lidar3d readings in the order taken."""
+    if not isinstance(d, dict):
+        raise WireError(f"invalid observation: a {type(d).__name__}, not an object")
+    if "readings" in d:
+        readings = decode_readings(d["readings"])
+        v1 = _decode_v1({**d, "scans": []})
+        scans = sorted((r for items in readings.values() for r in items if isinstance(r, LidarScan)),
+                       key=lambda r: r.t)
+        return Observation(v1.t, v1.odom, v1.imu, v1.pose, tuple(scans), readings)
+    return _decode_v1(d)
+
+
+def _decode_v1(d: dict[str, Any]) -> Observation:
     try:
         od, im = d["odom"], d["imu"]
         odom = Odometry(*(float(od[k]) for k in ("t", "x", "y", "yaw", "v", "omega")))

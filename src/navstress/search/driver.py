@@ -43,6 +43,7 @@ from navstress._models import parse
 from navstress.campaign.executors import CampaignRunner, check_workers, open_runner
 from navstress.campaign.registry import DEFAULT_EXECUTOR, check_executor
 from navstress.campaign.scheduler import RecordCallback
+from navstress.run.sensors import is_sensor_path
 from navstress.campaign.spec import (AdaptiveRuns, CampaignSpec, ExperimentSpec, WorldEntry, check_campaign, parse_campaign,
                                     robot_text)
 from navstress.campaign.store import DB_NAME, Store
@@ -196,6 +197,9 @@ StartCallback = Callable[[int, int], None]  # (runs already spent, run budget)
 
 def _entry(c: Candidate) -> WorldEntry:
     """The explicit world of candidate ``c`` in the search's campaign."""
+    sensors = {p: v for p, v in c.params.items() if is_sensor_path(p)}
+    if sensors:  # the robot's searched sensor values (the configuration's robot)
+        return WorldEntry(key=c.key, map_seed=c.map_seed, world=c.world_overrides, sensors=sensors)
     return WorldEntry(key=c.key, map_seed=c.map_seed, world=c.world_overrides)
 
 

@@ -36,6 +36,7 @@ from navstress.campaign.spec import (AdaptiveRuns, NavigatorSpec, check_base_wor
                                     is_name, repetition, resolve_robot_ref)
 from navstress.errors import MISSING, SpecError
 from navstress.robot import RobotSpec
+from navstress.run.sensors import apply_sensor_values, apply_sensors, check_suite, is_sensor_path, sensor_path_kind
 from navstress.search.objectives import DESCRIPTORS
 from navstress.seeding import MAX_SEED
 from navstress.specfile import parse_text, read_text
@@ -229,6 +230,9 @@ class SearchSpec(BaseModel):
     goal_tolerance_m: float = Field(2.0, gt=0.0)
     sim: dict[str, Any] = Field(default_factory=dict, description="simulation overrides passed to every run")
     robot: RobotSpec | None = Field(None, description="the robot of every run (None: rmp400)")
+    # applied to the robot when the spec is read (parse_search), then None
+    sensors: list[Any] | None = Field(None, description="the robot's sensor suite (replacing its own)")
+    sensors_add: list[Any] | None = Field(None, description="sensors added to the robot's suite")
 
     @model_validator(mode="before")
     @classmethod
@@ -291,6 +295,8 @@ def world_overrides(values: dict[str, float | int], base: dict[str, Any]) -> dic
     out: dict[str, Any] = {}
     base_types = (base.get("obstacles") or {}).get("types") or {}
     for path, v in values.items():
+        if is_sensor_path(path):  # the robot's, not the world's (the campaign's WorldEntry.sensors)
+            continue
         if path == SIZE_PATH:
             out[SIZE_PATH] = [float(v), float(v)]
             continue
@@ -344,8 +350,18 @@ _PATH_EXAMPLES = ("a numeric WorldSpec parameter path such as 'obstacles.obstruc
                   "'obstacles.types.tree.variability', 'ground.deformation', 'ground.subdivisions' or 'size_m'")
 
 
-def _check_parameter(i: int, p: ParameterSpec, base: dict[str, Any]) -> None:
+def _check_parameter(i: int, p: ParameterSpec, base: dict[str, Any], robot: RobotSpec | None = None) -> None:
     where = f"space.parameters[{i}]"
+    if is_sensor_path(p.path):  # a sensor of the robot: a numeric parameter of its kind
+        skind = sensor_path_kind(robot or RobotSpec(), p.path, where=f"{where}.path")
+        if skind not in ("int", "float"):
+            raise SpecError(f"{where}.path", p.path, "a numeric sensor parameter (a search space is numeric)",
+                            "sweep kinds and profiles in a campaign")
+        if not p.low < p.high:
+            raise SpecError(f"{where}", f"[{p.low:g}, {p.high:g}]", "a range with low < high")
+        if skind == "int" and p.kind != "int":
+            raise SpecError(f"{where}.kind", p.kind, f"int ({p.path} is a whole number)", "set kind: int")
+        return
     if p.path in _NOT_SEARCHED:
         raise SpecError(f"{where}.path", p.path, _PATH_EXAMPLES, _NOT_SEARCHED[p.path])
     parts = p.path.split(".")
@@ -401,6 +417,14 @@ def _check_corners(spec: SearchSpec) -> None:
     cell = base_cell_m(spec.world)
     for corner in _corners(params):
         values = {p.path: p.value(u, cell) for p, u in zip(params, corner)}
+        sensor_values = {k: v for k, v in values.items() if is_sensor_path(k)}
+        if sensor_values:
+            try:
+                check_suite(apply_sensor_values(spec.robot or RobotSpec(), sensor_values), spec.sim)
+            except SpecError as err:
+                shown = ", ".join(f"{k}={v:g}" for k, v in sensor_values.items())
+                raise SpecError("space", shown, f"ranges whose extreme values make valid sensors (here "
+                                f"{err.field}={err.value!r}: expected {err.expected})", "narrow the ranges") from None
         try:
             parse_spec(deep_merge(spec.world, world_overrides(values, spec.world)))
         except SpecError as err:
@@ -470,6 +494,11 @@ def parse_search(data: Any, base_dir: str | Path | None = None) -> SearchSpec:
         raise SpecError("search", type(data).__name__, "a mapping of fields at the top level")
     if data.get("robot") is not None:
         data = {**data, "robot": resolve_robot_ref(data["robot"], "robot", base_dir)}
+    if data.get("sensors") is not None or data.get("sensors_add") is not None:
+        # the robot carries its suite from here on (its digest, the campaign's tasks)
+        robot = data["robot"] if data.get("robot") is not None else RobotSpec()
+        data = {**data, "robot": apply_sensors(robot, sensors=data.get("sensors"), sensors_add=data.get("sensors_add"))}
+    data = {k: v for k, v in data.items() if k not in ("sensors", "sensors_add")}
     _check_options(data)
     budget = data.get("budget")
     if isinstance(budget, dict):
@@ -485,6 +514,8 @@ def parse_search(data: Any, base_dir: str | Path | None = None) -> SearchSpec:
         raise SpecError("world.mission.free_radius_m", base.mission.free_radius_m, f"a free disc the robot {r.name!r} "
                         f"fits in (its half diagonal is {r.half_diagonal_m:.3g} m)",
                         f"raise it to at least {r.half_diagonal_m:.3g}")
+    if spec.robot is not None:
+        check_suite(spec.robot, spec.sim)
     params = spec.space.parameters
     if not params and not spec.space.map_seed and spec.space.moves is None:
         raise SpecError("space", "no parameters and map_seed: false",
@@ -494,7 +525,7 @@ def parse_search(data: Any, base_dir: str | Path | None = None) -> SearchSpec:
         if p.path in seen:
             raise SpecError(f"space.parameters[{i}].path", p.path, "a path given once")
         seen.add(p.path)
-        _check_parameter(i, p, spec.world)
+        _check_parameter(i, p, spec.world, spec.robot)
     _check_corners(spec)
     check_faults(spec.faults)
     _check_objective(spec, seen)

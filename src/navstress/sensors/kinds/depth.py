@@ -23,6 +23,7 @@ from pydantic import Field, model_validator
 from navstress.errors import SpecError
 from navstress.sensors import encode
 from navstress.sensors.base import SensorKind, SensorParams
+from navstress.sensors.wirefields import array, f32, num, pose_fields, text, vec3
 
 
 class DepthParams(SensorParams):
@@ -158,9 +159,23 @@ def ros2_info(types: Any, topic: str, m: Any, sensor: Any) -> list[tuple[str, An
         d=np.array(m.D, dtype=np.float64), k=np.array(m.K, dtype=np.float64), r=np.array(m.R, dtype=np.float64),
         p=np.array(m.P, dtype=np.float64), binning_x=0, binning_y=0, roi=roi))]
 
+def to_wire(r: DepthImage) -> dict[str, Any]:
+    """A depth frame for the line protocol (version 2): ``depth`` a base64 (H, W) float32 array
+    (``inf``: no return), the pinhole intrinsics ``fx fy cx cy``."""
+    return {**pose_fields(r), "depth": f32(r.depth), "fx": float(r.fx), "fy": float(r.fy), "cx": float(r.cx),
+            "cy": float(r.cy)}
+
+
+def from_wire(d: dict[str, Any]) -> DepthImage:
+    """Inverse of :func:`to_wire`; ValueError naming the bad field."""
+    return DepthImage(t=num(d, "t"), depth=array(d, "depth", ndim=2), fx=num(d, "fx"), fy=num(d, "fy"),
+                      cx=num(d, "cx"), cy=num(d, "cy"), mount=vec3(d, "mount"), rpy=vec3(d, "rpy"),
+                      sensor=text(d, "sensor"))
+
 
 KIND = SensorKind(name="depth", params=DepthParams, profiles=PROFILES, default_profile="d435",
                   reading=DepthImage, caster="pinhole", summary="ray-cast depth camera (depth image)",
                   rays=rays, trace=trace,
                   ros2={"foxglove.RawImage": ros2_image, "foxglove.CameraCalibration": ros2_info},
-                  extra={"topics": trace_topics, "trace_period_s": TRACE_PERIOD_S, "frames": frames})
+                  extra={"topics": trace_topics, "trace_period_s": TRACE_PERIOD_S, "frames": frames},
+                  to_wire=to_wire, from_wire=from_wire)

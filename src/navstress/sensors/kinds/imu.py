@@ -5,8 +5,10 @@ step. Built in: every robot has one, named ``imu``, its figures in ``sim:`` (``i
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 from navstress.sensors.base import SensorKind, SensorParams
+from navstress.sensors.wirefields import num, vec3
 
 
 @dataclass(frozen=True)
@@ -20,6 +22,18 @@ class Imu:
     rates: tuple[float, float, float]  # body-frame angular velocity, rad/s
 
 
+def to_wire(r: Imu) -> dict[str, Any]:
+    """The IMU for the line protocol (as version 1's ``imu``)."""
+    return {"t": float(r.t), "roll": float(r.roll), "pitch": float(r.pitch), "yaw": float(r.yaw),
+            "rates": [float(v) for v in r.rates]}
+
+
+def from_wire(d: dict[str, Any]) -> Imu:
+    """Inverse of :func:`to_wire`; ValueError naming the bad field."""
+    return Imu(num(d, "t"), num(d, "roll"), num(d, "pitch"), num(d, "yaw"), vec3(d, "rates"))
+
+
 KIND = SensorKind(name="imu", params=SensorParams, profiles={"builtin": {"rate_hz": 50.0}},
                   default_profile="builtin", reading=Imu, caster="builtin",
-                  summary="attitude and body rates (built in: `imu`, configured in sim:)")
+                  summary="attitude and body rates (built in: `imu`, configured in sim:)",
+                  to_wire=to_wire, from_wire=from_wire)

@@ -23,6 +23,7 @@ from pydantic import Field, model_validator
 from navstress.errors import SpecError
 from navstress.sensors import encode
 from navstress.sensors.base import SensorKind, SensorParams
+from navstress.sensors.wirefields import array, f32, num, pose_fields, text, vec3
 
 
 class Lidar2dParams(SensorParams):
@@ -137,8 +138,23 @@ def ros2_scan(types: Any, topic: str, m: Any, sensor: Any) -> list[tuple[str, An
         range_max=p.max_range_m if p is not None else math.inf, ranges=np.asarray(m.ranges, dtype=np.float32),
         intensities=np.zeros(0, np.float32)))]
 
+def to_wire(r: LaserScan) -> dict[str, Any]:
+    """A scan for the line protocol (version 2): ``ranges`` a base64 float32 array (``inf``: no return)."""
+    return {**pose_fields(r), "ranges": f32(r.ranges), "angle_min": float(r.angle_min),
+            "angle_increment": float(r.angle_increment), "range_min": float(r.range_min),
+            "range_max": float(r.range_max)}
+
+
+def from_wire(d: dict[str, Any]) -> LaserScan:
+    """Inverse of :func:`to_wire`; ValueError naming the bad field."""
+    return LaserScan(t=num(d, "t"), ranges=array(d, "ranges", ndim=1), angle_min=num(d, "angle_min"),
+                     angle_increment=num(d, "angle_increment"), range_min=num(d, "range_min"),
+                     range_max=num(d, "range_max", finite=False), mount=vec3(d, "mount"), rpy=vec3(d, "rpy"),
+                     sensor=text(d, "sensor"))
+
 
 KIND = SensorKind(name="lidar2d", params=Lidar2dParams, profiles=PROFILES, default_profile="ust10",
                   reading=LaserScan, caster="columns", summary="planar scanning range finder (LaserScan)",
                   beams=beams, trace=trace, ros2={"foxglove.LaserScan": ros2_scan},
-                  extra={"topics": trace_topics, "trace_period_s": 0.0})
+                  extra={"topics": trace_topics, "trace_period_s": 0.0},
+                  to_wire=to_wire, from_wire=from_wire)

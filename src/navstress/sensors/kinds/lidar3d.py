@@ -21,6 +21,7 @@ from pydantic import Field, model_validator
 from navstress.errors import SpecError
 from navstress.sensors import encode
 from navstress.sensors.base import SensorKind, SensorParams
+from navstress.sensors.wirefields import array, f32, num, pose_fields, text, vec3
 
 
 class Lidar3dParams(SensorParams):
@@ -107,8 +108,19 @@ def ros2_cloud(types: Any, topic: str, m: Any, sensor: Any) -> list[tuple[str, A
     """``foxglove.PointCloud`` -> ``sensor_msgs/PointCloud2`` (x, y, z float32) on the same topic."""
     return [(topic, encode.ros_cloud(types, encode.ros_header(types, m), encode.cloud_points(m)))]
 
+def to_wire(r: LidarScan) -> dict[str, Any]:
+    """A cloud for the line protocol (version 2): ``points`` a base64 (N, 3) float32 array, sensor frame."""
+    return {**pose_fields(r), "points": f32(np.asarray(r.points).reshape(-1, 3))}
+
+
+def from_wire(d: dict[str, Any]) -> LidarScan:
+    """Inverse of :func:`to_wire`; ValueError naming the bad field."""
+    return LidarScan(t=num(d, "t"), points=array(d, "points", ndim=2, last=3), mount=vec3(d, "mount"),
+                     sensor=text(d, "sensor"), rpy=vec3(d, "rpy"))
+
 
 KIND = SensorKind(name="lidar3d", params=Lidar3dParams, profiles=PROFILES, default_profile="hdl32",
                   reading=LidarScan, caster="columns", summary="spinning multi-channel lidar (point cloud)",
                   beams=beams, trace=trace, ros2={"foxglove.PointCloud": ros2_cloud},
-                  extra={"topics": trace_topics, "trace_period_s": TRACE_PERIOD_S})
+                  extra={"topics": trace_topics, "trace_period_s": TRACE_PERIOD_S},
+                  to_wire=to_wire, from_wire=from_wire)

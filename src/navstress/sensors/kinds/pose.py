@@ -5,8 +5,10 @@ the compiled step. Built in: every robot has one, named ``pose``, its figures in
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 from navstress.sensors.base import SensorKind, SensorParams
+from navstress.sensors.wirefields import num
 
 
 @dataclass(frozen=True)
@@ -22,6 +24,20 @@ class PoseReading:
     roll: float
 
 
+FIELDS = ("t", "x", "y", "z", "yaw", "pitch", "roll")
+
+
+def to_wire(r: PoseReading) -> dict[str, Any]:
+    """The pose sensor for the line protocol (as version 1's ``pose``)."""
+    return {k: float(getattr(r, k)) for k in FIELDS}
+
+
+def from_wire(d: dict[str, Any]) -> PoseReading:
+    """Inverse of :func:`to_wire`; ValueError naming the bad field."""
+    return PoseReading(*(num(d, k) for k in FIELDS))
+
+
 KIND = SensorKind(name="pose", params=SensorParams, profiles={"builtin": {"rate_hz": 10.0}},
                   default_profile="builtin", reading=PoseReading, caster="builtin",
-                  summary="pose in the map frame (built in: `pose`, configured in sim:)")
+                  summary="pose in the map frame (built in: `pose`, configured in sim:)",
+                  to_wire=to_wire, from_wire=from_wire)
