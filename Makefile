@@ -36,18 +36,24 @@ demo: $(VENV)/.installed
 typecheck: $(VENV)/.installed-test
 	$(BIN)/mypy
 
+# bytecode cached for the suite even where the environment sets PYTHONDONTWRITEBYTECODE: every
+# process the tests start would compile navstress again (tests/conftest.py does the same for a
+# plain `pytest`); the sources and tests compiled once beside mypy, after the numba warm-up
+test test-quick: export PYTHONDONTWRITEBYTECODE :=
+COMPILE := $(BIN)/python -m compileall -q src tests >/dev/null
+
 test: $(VENV)/.installed-test
 	command -v chromium >/dev/null || (apt-get update -qq && apt-get install -y -qq chromium)
 	dpkg -s $(GAZEBO_DEBS) >/dev/null 2>&1 || (apt-get update -qq && \
 	  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $(GAZEBO_DEBS))
 	@# numba's kernels compiled once (tests/support/numba_warm.py) on the core mypy leaves idle, before the tests start
-	$(BIN)/python tests/support/numba_warm.py & $(BIN)/mypy; s=$$?; wait; exit $$s
+	($(BIN)/python tests/support/numba_warm.py; $(COMPILE)) & $(BIN)/mypy; s=$$?; wait; exit $$s
 	$(BIN)/python -m pytest -n 2 -q
 
 # the developer's loop: no apt-get (a test needing chromium or Gazebo's libraries skips where
 # they are missing, outside CI), the tests marked `slow` left to `make test`
 test-quick: $(VENV)/.installed-test
-	$(BIN)/python tests/support/numba_warm.py & $(BIN)/mypy; s=$$?; wait; exit $$s
+	($(BIN)/python tests/support/numba_warm.py; $(COMPILE)) & $(BIN)/mypy; s=$$?; wait; exit $$s
 	$(BIN)/python -m pytest -n 2 -q -m "not slow"
 
 bench: $(VENV)/.installed

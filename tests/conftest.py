@@ -9,8 +9,20 @@ fixtures). A test that writes junk ``*.mcap`` files on purpose is marked ``not_t
 
 from __future__ import annotations
 
+import os
+import sys
 from collections.abc import Iterator
 from pathlib import Path
+
+# Bytecode cached for the whole session, first thing (before the test modules are imported):
+# with PYTHONDONTWRITEBYTECODE set (some shells and CI images set it) nothing was ever cached, so
+# each pytest worker re-compiled and assertion-rewrote every test module (~half of collection's
+# CPU), and every process the suite starts (the CLI's and campaigns' spawned workers, CLI
+# subprocesses, navigators, nested pytest runs) compiled navstress's sources again (~0.25 s of
+# CPU each). The *.pyc files land in __pycache__ folders that .gitignore lists; the numba cache's
+# key hashes *.py and *.c only. Nothing a test checks depends on it (docs/performance.md).
+if os.environ.pop("PYTHONDONTWRITEBYTECODE", None) is not None:  # the children inherit the environment
+    sys.dont_write_bytecode = False
 
 import pytest
 from hypothesis import settings
