@@ -71,7 +71,7 @@ class Reference2dConfig(BaseModel):
     # --- recoveries (Nav2 behaviour tree: clear costmap, spin, back up, wait) ---
     max_recoveries: int = Field(6, ge=0, le=100, description="recovery actions without progress before Status error (Nav2 number_of_retries 6)")
     progress_reset_m: float = Field(1.0, gt=0.0, description="getting this much closer to the goal than at the last recovery resets the count")
-    clear_keep_radius_m: float = Field(1.0, ge=0.0, description="clearing forgets every cell farther than this from the robot")
+    clear_keep_radius_m: float = Field(3.0, ge=0.0, description="clearing forgets every cell farther than this from the robot (Nav2 ClearCostmapExceptRegion reset_distance 3.0)")
     spin_rad: float = Field(1.57, gt=0.0, le=6.3, description="spin recovery angle")
     backup_m: float = Field(0.3, gt=0.0, description="back-up recovery distance")
     backup_speed_mps: float = Field(0.1, gt=0.0, description="back-up recovery speed")

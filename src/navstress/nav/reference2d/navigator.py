@@ -219,13 +219,16 @@ class Reference2dNavigator:
         gx, gy = self.mission.goal
         gi = (gy - cm.origin[1]) / cm.cell - 0.5
         gj = (gx - cm.origin[0]) / cm.cell - 0.5
-        goal_r = cfg.arrival_fraction * self.mission.goal_tolerance_m / cm.cell
+        # the path ends well inside the arrival circle (half its radius), at the goal itself when it is free
+        goal_r = 0.5 * cfg.arrival_fraction * self.mission.goal_tolerance_m / cm.cell
         cells = K.astar(cm.cost, si, sj, gi, gj, goal_r, cfg.unknown_cell_cost, cfg.cost_weight)
         if len(cells) == 0:
             self.path, self.togo = np.zeros((0, 2)), np.zeros(0)
             return
         xy = cm.centre(cells)
         xy[0] = (pose.x, pose.y)
+        if cm.cost_xy(gx, gy) < K.INSCRIBED or cm.cost_xy(gx, gy) == K.NO_INFORMATION:
+            xy = np.vstack([xy, [(gx, gy)]])
         seg = np.hypot(*np.diff(xy, axis=0).T)
         self.path = xy
         self.togo = np.concatenate([np.cumsum(seg[::-1])[::-1], [0.0]])
@@ -291,6 +294,9 @@ class Reference2dNavigator:
             vv, ww = np.meshgrid(v, w, indexing="ij")
             return np.ascontiguousarray(vv.ravel()), np.ascontiguousarray(ww.ravel())
         kap = np.linspace(-self.kappa_max, self.kappa_max, cfg.vtheta_samples)
+        if v_hi > 0.0:
+            # standing still makes no progress, and a car cannot turn there: stop only by slowing down
+            v = np.linspace(max(v_lo, min(v_hi, 0.05)), v_hi, cfg.vx_samples)
         vv, kk = np.meshgrid(v, kap, indexing="ij")
         ww = np.clip(vv * kk, w_lo, w_hi)
         ww = np.clip(ww, -vv * self.kappa_max, vv * self.kappa_max)  # never sharper than the steering allows
