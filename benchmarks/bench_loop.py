@@ -17,6 +17,13 @@ name in brackets).
 
     taskset -c 1 .venv/bin/python benchmarks/bench_loop.py [--seconds 60] [--repeat 3]
     taskset -c 1 .venv/bin/python benchmarks/bench_loop.py --robots husky,jackal,turtlebot4,f1tenth
+
+``--laser2d`` adds the configuration "jackal + one ust10 lidar2d" (a UST-10LX-class planar scanner,
+270 degrees, 1081 beams, 40 Hz, named ``front_laser``) on the flat world with 6 % trees, driven by
+``--navigator`` (default ``reference-2d-v1`` when it is registered, else ``reference-v1``, which
+sees no 3-D scans then): its full loop and the scanner's share (the casts, ``Lidar2dCaster.cast``).
+
+    taskset -c 1 .venv/bin/python benchmarks/bench_loop.py --robots none --laser2d
 """
 
 from __future__ import annotations
@@ -88,10 +95,47 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3,
                     help="runs of the full loop per world (wall time on a shared or virtual machine varies "
                          "by +-5-10 %%: the median and the range are printed)")
-    ap.add_argument("--robots", default="rmp400", help="comma-separated robot profiles")
+    ap.add_argument("--robots", default="rmp400", help="comma-separated robot profiles ('none': none)")
+    ap.add_argument("--laser2d", action="store_true", help="also: jackal + one ust10 lidar2d")
+    ap.add_argument("--navigator", default=None, help="the navigator of --laser2d (default: reference-2d-v1 "
+                    "when registered, else reference-v1)")
     args = ap.parse_args()
     for name in args.robots.split(","):
-        bench_robot(profile(name.strip()), args.seconds, args.repeat)
+        if name.strip() != "none":
+            bench_robot(profile(name.strip()), args.seconds, args.repeat)
+    if args.laser2d:
+        bench_laser2d(args.seconds, args.repeat, args.navigator)
+
+
+def bench_laser2d(seconds: float, repeat: int, navigator: str | None) -> None:
+    """The full loop of a Jackal with one UST-10LX-class scanner on the flat world with 6 % trees."""
+    from navstress.nav.registry import list_navigators, make_navigator
+    from navstress.robot.files import with_sensors
+    from navstress.sim.rays import Lidar2dCaster
+
+    if navigator is None:
+        names = {s.name for s in list_navigators()}
+        navigator = "reference-2d-v1" if "reference-2d-v1" in names else "reference-v1"
+    robot = with_sensors(profile("jackal"), sensors=[{"name": "front_laser", "kind": "lidar2d", "profile": "ust10"}])
+    world = generate(parse_spec({"size_m": [100, 100], "obstacles": {"obstruction": {"tree": 6}}}), 1, robot=robot)
+    run_mission(world, make_navigator(navigator), run_seed=0, timeout_s=5.0, robot=robot)  # warm-up
+    ratios, cpu = [], []
+    for i in range(max(1, repeat)):
+        TIMES.clear()
+        CALLS.clear()
+        undo = timed(Lidar2dCaster, "cast", "laser")
+        t0, c0 = time.perf_counter(), time.process_time()
+        r = run_mission(world, make_navigator(navigator), run_seed=3, timeout_s=seconds, robot=robot)
+        wall = time.perf_counter() - t0
+        undo()
+        ratios.append(r.duration_s / wall)
+        cpu.append(r.duration_s / (time.process_time() - c0))
+    print(f"== [jackal + ust10 lidar2d, {navigator}] flat, 6% trees (seed 1): {r.duration_s:.0f} s simulated, "
+          f"outcome {r.classification.outcome.value} ({r.classification.reason})")
+    print(f"  full loop, {len(ratios)} runs: median {statistics.median(ratios):6.1f} x real time "
+          f"(min {min(ratios):.1f}, max {max(ratios):.1f}); CPU time: median {statistics.median(cpu):6.1f} x")
+    print(f"  lidar2d casts: {1e3 * TIMES['laser'] / max(1, CALLS['laser']):.3f} ms/scan ({CALLS['laser']} scans, "
+          f"{100 * TIMES['laser'] / wall:.1f} % of the last run's wall time)")
 
 
 def bench_robot(robot: RobotSpec, seconds: float, repeat: int) -> None:

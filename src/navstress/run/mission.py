@@ -255,7 +255,9 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Any
                 raise
             events.append((0.0, "warning", f"navigator want_debug() raised {type(err).__name__}: {err}"))
         try:
-            navigator.reset(mission, robot, seed=derive_seed(run_seed, "navigator"))
+            # the navigator learns the sensors at reset: the robot with its resolved suite, never None
+            navigator.reset(mission, robot.model_copy(update={"sensors": sim.sensors}),
+                            seed=derive_seed(run_seed, "navigator"))
         except BaseException as err:  # the stack under test failed (sys.exit included); record, don't crash
             if not raised_by_navigator(err):
                 raise

@@ -33,7 +33,8 @@ import numpy as np
 from numba import njit
 
 import navstress._jit  # noqa: F401  (numba's cache directory, before any @njit(cache=True))
-from navstress.sim._raycast import (Beams, Box, Ray, TerrainGrid, _ray_box, count_finite, rotation_error,
+from navstress.sim._raycast import (Beams, Box, Ray, TerrainGrid, _ray_box, cast_rays_kernel, count_finite,
+                                    rotation_error,
                                     terrain_kernel)
 
 INF = np.inf
@@ -422,3 +423,62 @@ def disc_pass(discs: np.ndarray, beams: Beams, params: np.ndarray, origin: np.nd
                 t = _ray_cylinder(cyl, Ray(ox, oy, oz, ce * awx + se * uwx, ce * awy + se * uwy, ce * awz + se * uwz))
                 if t < out[k, a]:
                     out[k, a] = t
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def mounted_scan_ranges(params: np.ndarray, qpos: np.ndarray, mount: np.ndarray, mrot: np.ndarray, rot: np.ndarray,
+                        origin: np.ndarray, boxes: np.ndarray, discs: np.ndarray, *arrays: Any) -> int:
+    """:func:`body_scan_ranges` with the sensor turned on the body: ``mrot`` (3, 3) is the
+    body-from-sensor rotation (the mount's roll, pitch, yaw), ``rot`` receives world-from-sensor
+    (the body's rotation, as :func:`body_scan_ranges` computes it, times ``mrot``)."""
+    grid = TerrainGrid(*arrays[:_E_GRID])
+    beams = Beams(*arrays[_E_GRID:_E_BEAMS])
+    out = arrays[_E_BEAMS]
+    q0, q1, q2, q3 = qpos[3], qpos[4], qpos[5], qpos[6]
+    b = np.empty((3, 3))
+    q00, q01, q02, q03 = q0 * q0, q0 * q1, q0 * q2, q0 * q3
+    q11, q12, q13 = q1 * q1, q1 * q2, q1 * q3
+    q22, q23, q33 = q2 * q2, q2 * q3, q3 * q3
+    b[0, 0] = q00 + q11 - q22 - q33
+    b[1, 1] = q00 - q11 + q22 - q33
+    b[2, 2] = q00 - q11 - q22 + q33
+    b[0, 1] = 2.0 * (q12 - q03)
+    b[0, 2] = 2.0 * (q13 + q02)
+    b[1, 0] = 2.0 * (q12 + q03)
+    b[1, 2] = 2.0 * (q23 - q01)
+    b[2, 0] = 2.0 * (q13 - q02)
+    b[2, 1] = 2.0 * (q23 + q01)
+    for i in range(3):
+        origin[i] = qpos[i] + (b[i, 0] * mount[0] + b[i, 1] * mount[1] + b[i, 2] * mount[2])
+        for j in range(3):
+            rot[i, j] = b[i, 0] * mrot[0, j] + b[i, 1] * mrot[1, j] + b[i, 2] * mrot[2, j]
+    ok = math.isfinite(origin[0]) and math.isfinite(origin[1]) and math.isfinite(origin[2])
+    if not (ok and rotation_error(rot) <= 1e-6):
+        return -1
+    terrain_kernel(grid, beams, params, origin, rot, out)
+    if discs.shape[0] > 0:
+        disc_pass(discs, beams, params, origin, rot, out)
+    box_pass(boxes, beams, params, origin, rot, out)
+    return count_finite(out)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def rays_ranges(grid: TerrainGrid, boxes: np.ndarray, discs: np.ndarray, origin: np.ndarray, dirs: np.ndarray,
+                max_range: float, min_range: float, out: np.ndarray) -> None:  # pragma: no cover - compiled
+    """Per-ray path for fans the scan kernels cannot take (beams not evenly around the circle):
+    every ray from ``origin`` along the unit world ``dirs`` (N, 3): terrain and boxes as
+    :func:`~navstress.sim._raycast.cast_rays_kernel`, then the upright cylinders ``discs``; ranges
+    outside [min_range, max_range] are inf."""
+    n = dirs.shape[0]
+    origins = np.empty((n, 3))
+    for r in range(n):
+        origins[r, 0], origins[r, 1], origins[r, 2] = origin[0], origin[1], origin[2]
+    cast_rays_kernel(grid, boxes, origins, dirs, max_range, out)
+    for r in range(n):
+        t = out[r]
+        ray = Ray(origin[0], origin[1], origin[2], dirs[r, 0], dirs[r, 1], dirs[r, 2])
+        for i in range(discs.shape[0]):
+            tc = _ray_cylinder(Cylinder(discs[i, 0], discs[i, 1], discs[i, 2], discs[i, 3], discs[i, 4]), ray)
+            if tc < t:
+                t = tc
+        out[r] = t if (min_range <= t <= max_range) else INF

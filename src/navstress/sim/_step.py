@@ -1,6 +1,7 @@
 """The compiled inner loop of :class:`~navstress.sim.simulation.Simulation`.
 
-One numba call (:func:`run_steps`) runs physics steps until something needs Python: a lidar scan,
+One numba call (:func:`run_steps`) runs physics steps until something needs Python: a ray sensor
+(lidar, scanner, camera) that is due,
 a collision or stop event, instability, full sample buffers or used-up pre-drawn random numbers,
 or the requested step. Each step is the pending velocity command (when its step has come), the
 drive firmware, the obstacle pool refill (every ``pool_every`` steps), the stages of MuJoCo's
@@ -47,12 +48,19 @@ from navstress.sim.mjabi import (CF_DIST, CF_FRAME, CF_FRICTION, CF_POS, CI_EFC,
                                  fwd_position_constraints, mj_fwdVelocity, mj_step2)
 from navstress.sim.drives import ACKERMANN, MAX_WHEELS
 from navstress.sim.model import MjSlotArrays, PoolArrays, fill_obstacle_slots
+from navstress.sensors.base import MAX_RAY_SENSORS
 
-# status bits returned by run_steps
-DONE, LIDAR, CONTACT, LEFT_MAP, FLIPPED, UNSTABLE, FLUSH, MOVERS = 0, 1, 2, 4, 8, 16, 32, 64
-# sensor rows of the schedule arrays (the order in which sensors fire within a step)
-ODOM, IMU, POSE, SCAN, OBSERVER = 0, 1, 2, 3, 4
-NSENSORS = 5
+# status bits returned by run_steps (RAYS: one or more ray sensors are due, STATE.due says which)
+DONE, RAYS, CONTACT, LEFT_MAP, FLIPPED, UNSTABLE, FLUSH, MOVERS = 0, 1, 2, 4, 8, 16, 32, 64
+LIDAR = RAYS  # (its name before sensors were declared)
+# rows of the schedule arrays (the order in which sensors fire within a step): the built-in
+# sensors, then the ray sensors of the run's suite (navstress.sim.suite), row RAY0 + i for the
+# i-th; rows past RAY0 + PARAMS.n_rays are never looked at
+ODOM, IMU, POSE, OBSERVER = 0, 1, 2, 3
+NBUILTIN = 4  # rows with recorded samples (SensorArrays.samples)
+RAY0 = NBUILTIN
+NROWS = NBUILTIN + MAX_RAY_SENSORS
+NSENSORS = NROWS
 NO_CMD = np.iinfo(np.int64).max  # STATE.cmd_k when no command is pending
 # MuJoCo warnings that mean the physics went unstable (MuJoCo would reset the state)
 BAD_WARNINGS = (mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL, mujoco.mjtWarning.mjWARN_BADQACC)
@@ -76,9 +84,10 @@ STATE = np.dtype([
     ("odom_t", _F), ("odom_v", _F), ("odom_w", _F),  # last odometry sample time, speed, yaw rate
     ("imu_bias", _F), ("imu_t", _F),  # IMU yaw bias (random walk) and last sample time
     ("n_imu", _I), ("n_pose", _I),  # next unused value of the noise rows IMU_NOISE / POSE_NOISE
-    ("next_k", _I, (NSENSORS,)),  # step at which each sensor fires next (rows ODOM ... OBSERVER)
-    ("jitter_idx", _I, (NSENSORS,)),  # next unused column of SensorArrays.jitter (its width: used up)
-    ("nsamples", _I, (NSENSORS,)),  # rows of SensorArrays.samples recorded since the last flush
+    ("next_k", _I, (NROWS,)),  # step at which each sensor fires next (rows ODOM ... OBSERVER, then the rays)
+    ("jitter_idx", _I, (NROWS,)),  # next unused column of SensorArrays.jitter (its width: used up)
+    ("nsamples", _I, (NBUILTIN,)),  # rows of SensorArrays.samples recorded since the last flush
+    ("due", _I, (MAX_RAY_SENSORS,)),  # 1: ray sensor i is due (RAYS returned; Python casts it, clears it)
     ("touching", _I),  # size of the touching set (CollisionArrays.previous)
     ("ncontact", _I),  # obstacles the bumper touched after the last step
     ("starts", _I), ("nevent", _I),  # contact starts / collision events not yet flushed
@@ -112,7 +121,8 @@ PARAMS = np.dtype([
     ("cos_flip", _F),  # up-vector z below which the robot has flipped
     ("debounce", _F),  # collision debounce (s)
     ("odom_radius", _F), ("odom_track", _F),  # odometry wheel radius and (calibrated) track
-    ("period", _F, (NSENSORS,)),  # nominal sensor periods (s)
+    ("period", _F, (NROWS,)),  # nominal sensor periods (s)
+    ("n_rays", _I),  # ray sensors of the run (rows RAY0 .. RAY0 + n_rays - 1)
     ("jitter", _I), ("rate_jitter", _F),  # sensor rate jitter on, its relative amplitude
     ("noise", _I),  # sensor noise on
     ("imu_att", _F), ("imu_rate", _F), ("imu_drift", _F),  # IMU noise
@@ -169,10 +179,11 @@ class RobotArrays(NamedTuple):
 
 
 class SensorArrays(NamedTuple):
-    """Sensor buffers (the schedule is in STATE/PARAMS); rows ODOM, IMU, POSE, SCAN, OBSERVER."""
+    """Sensor buffers (the schedule is in STATE/PARAMS); rows ODOM, IMU, POSE, OBSERVER, then the
+    ray sensors (:data:`NROWS` rows; samples only for the :data:`NBUILTIN` built-in ones)."""
 
-    jitter: np.ndarray  # (5, B) pre-drawn uniforms of the rate jitter
-    samples: np.ndarray  # (5, S, 7) recorded readings (STATE.nsamples rows), see _fire
+    jitter: np.ndarray  # (NROWS, B) pre-drawn uniforms of the rate jitter
+    samples: np.ndarray  # (NBUILTIN, S, 7) recorded readings (STATE.nsamples rows), see _fire
     noise: np.ndarray  # (2, NOISE_BATCH) pre-drawn standard normals, rows IMU_NOISE, POSE_NOISE
 
 
@@ -675,8 +686,8 @@ def _wrap(a: float) -> float:  # pragma: no cover - compiled
 @numba.njit(cache=True)
 def _fire(k: int, s: Any, p: Any, qpos: np.ndarray, qvel: np.ndarray, wqpos: np.ndarray,
           sens: SensorArrays) -> int:  # pragma: no cover - compiled
-    """Record the readings of the sensors due at step ``k``; LIDAR when the lidar is due (its
-    schedule already advanced), FLUSH when a buffer is full or a noise/jitter row used up
+    """Record the readings of the sensors due at step ``k``; RAYS when a ray sensor is due (its
+    schedule already advanced, ``s.due`` set for it), FLUSH when a buffer is full or a noise/jitter row used up
     (nothing recorded for that sensor).
 
     Rows: odometry (t, x, y, yaw, v, omega); IMU (t, roll, pitch, yaw, wx, wy, wz) and pose
@@ -689,16 +700,17 @@ def _fire(k: int, s: Any, p: Any, qpos: np.ndarray, qvel: np.ndarray, wqpos: np.
     t = k * p.dt
     noisy = p.noise != 0
     nb = noise.shape[1]
-    for sn in range(NSENSORS):
+    for sn in range(RAY0 + p.n_rays):
         if next_k[sn] > k:
             continue
         jittered = p.jitter != 0 and p.rate_jitter > 0 and sn != OBSERVER
-        if (sn != SCAN and nsamp[sn] >= samples.shape[1]) or (jittered and jitter_idx[sn] >= jitter.shape[1]):
+        if (sn < RAY0 and nsamp[sn] >= samples.shape[1]) or (jittered and jitter_idx[sn] >= jitter.shape[1]):
             return status | FLUSH
         if noisy and ((sn == IMU and s.n_imu + 7 > nb) or (sn == POSE and s.n_pose + 6 > nb)):
             return status | FLUSH
-        if sn == SCAN:
-            status |= LIDAR
+        if sn >= RAY0:
+            status |= RAYS
+            s.due[sn - RAY0] = 1
         else:
             row = samples[sn, nsamp[sn]]
             row[0] = t

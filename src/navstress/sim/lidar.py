@@ -335,6 +335,43 @@ class Lidar:
             raise SpecError("qpos", q[:7].tolist(), "a finite position and a unit quaternion (w, x, y, z)")
         return self._points(n, rng)
 
+    def mounted_ranges(self, qpos: np.ndarray, mount: np.ndarray, mount_rot: np.ndarray, *,
+                       discs: np.ndarray | None = None, scene_boxes: np.ndarray | None = None) -> int:
+        """The ranges of a scan from a body pose with the sensor at ``mount`` turned by
+        ``mount_rot`` (3, 3, body-from-sensor: the mount's roll, pitch, yaw) into the lidar's
+        range buffer (:meth:`last_ranges`); returns the number of returns. ``discs`` and
+        ``scene_boxes`` as in :meth:`scan_body`."""
+        boxes = self.scene.boxes if scene_boxes is None else scene_boxes
+        d = _NO_DISCS if discs is None else np.ascontiguousarray(discs, dtype=np.float64).reshape(-1, 5)
+        q, m = np.asarray(qpos), np.ascontiguousarray(mount, dtype=np.float64)
+        mr = np.ascontiguousarray(mount_rot, dtype=np.float64)
+        if q.dtype != np.float64 or q.ndim != 1 or q.shape[0] < 7 or m.shape != (3,) or mr.shape != (3, 3):
+            raise SpecError("qpos", getattr(qpos, "shape", qpos), "a float64 (>= 7,) body pose, a (3,) mount and "
+                            "a (3, 3) mount rotation")
+        n = _raybox.mounted_scan_ranges(self._params, q, m, mr, self._rot, self._origin, boxes, d, *self._arrays)
+        if n < 0:
+            raise SpecError("qpos", q[:7].tolist(), "a finite position and a unit quaternion (w, x, y, z)")
+        return int(n)
+
+    def scan_mounted(self, qpos: np.ndarray, mount: np.ndarray, mount_rot: np.ndarray,
+                     rng: np.random.Generator | None = None, *, discs: np.ndarray | None = None,
+                     scene_boxes: np.ndarray | None = None) -> np.ndarray:
+        """:meth:`scan_body` with the sensor turned on the body by ``mount_rot`` (see
+        :meth:`mounted_ranges`): the points in the sensor frame, noise as :meth:`scan`'s."""
+        n = self.mounted_ranges(qpos, mount, mount_rot, discs=discs, scene_boxes=scene_boxes)
+        return self._points(n, rng)
+
+    @property
+    def last_ranges(self) -> np.ndarray:
+        """The range buffer of the last scan, (channels, azimuth_steps) float64, inf = no return
+        (overwritten by the next scan)."""
+        return self._out
+
+    @property
+    def last_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """(origin (3,), world-from-sensor rotation (3, 3)) of the last body scan."""
+        return self._origin, self._rot
+
     def _points(self, n: int, rng: np.random.Generator | None) -> np.ndarray:
         """The ``n`` returns in ``self._out`` as points, with the range noise of :meth:`scan`."""
         r = self._out

@@ -17,17 +17,23 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Any
 
 import mujoco
 import numpy as np
 
 from navstress.errors import SimulationError, SpecError
+from typing import Any
+
 from navstress.nav.api import Command, Imu, LidarScan, Observation, Odometry, PoseReading
 from navstress.robot import RobotSpec
 from navstress.seeding import rng
 from navstress.sim.config import SimConfig
 from navstress.sim.drives import MAX_WHEELS, DriveModel, ackermann, drive_model
+from navstress.sensors import Sensor
 from navstress.sim.lidar import Lidar, build_scene
+from navstress.sim.rays import Lidar3dCaster, RayCaster, caster
+from navstress.sim.suite import suite
 from navstress.sim import _step as step_loop
 from navstress.sim import mjabi
 from navstress.sim import movers as mover_control
@@ -35,7 +41,7 @@ from navstress.sim.model import OBSTACLE_BIT, PARK_Z_M, ObstaclePool, RobotModel
 from navstress.sim.observer import CollisionEvent, Observer, StopEvent
 from navstress.world.world import World
 
-_SENSORS = ("odom", "imu", "pose", "lidar", "observer")  # the order of the _step sensor rows
+_BUILTIN = ("odom", "imu", "pose", "observer")  # the built-in rows of _step (ODOM ... OBSERVER)
 _JITTER_BATCH = 64  # rate-jitter uniforms drawn at a time from each sensor's timing generator
 _SAMPLES = 64  # raw sensor samples buffered in the compiled loop between flushes
 #: Control period of the movers (s): their controller (:mod:`navstress.sim.movers`) runs every
@@ -72,8 +78,12 @@ class Simulation:
 
     Movers (``world.movers``): their controller runs every :data:`MOVER_PERIOD_S` from the robot's
     TRUE pose and velocity (they are part of the world; the navigator sees them only through its
-    lidar), drawing from ``navstress.seeding.rng(seed, "movers")``; :meth:`mover_track` holds
+    ray sensors), drawing from ``navstress.seeding.rng(seed, "movers")``; :meth:`mover_track` holds
     their poses at every run of it.
+
+    Ray sensors: :attr:`sensors` (:func:`navstress.sim.suite.suite`: the robot's, or its default
+    lidar), each cast by a :mod:`navstress.sim.rays` caster on its own schedule row of the compiled
+    step, its streams keyed by its name.
     """
 
     def __init__(self, world: World, robot: RobotSpec = RobotSpec(), config: SimConfig = SimConfig(), *,
@@ -119,26 +129,27 @@ class Simulation:
             wgeoms.astype(np.int64) if exact else np.zeros(0, np.int64), hf, tmpl,
             np.zeros((4, 7)))
         mujoco.mj_forward(m, d)
-        self._timing = [rng(seed, "sim", "timing", n) for n in _SENSORS]
+        #: the ray sensors of the run, in schedule-row order
+        self.sensors: tuple[Sensor, ...] = suite(robot, config)
+        self._scene = scene = build_scene(world) if self.sensors else None
+        self._casters: list[RayCaster] = [caster(s, seed, scene) for s in self.sensors] if scene is not None else []
+        names = _BUILTIN + tuple(s.name for s in self.sensors)
+        self._timing = [rng(seed, "sim", "timing", n) for n in names]
+        self._nrows = len(names)
         self._latency_gen = rng(seed, "sim", "latency")
         self._queue: list[tuple[int, Command]] = []
         # sensors: IMU and pose noise (ImuSensor/PoseSensor arithmetic, compiled in _step._fire) come
         # from standard normals pre-drawn in batches from each sensor's generator, consumed in order
         self._noise_gen = (rng(seed, "sim", "noise", "imu"), rng(seed, "sim", "noise", "pose"))
         self._noise = np.zeros((2, step_loop.NOISE_BATCH))
-        self._lidar: Lidar | None = None
-        self._lidar_gen = rng(seed, "sim", "noise", "lidar")
-        rates = [cfg.odom_rate_hz, cfg.imu_rate_hz, cfg.pose_rate_hz, 0.0, cfg.observer_rate_hz]
-        next_k = np.zeros(step_loop.NSENSORS, np.int64)
-        if cfg.lidar_enabled:
-            self._lidar = Lidar(build_scene(world), cfg.lidar)
-            rates[step_loop.SCAN] = float(cfg.lidar.rate_hz)
-        else:
-            next_k[step_loop.SCAN] = np.iinfo(np.int64).max  # never due
+        rates = [cfg.odom_rate_hz, cfg.imu_rate_hz, cfg.pose_rate_hz, cfg.observer_rate_hz]
+        rates += [c.rate_hz for c in self._casters] + [0.0] * (step_loop.NROWS - self._nrows)
+        next_k = np.zeros(step_loop.NROWS, np.int64)
+        next_k[self._nrows:] = np.iinfo(np.int64).max  # rows without a sensor: never due
         n_obst, n_mov = len(world.obstacles), len(world.movers)
         self._init_movers(n_obst)
-        self._jitter = np.zeros((step_loop.NSENSORS, _JITTER_BATCH))
-        self._samples = np.zeros((step_loop.NSENSORS, _SAMPLES, 7))
+        self._jitter = np.zeros((step_loop.NROWS, _JITTER_BATCH))
+        self._samples = np.zeros((step_loop.NBUILTIN, _SAMPLES, 7))
         self.observer = Observer(cfg.collision_debounce_s)
         self._contact_buf = np.zeros(64, np.int64)
         self._contact_prev = np.zeros(64, np.int64)
@@ -164,7 +175,7 @@ class Simulation:
         st = self._state
         self._sk, self._cmd_k, self._cmd_v, self._cmd_w = st["k"], st["cmd_k"], st["cmd_v"], st["cmd_w"]
         self._touching, self._starts, self._nevent = st["touching"], st["starts"], st["nevent"]
-        self._jitter_idx, self._nsamp = st["jitter_idx"][0], st["nsamples"][0]
+        self._jitter_idx, self._nsamp, self._due = st["jitter_idx"][0], st["nsamples"][0], st["due"][0]
         self._mover_k, self._mover_k0 = st["mover_k"], st["mover_k0"]
         warn = d.warning.number
         bad = [int(w) for w in step_loop.BAD_WARNINGS]
@@ -191,7 +202,7 @@ class Simulation:
             wheelbase=r.wheelbase_m, rear_x=-r.wheelbase_m / 2, max_steer=dm.max_steer_rad,
             steer_step=dm.max_steer_rate_rps * self._dt, min_turn_speed=ackermann.MIN_TURN_SPEED,
             warning_ids=bad,
-            period=[1.0 / hz if hz > 0 else 1.0 for hz in rates],
+            period=[1.0 / hz if hz > 0 else 1.0 for hz in rates], n_rays=len(self._casters),
             dt=self._dt, dv=r.max_accel_mps2 * self._dt, dw=r.max_yaw_accel_rps2 * self._dt,
             skid=dm.track_multiplier, kp=dm.yaw_kp, ki=dm.yaw_ki,
             wheel_radius=r.wheel_radius_m, hold=dm.hold_gain,
@@ -215,10 +226,9 @@ class Simulation:
             step_loop.SensorArrays(self._jitter, self._samples, self._noise),
             step_loop.CollisionArrays(self._contact_buf, self._contact_prev, self._last_touch, self._event_buf),
             wheel_arrays, self._mover_arrays)
-        # readings since the last observe()
+        # readings since the last observe(): the lidar3d scans, every ray sensor's by name
         self._scans: list[LidarScan] = []
-        self._mount = (robot.lidar.x_m, robot.lidar.y_m, robot.lidar.z_m)
-        self._mount_v = np.array(self._mount)
+        self._new: dict[str, list[Any]] = {c.name: [] for c in self._casters}
         self._pose: PoseReading | None = None
         self._odom = Odometry(0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
         self._imu: Imu | None = None
@@ -266,13 +276,32 @@ class Simulation:
         self._run(int(self._sk[0]) + int(round(dt / self._dt)))
 
     def observe(self) -> Observation:
-        """Sensor readings since the previous call: all scans, the latest pose (or None),
-        the latest odometry and IMU readings."""
-        assert self._imu is not None
-        obs = Observation(t=int(self._sk[0]) * self._dt, odom=self._odom, imu=self._imu, pose=self._pose, scans=tuple(self._scans))
+        """Sensor readings since the previous call: every ray sensor's by name (``readings``; the
+        lidar3d scans also in ``scans``), the latest pose (or None), the latest odometry and IMU
+        readings (in ``readings`` too: ``odom``, ``imu``, and ``pose`` when new)."""
+        imu, odom, pose = self._imu, self._odom, self._pose
+        assert imu is not None
+        readings: dict[str, tuple[Any, ...]] = {"odom": (odom,), "imu": (imu,)}
+        if pose is not None:
+            readings["pose"] = (pose,)
+        new = self._new
+        for name, got in new.items():
+            if got:
+                readings[name] = tuple(got)
+                new[name] = []
+        obs = Observation(t=int(self._sk[0]) * self._dt, odom=odom, imu=imu, pose=pose, scans=tuple(self._scans),
+                          readings=readings)
         self._scans = []
         self._pose = None
         return obs
+
+    @property
+    def _lidar(self) -> Lidar | None:
+        """The first lidar3d sensor's :class:`Lidar` (None: none)."""
+        for c in self._casters:
+            if isinstance(c, Lidar3dCaster):
+                return c.lidar
+        return None
 
     def mover_track(self) -> tuple[np.ndarray, np.ndarray]:
         """The movers' poses at every run of their controller so far: times (m,) and poses
@@ -326,10 +355,12 @@ class Simulation:
         self._mover_size = np.array([mv.size for mv in world.movers], np.float64).reshape(n, 3)
         self._scan_discs = np.zeros((len(self._disc_movers), 5))
         self._scan_boxes: np.ndarray | None = None
-        if self._lidar is not None:  # the scene's boxes, then one row per box mover (rewritten per scan)
-            nb = self._lidar.scene.boxes.shape[0]
+        if self._casters:  # the scene's boxes, then one row per box mover (rewritten per cast)
+            assert self._scene is not None
+            boxes = self._scene.boxes
+            nb = boxes.shape[0]
             self._scan_boxes = np.zeros((nb + len(self._box_movers), 9))
-            self._scan_boxes[:nb] = self._lidar.scene.boxes
+            self._scan_boxes[:nb] = boxes
 
     def _step_movers(self) -> None:
         """Run the movers' controller for the next period from the robot's true state; the bodies
@@ -384,7 +415,7 @@ class Simulation:
                 self._events(st)
             if st & step_loop.FLUSH:
                 self._flush()
-                for s in range(step_loop.NSENSORS):
+                for s in range(self._nrows):
                     if self._jitter_idx[s] >= _JITTER_BATCH:
                         self._jitter[s] = self._timing[s].random(_JITTER_BATCH)
                         self._jitter_idx[s] = 0
@@ -393,8 +424,8 @@ class Simulation:
                         if state[field][0] >= step_loop.NOISE_BATCH:  # used up exactly (a multiple of 7, 6)
                             self._noise[row] = self._noise_gen[row].standard_normal(step_loop.NOISE_BATCH)
                             state[field] = 0
-            if st & step_loop.LIDAR:
-                self._scan()
+            if st & step_loop.RAYS:
+                self._cast()
             if st & step_loop.MOVERS:
                 self._step_movers()
         self._flush()
@@ -438,8 +469,8 @@ class Simulation:
         if touching[0] or ob._touching:
             ob._touching = set(self._contact_prev[: int(touching[0])].tolist())
 
-    def _scan(self) -> None:
-        assert self._lidar is not None
+    def _cast(self) -> None:
+        """Cast every ray sensor that is due (``STATE.due``), in row order."""
         discs = boxes = None
         if self._mover_every:  # the movers where they are now
             assert self._scan_boxes is not None
@@ -447,9 +478,14 @@ class Simulation:
             discs, boxes, mv = self._scan_discs, self._scan_boxes, self._mover_arrays
             step_loop.mover_shapes(f, mv.pose0, mv.pose1, self._mover_size, self._disc_movers, self._box_movers, discs,
                                    boxes)
-        pts = self._lidar.scan_body(self.data.qpos, self._mount_v, self._lidar_gen if self.config.noise else None,
-                                    discs=discs, scene_boxes=boxes)
-        self._scans.append(LidarScan(int(self._sk[0]) * self._dt, pts, self._mount))
+        t, qpos, noisy, due = int(self._sk[0]) * self._dt, self.data.qpos, bool(self.config.noise), self._due
+        for i, c in enumerate(self._casters):
+            if due[i]:
+                due[i] = 0
+                reading = c.cast(qpos, t, noisy, discs, boxes)
+                self._new[c.name].append(reading)
+                if c.kind == "lidar3d":
+                    self._scans.append(reading)
 
     def _unstable(self) -> None:
         d = self.data

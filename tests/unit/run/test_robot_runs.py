@@ -92,7 +92,8 @@ def test_the_navigator_is_told_the_robot_and_under_the_fault_what_it_believes(tm
     run_mission(w, Spy(), run_seed=1, robot="turtlebot4", timeout_s=1.0, sim_config=CHEAP)  # type: ignore[arg-type]
     run_mission(w, FaultyNavigator(Spy(), SmallFootprint()), run_seed=1, robot="turtlebot4",  # type: ignore[arg-type]
                 timeout_s=1.0, sim_config=CHEAP)
-    assert seen == [PROFILES["turtlebot4"], small_footprint(PROFILES["turtlebot4"])]
+    told = PROFILES["turtlebot4"].model_copy(update={"sensors": ()})  # its resolved suite: lidar off, none
+    assert seen == [told, small_footprint(told)]
 
 
 # ---- the trace's robot, over families of robots ---------------------------------------------------
