@@ -174,13 +174,15 @@ def _entry_point_specs() -> dict[str, NavigatorSpec]:
 
 #: navstress's own navigators that are known even when the installed metadata predates them (a
 #: source checkout on PYTHONPATH over an older install): name -> "module:attr". An entry point of
-#: the same name wins.
+#: the same name wins. Added only beside navstress's own entry points (reference-v1).
 _BUILTIN = {"reference-2d-v1": "navstress.nav.registry:reference_2d_v1"}
 
 
 def _all_specs() -> dict[str, NavigatorSpec]:
-    specs = {name: make_spec(name, target, "navstress (built in)") for name, target in _BUILTIN.items()}
-    specs.update(_entry_point_specs())
+    specs = _entry_point_specs()
+    if "reference-v1" in specs:  # navstress's own entry points are installed, perhaps older than its source
+        for name, target in _BUILTIN.items():
+            specs.setdefault(name, make_spec(name, target, "navstress (built in)"))
     specs.update(_registered)
     return specs
 

@@ -48,6 +48,7 @@ class Reference2dConfig(BaseModel):
     cost_scaling_factor: float = Field(3.0, gt=0.0, le=100.0, description="cost = 252 exp(-factor (d - inscribed radius)) beyond the inscribed radius")
     # --- global planner (NavFn-style A*) ---
     replan_period_s: float = Field(1.0, gt=0.0, description="global replanning period (Nav2's 1 Hz); also replanned when the path is blocked")
+    heuristic_weight: float = Field(1.5, ge=1.0, le=10.0, description="weighted A*: the straight-line heuristic (x the never-seen cell's multiplier) times this; 1 = plain A*, larger plans faster and less optimally (a path at most this factor longer)")
     cost_weight: float = Field(3.0, ge=0.0, description="a step through a cell of cost c costs its length x (1 + cost_weight c / 252)")
     # --- local planner (DWB) ---
     max_speed_mps: float = Field(1.0, gt=0.0, description="top linear speed (capped by the robot's)")
@@ -69,6 +70,8 @@ class Reference2dConfig(BaseModel):
     carrot_m: float = Field(1.0, gt=0.0, description="look-ahead along the path for the heading to rotate to")
     arrival_fraction: float = Field(0.5, gt=0.0, le=1.0, description="arrived when the perceived distance to the goal is below this fraction of the mission's tolerance")
     # --- recoveries (Nav2 behaviour tree: clear costmap, spin, back up, wait) ---
+    progress_radius_m: float = Field(0.5, gt=0.0, description="progress checker: the robot must move this far (Nav2 required_movement_radius 0.5)...")
+    progress_timeout_s: float = Field(5.0, gt=0.0, description="...within this time, else a recovery runs (Nav2 movement_time_allowance 10)")
     max_recoveries: int = Field(6, ge=0, le=100, description="recovery actions without progress before Status error (Nav2 number_of_retries 6)")
     progress_reset_m: float = Field(1.0, gt=0.0, description="getting this much closer to the goal than at the last recovery resets the count")
     clear_keep_radius_m: float = Field(3.0, ge=0.0, description="clearing forgets every cell farther than this from the robot (Nav2 ClearCostmapExceptRegion reset_distance 3.0)")

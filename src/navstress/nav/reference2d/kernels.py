@@ -128,23 +128,46 @@ def cell_step_cost(c: int, unknown_cost: float, cost_weight: float) -> float:
     return 1.0 + cost_weight * c / 252.0
 
 
-@nb.njit(cache=True)
 def astar(cost: np.ndarray, si: int, sj: int, gi: float, gj: float, goal_r: float,
-          unknown_cost: float, cost_weight: float) -> np.ndarray:
+          unknown_cost: float, cost_weight: float, work: "AStarWork | None" = None,
+          heuristic_weight: float = 1.0, escape_r: float = 0.0) -> np.ndarray:
     """A* over the 8-connected grid from cell (si, sj) to any cell whose centre lies within
     ``goal_r`` cells of (gi, gj) (fractional cell coordinates). A step costs its length (cells)
     x :func:`cell_step_cost` of the cell entered; INSCRIBED and LETHAL cells are impassable,
-    except that the start's own connected INSCRIBED region may be crossed to leave it (a robot
-    next to an obstacle can drive away). Returns the path's cells (n, 2) from start to goal,
-    (0, 2) when there is none. Deterministic (ties by insertion order)."""
+    except that the start's own connected INSCRIBED region within ``escape_r`` cells of the start
+    may be crossed to leave it (a robot next to an obstacle can drive away; never through a wall
+    whose scan left gaps). The heuristic is the straight-line distance to the goal
+    circle x the multiplier of a never-seen cell (weighted A*: exact across unknown ground, so a
+    plan through it expands about the cells of its path; at most that factor longer than the
+    best path over known ground), times ``heuristic_weight``. Returns the path's cells (n, 2) from start to goal, (0, 2)
+    when there is none. Deterministic (ties by insertion order). ``work``: buffers reused
+    between calls on grids of one shape (:class:`AStarWork`)."""
+    if work is None or work.g.shape[0] != cost.size:
+        work = AStarWork(cost.shape)
+    hw = max(1.0, 1.0 + cost_weight * unknown_cost / 252.0) * heuristic_weight
+    return _astar(cost, si, sj, gi, gj, goal_r, unknown_cost, cost_weight, hw, escape_r, work.g, work.parent,
+                  work.closed)
+
+
+class AStarWork:
+    """A* buffers for a grid of ``shape``: left as found (g = inf, no parent, nothing closed)."""
+
+    def __init__(self, shape: tuple[int, ...]) -> None:
+        n = int(np.prod(shape))
+        self.g = np.full(n, np.inf)
+        self.parent = np.full(n, -1, np.int64)
+        self.closed = np.zeros(n, np.bool_)
+
+
+@nb.njit(cache=True)
+def _astar(cost: np.ndarray, si: int, sj: int, gi: float, gj: float, goal_r: float,
+           unknown_cost: float, cost_weight: float, hw: float, escape_r: float, g: np.ndarray, parent: np.ndarray,
+           closed: np.ndarray) -> np.ndarray:
     ny, nx = cost.shape
-    n = ny * nx
-    g = np.full(n, np.inf)
-    parent = np.full(n, -1, np.int64)
-    closed = np.zeros(n, np.bool_)
     s = si * nx + sj
+    touched = [s]
     g[s] = 0.0
-    h0 = max(math.hypot(si - gi, sj - gj) - goal_r, 0.0)
+    h0 = hw * max(math.hypot(si - gi, sj - gj) - goal_r, 0.0)
     heap = [(h0, 0, s)]
     count = 1
     found = -1
@@ -171,20 +194,20 @@ def astar(cost: np.ndarray, si: int, sj: int, gi: float, gj: float, goal_r: floa
             c = cost[vi, vj]
             m = cell_step_cost(c, unknown_cost, cost_weight)
             if not math.isfinite(m):
-                if c == 253 and escaping:
+                if c == 253 and escaping and math.hypot(vi - si, vj - sj) <= escape_r:
                     m = 1.0 + cost_weight  # leaving the start's inscribed zone: as the costliest free cell
                 else:
                     continue
             step = (1.4142135623730951 if di[k] != 0 and dj[k] != 0 else 1.0) * m
             ng = g[u] + step
             if ng < g[v]:
+                if g[v] == np.inf:
+                    touched.append(v)
                 g[v] = ng
                 parent[v] = u
-                hv = max(math.hypot(vi - gi, vj - gj) - goal_r, 0.0)
+                hv = hw * max(math.hypot(vi - gi, vj - gj) - goal_r, 0.0)
                 heapq_push(heap, (ng + hv, count, v))
                 count += 1
-    if found < 0:
-        return np.zeros((0, 2), np.int64)
     m = 0
     u = found
     while u >= 0:
@@ -195,6 +218,10 @@ def astar(cost: np.ndarray, si: int, sj: int, gi: float, gj: float, goal_r: floa
     for k in range(m - 1, -1, -1):
         out[k, 0], out[k, 1] = u // nx, u % nx
         u = parent[u]
+    for t in touched:  # leave the buffers as found
+        g[t] = np.inf
+        parent[t] = -1
+        closed[t] = False
     return out
 
 
@@ -245,26 +272,33 @@ def _cost_at(cost: np.ndarray, x0: float, y0: float, cell: float, x: float, y: f
 
 
 @nb.njit(cache=True)
-def footprint_hits(cost: np.ndarray, x0: float, y0: float, cell: float, x: float, y: float, yaw: float,
-                   circ_cost: int, outline: np.ndarray) -> bool:
-    """Whether the footprint at (x, y, yaw) collides: its centre within the inscribed radius
-    of an obstacle (cost >= INSCRIBED), or, when an obstacle is within the circumscribed
-    radius (cost >= ``circ_cost``), a point of its ``outline`` (n, 2, body frame) on an
-    obstacle cell (Nav2's footprint check with the possibly-inscribed shortcut)."""
+def footprint_overlap(cost: np.ndarray, x0: float, y0: float, cell: float, x: float, y: float, yaw: float,
+                      circ_cost: int, outline: np.ndarray) -> int:
+    """How much the footprint at (x, y, yaw) collides, 0 when it does not: ``1000 + the centre's
+    cost`` when the centre lies within the inscribed radius of an obstacle (cost >= INSCRIBED),
+    else, when an obstacle is within the circumscribed radius (cost >= ``circ_cost``), the number
+    of points of its ``outline`` (n, 2, body frame) on obstacle cells (Nav2's footprint check
+    with the possibly-inscribed shortcut). Never-seen ground does not collide."""
     c = _cost_at(cost, x0, y0, cell, x, y)
-    if c == 255:
-        return False
+    if c == 255 or c < circ_cost:
+        return 0
     if c >= 253:
-        return True
-    if c < circ_cost:
-        return False
+        return 1000 + c
     cy, sy = math.cos(yaw), math.sin(yaw)
+    n = 0
     for k in range(outline.shape[0]):
         px = x + cy * outline[k, 0] - sy * outline[k, 1]
         py = y + sy * outline[k, 0] + cy * outline[k, 1]
         if _cost_at(cost, x0, y0, cell, px, py) == 254:
-            return True
-    return False
+            n += 1
+    return n
+
+
+@nb.njit(cache=True)
+def footprint_hits(cost: np.ndarray, x0: float, y0: float, cell: float, x: float, y: float, yaw: float,
+                   circ_cost: int, outline: np.ndarray) -> bool:
+    """Whether the footprint at (x, y, yaw) collides (:func:`footprint_overlap` > 0)."""
+    return footprint_overlap(cost, x0, y0, cell, x, y, yaw, circ_cost, outline) > 0
 
 
 @nb.njit(cache=True)
@@ -286,8 +320,12 @@ def score_rollouts(cost: np.ndarray, x0: float, y0: float, cell: float, px: floa
     from (px, py, pyaw) and scored by its critics (lower is better; inf: a pose collides, see
     :func:`footprint_hits`). ``path`` (m, 2): the global path's points ahead (map frame, meters),
     ``togo`` (m,): the path length left from each to the goal. ``weights``: obstacle, path
-    distance, path alignment, goal distance, speed, oscillation, forward point (m)."""
+    distance, path alignment, goal distance, speed, oscillation, forward point (m). A robot
+    whose footprint already collides (an obstacle seen late, pose error) may move as long as the
+    collision gets no worse (:func:`footprint_overlap` never above the start's): it can back
+    out of where it is."""
     out = np.empty(vs.shape[0])
+    start = footprint_overlap(cost, x0, y0, cell, px, py, pyaw, circ_cost, outline)
     for k in range(vs.shape[0]):
         v, w = vs[k], ws[k]
         x, y, th = px, py, pyaw
@@ -302,7 +340,8 @@ def score_rollouts(cost: np.ndarray, x0: float, y0: float, cell: float, px: floa
             else:
                 x += v * dt * math.cos(th)
                 y += v * dt * math.sin(th)
-            if footprint_hits(cost, x0, y0, cell, x, y, th, circ_cost, outline):
+            hit = footprint_overlap(cost, x0, y0, cell, x, y, th, circ_cost, outline)
+            if hit > 0 and (start == 0 or hit > start):
                 bad = True
                 break
             c = _cost_at(cost, x0, y0, cell, x, y)

@@ -2,8 +2,8 @@
 built the way Nav2's defaults are.
 
 Each ``step``: the pose filter of ``reference-v1`` (:class:`~navstress.nav.reference.pose.PoseEstimator`:
-odometry + IMU heading + pose sensor) gives the believed pose; every new scan of every
-``lidar2d`` sensor the robot carries is placed by the pose at the scan's time and its mount,
+odometry + IMU heading + pose sensor) gives the believed pose; the newest scan of each
+``lidar2d`` sensor the robot carries (since the previous cycle) is placed by the pose at the scan's time and its mount,
 and raytraced into the :class:`~navstress.nav.reference2d.costmap.Costmap` (clearing, marking,
 inflation by the believed footprint); the global planner (A* on the costmap, NavFn-style costs)
 replans every ``replan_period_s`` and whenever a cell of its path ahead turns lethal; the local
@@ -13,11 +13,12 @@ goal distance, speed, oscillation). A differential or skid-steer base first turn
 toward the path when it lies more than ``rotate_to_path_deg`` off (Nav2's rotation shim); an
 ackermann base never turns in place: its samples keep ``|omega| <= |v| tan(max_steer) / wheelbase``.
 
-When no path exists, or no rollout is collision-free, the recoveries run in Nav2's order (clear
+When no path exists, no rollout is collision-free (once stopped) or the robot makes no progress, the recoveries run in Nav2's order (clear
 the costmap beyond ``clear_keep_radius_m``, spin ``spin_rad`` where the drive allows it, back up
 ``backup_m``, wait ``wait_s``); after ``max_recoveries`` of them without getting
 ``progress_reset_m`` closer to the goal, the navigator answers ``Status("error", ...)``
-(Fail-Error): ``no path to the goal`` or ``no collision-free trajectory``. ``arrived`` within
+(Fail-Error): ``no path to the goal``, ``no collision-free trajectory`` or ``no progress`` (the
+progress checker: not ``progress_radius_m`` moved in ``progress_timeout_s``). ``arrived`` within
 ``arrival_fraction`` x the mission's tolerance. Both are latched.
 
 Only :mod:`navstress.nav`, :mod:`navstress.robot` and :mod:`navstress.sensors` are used
@@ -46,10 +47,11 @@ from navstress.robot import RobotSpec
 from navstress.seeding import rng
 from navstress.sensors.base import rotation_rpy
 
-__all__ = ["NO_PATH", "NO_TRAJECTORY", "Reference2dNavigator"]
+__all__ = ["NO_PATH", "NO_PROGRESS", "NO_TRAJECTORY", "Reference2dNavigator"]
 
 NO_PATH = "no path to the goal"
 NO_TRAJECTORY = "no collision-free trajectory"
+NO_PROGRESS = "no progress"
 
 
 class Reference2dNavigator:
@@ -95,6 +97,7 @@ class Reference2dNavigator:
         self._base_height = robot.wheel_radius_m
         self._tilt_max = math.radians(cfg.max_slope_deg)
         self._beam_cache: dict[tuple[str, int, float, float], tuple[np.ndarray, np.ndarray]] = {}
+        self._astar_work = K.AStarWork(self.costmap.cost.shape)
         self.path = np.zeros((0, 2))
         self.togo = np.zeros(0)
         self._planned_at = -math.inf
@@ -106,6 +109,7 @@ class Reference2dNavigator:
         self.recoveries = 0  # recovery actions since the last progress
         self.recovery_log: list[tuple[float, str]] = []
         self._recovery_dist = math.inf
+        self._progress: tuple[float, float, float] | None = None  # t, x, y where the progress check started
         self._weights = np.array([cfg.obstacle_weight, cfg.path_dist_weight, cfg.path_align_weight,
                                   cfg.goal_dist_weight, cfg.speed_weight, cfg.oscillation_weight, cfg.forward_point_m])
         self._n_steps = max(1, int(round(cfg.sim_time_s / cfg.sim_step_s)))
@@ -121,10 +125,10 @@ class Reference2dNavigator:
         cfg = self.config
         pose = self.pom.update(obs.t, obs.odom, obs.imu, obs.pose)
         self._pose = pose
-        for name in self.scanners:
-            for scan in obs.readings.get(name, ()):
-                if isinstance(scan, LaserScan):
-                    self._integrate(name, scan)
+        for name in self.scanners:  # the newest scan of each (Nav2's observation_persistence 0)
+            scan = obs.latest(name)
+            if isinstance(scan, LaserScan):
+                self._integrate(name, scan)
         dt = obs.t - self._last_t if self._last_t is not None else cfg.control_period_s
         self._last_t = obs.t
         gx, gy = self.mission.goal
@@ -138,11 +142,22 @@ class Reference2dNavigator:
             cmd = self._recover(obs.t, pose)
             if cmd is not None:
                 return self._send(*cmd)
+            self._progress = None
         if obs.t - self._planned_at >= cfg.replan_period_s or self._blocked(pose) or len(self.path) == 0:
             self._plan(obs.t, pose)
             if len(self.path) == 0:
                 return self._fail_or_recover(obs.t, pose, dist, NO_PATH)
+        p = self._progress
+        if p is None or math.hypot(pose.x - p[1], pose.y - p[2]) >= cfg.progress_radius_m:
+            self._progress = (obs.t, pose.x, pose.y)
+        elif obs.t - p[0] > cfg.progress_timeout_s:
+            self._progress = None
+            return self._fail_or_recover(obs.t, pose, dist, NO_PROGRESS)
         cmd = self._control(pose, max(dt, 1e-6))
+        if cmd is None and self._cmd[0] > 0.0:
+            # every constant-velocity rollout collides at this speed: brake (DWB would fail here;
+            # a slower robot's rollouts are shorter), the recoveries only once stopped
+            return self._send(max(0.0, self._cmd[0] - self.acc * max(dt, 1e-6)), 0.0)
         if cmd is None:
             return self._fail_or_recover(obs.t, pose, dist, NO_TRAJECTORY)
         return self._send(*cmd)
@@ -221,7 +236,8 @@ class Reference2dNavigator:
         gj = (gx - cm.origin[0]) / cm.cell - 0.5
         # the path ends well inside the arrival circle (half its radius), at the goal itself when it is free
         goal_r = 0.5 * cfg.arrival_fraction * self.mission.goal_tolerance_m / cm.cell
-        cells = K.astar(cm.cost, si, sj, gi, gj, goal_r, cfg.unknown_cell_cost, cfg.cost_weight)
+        cells = K.astar(cm.cost, si, sj, gi, gj, goal_r, cfg.unknown_cell_cost, cfg.cost_weight, self._astar_work,
+                        cfg.heuristic_weight, cm.circumscribed_m / cm.cell)
         if len(cells) == 0:
             self.path, self.togo = np.zeros((0, 2)), np.zeros(0)
             return
@@ -341,7 +357,8 @@ class Reference2dNavigator:
             rec["turned"] += abs(wrap_angle(pose.yaw - rec["yaw"]))
             rec["yaw"] = pose.yaw
             w = min(self.wmax, 1.0)
-            done = rec["turned"] >= cfg.spin_rad or elapsed > 2.0 * cfg.spin_rad / w + 2.0
+            done = (rec["turned"] >= cfg.spin_rad or elapsed > 2.0 * cfg.spin_rad / w + 2.0
+                    or not self._spin_free(pose, cfg.spin_rad - rec["turned"]))  # never swing into an obstacle
             cmd = (0.0, w)
         elif kind == "backup":
             moved = math.hypot(pose.x - rec["x"], pose.y - rec["y"])

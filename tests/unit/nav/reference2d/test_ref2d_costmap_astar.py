@@ -32,7 +32,8 @@ def plan(cm: Costmap, start: tuple[float, float], goal: tuple[float, float], r: 
     si, sj = cm.cell_of(*start)
     gi = (goal[1] - cm.origin[1]) / cm.cell - 0.5
     gj = (goal[0] - cm.origin[0]) / cm.cell - 0.5
-    cells = K.astar(cm.cost, si, sj, gi, gj, r / cm.cell, CFG.unknown_cell_cost, CFG.cost_weight)
+    cells = K.astar(cm.cost, si, sj, gi, gj, r / cm.cell, CFG.unknown_cell_cost, CFG.cost_weight,
+                    escape_r=cm.circumscribed_m / cm.cell)
     return cm.centre(cells) if len(cells) else np.zeros((0, 2))
 
 
