@@ -232,11 +232,11 @@ class DroppedScans(ObservationFault):
         index: dict[str, int] = {}
         scans = []
         for s in obs.scans:
-            name = getattr(s, "sensor", None)
-            if isinstance(name, str) and name in rays:
-                k = index.get(name, 0)
-                index[name] = k + 1
-                ok = bool(keep_of[name][k]) if k < len(keep_of[name]) else True
+            sensor = getattr(s, "sensor", None)
+            if isinstance(sensor, str) and sensor in rays:
+                k = index.get(sensor, 0)
+                index[sensor] = k + 1
+                ok = bool(keep_of[sensor][k]) if k < len(keep_of[sensor]) else True
             else:
                 ok = bool(next(legacy_keep))
             if ok:
