@@ -21,7 +21,7 @@ app.add_typer(sensor_app, name="sensor")
 
 @sensor_app.command("list")
 def sensor_list(
-    names: Annotated[list[str] | None, typer.Argument(metavar="[KIND]...", help=(
+    kind_names: Annotated[list[str] | None, typer.Argument(metavar="[KIND]...", help=(
         "Only these kinds (lidar3d, lidar2d, depth); all when none is given."))] = None,
     as_json: Annotated[bool, typer.Option("--json", help=(
         "Print every kind, its parameters with their defaults, and every profile's full parameters as one "
@@ -29,8 +29,8 @@ def sensor_list(
 ) -> None:
     """List the sensor kinds and their profiles (the figures a `profile:` sets; docs/sensors.md)."""
     ks = user_kinds()
-    if names:
-        ks = {n: kind(n, where="KIND") for n in names}
+    if kind_names:
+        ks = {n: kind(n, where="KIND") for n in kind_names}
     if as_json:
         out = {name: {"summary": k.summary, "default_profile": k.default_profile,
                       "parameters": {f: i.description or "" for f, i in k.params.model_fields.items()},

@@ -183,6 +183,15 @@ class RobotSpec(BaseModel):
         text = dumps(data, sort_keys=True, separators=(",", ":"))
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
+    def description(self) -> str:
+        """The robot as canonical JSON (what a task and a trace carry of it). A robot with its
+        default suite (``sensors`` None) leaves ``sensors`` out: its text is the one of before
+        sensors were declared (so are its tasks and traces, byte for byte)."""
+        data = self.model_dump(mode="json")
+        if data.get("sensors") is None:
+            data.pop("sensors", None)
+        return dumps(data, sort_keys=True, separators=(",", ":"))
+
     @classmethod
     def footprint_fault(cls) -> "RobotSpec":
         """The paper's faulty belief about its RMP 400: the robot is 0.84 m x 0.45 m."""

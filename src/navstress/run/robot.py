@@ -50,8 +50,8 @@ def robot_of(ref: Any, field: str | None = None) -> RobotSpec:
 
 
 def description(robot: RobotSpec) -> str:
-    """The robot as canonical JSON (the text its :attr:`~RobotSpec.digest` hashes)."""
-    return dumps(robot.model_dump(mode="json"), sort_keys=True, separators=(",", ":"))
+    """The robot as canonical JSON: :meth:`RobotSpec.description`."""
+    return robot.description()
 
 
 def task_robot(ref: Any) -> dict[str, Any] | None:

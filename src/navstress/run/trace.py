@@ -316,11 +316,7 @@ def robot_metadata(robot: RobotSpec) -> dict[str, str]:
     sensors, ``sensors`` (:func:`sensors_metadata`, JSON). A robot with the default suite
     (``sensors`` None) leaves ``sensors`` out of its description and its metadata: its trace is
     byte for byte the one of before sensors were declared."""
-    data = robot.model_dump(mode="json")
-    if data.get("sensors") is None:
-        data.pop("sensors", None)  # the default suite: the description of before sensors were declared
-    desc = dumps(data, sort_keys=True, separators=(",", ":"))
-    out = {"name": robot.name, "digest": robot.digest, "description": desc,
+    out = {"name": robot.name, "digest": robot.digest, "description": robot.description(),
            "footprint": dumps([[round(float(x), 9), round(float(y), 9)] for x, y in robot.footprint_points()]),
            "mounts": dumps({n: {"xyz": list(xyz), "rpy": list(rpy)} for n, xyz, rpy in mount_frames(robot)},
                            sort_keys=True)}

@@ -21,7 +21,8 @@ ROOT = Path(__file__).resolve().parents[3]
 
 def _specs() -> dict[str, CampaignSpec]:
     out = {name: parse_campaign(preset(name), max_runs=None) for name in PRESETS}
-    out["examples/suite.yaml"] = load_campaign(ROOT / "examples" / "suite.yaml")[0]
+    for name in ("suite.yaml", "jackal_2d.yaml", "jackal_2d_depth.yaml"):
+        out[f"examples/{name}"] = load_campaign(ROOT / "examples" / name)[0]
     return out
 
 

@@ -28,7 +28,7 @@ NUMERIC = {"size", "cell", "subdivisions", "deformation", "trees", "buildings", 
            "timeout", "goal_tolerance", "workers", "wall_limit", "budget", "threshold", "k", "dt", "min_success",
            "confidence", "alpha", "max_collisions", "live_port", "live_wait", "speed", "heightmap_bits"}
 #: The others (paths, names, choices, lists): a new option must be put in one of the two sets.
-NOT_NUMERIC = {"output", "out", "json_out", "keep", "junit", "world_dir", "directory", "directories", "spec", "trace",
+NOT_NUMERIC = {"kind_names", "output", "out", "json_out", "keep", "junit", "world_dir", "directory", "directories", "spec", "trace",
                "run_id", "name", "navigator", "navigator_config", "fault", "fmt", "table", "preset", "objective",
                "executor", "ray_address", "live_host", "a", "b", "weights", "course", "ground", "mix", "movers",
                "mover_behaviour", "baseline", "robot", "ref", "sensor", "sensor_add"}

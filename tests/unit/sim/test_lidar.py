@@ -147,9 +147,11 @@ def mj_cast(m: mujoco.MjModel, d: mujoco.MjData, origins: np.ndarray, dirs: np.n
 
 
 def same(a: np.ndarray, b: np.ndarray, tol: float) -> np.ndarray:
-    """Both miss, or both hit within tol * (1 + |b|) metres."""
+    """Both miss, or both hit within tol * (1 + |b|) metres (a hit never matches a miss: with b
+    infinite, |a - b| <= tol * inf would hold for any finite a)."""
     with np.errstate(invalid="ignore"):
-        return (np.isinf(a) & np.isinf(b)) | (np.abs(a - b) <= tol * (1 + np.abs(b)))
+        both = np.isfinite(a) & np.isfinite(b)
+        return (np.isinf(a) & np.isinf(b)) | (both & (np.abs(a - b) <= tol * (1 + np.abs(b))))
 
 
 # ---------------------------------------------------------------------------------------------
