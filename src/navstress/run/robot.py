@@ -21,7 +21,6 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from navstress._json import dumps
 from navstress.errors import SpecError
 from navstress.robot import PROFILES, RobotSpec, resolve_robot
 from navstress.run.record import RunTask
