@@ -22,8 +22,6 @@ import mujoco
 import numpy as np
 
 from navstress.errors import SimulationError, SpecError
-from typing import Any
-
 from navstress.nav.api import Command, Imu, LidarScan, Observation, Odometry, PoseReading
 from navstress.robot import RobotSpec
 from navstress.seeding import rng
