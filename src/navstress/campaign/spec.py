@@ -257,6 +257,14 @@ class WorldEntry(BaseModel):
                              "letter or digit (it becomes a directory name)")
         return v
 
+    def text_data(self) -> dict[str, Any]:
+        """The entry as a spec's text has it: without ``sensors`` when it sets none (the text of
+        before sensors were declared)."""
+        out = self.model_dump(mode="json")
+        if out.get("sensors") is None:
+            out.pop("sensors", None)
+        return out
+
 
 class ExperimentSpec(BaseModel):
     """One experiment class: a sweep over world parameters, or a list of explicit worlds,

@@ -566,7 +566,7 @@ def write_suite(spec: SearchSpec, result: SearchResult, root: Path) -> Path | No
     tmp.mkdir()
     ok, same = distinct_worlds(result.confirmed, root)
     data = {"name": f"{spec.name}-suite", "seed": spec.seed, "world": spec.world,
-            "experiments": [{"name": "suite", "worlds": [_entry(e.candidate).model_dump(mode="json") for e in ok]}],
+            "experiments": [{"name": "suite", "worlds": [_entry(e.candidate).text_data() for e in ok]}],
             "runs_per_map": spec.confirm_runs,
             "navigators": [spec.navigator.model_dump(mode="json", exclude_none=True)],
             "faults": list(spec.faults), "timeout_s": spec.timeout_s, "goal_tolerance_m": spec.goal_tolerance_m,

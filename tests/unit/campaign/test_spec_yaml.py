@@ -66,3 +66,12 @@ def test_the_store_writes_the_text_of_a_spec_made_in_code(tmp_path: Path) -> Non
             assert s.spec.digest() == grown.digest() and s.spec_text() == spec_yaml(grown)
     with Store.create(tmp_path, grown) as s:  # resumed with the same spec
         assert s.spec.digest() == grown.digest()
+
+
+def test_a_world_entry_without_sensor_values_has_the_text_of_before() -> None:
+    """A suite's or a spec's explicit world writes ``sensors`` only when it sets sensor values
+    (a search's suite.yaml of before sensors were declared stays byte for byte the same)."""
+    plain = WorldEntry(key="w1", map_seed=3)
+    assert plain.text_data() == {"key": "w1", "map_seed": 3, "world": {}}
+    valued = WorldEntry(key="w2", map_seed=4, sensors={"sensors.laser.max_range_m": 5.0})
+    assert valued.text_data()["sensors"] == {"sensors.laser.max_range_m": 5.0}
