@@ -45,7 +45,7 @@ from navstress.specfile import load_file, parse_text
 __all__ = [
     "ENTRY_POINT_GROUP", "NavigatorFactory", "NavigatorNote", "NavigatorSpec", "load_config",
     "call_factory", "list_navigators", "load_factory", "make_navigator", "parse_name",
-    "reference_global_v1", "reference_v1", "register", "resolve", "unregister", "validate_config", "validate_each",
+    "reference_2d_v1", "reference_global_v1", "reference_v1", "register", "resolve", "unregister", "validate_config", "validate_each",
     "builds_to_validate", "make_spec", "registered", "set_registered",
 ]
 
@@ -172,8 +172,17 @@ def _entry_point_specs() -> dict[str, NavigatorSpec]:
     return found
 
 
+#: navstress's own navigators that are known even when the installed metadata predates them (a
+#: source checkout on PYTHONPATH over an older install): name -> "module:attr". An entry point of
+#: the same name wins. Added only beside navstress's own entry points (reference-v1).
+_BUILTIN = {"reference-2d-v1": "navstress.nav.registry:reference_2d_v1"}
+
+
 def _all_specs() -> dict[str, NavigatorSpec]:
     specs = _entry_point_specs()
+    if "reference-v1" in specs:  # navstress's own entry points are installed, perhaps older than its source
+        for name, target in _BUILTIN.items():
+            specs.setdefault(name, make_spec(name, target, "navstress (built in)"))
     specs.update(_registered)
     return specs
 
@@ -420,6 +429,20 @@ def reference_global_v1(*, config: Mapping[str, Any] | None = None) -> Navigator
     return GlobalNavigator(parse_config(dict(config or {}), cls=GlobalConfig))
 
 
+def reference_2d_v1(*, config: Mapping[str, Any] | None = None) -> Navigator:
+    """``reference-2d-v1``: :class:`~navstress.nav.reference2d.Reference2dNavigator` (robots with a
+    2D scanner) with its :class:`~navstress.nav.reference2d.Reference2dConfig` parsed from ``config``."""
+    from navstress.nav.reference2d import Reference2dNavigator, parse_config as parse_2d  # local: see _LOCAL
+
+    return Reference2dNavigator(parse_2d(dict(config or {})))
+
+
+def _validate_reference_2d(config: Mapping[str, Any]) -> None:
+    from navstress.nav.reference2d import parse_config as parse_2d  # local: see _LOCAL
+
+    parse_2d(dict(config))
+
+
 def _validate_reference(config: Mapping[str, Any]) -> None:
     from navstress.nav.reference import parse_config  # local: see _LOCAL
 
@@ -434,6 +457,10 @@ def _validate_reference_global(config: Mapping[str, Any]) -> None:
 
 reference_v1.validate_config = _validate_reference  # type: ignore[attr-defined]
 reference_global_v1.validate_config = _validate_reference_global  # type: ignore[attr-defined]
+reference_2d_v1.validate_config = _validate_reference_2d  # type: ignore[attr-defined]
 # config-mutant faults (navstress.nav.faults) apply to factories carrying this mark
 reference_v1.__navstress_reference__ = True  # type: ignore[attr-defined]
 reference_global_v1.__navstress_reference__ = True  # type: ignore[attr-defined]
+reference_2d_v1.__navstress_reference__ = True  # type: ignore[attr-defined]
+# the config model whose defaults the config mutants read (permissive-slope doubles max_slope_deg)
+reference_2d_v1.__navstress_config__ = "navstress.nav.reference2d.config:Reference2dConfig"  # type: ignore[attr-defined]
