@@ -130,8 +130,8 @@ class Lidar2dCaster(RayCaster):
                scene_boxes: np.ndarray | None = None) -> np.ndarray:
         """Noise-free ranges (beams,) float64 from the body pose ``qpos``, inf = no return."""
         if self.lidar is not None:
-            self.lidar.mounted_ranges(qpos, self.mount_v, self.fan_rot, discs=discs, scene_boxes=scene_boxes)
-            return np.array(self.lidar.last_ranges[0, : self.beams])
+            return self.lidar.fan_ranges(qpos, self.mount_v, self.fan_rot, self.beams, discs=discs,
+                                         scene_boxes=scene_boxes)[0].copy()
         q = np.asarray(qpos, dtype=np.float64)
         qw, qx, qy, qz = (float(v) for v in q[3:7])
         nq = qw * qw + qx * qx + qy * qy + qz * qz
