@@ -480,6 +480,33 @@ def mounted_scan_ranges(params: np.ndarray, qpos: np.ndarray, mount: np.ndarray,
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
+def above_terrain(grid: TerrainGrid, beams: Beams, params: np.ndarray, origin: np.ndarray, rot: np.ndarray) -> bool:
+    """Whether every ray of the scan stays above the terrain's highest point over [0, max_range]
+    (the sensor above it, and ``oz + dz * max_range`` above it for every ray direction's ``dz``,
+    computed with :func:`~navstress.sim._raycast.terrain_kernel`'s arithmetic): then no ray can meet
+    the terrain (its top nor the side walls below the map's edge) and
+    :func:`~navstress.sim._raycast.terrain_kernel` gives inf for every ray, as its own tests of the
+    same values decide (a ray's march ends at ``thi <= max_range``, and ``oz + dz * t`` rounds
+    monotonically in ``t``). A level fan above flat ground is the common case: one multiply-add
+    per ray instead of the kernel's per-column set-up."""
+    mip, moff = grid.mip, grid.mip_offsets
+    gmax = mip[0, moff[moff.shape[0] - 1]]
+    cos_el, sin_el, cos_az, sin_az = beams
+    max_range = params[0].max_range
+    oz = origin[2]
+    if not oz > gmax:
+        return False
+    uwz = rot[2, 2]
+    for a in range(cos_az.shape[0]):
+        awz = rot[2, 0] * cos_az[a] + rot[2, 1] * sin_az[a]
+        for k in range(cos_el.shape[0]):
+            dz = cos_el[k] * awz + sin_el[k] * uwz
+            if dz < 0.0 and not oz + dz * max_range > gmax:
+                return False
+    return True
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
 def fan_scan_ranges(params: np.ndarray, circle: int, qpos: np.ndarray, mount: np.ndarray, mrot: np.ndarray,
                     rot: np.ndarray, origin: np.ndarray, boxes: np.ndarray, discs: np.ndarray, *arrays: Any) -> int:
     """:func:`mounted_scan_ranges` for a lidar whose ``naz`` columns are the first of a circle of
@@ -491,7 +518,10 @@ def fan_scan_ranges(params: np.ndarray, circle: int, qpos: np.ndarray, mount: np
     out = arrays[_E_BEAMS]
     if not _mounted_pose(qpos, mount, mrot, rot, origin):
         return -1
-    terrain_kernel(grid, beams, params, origin, rot, out)
+    if above_terrain(grid, beams, params, origin, rot):
+        out[:] = INF  # what terrain_kernel gives these rays
+    else:
+        terrain_kernel(grid, beams, params, origin, rot, out)
     if discs.shape[0] > 0:
         disc_pass(discs, beams, params, origin, rot, out, circle)
     box_pass(boxes, beams, params, origin, rot, out, circle)

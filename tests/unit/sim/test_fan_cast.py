@@ -131,3 +131,50 @@ def test_fans_are_the_first_columns_of_a_whole_circle(fov: float, beams: int) ->
     c = _caster(LidarScene(np.zeros((N, N), np.float32), CELL, np.zeros((0, 7))), fov, beams, (0, 0, 0), 10.0, 0.1)
     assert c.lidar is not None
     assert circle_steps(c.angle_increment, c.beams) == c.lidar.config.azimuth_steps >= beams
+
+
+@pytest.mark.parametrize("ground", [0.0, -0.7, 1.3])
+def test_a_fan_pitched_about_the_angle_where_it_would_reach_the_ground(ground: float) -> None:
+    """The terrain is skipped only when no ray can come down to its highest point within range
+    (``_raybox.above_terrain``): pitches just above and below the critical one (the farthest ray
+    just reaching the ground at max range), on flat and rough ground, give the full circle's
+    ranges bit for bit and the per-ray path's."""
+    gen = np.random.default_rng(int(abs(ground) * 10) + 5)
+    flat = np.full((N, N), ground, np.float32)
+    rough = flat + np.asarray(gen.uniform(-0.2, 0.0, (N, N)), np.float32)
+    rough[20, 20] = ground  # the highest point is the flat ground's height
+    skipped = {True: 0, False: 0}
+    for h in (flat, rough):
+        scene = LidarScene(h, CELL, np.zeros((0, 7)))
+        max_range, z = 6.0, ground + 0.5
+        c = _caster(scene, 270.0, 1081, (0.0, 0.0, 0.0), max_range, 0.05)
+        assert c.lidar is not None
+        a = 2.0 * np.pi * np.arange(1440)[:1081] / 1440
+
+        def lowest(pitch: float) -> float:  # how far above the ground the lowest ray is at max range
+            assert c.lidar is not None
+            c.ranges(o2.qpos(10.0, 10.0, z - 0.3, 0.0, pitch, 0.4))
+            o, rot = c.lidar.last_pose
+            return float(o[2] + max_range * np.min(rot[2, 0] * np.cos(a) + rot[2, 1] * np.sin(a)) - ground)
+
+        lo, hi = 0.0, 0.5  # the critical pitch, by bisection
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if lowest(mid) > 0.0 else (lo, mid)
+        crit = lo
+        for dp in (-1e-3, -1e-6, -1e-9, 0.0, 1e-9, 1e-6, 1e-3, 0.05):
+            c = _caster(scene, 270.0, 1081, (0.0, 0.0, 0.0), max_range, 0.05)
+            assert c.lidar is not None
+            q = o2.qpos(10.0, 10.0, z - 0.3, 0.0, crit + dp, 0.4)
+            fast = c.ranges(q)
+            origin, rot = c.lidar.last_pose
+            b = c.lidar._fans[1081]
+            beams = _raybox.Beams(*b[7:11])  # (the grid's 7 fields, then the beams')
+            skipped[bool(_raybox.above_terrain(scene.grid, beams, c.lidar._params, origin, rot))] += 1
+            c.lidar.mounted_ranges(q, c.mount_v, c.fan_rot)
+            assert np.array_equal(fast, c.lidar.last_ranges[0, :1081]), dp
+            slow = _per_ray(c, np.zeros((0, 5)), scene.boxes)
+            assert np.array_equal(np.isfinite(fast), np.isfinite(slow)), dp
+            ok = np.isfinite(fast)
+            assert np.all(np.abs(fast[ok] - slow[ok]) <= 1e-9 * (1.0 + slow[ok])), dp
+    assert skipped[True] >= 4 and skipped[False] >= 4, skipped
