@@ -137,6 +137,7 @@ def box_pass(boxes: np.ndarray, beams: Beams, params: np.ndarray, origin: np.nda
         bscale = NBUCKET / max_range
         r00, r10, r20 = rot[0, 0], rot[1, 0], rot[2, 0]
         r01, r11, r21 = rot[0, 1], rot[1, 1], rot[2, 1]
+        far = max_range * (1.0 + 8.0 * err) + 1e-9
         for i in range(nb):
             c = boxes[i, 7]
             s = boxes[i, 8]
@@ -145,6 +146,13 @@ def box_pass(boxes: np.ndarray, beams: Beams, params: np.ndarray, origin: np.nda
             hz = 0.5 * (boxes[i, 6] - boxes[i, 5])
             px = boxes[i, 0] - ox
             py = boxes[i, 1] - oy
+            if circle > 0 and max(abs(px), abs(py)) - (hx + hy) > far:
+                # (a fan: cull by range first, cheaply: every point of the box is farther than
+                # max_range in x or y, so any hit is past max_range and filtered out below)
+                c0[i] = 0
+                c1[i] = -1
+                rn[i] = far
+                continue
             pz = 0.5 * (boxes[i, 5] + boxes[i, 6]) - oz
             # centre and half-axes in the sensor frame's x, y (R^T applied)
             sx = r00 * px + r10 * py + r20 * pz
@@ -548,3 +556,21 @@ def rays_ranges(grid: TerrainGrid, boxes: np.ndarray, discs: np.ndarray, origin:
             if tc < t:
                 t = tc
         out[r] = t if (min_range <= t <= max_range) else INF
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def noisy_ranges32(r: np.ndarray, z: np.ndarray, std: float, min_range: float, max_range: float,
+                   out: np.ndarray) -> None:  # pragma: no cover - compiled
+    """A ``lidar2d`` scan's range noise: ``out`` (float32) = ``r + std * z[j]`` for the j-th
+    return of ``r`` (float64, inf = none; ``z`` one standard normal per return), inf where that
+    falls outside [min_range, max_range] or where ``r`` has none (the arithmetic of numpy's
+    ``r[hit] += std * z``, the range filter and ``astype(float32)``, bit for bit)."""
+    j = 0
+    for i in range(r.shape[0]):
+        v = r[i]
+        if v < INF:
+            v = v + std * z[j]
+            j += 1
+            if v < min_range or v > max_range:
+                v = INF
+        out[i] = v

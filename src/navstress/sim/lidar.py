@@ -355,12 +355,13 @@ class Lidar:
         return int(n)
 
     def fan_ranges(self, qpos: np.ndarray, mount: np.ndarray, mount_rot: np.ndarray, columns: int, *,
-                   discs: np.ndarray | None = None, scene_boxes: np.ndarray | None = None) -> np.ndarray:
+                   discs: np.ndarray | None = None, scene_boxes: np.ndarray | None = None) -> tuple[np.ndarray, int]:
         """:meth:`mounted_ranges` cast for the first ``columns`` azimuth columns only (a
         ``lidar2d`` fan: its beams are the first columns of the turned full circle): the ranges
         (channels, columns) float64, inf = no return, bit for bit the first columns of
         :meth:`mounted_ranges` (the other columns are neither cast nor culled against; their
-        boxes and discs are skipped per obstacle). The buffer is overwritten by the next call."""
+        boxes and discs are skipped per obstacle), and the number of returns. The buffer is
+        overwritten by the next call."""
         if not (isinstance(columns, int) and 1 <= columns <= self.config.azimuth_steps):
             raise SpecError("columns", columns, f"an integer in [1, {self.config.azimuth_steps}]")
         fan = self._fans.get(columns)
@@ -383,7 +384,7 @@ class Lidar:
             raise SpecError("qpos", q[:7].tolist(), "a finite position and a unit quaternion (w, x, y, z)")
         out = fan[-1]
         assert isinstance(out, np.ndarray)
-        return out
+        return out, int(n)
 
     def scan_mounted(self, qpos: np.ndarray, mount: np.ndarray, mount_rot: np.ndarray,
                      rng: np.random.Generator | None = None, *, discs: np.ndarray | None = None,

@@ -129,9 +129,15 @@ class Lidar2dCaster(RayCaster):
     def ranges(self, qpos: np.ndarray, discs: np.ndarray | None = None,
                scene_boxes: np.ndarray | None = None) -> np.ndarray:
         """Noise-free ranges (beams,) float64 from the body pose ``qpos``, inf = no return."""
+        return self._ranges(qpos, discs, scene_boxes)[0].copy()
+
+    def _ranges(self, qpos: np.ndarray, discs: np.ndarray | None,
+                scene_boxes: np.ndarray | None) -> tuple[np.ndarray, int]:
+        """:meth:`ranges` (a buffer that the next cast overwrites) and the number of returns."""
         if self.lidar is not None:
-            return self.lidar.fan_ranges(qpos, self.mount_v, self.fan_rot, self.beams, discs=discs,
-                                         scene_boxes=scene_boxes)[0].copy()
+            out, n = self.lidar.fan_ranges(qpos, self.mount_v, self.fan_rot, self.beams, discs=discs,
+                                           scene_boxes=scene_boxes)
+            return out[0], n
         q = np.asarray(qpos, dtype=np.float64)
         qw, qx, qy, qz = (float(v) for v in q[3:7])
         nq = qw * qw + qx * qx + qy * qy + qz * qz
@@ -145,19 +151,22 @@ class Lidar2dCaster(RayCaster):
         boxes = self.scene.boxes if scene_boxes is None else scene_boxes
         d = _NO_DISCS if discs is None else np.ascontiguousarray(discs, dtype=np.float64).reshape(-1, 5)
         _raybox.rays_ranges(self.scene.grid, boxes, d, origin, dirs, self.max_range, self.min_range, self._out)
-        return self._out.copy()
+        return self._out, int(np.count_nonzero(self._out < np.inf))
 
     def cast(self, qpos: np.ndarray, t: float, noisy: bool, discs: np.ndarray | None,
              scene_boxes: np.ndarray | None) -> LaserScan:
-        r = self.ranges(qpos, discs, scene_boxes)
-        if noisy:
-            if self.std > 0:
-                hit = np.isfinite(r)
-                r[hit] += self.std * self.noise_gen.standard_normal(int(hit.sum()))
-                r[(r < self.min_range) | (r > self.max_range)] = np.inf
-            if self.dropout_gen is not None:
-                r[self.dropout_gen.random(self.beams) < self.dropout_prob] = np.inf
-        return LaserScan(t, r.astype(np.float32), self.angle_min, self.angle_increment, self.min_range,
+        r, n = self._ranges(qpos, discs, scene_boxes)
+        r32 = np.empty(self.beams, np.float32)
+        if noisy and self.std > 0:
+            # r + std * z per return, then [min_range, max_range] (else inf), as float32 (one kernel:
+            # the same arithmetic as numpy's r[hit] += std * z; r[(r < lo) | (r > hi)] = inf; astype)
+            _raybox.noisy_ranges32(r, self.noise_gen.standard_normal(n), self.std, self.min_range, self.max_range,
+                                   r32)
+        else:
+            r32[:] = r
+        if noisy and self.dropout_gen is not None:
+            r32[self.dropout_gen.random(self.beams) < self.dropout_prob] = np.inf
+        return LaserScan(t, r32, self.angle_min, self.angle_increment, self.min_range,
                          self.max_range, self.mount, self.rpy, self.name)
 
 

@@ -12,6 +12,7 @@ tilted, pitched mounts, inside or near obstacles, outside the map):
 
 from __future__ import annotations
 
+import copy
 import math
 
 import numpy as np
@@ -178,3 +179,32 @@ def test_a_fan_pitched_about_the_angle_where_it_would_reach_the_ground(ground: f
             ok = np.isfinite(fast)
             assert np.all(np.abs(fast[ok] - slow[ok]) <= 1e-9 * (1.0 + slow[ok])), dp
     assert skipped[True] >= 4 and skipped[False] >= 4, skipped
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_noisy_cast_is_numpys_arithmetic_bit_for_bit(seed: int) -> None:
+    """``Lidar2dCaster.cast`` (one kernel: ``_raybox.noisy_ranges32``) against the numpy of
+    before: ``r[hit] += std * z``, the range filter, ``astype(float32)``, dropouts, from a copy of
+    the same generators; fans on both paths (whole-circle steps and ray by ray)."""
+    gen = np.random.default_rng(seed)
+    scene, discs = _scene(gen, rough=True)
+    for fov, beams in [(270.0, 1081), (270.0, 1001), (360.0, 400)]:
+        std = float(gen.choice([0.0, 0.01, 0.3]))
+        s = sensor_from_mapping({"name": "f", "kind": "lidar2d", "fov_deg": fov, "beams": beams, "max_range_m": 8.0,
+                                 "min_range_m": 0.2, "range_noise_std_m": std, "dropout_prob": 0.1,
+                                 "mount": {"xyz": [0.1, -0.05, 0.3], "rpy": [0.0, 0.05, 0.0]}},
+                                where="sensors[0]", mounts={})
+        c = Lidar2dCaster(s, seed, scene)
+        for _ in range(3):
+            q = _pose(gen, scene)
+            noise, drop = copy.deepcopy(c.noise_gen), copy.deepcopy(c.dropout_gen)
+            r = c.ranges(q, discs)
+            got = c.cast(q, 1.0, True, discs, None).ranges
+            if std > 0:
+                hit = np.isfinite(r)
+                r[hit] += std * noise.standard_normal(int(hit.sum()))
+                r[(r < 0.2) | (r > 8.0)] = np.inf
+            assert drop is not None
+            r[drop.random(beams) < 0.1] = np.inf
+            assert got.dtype == np.float32 and np.array_equal(got, r.astype(np.float32)), (fov, beams, std)
+            assert np.array_equal(c.cast(q, 1.0, False, discs, None).ranges, c.ranges(q, discs).astype(np.float32))
