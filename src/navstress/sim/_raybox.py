@@ -515,16 +515,18 @@ def above_terrain(grid: TerrainGrid, beams: Beams, params: np.ndarray, origin: n
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def fan_scan_ranges(params: np.ndarray, circle: int, qpos: np.ndarray, mount: np.ndarray, mrot: np.ndarray,
-                    rot: np.ndarray, origin: np.ndarray, boxes: np.ndarray, discs: np.ndarray, *arrays: Any) -> int:
+def fan_scan_ranges(params: np.ndarray, circle: int, qpos: np.ndarray, mpose: np.ndarray, rot: np.ndarray,
+                    origin: np.ndarray, boxes: np.ndarray, discs: np.ndarray, *arrays: Any) -> int:
     """:func:`mounted_scan_ranges` for a lidar whose ``naz`` columns are the first of a circle of
     ``circle`` azimuth steps (a ``lidar2d`` fan: only its own beams are cast; the box and disc
     culling maps each obstacle's azimuth interval onto the circle and skips the columns past the
-    fan). The same ranges, bit for bit, as the full circle's first ``naz`` columns."""
+    fan). The same ranges, bit for bit, as the full circle's first ``naz`` columns. ``mpose`` (4,
+    3): the mount's body-from-sensor rotation (rows 0-2) and position (row 3); the terrain pass is
+    skipped when :func:`above_terrain` says no ray can reach the terrain."""
     grid = TerrainGrid(*arrays[:_E_GRID])
     beams = Beams(*arrays[_E_GRID:_E_BEAMS])
     out = arrays[_E_BEAMS]
-    if not _mounted_pose(qpos, mount, mrot, rot, origin):
+    if not _mounted_pose(qpos, mpose[3], mpose[:3], rot, origin):
         return -1
     if above_terrain(grid, beams, params, origin, rot):
         out[:] = INF  # what terrain_kernel gives these rays

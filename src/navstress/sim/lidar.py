@@ -367,9 +367,9 @@ class Lidar:
         fan = self._fans.get(columns)
         if fan is None:
             b = self._beams
-            out = np.empty((self.config.channels, columns), np.float64)
+            buf = np.empty((self.config.channels, columns), np.float64)
             fan = _raybox.scan_arrays(self.scene.grid, Beams(b.cos_el, b.sin_el, np.ascontiguousarray(b.cos_az[:columns]),
-                                                             np.ascontiguousarray(b.sin_az[:columns])), out)
+                                                             np.ascontiguousarray(b.sin_az[:columns])), buf)
             self._fans[columns] = fan
         boxes = self.scene.boxes if scene_boxes is None else scene_boxes
         d = _NO_DISCS if discs is None else np.ascontiguousarray(discs, dtype=np.float64).reshape(-1, 5)
@@ -378,13 +378,13 @@ class Lidar:
         if q.dtype != np.float64 or q.ndim != 1 or q.shape[0] < 7 or m.shape != (3,) or mr.shape != (3, 3):
             raise SpecError("qpos", getattr(qpos, "shape", qpos), "a float64 (>= 7,) body pose, a (3,) mount and "
                             "a (3, 3) mount rotation")
-        n = _raybox.fan_scan_ranges(self._params, self.config.azimuth_steps, q, m, mr, self._rot, self._origin, boxes,
-                                    d, *fan)
+        n = _raybox.fan_scan_ranges(self._params, self.config.azimuth_steps, q, np.concatenate([mr, m[None, :]]),
+                                    self._rot, self._origin, boxes, d, *fan)
         if n < 0:
             raise SpecError("qpos", q[:7].tolist(), "a finite position and a unit quaternion (w, x, y, z)")
-        out = fan[-1]
-        assert isinstance(out, np.ndarray)
-        return out, int(n)
+        ranges = fan[-1]
+        assert isinstance(ranges, np.ndarray)
+        return ranges, int(n)
 
     def scan_mounted(self, qpos: np.ndarray, mount: np.ndarray, mount_rot: np.ndarray,
                      rng: np.random.Generator | None = None, *, discs: np.ndarray | None = None,

@@ -7,10 +7,11 @@ kind. Each turns a body pose into the kind's reading:
   :meth:`~navstress.sim.lidar.Lidar.scan_body`, byte-identical to the lidar before sensors were
   declared); reading :class:`~navstress.sensors.kinds.lidar3d.LidarScan`.
 - ``lidar2d``: a planar fan from the mount pose (it hits the ground on slopes and when the body
-  pitches). Beams evenly around the circle (every profile's: 0.25, 1/3, 0.9 degrees) run as a
-  one-channel :class:`~navstress.sim.lidar.Lidar` of the whole circle turned to the first beam (the
-  scan kernels, boxes and movers culled per column), the fan's beams its first columns; any other
-  spacing ray by ray (:func:`navstress.sim._raybox.rays_ranges`, every box tested). Reading
+  pitches). Beams evenly around the circle (every profile's: 0.25, 1/3, 0.9 degrees) are the first
+  columns of a one-channel :class:`~navstress.sim.lidar.Lidar` of the whole circle turned to the
+  first beam, and only they are cast (:meth:`~navstress.sim.lidar.Lidar.fan_ranges`: the scan
+  kernels, boxes and movers culled per column, the terrain skipped when no beam can reach it);
+  any other spacing ray by ray (:func:`navstress.sim._raybox.rays_ranges`, every box tested). Reading
   :class:`~navstress.sensors.kinds.lidar2d.LaserScan`.
 - ``depth``: :class:`navstress.sim.depth.DepthCamera`; reading
   :class:`~navstress.sensors.kinds.depth.DepthImage`.
