@@ -21,7 +21,9 @@ name in brackets).
 ``--laser2d`` adds the configuration "jackal + one ust10 lidar2d" (a UST-10LX-class planar scanner,
 270 degrees, 1081 beams, 40 Hz, named ``front_laser``) on the flat world with 6 % trees, driven by
 ``--navigator`` (default ``reference-2d-v1`` when it is registered, else ``reference-v1``, which
-sees no 3-D scans then): its full loop and the scanner's share (the casts, ``Lidar2dCaster.cast``).
+sees no 3-D scans then): its full loop (the median of ``--repeat`` runs, timers on) and the parts of
+the last run per simulated second: physics+sensors (``Simulation.advance`` minus the casts), the
+scanner's casts (``Lidar2dCaster.cast``: fan, noise, reading), the navigator's ``step``, the rest.
 
     taskset -c 1 .venv/bin/python benchmarks/bench_loop.py --robots none --laser2d
 """
@@ -123,11 +125,14 @@ def bench_laser2d(seconds: float, repeat: int, navigator: str | None) -> None:
     for i in range(max(1, repeat)):
         TIMES.clear()
         CALLS.clear()
-        undo = timed(Lidar2dCaster, "cast", "laser")
+        nav = make_navigator(navigator)
+        undo = [timed(Lidar2dCaster, "cast", "laser"), timed(Simulation, "advance", "sim"),
+                timed(type(nav), "step", "nav")]
         t0, c0 = time.perf_counter(), time.process_time()
-        r = run_mission(world, make_navigator(navigator), run_seed=3, timeout_s=seconds, robot=robot)
+        r = run_mission(world, nav, run_seed=3, timeout_s=seconds, robot=robot)
         wall = time.perf_counter() - t0
-        undo()
+        for u in undo:
+            u()
         ratios.append(r.duration_s / wall)
         cpu.append(r.duration_s / (time.process_time() - c0))
     print(f"== [jackal + ust10 lidar2d, {navigator}] flat, 6% trees (seed 1): {r.duration_s:.0f} s simulated, "
@@ -136,6 +141,13 @@ def bench_laser2d(seconds: float, repeat: int, navigator: str | None) -> None:
           f"(min {min(ratios):.1f}, max {max(ratios):.1f}); CPU time: median {statistics.median(cpu):6.1f} x")
     print(f"  lidar2d casts: {1e3 * TIMES['laser'] / max(1, CALLS['laser']):.3f} ms/scan ({CALLS['laser']} scans, "
           f"{100 * TIMES['laser'] / wall:.1f} % of the last run's wall time)")
+    parts = {"physics+sensors (advance minus the casts)": TIMES["sim"] - TIMES["laser"], "lidar2d casts": TIMES["laser"],
+             f"navigator ({navigator} step)": TIMES["nav"]}
+    parts["loop/other"] = wall - sum(parts.values())
+    print(f"  the last run, per simulated second ({wall:.2f} s wall for {r.duration_s:.0f} s):")
+    for k, v in parts.items():
+        print(f"    {k:44s} {1e3 * v / r.duration_s:7.3f} ms  {100 * v / wall:5.1f} %")
+    print(f"  per call: navigator step {1e3 * TIMES['nav'] / max(1, CALLS['nav']):.3f} ms ({CALLS['nav']} steps)")
 
 
 def bench_robot(robot: RobotSpec, seconds: float, repeat: int) -> None:

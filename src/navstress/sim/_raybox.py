@@ -65,20 +65,23 @@ def scan_arrays(grid: TerrainGrid, beams: Beams, ranges: np.ndarray) -> tuple[np
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def box_pass(boxes: np.ndarray, beams: Beams, params: np.ndarray, origin: np.ndarray, rot: np.ndarray,
-             out: np.ndarray) -> None:
+             out: np.ndarray, circle: int = 0) -> None:
     """Lower ``out[channel, azimuth]`` (terrain ranges, inf = none, any value > max_range is
     treated as none) with the box hits, then keep ``min_range <= r <= max_range`` (else inf)
     (``params``: a one-record :data:`~navstress.sim._raycast.SCAN_PARAMS` array).
 
     Preconditions (as :class:`~navstress.sim.lidar.Lidar` guarantees): channel elevations in
-    (-90, 90) degrees (``cos_el > 0``); azimuth ``a`` at ``2 pi a / naz``; ``rot`` a rotation
-    up to rounding (the margins scale with its orthonormality error).
+    (-90, 90) degrees (``cos_el > 0``); azimuth ``a`` at ``2 pi a / circle`` (``circle`` 0: the
+    number of columns ``naz``; more: the columns are the first ``naz`` of a circle of ``circle``
+    steps, as a ``lidar2d`` fan's, and the culling skips the others); ``rot`` a rotation up to
+    rounding (the margins scale with its orthonormality error).
     """
     cos_el, sin_el, cos_az, sin_az = beams
     max_range, min_range = params[0].max_range, params[0].min_range
     nch = cos_el.shape[0]
     naz = cos_az.shape[0]
     nb = boxes.shape[0]
+    ncirc = naz if circle <= 0 else circle
     ox, oy, oz = origin[0], origin[1], origin[2]
     uwx, uwy, uwz = rot[0, 2], rot[1, 2], rot[2, 2]
     if nb > 0:
@@ -130,10 +133,11 @@ def box_pass(boxes: np.ndarray, beams: Beams, params: np.ndarray, origin: np.nda
         c0 = np.empty(nb, np.int64)
         c1 = np.empty(nb, np.int64)
         cnt = np.zeros(NBUCKET + 1, np.int64)
-        step = TWO_PI / naz
+        step = TWO_PI / ncirc
         bscale = NBUCKET / max_range
         r00, r10, r20 = rot[0, 0], rot[1, 0], rot[2, 0]
         r01, r11, r21 = rot[0, 1], rot[1, 1], rot[2, 1]
+        far = max_range * (1.0 + 8.0 * err) + 1e-9
         for i in range(nb):
             c = boxes[i, 7]
             s = boxes[i, 8]
@@ -142,6 +146,13 @@ def box_pass(boxes: np.ndarray, beams: Beams, params: np.ndarray, origin: np.nda
             hz = 0.5 * (boxes[i, 6] - boxes[i, 5])
             px = boxes[i, 0] - ox
             py = boxes[i, 1] - oy
+            if circle > 0 and max(abs(px), abs(py)) - (hx + hy) > far:
+                # (a fan: cull by range first, cheaply: every point of the box is farther than
+                # max_range in x or y, so any hit is past max_range and filtered out below)
+                c0[i] = 0
+                c1[i] = -1
+                rn[i] = far
+                continue
             pz = 0.5 * (boxes[i, 5] + boxes[i, 6]) - oz
             # centre and half-axes in the sensor frame's x, y (R^T applied)
             sx = r00 * px + r10 * py + r20 * pz
@@ -171,19 +182,19 @@ def box_pass(boxes: np.ndarray, beams: Beams, params: np.ndarray, origin: np.nda
                 continue
             if near <= 0.0:
                 c0[i] = 0
-                c1[i] = naz - 1
+                c1[i] = ncirc - 1
             else:
                 dl = wid / near + ang_margin  # tan(angle) >= angle
                 if dl >= math.pi:
                     c0[i] = 0
-                    c1[i] = naz - 1
+                    c1[i] = ncirc - 1
                 else:
                     th = math.atan2(sy, sx)
                     q0 = int(math.ceil((th - dl) / step - 1e-9))
                     q1 = int(math.floor((th + dl) / step + 1e-9))
-                    if q1 - q0 >= naz - 1:
+                    if q1 - q0 >= ncirc - 1:
                         q0 = 0
-                        q1 = naz - 1
+                        q1 = ncirc - 1
                     c0[i] = q0
                     c1[i] = q1
             if c1[i] >= c0[i]:  # (between two columns: none)
@@ -219,7 +230,9 @@ def box_pass(boxes: np.ndarray, beams: Beams, params: np.ndarray, origin: np.nda
             pz = 0.5 * (zb + zt) - oz
             pmarg = 1e-9 * (1.0 + abs(px) + abs(py) + abs(pz) + max_range)
             for q in range(c0[i], c1[i] + 1):
-                a = q % naz
+                a = q % ncirc
+                if a >= naz:  # (a column of the circle that the fan does not cast)
+                    continue
                 nx = col[a, 3]
                 ny = col[a, 4]
                 nz = col[a, 5]
@@ -377,19 +390,21 @@ def _ray_cylinder(cyl: Cylinder, ray: Ray) -> float:
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def disc_pass(discs: np.ndarray, beams: Beams, params: np.ndarray, origin: np.ndarray, rot: np.ndarray,
-              out: np.ndarray) -> None:
+              out: np.ndarray, circle: int = 0) -> None:
     """Lower ``out[channel, azimuth]`` with the hits on upright cylinders (rows ``[x, y, r, zb,
     zt]``: the disc movers); the ray directions as :func:`box_pass` computes them. Per cylinder
     only the azimuth columns its bounding circle in the sensor's xy plane can span (with a margin)
     are tested; no range filter (the box pass applies it; ``params``: a one-record
-    :data:`~navstress.sim._raycast.SCAN_PARAMS` array, its ``max_range`` read)."""
+    :data:`~navstress.sim._raycast.SCAN_PARAMS` array, its ``max_range`` read; ``circle`` as in
+    :func:`box_pass`)."""
     cos_el, sin_el, cos_az, sin_az = beams
     max_range = params[0].max_range
     nch = cos_el.shape[0]
     naz = cos_az.shape[0]
     ox, oy, oz = origin[0], origin[1], origin[2]
     uwx, uwy, uwz = rot[0, 2], rot[1, 2], rot[2, 2]
-    step = TWO_PI / naz
+    ncirc = naz if circle <= 0 else circle
+    step = TWO_PI / ncirc
     for i in range(discs.shape[0]):
         cx, cy, r, zb, zt = discs[i, 0], discs[i, 1], discs[i, 2], discs[i, 3], discs[i, 4]
         cyl = Cylinder(cx, cy, r, zb, zt)
@@ -402,16 +417,18 @@ def disc_pass(discs: np.ndarray, beams: Beams, params: np.ndarray, origin: np.nd
         if rho - wid > max_range:
             continue
         if rho <= wid * 1.001:
-            q0, q1 = 0, naz - 1
+            q0, q1 = 0, ncirc - 1
         else:
             dl = math.asin(wid / rho) * 1.001 + 1e-6
             th = math.atan2(sy, sx)
             q0 = int(math.floor((th - dl) / step))
             q1 = int(math.ceil((th + dl) / step))
-            if q1 - q0 >= naz - 1:
-                q0, q1 = 0, naz - 1
+            if q1 - q0 >= ncirc - 1:
+                q0, q1 = 0, ncirc - 1
         for q in range(q0, q1 + 1):
-            a = q % naz
+            a = q % ncirc
+            if a >= naz:  # (a column of the circle that the fan does not cast)
+                continue
             ca = cos_az[a]
             sa = sin_az[a]
             awx = rot[0, 0] * ca + rot[0, 1] * sa
@@ -426,14 +443,10 @@ def disc_pass(discs: np.ndarray, beams: Beams, params: np.ndarray, origin: np.nd
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def mounted_scan_ranges(params: np.ndarray, qpos: np.ndarray, mount: np.ndarray, mrot: np.ndarray, rot: np.ndarray,
-                        origin: np.ndarray, boxes: np.ndarray, discs: np.ndarray, *arrays: Any) -> int:
-    """:func:`body_scan_ranges` with the sensor turned on the body: ``mrot`` (3, 3) is the
-    body-from-sensor rotation (the mount's roll, pitch, yaw), ``rot`` receives world-from-sensor
-    (the body's rotation, as :func:`body_scan_ranges` computes it, times ``mrot``)."""
-    grid = TerrainGrid(*arrays[:_E_GRID])
-    beams = Beams(*arrays[_E_GRID:_E_BEAMS])
-    out = arrays[_E_BEAMS]
+def _mounted_pose(qpos: np.ndarray, mount: np.ndarray, mrot: np.ndarray, rot: np.ndarray, origin: np.ndarray) -> bool:
+    """World-from-sensor ``rot`` (the body's rotation from ``qpos``, as :func:`body_scan_ranges`
+    computes it, times the body-from-sensor ``mrot``) and ``origin = qpos[:3] + body @ mount``;
+    False if the pose is not finite or not a rotation."""
     q0, q1, q2, q3 = qpos[3], qpos[4], qpos[5], qpos[6]
     b = np.empty((3, 3))
     q00, q01, q02, q03 = q0 * q0, q0 * q1, q0 * q2, q0 * q3
@@ -453,12 +466,75 @@ def mounted_scan_ranges(params: np.ndarray, qpos: np.ndarray, mount: np.ndarray,
         for j in range(3):
             rot[i, j] = b[i, 0] * mrot[0, j] + b[i, 1] * mrot[1, j] + b[i, 2] * mrot[2, j]
     ok = math.isfinite(origin[0]) and math.isfinite(origin[1]) and math.isfinite(origin[2])
-    if not (ok and rotation_error(rot) <= 1e-6):
+    return ok and rotation_error(rot) <= 1e-6
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def mounted_scan_ranges(params: np.ndarray, qpos: np.ndarray, mount: np.ndarray, mrot: np.ndarray, rot: np.ndarray,
+                        origin: np.ndarray, boxes: np.ndarray, discs: np.ndarray, *arrays: Any) -> int:
+    """:func:`body_scan_ranges` with the sensor turned on the body: ``mrot`` (3, 3) is the
+    body-from-sensor rotation (the mount's roll, pitch, yaw), ``rot`` receives world-from-sensor
+    (the body's rotation, as :func:`body_scan_ranges` computes it, times ``mrot``)."""
+    grid = TerrainGrid(*arrays[:_E_GRID])
+    beams = Beams(*arrays[_E_GRID:_E_BEAMS])
+    out = arrays[_E_BEAMS]
+    if not _mounted_pose(qpos, mount, mrot, rot, origin):
         return -1
     terrain_kernel(grid, beams, params, origin, rot, out)
     if discs.shape[0] > 0:
         disc_pass(discs, beams, params, origin, rot, out)
     box_pass(boxes, beams, params, origin, rot, out)
+    return count_finite(out)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def above_terrain(grid: TerrainGrid, beams: Beams, params: np.ndarray, origin: np.ndarray, rot: np.ndarray) -> bool:
+    """Whether every ray of the scan stays above the terrain's highest point over [0, max_range]
+    (the sensor above it, and ``oz + dz * max_range`` above it for every ray direction's ``dz``,
+    computed with :func:`~navstress.sim._raycast.terrain_kernel`'s arithmetic): then no ray can meet
+    the terrain (its top nor the side walls below the map's edge) and
+    :func:`~navstress.sim._raycast.terrain_kernel` gives inf for every ray, as its own tests of the
+    same values decide (a ray's march ends at ``thi <= max_range``, and ``oz + dz * t`` rounds
+    monotonically in ``t``). A level fan above flat ground is the common case: one multiply-add
+    per ray instead of the kernel's per-column set-up."""
+    mip, moff = grid.mip, grid.mip_offsets
+    gmax = mip[0, moff[moff.shape[0] - 1]]
+    cos_el, sin_el, cos_az, sin_az = beams
+    max_range = params[0].max_range
+    oz = origin[2]
+    if not oz > gmax:
+        return False
+    uwz = rot[2, 2]
+    for a in range(cos_az.shape[0]):
+        awz = rot[2, 0] * cos_az[a] + rot[2, 1] * sin_az[a]
+        for k in range(cos_el.shape[0]):
+            dz = cos_el[k] * awz + sin_el[k] * uwz
+            if dz < 0.0 and not oz + dz * max_range > gmax:
+                return False
+    return True
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def fan_scan_ranges(params: np.ndarray, circle: int, qpos: np.ndarray, mpose: np.ndarray, rot: np.ndarray,
+                    origin: np.ndarray, boxes: np.ndarray, discs: np.ndarray, *arrays: Any) -> int:
+    """:func:`mounted_scan_ranges` for a lidar whose ``naz`` columns are the first of a circle of
+    ``circle`` azimuth steps (a ``lidar2d`` fan: only its own beams are cast; the box and disc
+    culling maps each obstacle's azimuth interval onto the circle and skips the columns past the
+    fan). The same ranges, bit for bit, as the full circle's first ``naz`` columns. ``mpose`` (4,
+    3): the mount's body-from-sensor rotation (rows 0-2) and position (row 3); the terrain pass is
+    skipped when :func:`above_terrain` says no ray can reach the terrain."""
+    grid = TerrainGrid(*arrays[:_E_GRID])
+    beams = Beams(*arrays[_E_GRID:_E_BEAMS])
+    out = arrays[_E_BEAMS]
+    if not _mounted_pose(qpos, mpose[3], mpose[:3], rot, origin):
+        return -1
+    if above_terrain(grid, beams, params, origin, rot):
+        out[:] = INF  # what terrain_kernel gives these rays
+    else:
+        terrain_kernel(grid, beams, params, origin, rot, out)
+    if discs.shape[0] > 0:
+        disc_pass(discs, beams, params, origin, rot, out, circle)
+    box_pass(boxes, beams, params, origin, rot, out, circle)
     return count_finite(out)
 
 
@@ -482,3 +558,21 @@ def rays_ranges(grid: TerrainGrid, boxes: np.ndarray, discs: np.ndarray, origin:
             if tc < t:
                 t = tc
         out[r] = t if (min_range <= t <= max_range) else INF
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def noisy_ranges32(r: np.ndarray, z: np.ndarray, std: float, min_range: float, max_range: float,
+                   out: np.ndarray) -> None:  # pragma: no cover - compiled
+    """A ``lidar2d`` scan's range noise: ``out`` (float32) = ``r + std * z[j]`` for the j-th
+    return of ``r`` (float64, inf = none; ``z`` one standard normal per return), inf where that
+    falls outside [min_range, max_range] or where ``r`` has none (the arithmetic of numpy's
+    ``r[hit] += std * z``, the range filter and ``astype(float32)``, bit for bit)."""
+    j = 0
+    for i in range(r.shape[0]):
+        v = r[i]
+        if v < INF:
+            v = v + std * z[j]
+            j += 1
+            if v < min_range or v > max_range:
+                v = INF
+        out[i] = v

@@ -260,6 +260,7 @@ class Lidar:
         self._rot = np.empty((3, 3))  # the last body scan's sensor pose
         self._origin = np.empty(3)
         self._arrays = _raybox.scan_arrays(scene.grid, self._beams, self._out)  # the per-scan kernels' groups
+        self._fans: dict[int, tuple[np.ndarray | float, ...]] = {}  # fan_ranges' groups by column count
 
     @property
     def plane_march(self) -> bool:
@@ -352,6 +353,38 @@ class Lidar:
         if n < 0:
             raise SpecError("qpos", q[:7].tolist(), "a finite position and a unit quaternion (w, x, y, z)")
         return int(n)
+
+    def fan_ranges(self, qpos: np.ndarray, mount: np.ndarray, mount_rot: np.ndarray, columns: int, *,
+                   discs: np.ndarray | None = None, scene_boxes: np.ndarray | None = None) -> tuple[np.ndarray, int]:
+        """:meth:`mounted_ranges` cast for the first ``columns`` azimuth columns only (a
+        ``lidar2d`` fan: its beams are the first columns of the turned full circle): the ranges
+        (channels, columns) float64, inf = no return, bit for bit the first columns of
+        :meth:`mounted_ranges` (the other columns are neither cast nor culled against; their
+        boxes and discs are skipped per obstacle), and the number of returns. The buffer is
+        overwritten by the next call."""
+        if not (isinstance(columns, int) and 1 <= columns <= self.config.azimuth_steps):
+            raise SpecError("columns", columns, f"an integer in [1, {self.config.azimuth_steps}]")
+        fan = self._fans.get(columns)
+        if fan is None:
+            b = self._beams
+            buf = np.empty((self.config.channels, columns), np.float64)
+            fan = _raybox.scan_arrays(self.scene.grid, Beams(b.cos_el, b.sin_el, np.ascontiguousarray(b.cos_az[:columns]),
+                                                             np.ascontiguousarray(b.sin_az[:columns])), buf)
+            self._fans[columns] = fan
+        boxes = self.scene.boxes if scene_boxes is None else scene_boxes
+        d = _NO_DISCS if discs is None else np.ascontiguousarray(discs, dtype=np.float64).reshape(-1, 5)
+        q, m = np.asarray(qpos), np.ascontiguousarray(mount, dtype=np.float64)
+        mr = np.ascontiguousarray(mount_rot, dtype=np.float64)
+        if q.dtype != np.float64 or q.ndim != 1 or q.shape[0] < 7 or m.shape != (3,) or mr.shape != (3, 3):
+            raise SpecError("qpos", getattr(qpos, "shape", qpos), "a float64 (>= 7,) body pose, a (3,) mount and "
+                            "a (3, 3) mount rotation")
+        n = _raybox.fan_scan_ranges(self._params, self.config.azimuth_steps, q, np.concatenate([mr, m[None, :]]),
+                                    self._rot, self._origin, boxes, d, *fan)
+        if n < 0:
+            raise SpecError("qpos", q[:7].tolist(), "a finite position and a unit quaternion (w, x, y, z)")
+        ranges = fan[-1]
+        assert isinstance(ranges, np.ndarray)
+        return ranges, int(n)
 
     def scan_mounted(self, qpos: np.ndarray, mount: np.ndarray, mount_rot: np.ndarray,
                      rng: np.random.Generator | None = None, *, discs: np.ndarray | None = None,

@@ -7,10 +7,11 @@ kind. Each turns a body pose into the kind's reading:
   :meth:`~navstress.sim.lidar.Lidar.scan_body`, byte-identical to the lidar before sensors were
   declared); reading :class:`~navstress.sensors.kinds.lidar3d.LidarScan`.
 - ``lidar2d``: a planar fan from the mount pose (it hits the ground on slopes and when the body
-  pitches). Beams evenly around the circle (every profile's: 0.25, 1/3, 0.9 degrees) run as a
-  one-channel :class:`~navstress.sim.lidar.Lidar` of the whole circle turned to the first beam (the
-  scan kernels, boxes and movers culled per column), the fan's beams its first columns; any other
-  spacing ray by ray (:func:`navstress.sim._raybox.rays_ranges`, every box tested). Reading
+  pitches). Beams evenly around the circle (every profile's: 0.25, 1/3, 0.9 degrees) are the first
+  columns of a one-channel :class:`~navstress.sim.lidar.Lidar` of the whole circle turned to the
+  first beam, and only they are cast (:meth:`~navstress.sim.lidar.Lidar.fan_ranges`: the scan
+  kernels, boxes and movers culled per column, the terrain skipped when no beam can reach it);
+  any other spacing ray by ray (:func:`navstress.sim._raybox.rays_ranges`, every box tested). Reading
   :class:`~navstress.sensors.kinds.lidar2d.LaserScan`.
 - ``depth``: :class:`navstress.sim.depth.DepthCamera`; reading
   :class:`~navstress.sensors.kinds.depth.DepthImage`.
@@ -129,9 +130,15 @@ class Lidar2dCaster(RayCaster):
     def ranges(self, qpos: np.ndarray, discs: np.ndarray | None = None,
                scene_boxes: np.ndarray | None = None) -> np.ndarray:
         """Noise-free ranges (beams,) float64 from the body pose ``qpos``, inf = no return."""
+        return self._ranges(qpos, discs, scene_boxes)[0].copy()
+
+    def _ranges(self, qpos: np.ndarray, discs: np.ndarray | None,
+                scene_boxes: np.ndarray | None) -> tuple[np.ndarray, int]:
+        """:meth:`ranges` (a buffer that the next cast overwrites) and the number of returns."""
         if self.lidar is not None:
-            self.lidar.mounted_ranges(qpos, self.mount_v, self.fan_rot, discs=discs, scene_boxes=scene_boxes)
-            return np.array(self.lidar.last_ranges[0, : self.beams])
+            out, n = self.lidar.fan_ranges(qpos, self.mount_v, self.fan_rot, self.beams, discs=discs,
+                                           scene_boxes=scene_boxes)
+            return out[0], n
         q = np.asarray(qpos, dtype=np.float64)
         qw, qx, qy, qz = (float(v) for v in q[3:7])
         nq = qw * qw + qx * qx + qy * qy + qz * qz
@@ -145,19 +152,22 @@ class Lidar2dCaster(RayCaster):
         boxes = self.scene.boxes if scene_boxes is None else scene_boxes
         d = _NO_DISCS if discs is None else np.ascontiguousarray(discs, dtype=np.float64).reshape(-1, 5)
         _raybox.rays_ranges(self.scene.grid, boxes, d, origin, dirs, self.max_range, self.min_range, self._out)
-        return self._out.copy()
+        return self._out, int(np.count_nonzero(self._out < np.inf))
 
     def cast(self, qpos: np.ndarray, t: float, noisy: bool, discs: np.ndarray | None,
              scene_boxes: np.ndarray | None) -> LaserScan:
-        r = self.ranges(qpos, discs, scene_boxes)
-        if noisy:
-            if self.std > 0:
-                hit = np.isfinite(r)
-                r[hit] += self.std * self.noise_gen.standard_normal(int(hit.sum()))
-                r[(r < self.min_range) | (r > self.max_range)] = np.inf
-            if self.dropout_gen is not None:
-                r[self.dropout_gen.random(self.beams) < self.dropout_prob] = np.inf
-        return LaserScan(t, r.astype(np.float32), self.angle_min, self.angle_increment, self.min_range,
+        r, n = self._ranges(qpos, discs, scene_boxes)
+        r32 = np.empty(self.beams, np.float32)
+        if noisy and self.std > 0:
+            # r + std * z per return, then [min_range, max_range] (else inf), as float32 (one kernel:
+            # the same arithmetic as numpy's r[hit] += std * z; r[(r < lo) | (r > hi)] = inf; astype)
+            _raybox.noisy_ranges32(r, self.noise_gen.standard_normal(n), self.std, self.min_range, self.max_range,
+                                   r32)
+        else:
+            r32[:] = r
+        if noisy and self.dropout_gen is not None:
+            r32[self.dropout_gen.random(self.beams) < self.dropout_prob] = np.inf
+        return LaserScan(t, r32, self.angle_min, self.angle_increment, self.min_range,
                          self.max_range, self.mount, self.rpy, self.name)
 
 
