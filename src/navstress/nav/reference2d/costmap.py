@@ -112,13 +112,27 @@ class Costmap:
         return K.NO_INFORMATION
 
     # ----------------------------------------------------------------- updates
+    @property
+    def grid(self) -> K.Grid:
+        """Where the grid lies (the kernels' :class:`~navstress.nav.reference2d.kernels.Grid`)."""
+        return K.Grid(float(self.origin[0]), float(self.origin[1]), float(self.cell))
+
+    @property
+    def footprint(self) -> K.Footprint:
+        """The footprint check's data (the kernels' :class:`~navstress.nav.reference2d.kernels.Footprint`)."""
+        return K.Footprint(int(self.circ_cost), self.outline)
+
+    @property
+    def inflation(self) -> K.Inflation:
+        """The inflation kernel (the kernels' :class:`~navstress.nav.reference2d.kernels.Inflation`)."""
+        return K.Inflation(self.kdi, self.kdj, self.kcost, int(self.kr))
+
     def integrate(self, origins: np.ndarray, ends: np.ndarray, mark: np.ndarray) -> None:
         """Raytrace beams from ``origins`` (n, 2) to ``ends`` (n, 2) (map x, y), marking the end
         cells where ``mark``; then recompute the costs around them."""
         if len(ends) == 0:
             return
-        K.integrate_scan(self.occ, self.origin[0], self.origin[1], self.cell,
-                         np.ascontiguousarray(origins[:, 0]), np.ascontiguousarray(origins[:, 1]),
+        K.integrate_scan(self.occ, self.grid, np.ascontiguousarray(origins[:, 0]), np.ascontiguousarray(origins[:, 1]),
                          np.ascontiguousarray(ends[:, 0]), np.ascontiguousarray(ends[:, 1]), mark.astype(np.bool_))
         allp = np.vstack([origins, ends])
         self.update_costs(allp.min(axis=0), allp.max(axis=0))
@@ -136,8 +150,7 @@ class Costmap:
         i0, j0 = self.cell_of(float(lo[0]), float(lo[1]))
         i1, j1 = self.cell_of(float(hi[0]), float(hi[1]))
         r = self.kr + 1
-        K.inflate_window(self.occ, self.cost, i0 - r, i1 + r + 1, j0 - r, j1 + r + 1,
-                         self.kdi, self.kdj, self.kcost, self.kr)
+        K.inflate_window(self.occ, self.cost, (i0 - r, i1 + r + 1, j0 - r, j1 + r + 1), self.inflation)
 
     def clear_beyond(self, x: float, y: float, keep_m: float) -> None:
         """Forget (set unknown) every cell whose centre is farther than ``keep_m`` from (x, y);
@@ -147,4 +160,4 @@ class Costmap:
         cy = self.origin[1] + (np.arange(ny) + 0.5) * self.cell
         far = (cy[:, None] - y) ** 2 + (cx[None, :] - x) ** 2 > keep_m**2
         self.occ[far] = K.UNKNOWN
-        K.inflate_window(self.occ, self.cost, 0, ny, 0, nx, self.kdi, self.kdj, self.kcost, self.kr)
+        K.inflate_window(self.occ, self.cost, (0, ny, 0, nx), self.inflation)

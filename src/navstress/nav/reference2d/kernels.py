@@ -11,6 +11,7 @@ Grids are indexed ``[row, column]`` = ``[iy, ix]``: cell ``(iy, ix)`` covers
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import navstress._jit  # noqa: F401  (numba's cache directory, before any @njit(cache=True))
 import numba as nb
@@ -20,11 +21,47 @@ UNKNOWN, FREE, OCCUPIED = -1, 0, 1
 INSCRIBED, LETHAL, NO_INFORMATION = 253, 254, 255
 
 
+class Grid(NamedTuple):
+    """Where a grid lies: the map-frame corner (x0, y0) of cell (0, 0) and the cell size (m)."""
+
+    x0: float
+    y0: float
+    cell: float
+
+
+class Footprint(NamedTuple):
+    """The footprint check's data: the cost from which an obstacle is within the circumscribed
+    radius, and the outline's points (n, 2) in the body frame."""
+
+    circ_cost: int
+    outline: np.ndarray
+
+
+class Inflation(NamedTuple):
+    """An inflation kernel (:func:`inflation_kernel`): offsets, their costs, its radius in cells."""
+
+    di: np.ndarray
+    dj: np.ndarray
+    cost: np.ndarray
+    r: int
+
+
+class Rollouts(NamedTuple):
+    """How the rollouts run and are scored: ``n_steps`` of ``dt``, the cost of a never-seen cell,
+    the speed cap, the previous command's yaw rate (the oscillation critic)."""
+
+    n_steps: int
+    dt: float
+    unknown_cost: float
+    vmax: float
+    prev_w: float
+
+
 @nb.njit(cache=True)
-def _trace(occ: np.ndarray, x0: float, y0: float, cell: float, ox: float, oy: float, ex: float, ey: float,
-           mark: bool) -> None:
+def _trace(occ: np.ndarray, grid: Grid, ox: float, oy: float, ex: float, ey: float, mark: bool) -> None:
     """Clear the cells a segment crosses (Amanatides-Woo), its end cell excluded; mark the end
     cell occupied when ``mark``. Cells outside the grid are skipped."""
+    x0, y0, cell = grid
     ny, nx = occ.shape
     fx, fy = (ox - x0) / cell, (oy - y0) / cell
     tx, ty = (ex - x0) / cell, (ey - y0) / cell
@@ -55,13 +92,14 @@ def _trace(occ: np.ndarray, x0: float, y0: float, cell: float, ox: float, oy: fl
 
 
 @nb.njit(cache=True)
-def integrate_scan(occ: np.ndarray, x0: float, y0: float, cell: float, ox: np.ndarray, oy: np.ndarray,
-                   ex: np.ndarray, ey: np.ndarray, mark: np.ndarray) -> None:
+def integrate_scan(occ: np.ndarray, grid: Grid, ox: np.ndarray, oy: np.ndarray, ex: np.ndarray, ey: np.ndarray,
+                   mark: np.ndarray) -> None:
     """Raytrace beams from (ox, oy) to (ex, ey) (map frame, meters): every beam clears first,
     then the beams with ``mark`` set mark their end cell (Nav2's obstacle layer: clearing, then
     marking, so one beam's clearing never erases another's hit)."""
+    x0, y0, cell = grid
     for b in range(ex.shape[0]):
-        _trace(occ, x0, y0, cell, ox[b], oy[b], ex[b], ey[b], False)
+        _trace(occ, grid, ox[b], oy[b], ex[b], ey[b], False)
     ny, nx = occ.shape
     for b in range(ex.shape[0]):
         if mark[b]:
@@ -89,11 +127,13 @@ def inflation_kernel(cell: float, inscribed_m: float, radius_m: float, factor: f
 
 
 @nb.njit(cache=True)
-def inflate_window(occ: np.ndarray, cost: np.ndarray, i0: int, i1: int, j0: int, j1: int,
-                   kdi: np.ndarray, kdj: np.ndarray, kcost: np.ndarray, kr: int) -> None:
-    """Recompute ``cost[i0:i1, j0:j1]`` from ``occ``: the maximum of every kernel stamped at an
-    obstacle within the window grown by ``kr`` cells; a never-seen cell with no obstacle near
-    is NO_INFORMATION. Exact: an obstacle that reaches a window cell lies in the grown window."""
+def inflate_window(occ: np.ndarray, cost: np.ndarray, window: tuple[int, int, int, int], kernel: Inflation) -> None:
+    """Recompute ``cost[i0:i1, j0:j1]`` (``window``) from ``occ``: the maximum of every kernel
+    stamped at an obstacle within the window grown by the kernel's radius ``kr`` cells; a
+    never-seen cell with no obstacle near is NO_INFORMATION. Exact: an obstacle that reaches a
+    window cell lies in the grown window."""
+    i0, i1, j0, j1 = window
+    kdi, kdj, kcost, kr = kernel
     ny, nx = occ.shape
     i0, j0 = max(i0, 0), max(j0, 0)
     i1, j1 = min(i1, ny), min(j1, nx)
@@ -129,7 +169,7 @@ def cell_step_cost(c: int, unknown_cost: float, cost_weight: float) -> float:
 
 
 def astar(cost: np.ndarray, si: int, sj: int, gi: float, gj: float, goal_r: float,
-          unknown_cost: float, cost_weight: float, work: "AStarWork | None" = None,
+          unknown_cost: float, cost_weight: float, *, work: "AStarWork | None" = None,
           heuristic_weight: float = 1.0, escape_r: float = 0.0) -> np.ndarray:
     """A* over the 8-connected grid from cell (si, sj) to any cell whose centre lies within
     ``goal_r`` cells of (gi, gj) (fractional cell coordinates). A step costs its length (cells)
@@ -145,8 +185,8 @@ def astar(cost: np.ndarray, si: int, sj: int, gi: float, gj: float, goal_r: floa
     if work is None or work.g.shape[0] != cost.size:
         work = AStarWork(cost.shape)
     hw = max(1.0, 1.0 + cost_weight * unknown_cost / 252.0) * heuristic_weight
-    return _astar(cost, si, sj, gi, gj, goal_r, unknown_cost, cost_weight, hw, escape_r, work.g, work.parent,
-                  work.closed)
+    return _astar(cost, (si, sj), (gi, gj, goal_r), (unknown_cost, cost_weight, hw, escape_r),
+                  (work.g, work.parent, work.closed))
 
 
 class AStarWork:
@@ -160,9 +200,14 @@ class AStarWork:
 
 
 @nb.njit(cache=True)
-def _astar(cost: np.ndarray, si: int, sj: int, gi: float, gj: float, goal_r: float,
-           unknown_cost: float, cost_weight: float, hw: float, escape_r: float, g: np.ndarray, parent: np.ndarray,
-           closed: np.ndarray) -> np.ndarray:
+def _astar(cost: np.ndarray, start: tuple[int, int], goal: tuple[float, float, float],
+           costs: tuple[float, float, float, float], work: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray:
+    """:func:`astar` on (si, sj), (gi, gj, goal_r), (unknown_cost, cost_weight, hw, escape_r) and
+    the buffers (g, parent, closed)."""
+    si, sj = start
+    gi, gj, goal_r = goal
+    unknown_cost, cost_weight, hw, escape_r = costs
+    g, parent, closed = work
     ny, nx = cost.shape
     s = si * nx + sj
     touched = [s]
@@ -263,7 +308,8 @@ def heapq_pop(heap: list[tuple[float, int, int]]) -> tuple[float, int, int]:
 
 
 @nb.njit(cache=True)
-def _cost_at(cost: np.ndarray, x0: float, y0: float, cell: float, x: float, y: float) -> int:
+def _cost_at(cost: np.ndarray, grid: Grid, x: float, y: float) -> int:
+    x0, y0, cell = grid
     j = int(math.floor((x - x0) / cell))
     i = int(math.floor((y - y0) / cell))
     if i < 0 or j < 0 or i >= cost.shape[0] or j >= cost.shape[1]:
@@ -272,14 +318,14 @@ def _cost_at(cost: np.ndarray, x0: float, y0: float, cell: float, x: float, y: f
 
 
 @nb.njit(cache=True)
-def footprint_overlap(cost: np.ndarray, x0: float, y0: float, cell: float, x: float, y: float, yaw: float,
-                      circ_cost: int, outline: np.ndarray) -> int:
+def footprint_overlap(cost: np.ndarray, grid: Grid, x: float, y: float, yaw: float, fp: Footprint) -> int:
     """How much the footprint at (x, y, yaw) collides, 0 when it does not: ``1000 + the centre's
     cost`` when the centre lies within the inscribed radius of an obstacle (cost >= INSCRIBED),
     else, when an obstacle is within the circumscribed radius (cost >= ``circ_cost``), the number
     of points of its ``outline`` (n, 2, body frame) on obstacle cells (Nav2's footprint check
     with the possibly-inscribed shortcut). Never-seen ground does not collide."""
-    c = _cost_at(cost, x0, y0, cell, x, y)
+    circ_cost, outline = fp
+    c = _cost_at(cost, grid, x, y)
     if c == 255 or c < circ_cost:
         return 0
     if c >= 253:
@@ -289,16 +335,15 @@ def footprint_overlap(cost: np.ndarray, x0: float, y0: float, cell: float, x: fl
     for k in range(outline.shape[0]):
         px = x + cy * outline[k, 0] - sy * outline[k, 1]
         py = y + sy * outline[k, 0] + cy * outline[k, 1]
-        if _cost_at(cost, x0, y0, cell, px, py) == 254:
+        if _cost_at(cost, grid, px, py) == 254:
             n += 1
     return n
 
 
 @nb.njit(cache=True)
-def footprint_hits(cost: np.ndarray, x0: float, y0: float, cell: float, x: float, y: float, yaw: float,
-                   circ_cost: int, outline: np.ndarray) -> bool:
+def footprint_hits(cost: np.ndarray, grid: Grid, x: float, y: float, yaw: float, fp: Footprint) -> bool:
     """Whether the footprint at (x, y, yaw) collides (:func:`footprint_overlap` > 0)."""
-    return footprint_overlap(cost, x0, y0, cell, x, y, yaw, circ_cost, outline) > 0
+    return footprint_overlap(cost, grid, x, y, yaw, fp) > 0
 
 
 @nb.njit(cache=True)
@@ -312,10 +357,9 @@ def _nearest(path: np.ndarray, x: float, y: float) -> tuple[int, float]:
 
 
 @nb.njit(cache=True)
-def score_rollouts(cost: np.ndarray, x0: float, y0: float, cell: float, px: float, py: float, pyaw: float,
-                   vs: np.ndarray, ws: np.ndarray, n_steps: int, dt: float, circ_cost: int, outline: np.ndarray,
-                   path: np.ndarray, togo: np.ndarray, unknown_cost: float, weights: np.ndarray,
-                   vmax: float, prev_w: float) -> np.ndarray:
+def score_rollouts(cost: np.ndarray, grid: Grid, pose: tuple[float, float, float],
+                   samples: tuple[np.ndarray, np.ndarray], fp: Footprint, plan: tuple[np.ndarray, np.ndarray],
+                   weights: np.ndarray, ro: Rollouts) -> np.ndarray:
     """DWB: each sample (vs[k], ws[k]) rolled out at constant velocity for ``n_steps`` of ``dt``
     from (px, py, pyaw) and scored by its critics (lower is better; inf: a pose collides, see
     :func:`footprint_hits`). ``path`` (m, 2): the global path's points ahead (map frame, meters),
@@ -323,9 +367,14 @@ def score_rollouts(cost: np.ndarray, x0: float, y0: float, cell: float, px: floa
     distance, path alignment, goal distance, speed, oscillation, forward point (m). A robot
     whose footprint already collides (an obstacle seen late, pose error) may move as long as the
     collision gets no worse (:func:`footprint_overlap` never above the start's): it can back
-    out of where it is."""
+    out of where it is. ``pose``: (px, py, pyaw); ``samples``: (vs, ws); ``plan``: (path, togo);
+    ``ro``: :class:`Rollouts`."""
+    px, py, pyaw = pose
+    vs, ws = samples
+    path, togo = plan
+    n_steps, dt, unknown_cost, vmax, prev_w = ro
     out = np.empty(vs.shape[0])
-    start = footprint_overlap(cost, x0, y0, cell, px, py, pyaw, circ_cost, outline)
+    start = footprint_overlap(cost, grid, px, py, pyaw, fp)
     for k in range(vs.shape[0]):
         v, w = vs[k], ws[k]
         x, y, th = px, py, pyaw
@@ -340,11 +389,11 @@ def score_rollouts(cost: np.ndarray, x0: float, y0: float, cell: float, px: floa
             else:
                 x += v * dt * math.cos(th)
                 y += v * dt * math.sin(th)
-            hit = footprint_overlap(cost, x0, y0, cell, x, y, th, circ_cost, outline)
+            hit = footprint_overlap(cost, grid, x, y, th, fp)
             if hit > 0 and (start == 0 or hit > start):
                 bad = True
                 break
-            c = _cost_at(cost, x0, y0, cell, x, y)
+            c = _cost_at(cost, grid, x, y)
             csum += unknown_cost if c == 255 else c
         if bad:
             out[k] = np.inf

@@ -236,8 +236,8 @@ class Reference2dNavigator:
         gj = (gx - cm.origin[0]) / cm.cell - 0.5
         # the path ends well inside the arrival circle (half its radius), at the goal itself when it is free
         goal_r = 0.5 * cfg.arrival_fraction * self.mission.goal_tolerance_m / cm.cell
-        cells = K.astar(cm.cost, si, sj, gi, gj, goal_r, cfg.unknown_cell_cost, cfg.cost_weight, self._astar_work,
-                        cfg.heuristic_weight, cm.circumscribed_m / cm.cell)
+        cells = K.astar(cm.cost, si, sj, gi, gj, goal_r, cfg.unknown_cell_cost, cfg.cost_weight, work=self._astar_work,
+                        heuristic_weight=cfg.heuristic_weight, escape_r=cm.circumscribed_m / cm.cell)
         if len(cells) == 0:
             self.path, self.togo = np.zeros((0, 2)), np.zeros(0)
             return
@@ -287,9 +287,10 @@ class Reference2dNavigator:
         path = np.ascontiguousarray(self.path[window])
         togo = np.ascontiguousarray(self.togo[window])
         vs, ws = self._samples(pv, pw, dt)
-        scores = K.score_rollouts(cm.cost, cm.origin[0], cm.origin[1], cm.cell, pose.x, pose.y, pose.yaw,
-                                  vs, ws, self._n_steps, cfg.sim_time_s / self._n_steps, cm.circ_cost, cm.outline,
-                                  path, togo, cfg.unknown_cell_cost, self._weights, self.vmax, pw)
+        scores = K.score_rollouts(cm.cost, cm.grid, (float(pose.x), float(pose.y), float(pose.yaw)), (vs, ws),
+                                  cm.footprint, (path, togo), self._weights,
+                                  K.Rollouts(int(self._n_steps), float(cfg.sim_time_s / self._n_steps),
+                                             float(cfg.unknown_cell_cost), float(self.vmax), float(pw)))
         if cfg.cost_jitter > 0:
             scores = scores + self._rng.uniform(0.0, cfg.cost_jitter, len(scores))
         best = int(np.argmin(scores))
@@ -322,8 +323,7 @@ class Reference2dNavigator:
         """Whether turning in place by ``angle`` keeps the footprint clear."""
         cm = self.costmap
         for a in np.linspace(0.0, angle, 8):
-            if K.footprint_hits(cm.cost, cm.origin[0], cm.origin[1], cm.cell, pose.x, pose.y, pose.yaw + a,
-                                cm.circ_cost, cm.outline):
+            if K.footprint_hits(cm.cost, cm.grid, float(pose.x), float(pose.y), float(pose.yaw + a), cm.footprint):
                 return False
         return True
 
@@ -365,8 +365,8 @@ class Reference2dNavigator:
             cm = self.costmap
             bx = pose.x - cfg.backup_m * math.cos(pose.yaw)
             by = pose.y - cfg.backup_m * math.sin(pose.yaw)
-            blocked = K.footprint_hits(cm.cost, cm.origin[0], cm.origin[1], cm.cell, bx, by, pose.yaw,
-                                       cm.circ_cost, cm.outline) and moved == 0.0
+            blocked = K.footprint_hits(cm.cost, cm.grid, float(bx), float(by), float(pose.yaw),
+                                       cm.footprint) and moved == 0.0
             done = blocked or moved >= cfg.backup_m or elapsed > 2.0 * cfg.backup_m / cfg.backup_speed_mps + 2.0
             cmd = (-cfg.backup_speed_mps, 0.0)
         else:  # wait

@@ -191,8 +191,9 @@ def rollouts(cm: Costmap, vs: list[float], ws: list[float]) -> np.ndarray:
     togo = 10.0 - path[:, 0]
     weights = np.array([CFG.obstacle_weight, CFG.path_dist_weight, CFG.path_align_weight, CFG.goal_dist_weight,
                         CFG.speed_weight, CFG.oscillation_weight, CFG.forward_point_m])
-    return K.score_rollouts(cm.cost, cm.origin[0], cm.origin[1], cm.cell, 0.0, 0.0, 0.0, np.array(vs), np.array(ws),
-                            17, 0.1, cm.circ_cost, cm.outline, path, togo, CFG.unknown_cell_cost, weights, 1.0, 0.0)
+    return K.score_rollouts(cm.cost, cm.grid, (0.0, 0.0, 0.0), (np.array(vs, float), np.array(ws, float)),
+                            cm.footprint, (path, togo), weights,
+                            K.Rollouts(17, 0.1, float(CFG.unknown_cell_cost), 1.0, 0.0))
 
 
 def test_rollouts_prefer_the_path_and_refuse_collisions() -> None:
