@@ -45,7 +45,7 @@ from navstress.errors import SpecError
 from navstress.sensors.base import Mount
 from navstress.sensors.kinds.depth import DepthParams, rays
 from navstress.sim import _noise
-from navstress.sim._raybox import Cylinder, _ray_cylinder
+from navstress.sim._raybox import Cylinder, _mounted_pose, _ray_cylinder
 from navstress.sim._raycast import INF, Box, Ray, TerrainGrid, _ray_box, march_terrain
 from navstress.sim.lidar import LidarScene
 
@@ -107,39 +107,6 @@ def _flat_terrain(ray: Ray, t1: float, W: float, H: float, gtop: float) -> tuple
         ts = tlo if dz >= 0.0 else max(tlo, (gtop - oz) / dz)
         return ts, True
     return INF, False
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
-def _pose(qpos: np.ndarray, mxyz: np.ndarray, mrot: np.ndarray, rot: np.ndarray, origin: np.ndarray) -> bool:
-    """The sensor's world pose from the body pose qpos[:7] (x, y, z, qw, qx, qy, qz; the rotation
-    by ``mju_quat2Mat``'s formula, as :func:`navstress.sim._raybox.body_scan_ranges`) and the
-    mount (position ``mxyz``, rotation ``mrot``, in the body frame): ``rot`` = R_body @ mrot,
-    ``origin`` = qpos[:3] + R_body @ mxyz. False if not finite or not a unit quaternion."""
-    q0, q1, q2, q3 = qpos[3], qpos[4], qpos[5], qpos[6]
-    nq = q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3
-    if not abs(nq - 1.0) <= 1e-6:
-        return False
-    rb = np.empty((3, 3))
-    q00, q01, q02, q03 = q0 * q0, q0 * q1, q0 * q2, q0 * q3
-    q11, q12, q13 = q1 * q1, q1 * q2, q1 * q3
-    q22, q23, q33 = q2 * q2, q2 * q3, q3 * q3
-    rb[0, 0] = q00 + q11 - q22 - q33
-    rb[1, 1] = q00 - q11 + q22 - q33
-    rb[2, 2] = q00 - q11 - q22 + q33
-    rb[0, 1] = 2.0 * (q12 - q03)
-    rb[0, 2] = 2.0 * (q13 + q02)
-    rb[1, 0] = 2.0 * (q12 + q03)
-    rb[1, 2] = 2.0 * (q23 - q01)
-    rb[2, 0] = 2.0 * (q13 - q02)
-    rb[2, 1] = 2.0 * (q23 + q01)
-    ok = True
-    for i in range(3):
-        origin[i] = qpos[i] + (rb[i, 0] * mxyz[0] + rb[i, 1] * mxyz[1] + rb[i, 2] * mxyz[2])
-        ok = ok and math.isfinite(origin[i])
-        for j in range(3):
-            rot[i, j] = rb[i, 0] * mrot[0, j] + rb[i, 1] * mrot[1, j] + rb[i, 2] * mrot[2, j]
-            ok = ok and math.isfinite(rot[i, j])
-    return ok
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -464,7 +431,7 @@ def render_kernel(qpos: np.ndarray, mxyz: np.ndarray, mrot: np.ndarray, boxes: n
     arrays slower)."""
     grid = TerrainGrid(*arrays[:_E_GRID])
     cam = Camera(*arrays[_E_GRID:])
-    if not _pose(qpos, mxyz, mrot, rot, origin):
+    if not _mounted_pose(qpos, mxyz, mrot, rot, origin):
         return -1
     return _cast(grid, cam, boxes, discs, rot, origin, out)
 
