@@ -22,7 +22,7 @@ from navstress.sim.model import world_to_mjcf
 from navstress.world.export.images import PREVIEW, obstruction_pct, save_with_preview, write_heightmap_png, write_preview
 from navstress.world.export.mesh import write_mesh
 from navstress.world.export.sdf import write_sdf
-from navstress.world.flags import build_spec
+from navstress.world.flags import build_spec, import_spec
 from navstress.run.robot import check_stable
 from navstress.world.generate import check_robot_fits, generate, sized_to_robot
 from navstress.world.world import World
@@ -147,6 +147,50 @@ def world_generate(
                             obstruction=obstruction, mix=mix, movers=movers, mover_behaviour=mover_behaviour)
     if robot is not None:
         world_spec = sized_to_robot(world_spec, robot_v, field="--robot")
+    if output.is_symlink():  # a link named as -o is the user's choice: followed once, its target replaced
+        output = Path(os.path.realpath(output))
+    check_out_dir(output)
+    world = generate(world_spec, seed_v, robot=robot_v if robot is not None else None)
+    save_with_preview(world, output)
+    con = console()
+    con.print(_descriptor_table(world, f"world {output}"))
+    con.print(f"wrote {output}/ (world.json, terrain.npz, {PREVIEW})")
+
+
+@world_app.command("import")
+def world_import(
+    source: Annotated[Path, typer.Argument(metavar="SOURCE", help=(
+        "A ROS map_server map (its YAML, naming a PGM or PNG image), a Gazebo world (.world or .sdf, "
+        "SDF 1.4 to 1.9) or a navstress world directory."))],
+    *,
+    output: Annotated[Path, typer.Option("--output", "-o", metavar="DIR", help=(
+        "World directory to write (world.json, terrain.npz, preview.png). Must be new or an "
+        "existing world directory, which is replaced."))],
+    kind: Annotated[str, typer.Option(metavar="auto|map|sdf|dir", help=(
+        "What SOURCE is; auto (the default): by the file."))] = "auto",
+    wall_height: Annotated[str | None, typer.Option("--wall-height", metavar=_M, help=(
+        "A map's walls (its occupied cells) are this high, in (0, 100] m. Default 2."))] = None,
+    unknown: Annotated[str | None, typer.Option(metavar="wall|free", help=(
+        "A map's unknown cells become walls or free ground. Default wall."))] = None,
+    meshes: Annotated[str | None, typer.Option(metavar="skip|bbox", help=(
+        "An SDF world's mesh collisions: skip (listed in the warning) or their bounding boxes. Default skip."))] = None,
+    start: Annotated[str | None, typer.Option(metavar="X,Y,YAW", help=(
+        "The mission's start pose in the source's frame (m, m, rad). Default: the source's own, or drawn "
+        "in the free space with the robot's clearance from --seed."))] = None,
+    goal: Annotated[str | None, typer.Option(metavar="X,Y", help=(
+        "The mission's goal in the source's frame (m). Give --start and --goal together."))] = None,
+    seed: Annotated[str, typer.Option(metavar="N", help=(
+        "Seed of a drawn mission, an integer in [0, 2**63-1]."))] = "0",
+    robot: RobotOpt = None,
+) -> None:
+    """Import a world made elsewhere (an occupancy-grid map, a Gazebo world) as a navstress world.
+
+    The world is shifted so its lower-left corner is (0, 0); world.json's source.origin says
+    where that is in the source's frame, and missions given here are in the source's frame."""
+    seed_v = bounded_int("--seed", seed, 0, MAX_SEED)
+    robot_v = load_robot_flag(robot)
+    world_spec = import_spec(source, kind=kind, wall_height=wall_height, unknown=unknown, meshes=meshes,
+                             start=start, goal=goal)
     if output.is_symlink():  # a link named as -o is the user's choice: followed once, its target replaced
         output = Path(os.path.realpath(output))
     check_out_dir(output)

@@ -157,3 +157,46 @@ def build_spec(*, spec_file: Path | None = None, size: str | None = None, cell: 
             if flagged and (e.field == prefix or e.field.startswith(prefix + ".")):
                 raise SpecError(flag, e.value, e.expected, e.fix) from None
         raise
+
+
+def _floats(flag: str, raw: str, n: int, expected: str) -> list[float]:
+    parts = [p.strip() for p in raw.split(",")]
+    if len(parts) != n:
+        raise SpecError(flag, raw, expected)
+    out = [number(flag, p, expected) for p in parts]
+    if not all(math.isfinite(v) for v in out):
+        raise SpecError(flag, raw, expected)
+    return out
+
+
+def import_spec(source: Path, *, kind: str = "auto", wall_height: str | None = None, unknown: str | None = None,
+                meshes: str | None = None, start: str | None = None, goal: str | None = None) -> WorldSpec:
+    """The WorldSpec of ``navstress world import``: ``source`` (made absolute) with the flags'
+    import options and mission (in the source's frame); an invalid value names its flag.
+
+        >>> s = import_spec(Path("/maps/office.yaml"), wall_height="2.5", start="1,2,0", goal="5,6")
+        >>> s.source.path, s.source.wall_height_m, s.mission.start, s.mission.goal
+        ('/maps/office.yaml', 2.5, (1.0, 2.0, 0.0), (5.0, 6.0))
+    """
+    src: dict[str, Any] = {"path": str(Path(source).absolute()), "kind": kind}
+    flags = {"--kind": "kind"}
+    if wall_height is not None:
+        src["wall_height_m"] = number("--wall-height", wall_height, "a height in (0, 100] m")
+        flags["--wall-height"] = "wall_height_m"
+    if unknown is not None:
+        src["unknown"], flags["--unknown"] = unknown, "unknown"
+    if meshes is not None:
+        src["meshes"], flags["--meshes"] = meshes, "meshes"
+    data: dict[str, Any] = {"source": src}
+    if (start is None) != (goal is None):
+        raise SpecError("--start" if start is None else "--goal", "missing", "--start and --goal given together")
+    if start is not None and goal is not None:
+        data["mission"] = {"start": _floats("--start", start, 3, "X,Y,YAW: three numbers (m, m, rad)"),
+                           "goal": _floats("--goal", goal, 2, "X,Y: two numbers (m)")}
+    try:
+        return parse_spec(data)
+    except SpecError as err:
+        for flag, field in flags.items():
+            if err.field == f"source.{field}":
+                raise SpecError(flag, err.value, err.expected, err.fix) from None
+        raise

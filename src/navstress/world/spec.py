@@ -417,6 +417,58 @@ class MoversSpec(BaseModel):
 _NO_MOVERS = MoversSpec()
 
 
+#: The world generators (:mod:`navstress.world.generators`), the default first.
+GENERATORS = ("outdoor", "rooms", "clutter")
+#: The kinds of imported world (:mod:`navstress.world.sources`); ``auto``: by the file.
+SOURCE_KINDS = ("auto", "map", "sdf", "dir")
+
+
+class SourceSpec(BaseModel):
+    """An imported world (docs/worlds.md, "Imported worlds"): ``path`` names a ROS ``map_server``
+    YAML (with its PGM or PNG image), a Gazebo world (SDF), or a navstress world directory;
+    ``kind`` says which (``auto``: by the file). A relative path is relative to the spec file
+    that names it (the spec readers make it absolute). The other fields are import options:
+    ``wall_height_m`` (a map's occupied cells become walls this high), ``unknown`` (a map's
+    unknown cells: ``wall`` or ``free`` ground), ``meshes`` (an SDF's mesh collisions: ``skip``,
+    listed in the warning, or ``bbox``, their bounding boxes), ``margin_m`` (free ground kept
+    around an SDF world's content), ``sha256`` (the source's digest, pinned by a campaign's plan:
+    a source file that changed since is refused, never silently mixed)."""
+
+    model_config = _STRICT
+    path: str = Field(min_length=1)
+    kind: Literal["auto", "map", "sdf", "dir"] = "auto"
+    wall_height_m: float = Field(2.0, gt=0.0, le=100.0)
+    unknown: Literal["wall", "free"] = "wall"
+    meshes: Literal["skip", "bbox"] = "skip"
+    margin_m: float = Field(1.0, ge=0.0, le=100.0)
+    sha256: str | None = Field(None, pattern=r"^[0-9a-f]{64}$")
+
+
+class RoomsSpec(BaseModel):
+    """The ``rooms`` generator's parameters (docs/worlds.md, "Generators"). OWNED BY THE GENERATORS HELPER."""
+
+    model_config = _STRICT
+    room_size_m: tuple[float, float] = Field((4.0, 8.0), strict=LIST)
+    corridor_width_m: float = Field(2.0, gt=0.0, le=20.0)
+    door_width_m: float = Field(1.0, gt=0.0, le=10.0)
+    doors_per_room: tuple[int, int] = Field((1, 2), strict=LIST)
+    wall_thickness_m: float = Field(0.15, gt=0.0, le=2.0)
+    wall_height_m: float = Field(2.5, gt=0.0, le=20.0)
+    clutter_pct: float = Field(0.0, ge=0.0, lt=60.0)
+
+
+class ClutterSpec(BaseModel):
+    """The ``clutter`` generator's parameters (BARN's kind; docs/worlds.md, "Generators"). OWNED BY THE GENERATORS HELPER."""
+
+    model_config = _STRICT
+    fill_pct: float = Field(15.0, ge=0.0, le=100.0)
+    smooth_iterations: int = Field(4, ge=0, le=50)
+    cells: tuple[int, int] = Field((30, 30), strict=LIST)
+    lattice_m: float = Field(0.15, gt=0.0, le=5.0)
+    radius_m: float = Field(0.075, gt=0.0, le=5.0)
+    height_m: float = Field(1.0, gt=0.0, le=20.0)
+
+
 class WorldSpec(BaseModel):
     """Everything that defines a family of worlds; with a seed, one world."""
 
@@ -427,18 +479,35 @@ class WorldSpec(BaseModel):
     obstacles: ObstaclesSpec = ObstaclesSpec()
     mission: MissionSpec = MissionSpec()
     movers: MoversSpec = MoversSpec()
+    source: SourceSpec | None = None
+    generator: Literal["outdoor", "rooms", "clutter"] = "outdoor"
+    rooms: RoomsSpec = RoomsSpec()
+    clutter: ClutterSpec = ClutterSpec()
 
     @model_serializer(mode="wrap")
     def _dump(self, handler: SerializerFunctionWrapHandler) -> Any:
         """A spec without movers dumps as before movers existed (no ``movers`` key), so the
-        files of every world without movers keep their bytes."""
+        files of every world without movers keep their bytes; likewise without a ``source``,
+        with the ``outdoor`` generator, and without the parameters of a generator it does not use."""
         data = handler(self)
-        if isinstance(data, dict) and self.movers.empty:
-            data.pop("movers", None)
+        if isinstance(data, dict):
+            if self.movers.empty:
+                data.pop("movers", None)
+            if self.source is None:
+                data.pop("source", None)
+            if self.generator == "outdoor":
+                data.pop("generator", None)
+            for name in ("rooms", "clutter"):
+                if self.generator != name:
+                    data.pop(name, None)
         return data
 
     @model_validator(mode="after")
     def _check(self) -> "WorldSpec":
+        for name in ("rooms", "clutter"):
+            if name in self.model_fields_set and self.generator != name:
+                raise SpecError(name, "set", f"parameters of the generator in use ({self.generator!r})",
+                                f"set generator: {name}, or remove {name}")
         for axis, size in zip("xy", self.size_m):
             if not (size > 0) or math.isinf(size):
                 raise SpecError(f"size_m.{axis}", size, "a map size in meters > 0")
@@ -448,6 +517,8 @@ class WorldSpec(BaseModel):
             if abs(n - round(n)) > 1e-6:
                 raise SpecError(f"size_m.{axis}", size, f"a whole multiple of cell_m={self.cell_m}",
                                 f"use size {round(n) * self.cell_m:g} or another cell_m")
+        if self.source is not None:  # the mission and the moves are in the source's frame: checked on import
+            return self._check_movers()
         m = self.mission
         for name, pt in (("start", m.start), ("goal", m.goal)):
             if pt is not None and not (0 <= pt[0] <= self.size_m[0] and 0 <= pt[1] <= self.size_m[1]):
@@ -457,6 +528,9 @@ class WorldSpec(BaseModel):
             if not (0 <= mv.at[0] <= self.size_m[0] and 0 <= mv.at[1] <= self.size_m[1]):
                 raise SpecError(f"obstacles.moves[{i}].at", list(mv.at),
                                 f"a point inside the map [0, {self.size_m[0]:g}] x [0, {self.size_m[1]:g}]")
+        return self._check_movers()
+
+    def _check_movers(self) -> "WorldSpec":
         counts = self.movers.counts(self.size_m)
         total = sum(counts.values())
         if total > MAX_MOVERS:

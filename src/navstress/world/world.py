@@ -1,7 +1,8 @@
 """World: the phenotype. A value object that round-trips exactly through a directory.
 
 A world directory holds ``world.json`` (spec, seed, descriptors, obstacles, mission, and its
-movers when it has any: a world without movers has no ``movers`` key, as before movers existed) and
+movers when it has any: a world without movers has no ``movers`` key, as before movers existed; an
+imported world's ``source``, see :class:`WorldSource`) and
 ``terrain.npz`` (``heights``: 2-D float32 meters, rows along +y, columns along +x, vertex
 (i, j) at (x, y) = (j*cell_m, i*cell_m); plus ``cell_m``).
 
@@ -40,11 +41,21 @@ WORLD_JSON = "world.json"
 TERRAIN_NPZ = "terrain.npz"
 
 
-@dataclass(frozen=True)
+#: The obstacle shapes (docs/worlds.md, "Obstacle shapes"): ``box`` (an upright box turned by
+#: its yaw; a wall is a long thin box of kind ``wall``) and ``cylinder`` (an upright cylinder).
+OBSTACLE_SHAPES = ("box", "cylinder")
+
+
+@dataclass(frozen=True, repr=False)
 class Obstacle:
-    """A static box. (x, y) is the footprint centre, ``z`` the height of its base (the ground
-    under it is levelled to ``z``), ``size`` = (sx, sy, sz) with sx along the box's own x axis
-    rotated by ``yaw`` (radians, counter-clockwise)."""
+    """A static obstacle standing on the ground. (x, y) is the footprint centre, ``z`` the height
+    of its base (the ground under it is levelled to ``z``). ``shape="box"`` (the default):
+    ``size`` = (sx, sy, sz) with sx along the box's own x axis rotated by ``yaw`` (radians,
+    counter-clockwise). ``shape="cylinder"``: an upright cylinder, ``size`` = (diameter,
+    diameter, height), ``yaw`` kept as given and without effect on its geometry.
+
+    A box's text (``repr``, which :meth:`World.digest` hashes, and :meth:`to_json`) is what it was
+    before shapes existed: no ``shape``."""
 
     kind: str
     x: float
@@ -52,9 +63,31 @@ class Obstacle:
     yaw: float
     size: tuple[float, float, float]
     z: float = 0.0
+    shape: str = "box"
+
+    def __post_init__(self) -> None:
+        if self.shape not in OBSTACLE_SHAPES:
+            raise ValueError(f"obstacle shape {self.shape!r} is unknown (one of {list(OBSTACLE_SHAPES)})")
+
+    def __repr__(self) -> str:
+        tail = "" if self.shape == "box" else f", shape={self.shape!r}"
+        return (f"Obstacle(kind={self.kind!r}, x={self.x!r}, y={self.y!r}, yaw={self.yaw!r}, "
+                f"size={self.size!r}, z={self.z!r}{tail})")
+
+    @property
+    def is_cylinder(self) -> bool:
+        return self.shape == "cylinder"
+
+    @property
+    def radius_xy(self) -> float:
+        """The radius of the footprint's circumscribed circle (centre (x, y))."""
+        if self.shape == "cylinder":
+            return self.size[0] / 2
+        return math.hypot(self.size[0], self.size[1]) / 2
 
     def corners(self) -> np.ndarray:
-        """The 4 footprint corners, shape (4, 2), counter-clockwise."""
+        """The 4 footprint corners, shape (4, 2), counter-clockwise (a cylinder: those of its
+        footprint's bounding square, turned by its yaw)."""
         c, s = math.cos(self.yaw), math.sin(self.yaw)
         hx, hy = self.size[0] / 2, self.size[1] / 2
         local = np.array([[hx, hy], [-hx, hy], [-hx, -hy], [hx, -hy]])
@@ -62,19 +95,63 @@ class Obstacle:
         out: np.ndarray = local @ rot.T + np.array([self.x, self.y])
         return out
 
+    def outline(self, segments: int = 24) -> np.ndarray:
+        """The footprint as a counter-clockwise polygon, shape (n, 2): a box's 4 corners, a
+        cylinder's circle as a regular ``segments``-gon inscribed in it."""
+        if self.shape == "box":
+            return self.corners()
+        a = np.arange(segments) * (2 * math.pi / segments)
+        r = self.size[0] / 2
+        out: np.ndarray = np.stack([self.x + r * np.cos(a), self.y + r * np.sin(a)], axis=1)
+        return out
+
     @property
     def area(self) -> float:
+        if self.shape == "cylinder":
+            return math.pi * (self.size[0] / 2) ** 2
         return self.size[0] * self.size[1]
 
     def to_json(self) -> dict[str, Any]:
-        return {"kind": self.kind, "x": self.x, "y": self.y, "yaw": self.yaw,
-                "size": list(self.size), "z": self.z}
+        out: dict[str, Any] = {"kind": self.kind, "x": self.x, "y": self.y, "yaw": self.yaw,
+                               "size": list(self.size), "z": self.z}
+        if self.shape != "box":
+            out["shape"] = self.shape
+        return out
 
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> "Obstacle":
         return cls(kind=str(d["kind"]), x=float(d["x"]), y=float(d["y"]), yaw=float(d["yaw"]),
                    size=(float(d["size"][0]), float(d["size"][1]), float(d["size"][2])),
-                   z=float(d.get("z", 0.0)))
+                   z=float(d.get("z", 0.0)), shape=str(d.get("shape", "box")))
+
+
+@dataclass(frozen=True)
+class WorldSource:
+    """Where an imported world came from (:mod:`navstress.world.sources`): the source's ``kind``
+    (``map``, ``sdf``, ``dir``), its ``path`` (absolute) and ``sha256`` (of the file, or for a map
+    of the YAML and its image together), and ``origin``: the point of the source's own frame at
+    navstress's (0, 0). A world's frame starts at its lower-left corner; an imported one is
+    shifted there, and a point p of the world is p + origin in the source's frame."""
+
+    kind: str
+    path: str
+    sha256: str
+    origin: tuple[float, float] = (0.0, 0.0)
+
+    def to_source(self, x: float, y: float) -> tuple[float, float]:
+        return (x + self.origin[0], y + self.origin[1])
+
+    def from_source(self, x: float, y: float) -> tuple[float, float]:
+        return (x - self.origin[0], y - self.origin[1])
+
+    def to_json(self) -> dict[str, Any]:
+        return {"kind": self.kind, "path": self.path, "sha256": self.sha256, "origin": list(self.origin)}
+
+    @classmethod
+    def from_json(cls, d: dict[str, Any]) -> "WorldSource":
+        o = d.get("origin", [0.0, 0.0])
+        return cls(kind=str(d["kind"]), path=str(d["path"]), sha256=str(d["sha256"]),
+                   origin=(float(o[0]), float(o[1])))
 
 
 @dataclass(frozen=True)
@@ -229,12 +306,13 @@ class World:
     mission: Mission
     descriptors: dict[str, Any] = field(default_factory=dict)
     movers: tuple[Mover, ...] = ()
+    source: WorldSource | None = None  # an imported world's source (None: generated)
 
     def __eq__(self, other: object) -> bool:
         return (isinstance(other, World) and self.spec == other.spec and self.seed == other.seed
                 and self.terrain == other.terrain and self.obstacles == other.obstacles
                 and self.mission == other.mission and self.descriptors == other.descriptors
-                and self.movers == other.movers)
+                and self.movers == other.movers and self.source == other.source)
 
     __hash__ = None  # type: ignore[assignment]
 
@@ -250,6 +328,8 @@ class World:
         h.update(repr((self.terrain.heights.shape, self.terrain.cell_m)).encode())
         h.update(self.terrain.heights.tobytes())
         h.update(repr((self.obstacles, self.mission, self.movers)).encode())
+        if self.source is not None:  # (a generated world: the digest of before sources existed)
+            h.update(repr(self.source.origin).encode())
         return h.hexdigest()
 
     @classmethod
@@ -275,6 +355,8 @@ class World:
         }
         if self.movers:  # a world without movers: the text of before movers existed
             out["movers"] = [m.to_json() for m in self.movers]
+        if self.source is not None:  # a generated world: the text of before sources existed
+            out["source"] = self.source.to_json()
         return out
 
     def save(self, path: str | os.PathLike[str]) -> None:
@@ -315,7 +397,8 @@ class World:
             return cls(spec=spec, seed=int(meta["seed"]), terrain=Terrain(heights, cell),
                        obstacles=tuple(Obstacle.from_json(o) for o in meta["obstacles"]),
                        mission=Mission.from_json(meta["mission"]), descriptors=dict(meta.get("descriptors", {})),
-                       movers=tuple(Mover.from_json(m) for m in meta.get("movers", [])))
+                       movers=tuple(Mover.from_json(m) for m in meta.get("movers", [])),
+                       source=WorldSource.from_json(meta["source"]) if meta.get("source") else None)
         except (KeyError, ValueError, TypeError, OSError, ValidationError, RecursionError, EOFError,
                 zipfile.BadZipFile) as err:
             raise WorldFileError(f"world={str(d)!r} is corrupt: {type(err).__name__}: {err}".splitlines()[0]) from None

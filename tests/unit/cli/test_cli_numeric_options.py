@@ -26,12 +26,12 @@ COMMANDS = leaf_commands()
 #: The options whose value is a number, by parameter name.
 NUMERIC = {"size", "cell", "subdivisions", "deformation", "trees", "buildings", "obstruction", "seed", "runs",
            "timeout", "goal_tolerance", "workers", "wall_limit", "budget", "threshold", "k", "dt", "min_success",
-           "confidence", "alpha", "max_collisions", "live_port", "live_wait", "speed", "heightmap_bits"}
+           "confidence", "alpha", "max_collisions", "live_port", "live_wait", "speed", "heightmap_bits", "wall_height"}
 #: The others (paths, names, choices, lists): a new option must be put in one of the two sets.
 NOT_NUMERIC = {"kind_names", "output", "out", "json_out", "keep", "junit", "world_dir", "directory", "directories", "spec", "trace",
                "run_id", "name", "navigator", "navigator_config", "fault", "fmt", "table", "preset", "objective",
                "executor", "ray_address", "live_host", "a", "b", "weights", "course", "ground", "mix", "movers",
-               "mover_behaviour", "baseline", "robot", "ref", "sensor", "sensor_add"}
+               "mover_behaviour", "baseline", "robot", "ref", "sensor", "sensor_add", "source", "kind", "unknown", "meshes", "start", "goal"}
 #: Options read only with --live.
 LIVE_ONLY = {"live_port", "live_wait", "speed"}
 EXTREMES = ["1e-300", "5e-324", "1e-9", "1e300", "9" * 30, "0", "-0", "-1", "-1e300", "nan", "inf", "-inf"]

@@ -58,6 +58,7 @@ BAD_INPUT: dict[str, list[str]] = {
     "world export": ["world", "export", "{root}/nope", "-o", "{root}/e.sdf"],
     "world generate": ["world", "generate", "--size", "5", "-o", "{root}/wout"],
     "world show": ["world", "show", "{root}/nope"],
+    "world import": ["world", "import", "{root}/nope.yaml", "-o", "{root}/wimp"],
 }
 #: Bad inputs with the live view asked for (its banner must not be a line before the error).
 LIVE = {"replay --live": ["replay", "{root}/nope", "a/b", "--live", "--live-port", "{port}"],
