@@ -1,20 +1,22 @@
 """Cost of obstacle shapes: the full loop on a world of 2,000 cylinders and one of 500 wall segments
 against the same worlds in boxes, one core.
 
-Worlds (100 m x 100 m, flat, fixed seed, the mission (5, 50) -> (95, 50), nothing within 4 m of
-either end):
+Worlds (100 m x 100 m, flat, fixed seed, the mission (5, 50) -> (95, 50), a corridor 5 m wide
+along it kept free so the navigator drives the same course in a world and its twin):
 
 - ``cylinders``: 2,000 upright cylinders (diameter 0.3-0.9 m, height 1.5-4 m); its box twin puts a
   box of the same size (side = the diameter, same height and yaw) at each cylinder's place;
 - ``walls``: 500 wall segments (long thin boxes: 2-8 m x 0.2 m x 2.5 m, any heading); its box twin
-  puts a square box of the same footprint area and height at each segment's centre (the same
-  obstruction, in compact boxes: what a wall costs over a tree-like box).
+  is the same walls built of boxes as one would without wall shapes: each segment a row of boxes
+  at most 1 m long (the same footprint and height). A third world, ``squares``, puts one square
+  box of the segment's footprint area at each segment's centre: the same obstruction in compact
+  boxes, a different scene (much less of the view is blocked), printed for reference.
 
 For each world and twin: the full loop (``run_mission``: MuJoCo simulation with the obstacle pool +
 the RMP 400's lidar 32 x 360 at 10 Hz + reference-v1 at 10 Hz, as ``bench_loop.py``) for
 ``--seconds`` of simulated time, ``--repeat`` runs, the median simulated/wall ratio and CPU ratio;
-the scripted baseline (simulation + lidar on a fixed course, the same work in both twins up to the
-geometry); and the lidar's mean cost per scan. ``--laser2d`` runs the same with the Jackal, one
+the scripted baseline (simulation + lidar driving straight along the corridor, the same course in
+both twins); and the lidar's mean cost per scan. ``--laser2d`` runs the same with the Jackal, one
 UST-10-class ``lidar2d`` and ``reference-2d-v1`` (the BARN configuration).
 
     taskset -c 1 .venv/bin/python benchmarks/bench_shapes.py [--seconds 60] [--repeat 3] [--laser2d]
@@ -41,13 +43,14 @@ from navstress.world.world import Mission, Obstacle, World
 
 SIZE = 100.0
 START, GOAL = (5.0, 50.0, 0.0), (95.0, 50.0)
-CLEAR_M = 4.0  # nothing this close to the start or the goal
+CLEAR_M = 2.5  # nothing this close to the mission's line (start to goal)
 
 
 def _clear(o: Obstacle) -> bool:
-    """Whether the obstacle's footprint stays CLEAR_M from the start and the goal."""
-    for px, py in (START[:2], GOAL):
-        c, s = math.cos(o.yaw), math.sin(o.yaw)
+    """Whether the obstacle's footprint stays CLEAR_M from the mission's line (sampled every 0.25 m)."""
+    c, s = math.cos(o.yaw), math.sin(o.yaw)
+    for px in np.arange(0.0, SIZE + 0.01, 0.25):
+        py = START[1]
         lx, ly = c * (px - o.x) + s * (py - o.y), -s * (px - o.x) + c * (py - o.y)
         if o.is_cylinder:
             gap = math.hypot(px - o.x, py - o.y) - o.size[0] / 2
@@ -77,8 +80,9 @@ def cylinder_worlds(n: int = 2000, seed: int = 1) -> tuple[World, World]:
     return _world(cyl), _world(boxes)
 
 
-def wall_worlds(n: int = 500, seed: int = 2) -> tuple[World, World]:
-    """(n wall segments, their twin of square boxes of the same footprint areas)."""
+def wall_worlds(n: int = 500, seed: int = 2) -> tuple[World, World, World]:
+    """(n wall segments, the same walls as rows of boxes <= 1 m long, square boxes of the same
+    footprint areas at the segments' centres)."""
     g = np.random.default_rng(seed)
     walls: list[Obstacle] = []
     while len(walls) < n:
@@ -87,17 +91,25 @@ def wall_worlds(n: int = 500, seed: int = 2) -> tuple[World, World]:
                      float(g.uniform(-math.pi, math.pi)), (ln, 0.2, 2.5))
         if _clear(o):
             walls.append(o)
-    boxes = [Obstacle("rock", o.x, o.y, o.yaw, (math.sqrt(o.area), math.sqrt(o.area), o.size[2])) for o in walls]
-    return _world(walls), _world(boxes)
+    rows = []
+    for o in walls:
+        k = math.ceil(o.size[0])
+        piece = o.size[0] / k
+        c, s = math.cos(o.yaw), math.sin(o.yaw)
+        for j in range(k):
+            u = -o.size[0] / 2 + piece * (j + 0.5)
+            rows.append(Obstacle("wall", o.x + c * u, o.y + s * u, o.yaw, (piece, o.size[1], o.size[2])))
+    squares = [Obstacle("rock", o.x, o.y, o.yaw, (math.sqrt(o.area), math.sqrt(o.area), o.size[2])) for o in walls]
+    return _world(walls), _world(rows), _world(squares)
 
 
 def scripted(sim: Simulation, seconds: float) -> float:
-    """Drive a fixed course (straight, gentle turns) for ``seconds``; the simulated/CPU ratio."""
+    """Drive a fixed course (straight along the free corridor at 1 m/s) for ``seconds``; the
+    simulated/CPU ratio."""
     c0 = time.process_time()
     while sim.t < seconds and sim.stopped is None:
         sim.observe()
-        k = int(sim.t // 10.0) % 4
-        sim.command(Command(0.8, 0.0 if k in (0, 2) else (0.3 if k == 1 else -0.3)))
+        sim.command(Command(1.0, 0.0))
         sim.advance(0.1)
     return sim.t / (time.process_time() - c0)
 
@@ -154,7 +166,8 @@ def main() -> None:
 
         jackal = with_sensors(profile("jackal"), sensors=[{"name": "front_laser", "kind": "lidar2d", "profile": "ust10"}])
         configs.append(("jackal + ust10 lidar2d, reference-2d-v1", jackal, "reference-2d-v1"))
-    pairs = {"2,000 cylinders": cylinder_worlds(), "500 wall segments": wall_worlds()}
+    walls, rows, squares = wall_worlds()
+    pairs = {"2,000 cylinders": cylinder_worlds(), "500 wall segments": (walls, rows)}
     for label, robot, nav in configs:
         run_mission(pairs["2,000 cylinders"][0], __import__("navstress.nav.registry", fromlist=["x"]).make_navigator(nav),
                     run_seed=0, timeout_s=5.0, robot=robot)  # warm-up (numba caches)
@@ -170,6 +183,11 @@ def main() -> None:
             print(f"  cost of the shapes: full loop CPU {100 * (b['cpu'] / a['cpu'] - 1):+.1f} %, wall "
                   f"{100 * (b['wall'] / a['wall'] - 1):+.1f} %, scripted {100 * (b['baseline_cpu'] / a['baseline_cpu'] - 1):+.1f} %"
                   f" (positive: the shapes are slower)")
+            if name.startswith("500"):
+                f = loop(squares, robot, nav, args.seconds, args.repeat)
+                print(f"  (reference) {len(squares.obstacles)} squares of the segments' areas: full loop "
+                      f"{f['wall']:6.1f} x real time, CPU {f['cpu']:6.1f} x; {f['sim_s']:.0f} s, {f['outcome']}; "
+                      f"scripted {f['baseline_cpu']:6.1f} x CPU; scan {f['scan_ms']:.3f} ms")
 
 
 if __name__ == "__main__":

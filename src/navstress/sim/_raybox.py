@@ -433,25 +433,28 @@ def disc_pass(discs: np.ndarray, beams: Beams, params: np.ndarray, origin: np.nd
             continue
         if rho <= wid * 1.001:
             q0, q1 = 0, ncirc - 1
-        else:
-            dl = math.asin(wid / rho) * 1.001 + 1e-6
+        else:  # half the azimuth span: asin(x) <= tan(asin(x)) = x / sqrt(1 - x^2), x = wid / rho
+            x = wid / rho
+            dl = x / math.sqrt(1.0 - x * x) * 1.001 + 1e-6
             th = math.atan2(sy, sx)
             q0 = int(math.floor((th - dl) / step))
             q1 = int(math.ceil((th + dl) / step))
             if q1 - q0 >= ncirc - 1:
                 q0, q1 = 0, ncirc - 1
         # channels: a ray meets the bounding sphere (centre s, radius rb) only if its elevation is
-        # within asin(rb / |s|) of the centre's; nothing on it is nearer than |s| - rb
+        # within de = asin(rb / |s|) of the centre's el (sin(el +- de) from the sines and cosines,
+        # no trigonometric calls; past +-90 degrees no bound); nothing on it is nearer than |s| - rb
         rb = math.sqrt(r * r + hz * hz) * 1.001 + 1e-6
         dist = math.sqrt(rho * rho + sz * sz)
         k0, k1 = 0, nch - 1
         near = -INF
         if dist > rb:
             near = (dist - rb) * (1.0 - 1e-9) - 1e-9
-            el = math.asin(max(-1.0, min(1.0, sz / dist)))
-            de = math.asin(rb / dist) * 1.001 + 1e-6
-            lo = math.sin(max(-0.5 * math.pi, el - de))
-            hi = math.sin(min(0.5 * math.pi, el + de))
+            idist = 1.0 / dist
+            se_c, ce_c, sd = sz * idist, rho * idist, rb * idist
+            cd = math.sqrt(1.0 - sd * sd)
+            hi = 2.0 if ce_c * cd - se_c * sd < 1e-9 else se_c * cd + ce_c * sd + 1e-9
+            lo = -2.0 if ce_c * cd + se_c * sd < 1e-9 else se_c * cd - ce_c * sd - 1e-9
             while k0 < nch and sin_el[k0] < lo:
                 k0 += 1
             while k1 >= 0 and sin_el[k1] > hi:
