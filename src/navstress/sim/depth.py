@@ -1,11 +1,11 @@
-"""Depth camera: a pinhole ray caster against the lidar's scene (terrain, boxes) and the disc movers.
+"""Depth camera: a pinhole ray caster against the lidar's scene (terrain, boxes, cylinders) and the disc movers.
 
 A pixel's value is its depth, the distance along the sensor's +x (the optical axis) to the first
 surface through the pixel's centre (``navstress.sensors.kinds.depth``); ``inf`` where the first
 surface is nearer than ``min_range_m`` or farther than ``max_range_m`` (or there is none). The
 geometry is the lidar's, exact to what MuJoCo simulates (:mod:`navstress.sim.lidar`): the
-heightfield's triangles and side walls, the upright boxes (two-sided), the disc movers as upright
-cylinders.
+heightfield's triangles and side walls, the upright boxes (two-sided), the cylinder obstacles
+(``LidarScene.discs``) and the disc movers as upright cylinders.
 
 Casting: the pixel (u, v) looks along d = (1, y_u, z_v) in the sensor frame (``rays(params)``),
 so a ray point ``o + s R d`` lies at depth ``s``: every hit test runs on the unnormalised world
@@ -51,7 +51,6 @@ from navstress.sim.lidar import LidarScene
 
 __all__ = ["DepthCamera"]
 
-_NO_DISCS = np.zeros((0, 5))
 _E_GRID = len(TerrainGrid._fields)
 
 
@@ -527,7 +526,7 @@ class DepthCamera:
         boxes = s.boxes if scene_boxes is None else scene_boxes
         if boxes.ndim != 2 or boxes.shape[1] != 9 or boxes.dtype != np.float64:
             raise SpecError("scene_boxes", getattr(boxes, "shape", None), "float64 rows of LidarScene.boxes' 9 columns")
-        d = _NO_DISCS if discs is None else np.ascontiguousarray(discs, dtype=np.float64).reshape(-1, 5)
+        d = self.scene.discs if discs is None else np.ascontiguousarray(discs, dtype=np.float64).reshape(-1, 5)
         g = s.grid
         n: int = render_kernel(q, self._mxyz, self._mrot, boxes, d, self.rotation, self.origin, self._out, *g,
                                *self._cam)
