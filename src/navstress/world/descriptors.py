@@ -2,8 +2,9 @@
 
 All lengths in meters, angles in degrees, obstruction in percent of the map area.
 
-* ``obstruction_pct`` {type: achieved}, ``obstruction_total_pct`` (union of footprints; exact
-  when obstacles do not overlap, which generation guarantees), ``obstruction_target_pct``,
+* ``obstruction_pct`` {type: achieved}, ``obstruction_total_pct`` (the sum of footprint areas,
+  a cylinder's pi r^2: the union's area when obstacles do not overlap, which generation
+  guarantees except at the joints of a wall polyline's own segments, counted twice), ``obstruction_target_pct``,
   ``n_obstacles`` {type: count}; with generation bookkeeping: ``placement_attempts``,
   ``placement_rounds``, ``placement_trimmed`` {type: int}.
 * Terrain: ``height_min_m``, ``height_max_m``, ``height_std_m``; ``slope_mean_deg``,
