@@ -258,3 +258,18 @@ def test_descriptors_of_a_world_of_cylinders_and_walls() -> None:
     d = describe_world(World.flat(spec, obstacles=(cyl, *walls)))
     assert d["obstruction_pct"]["tree"] == pytest.approx(100 * math.pi / 400)
     assert d["n_obstacles"] == {"tree": 1, "wall": 1} and d["feasible"]
+
+
+@pytest.mark.parametrize("wall_fixed", [True, False])
+def test_a_move_beside_a_turned_wall_is_tested_on_the_shapes_not_their_bounding_boxes(wall_fixed: bool) -> None:
+    """A cylinder moved into the bounding box of a diagonal wall, but clear of the wall itself, is
+    moved; moved onto the wall, it is not."""
+    wall = Obstacle("wall", 10.0, 10.0, math.pi / 4, (4.0, 0.4, 2.0))
+    cyl = Obstacle("tree", 5.0, 5.0, 0.0, (1.0, 1.0, 2.0), shape="cylinder")
+    mission = Mission((1.0, 1.0, 0.0), (19.0, 19.0), 0.8)
+    for by, applied in (((3.5, 6.0), True), ((4.5, 5.0), False)):
+        spec = WorldSpec(size_m=(20.0, 20.0), cell_m=0.5, obstacles={"moves": [{"at": [5, 5], "by": list(by)}]})
+        out, done = (apply_moves([cyl], spec, mission, fixed=[wall]) if wall_fixed
+                     else apply_moves([cyl, wall], spec, mission))
+        assert done == ([0] if applied else [-1])
+        assert out[0].is_cylinder and (out[0].x, out[0].y) == ((5.0 + by[0], 5.0 + by[1]) if applied else (5.0, 5.0))
