@@ -5,7 +5,7 @@ paper preset: 345 maps, about 500 pictures, 2,375 runs). Drawn with matplotlib a
 PNGs, those pictures weighed about 115 kB and took about half a second each. Here a world is
 drawn once per map, as an SVG ``<g>`` in a hidden ``<defs>`` block: its terrain as one small
 hillshaded PNG (one pixel per terrain cell, the same colours and light as ``draw_world``), its
-obstacles, start and goal as vector shapes; each picture ``<use>``\\ s it and adds its runs as
+obstacles (boxes and walls as polygons, cylinders as circles), start and goal as vector shapes; each picture ``<use>``\\ s it and adds its runs as
 polylines (simplified with Ramer-Douglas-Peucker to a tenth of a percent of the map's size, well
 under a pixel at the size they are shown), coloured by outcome, each carrying ``data-run`` so
 the report's script links it with its row in the runs table, and a ``<title>`` (hovering a run
@@ -113,6 +113,13 @@ def _path(corners: np.ndarray, sy: float) -> str:
     return _paths([corners], sy)[0]
 
 
+def _circle(x: float, y: float, r: float, sy: float) -> str:
+    """A closed circle (a cylinder's footprint) as two half-circle arcs of a path, on the 5 cm grid."""
+    rq, xq, yq = _q(np.array([r, x - r, sy - y]))
+    return (f"M{_nq(xq)} {_nq(yq)}a{_nq(rq)} {_nq(rq)} 0 1 0 {_nq(2 * rq)} 0"
+            f"a{_nq(rq)} {_nq(rq)} 0 1 0 {_nq(-2 * rq)} 0z")
+
+
 def _paths(polygons: list[np.ndarray], sy: float) -> list[str]:
     """:func:`_path` of each polygon ((n, 2) corners), rounded all at once."""
     if not polygons:
@@ -205,7 +212,10 @@ def _obstacle_paths(world: World) -> list[str]:
     hit = _OBSTACLE_PATHS.get(id(world))
     if hit is not None and hit[0] is world:
         return hit[1]
-    paths = _paths([o.corners() for o in world.obstacles], world.size_m[1])
+    sy = world.size_m[1]
+    boxes = [o for o in world.obstacles if o.shape == "box"]
+    box_paths = iter(_paths([o.corners() for o in boxes], sy))
+    paths = [next(box_paths) if o.shape == "box" else _circle(o.x, o.y, o.size[0] / 2, sy) for o in world.obstacles]
     if len(_OBSTACLE_PATHS) >= 8:
         _OBSTACLE_PATHS.pop(next(iter(_OBSTACLE_PATHS)))
     _OBSTACLE_PATHS[id(world)] = (world, paths)

@@ -8,7 +8,7 @@ two), ``/robot/body`` (``foxglove.SceneUpdate``: the robot's true shape locked t
 ``base_link``, the belief's translucent: a cube for a box footprint, a prism of the outline for a
 circle or a polygon, and the footprint's outline on the ground), ``/truth/pose`` and ``/perceived/pose``
 (``foxglove.PoseInFrame``), ``/events`` (``foxglove.Log``: collisions, errors, end of run),
-``/world/scene`` (``foxglove.SceneUpdate``: obstacles as cubes, start and goal),
+``/world/scene`` (``foxglove.SceneUpdate``: obstacles as cubes, cylinders as cylinders, start and goal),
 ``/world/movers`` (``foxglove.SceneUpdate``, one per run of the movers' controller (10 Hz): every
 mover an entity ``mover/<id>``, a cylinder or a cube where it is; worlds with movers only),
 ``/nav/cmd`` (``navstress.VelocityCommand``, :func:`command_class`: the navigator's commands),
@@ -436,17 +436,26 @@ class TraceMessages:
 
     def scene(self, obstacles: list[dict[str, Any]], start: tuple[float, float, float], goal: tuple[float, float],
               ground_z: tuple[float, float]) -> None:
-        """Obstacles (dicts with kind, x, y, yaw, size, z) as cubes; start and goal as spheres; in
-        the colours of the world's pictures (per obstacle kind, start, goal)."""
+        """Obstacles (dicts with kind, x, y, yaw, size, z and, for a cylinder, ``shape``: what
+        ``Obstacle.to_json`` writes) as cubes (boxes and walls, in order) and cylinders (an
+        upright ``CylinderPrimitive`` of size (diameter, diameter, height), centred half its height
+        above its base, in order); start and goal as spheres; in the colours of the world's
+        pictures (per obstacle kind, start, goal)."""
         from navstress.world.colours import GOAL_COLOUR, START_COLOUR, kind_colour  # (local: as terrain_faces)
 
         kinds = sorted({o["kind"] for o in obstacles})
         colour = {k: _colour(kind_colour(k, kinds)) for k in kinds}
-        cubes = [CubePrimitive(pose=Pose(position=Vector3(x=o["x"], y=o["y"], z=o["z"] + o["size"][2] / 2),
-                                         orientation=quaternion(o["yaw"], 0.0, 0.0)),
-                               size=Vector3(x=o["size"][0], y=o["size"][1], z=o["size"][2]),
+
+        def pose(o: dict[str, Any]) -> Pose:
+            return Pose(position=Vector3(x=o["x"], y=o["y"], z=o["z"] + o["size"][2] / 2),
+                        orientation=quaternion(o["yaw"], 0.0, 0.0))
+
+        cubes = [CubePrimitive(pose=pose(o), size=Vector3(x=o["size"][0], y=o["size"][1], z=o["size"][2]),
                                color=colour[o["kind"]])
-                 for o in obstacles]
+                 for o in obstacles if o.get("shape", "box") == "box"]
+        cylinders = [CylinderPrimitive(pose=pose(o), size=Vector3(x=o["size"][0], y=o["size"][0], z=o["size"][2]),
+                                       bottom_scale=1.0, top_scale=1.0, color=colour[o["kind"]])
+                     for o in obstacles if o.get("shape", "box") == "cylinder"]
         marks = [SpherePrimitive(pose=Pose(position=Vector3(x=start[0], y=start[1], z=ground_z[0] + 0.5),
                                            orientation=Quaternion(w=1.0)),
                                  size=Vector3(x=1, y=1, z=1), color=_colour(START_COLOUR)),
@@ -454,7 +463,7 @@ class TraceMessages:
                                            orientation=Quaternion(w=1.0)),
                                  size=Vector3(x=1, y=1, z=1), color=_colour(GOAL_COLOUR))]
         ent = SceneEntity(timestamp=_stamp(0.0), frame_id=FRAME, id="world", frame_locked=True,
-                          cubes=cubes, spheres=marks)
+                          cubes=cubes, spheres=marks, cylinders=cylinders)
         self._put(TOPIC_SCENE, SceneUpdate(entities=[ent]), 0)
 
     def commands(self, rows: np.ndarray) -> None:

@@ -2,8 +2,9 @@
 
 All lengths in meters, angles in degrees, obstruction in percent of the map area.
 
-* ``obstruction_pct`` {type: achieved}, ``obstruction_total_pct`` (union of footprints; exact
-  when obstacles do not overlap, which generation guarantees), ``obstruction_target_pct``,
+* ``obstruction_pct`` {type: achieved}, ``obstruction_total_pct`` (the sum of footprint areas,
+  a cylinder's pi r^2: the union's area when obstacles do not overlap, which generation
+  guarantees except at the joints of a wall polyline's own segments, counted twice), ``obstruction_target_pct``,
   ``n_obstacles`` {type: count}; with generation bookkeeping: ``placement_attempts``,
   ``placement_rounds``, ``placement_trimmed`` {type: int}.
 * Terrain: ``height_min_m``, ``height_max_m``, ``height_std_m``; ``slope_mean_deg``,
@@ -13,8 +14,8 @@ All lengths in meters, angles in degrees, obstruction in percent of the map area
   tilt it).
 * BARN-style metrics (after Perille et al., "Benchmarking Metric Ground Navigation", 2020,
   adapted to a continuous map: computed over the free cells of an occupancy grid of cell
-  :data:`BARN_CELL_M` (footprints rasterised, a cell is occupied when its centre is inside a
-  footprint), not along a path):
+  :data:`BARN_CELL_M` (footprints rasterised: boxes as rotated rectangles, cylinders as discs; a
+  cell is occupied when its centre is inside a footprint), not along a path):
   ``barn_dist_closest_m``: mean over free cells of the distance to the nearest occupied cell
   (Euclidean distance transform; approximate to one cell); ``barn_visibility_m``: mean length
   of 16 rays (every 22.5 degrees) cast from each free cell, capped at :data:`BARN_RAY_M`;
@@ -29,7 +30,7 @@ All lengths in meters, angles in degrees, obstruction in percent of the map area
   goal, edges weighted by their 3-D length), ``path_ratio`` (path / straight distance),
   ``feasible`` (bool), ``infeasible_reason`` (str or None). A vertex is impassable when the
   nominal robot's centre there would be closer than half its width to a footprint (exact
-  distance to the box) or to the map edge, or when the slope there exceeds
+  distance to the box, or to a cylinder's disc) or to the map edge, or when the slope there exceeds
   ``max_slope_deg`` (default :data:`MAX_SLOPE_DEG`); diagonal moves need both orthogonal
   neighbours passable. Grids over :data:`MAX_PATH_NODES` vertices are decimated (a block is
   impassable if any vertex in it is), which makes the length approximate.
@@ -73,6 +74,7 @@ class Boxes(NamedTuple):
     hy: np.ndarray
     c: np.ndarray  # cos and sin of the yaw
     s: np.ndarray
+    disc: np.ndarray  # bool: a cylinder's disc of radius hx (c, s, hy unused)
 
 
 def _box_arrays(obstacles: tuple[Obstacle, ...]) -> Boxes:
@@ -80,16 +82,31 @@ def _box_arrays(obstacles: tuple[Obstacle, ...]) -> Boxes:
                  np.array([o.size[0] / 2 for o in obstacles], np.float64),
                  np.array([o.size[1] / 2 for o in obstacles], np.float64),
                  np.array([math.cos(o.yaw) for o in obstacles], np.float64),
-                 np.array([math.sin(o.yaw) for o in obstacles], np.float64))
+                 np.array([math.sin(o.yaw) for o in obstacles], np.float64),
+                 np.array([o.is_cylinder for o in obstacles], np.bool_))
 
 
 @numba.njit(cache=True)
 def _box_distance(rows: int, cols: int, cell: float, boxes: Boxes, reach: float) -> np.ndarray:
-    """Exact distance from each grid point (j*cell, i*cell) to the nearest oriented box
-    footprint (0 inside), ``inf`` where farther than ``reach``."""
-    xs, ys, hx, hy, c, s = boxes.x, boxes.y, boxes.hx, boxes.hy, boxes.c, boxes.s
+    """Exact distance from each grid point (j*cell, i*cell) to the nearest footprint (an oriented
+    box, or a cylinder's disc; 0 inside), ``inf`` where farther than ``reach``."""
+    xs, ys, hx, hy, c, s, disc = boxes.x, boxes.y, boxes.hx, boxes.hy, boxes.c, boxes.s, boxes.disc
     out = np.full((rows, cols), np.inf)
     for k in range(xs.shape[0]):
+        if disc[k]:
+            ex = hx[k] + reach
+            j0 = max(0, int(math.floor((xs[k] - ex) / cell)))
+            j1 = min(cols - 1, int(math.ceil((xs[k] + ex) / cell)))
+            i0 = max(0, int(math.floor((ys[k] - ex) / cell)))
+            i1 = min(rows - 1, int(math.ceil((ys[k] + ex) / cell)))
+            for i in range(i0, i1 + 1):
+                py = i * cell - ys[k]
+                for j in range(j0, j1 + 1):
+                    px = j * cell - xs[k]
+                    d = max(math.sqrt(px * px + py * py) - hx[k], 0.0)
+                    if d < out[i, j]:
+                        out[i, j] = d
+            continue
         ex = abs(c[k]) * hx[k] + abs(s[k]) * hy[k] + reach
         ey = abs(s[k]) * hx[k] + abs(c[k]) * hy[k] + reach
         j0 = max(0, int(math.floor((xs[k] - ex) / cell)))

@@ -6,7 +6,8 @@ static part draws exactly what it drew before movers existed and adding movers c
 it.
 
 * **Clearance raster.** A raster of cell ``r`` <= 0.2 m (coarser above 4 M cells) marks every
-  cell that a static footprint's bounding box touches and every cell the start and goal free
+  cell that a static footprint touches (a box not turned: its bounding box; a turned box, a long
+  wall, a cylinder: the cells its footprint touches, :mod:`navstress.world.shapes`) and every cell the start and goal free
   discs touch; beyond the map edge counts as occupied. ``clear[c]`` = the Euclidean distance
   from cell c's centre to the nearest marked cell's centre minus the cell diagonal: a lower
   bound of the distance from any point of cell c to any obstacle, free disc or the map's edge.
@@ -40,6 +41,7 @@ import numpy as np
 
 from navstress.errors import GenerationError
 from navstress.seeding import rng
+from navstress.world import shapes
 from navstress.world.spec import BEHAVIOUR_PARAMS, MoverType, WorldSpec
 from navstress.world.world import Mission, Mover, Obstacle
 
@@ -69,6 +71,9 @@ class _Clearance:
         occ = np.zeros((ny + 2, nx + 2), bool)  # a ring of marked cells: the map's edge
         occ[0, :] = occ[-1, :] = occ[:, 0] = occ[:, -1] = True
         for o in obstacles:
+            if not shapes.is_axis_box(o):  # a turned box, a cylinder: the cells its footprint touches
+                shapes.mark(occ[1:-1, 1:-1], self.rx, self.ry, o, True)
+                continue
             c = o.corners()
             a0, a1 = int(math.floor(c[:, 0].min() / self.rx)), int(math.floor(c[:, 0].max() / self.rx))
             b0, b1 = int(math.floor(c[:, 1].min() / self.ry)), int(math.floor(c[:, 1].max() / self.ry))

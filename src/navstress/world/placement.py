@@ -23,8 +23,13 @@ sub-stream ``rng(seed, "obstacles", kind)``):
   has its sides scaled down (same aspect) so that the type lands exactly on its target; at most
   one obstacle per type is trimmed (its size may then be below the variability envelope).
 
+Walls (the spec's ``obstacles.walls``, :mod:`navstress.world.shapes`) stand before placement:
+each wall box marks every raster cell its closed (turned) footprint touches, so placed boxes keep
+clear of them as they keep clear of each other.
+
 Local moves (:func:`apply_moves`, the spec's ``obstacles.moves``) then shift single obstacles,
-each only when the moved box keeps the constraints above, tested exactly on the boxes.
+each only when the moved footprint keeps the constraints above, tested exactly on the real
+shapes (turned boxes, cylinders: :mod:`navstress.world.shapes`).
 
 Levelling (:func:`level_terrain`): an obstacle's *vertex box* is the set of terrain vertices
 of every cell its footprint touches (the footprint's bounding box pushed out to the vertex
@@ -43,7 +48,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from typing import NamedTuple
+from typing import NamedTuple, Sequence
 
 import numba
 import numpy as np
@@ -52,6 +57,7 @@ import navstress._jit  # noqa: F401  (numba's cache directory, before any @njit(
 from navstress._records import full_record
 from navstress.errors import GenerationError
 from navstress.seeding import rng
+from navstress.world import shapes
 from navstress.world.freearea import Pins
 from navstress.world.spec import ObstacleType, WorldSpec
 from navstress.world.world import Mission, Obstacle
@@ -213,8 +219,10 @@ def _type_order(targets: dict[str, float], types: dict[str, ObstacleType]) -> li
     return sorted(targets, key=lambda k: (-types[k].base_m[0] * types[k].base_m[1], k))
 
 
-def place_obstacles(spec: WorldSpec, mission: Mission, seed: int) -> PlacementResult:
-    """Place every type's obstacles to its obstruction target (see the module docstring).
+def place_obstacles(spec: WorldSpec, mission: Mission, seed: int, fixed: Sequence[Obstacle] = ()) -> PlacementResult:
+    """Place every type's obstacles to its obstruction target (see the module docstring), clear of
+    the ``fixed`` obstacles already there (the spec's walls: each marks every raster cell its
+    closed footprint touches, :func:`navstress.world.shapes.mark`, so that no placed box overlaps it).
 
     Raises :class:`GenerationError` naming the achieved value, the target and why, when a
     type ends more than 0.5 percentage points below its target."""
@@ -231,6 +239,8 @@ def place_obstacles(spec: WorldSpec, mission: Mission, seed: int) -> PlacementRe
     sx0, sy0, _ = mission.start
     for cx, cy in ((sx0, sy0), mission.goal):
         mark_disc(ras, cx, cy, mission.free_radius_m)
+    for o in fixed:
+        shapes.mark(ras.occ, ras.rx, ras.ry, o)
     ny, nx = ras.occ.shape
     for kind in _type_order(targets, types):
         t = types[kind]
@@ -287,11 +297,11 @@ def place_obstacles(spec: WorldSpec, mission: Mission, seed: int) -> PlacementRe
 
 
 def _boxes(obstacles: list[Obstacle]) -> np.ndarray:
-    """(n, 4) rows (x0, y0, x1, y1): each footprint's axis-aligned bounding box."""
+    """(n, 4) rows (x0, y0, x1, y1): each footprint's axis-aligned bounding box (exact for every
+    shape: :func:`navstress.world.shapes.aabb`; a box's from its corners, as always)."""
     if not obstacles:
         return np.zeros((0, 4))
-    c = np.array([o.corners() for o in obstacles])
-    return np.concatenate([c.min(axis=1), c.max(axis=1)], axis=1)
+    return np.array([shapes.aabb(o) for o in obstacles], np.float64).reshape(-1, 4)
 
 
 def _disc_clear(box: np.ndarray, cx: float, cy: float, r: float) -> bool:
@@ -301,16 +311,27 @@ def _disc_clear(box: np.ndarray, cx: float, cy: float, r: float) -> bool:
     return ex * ex + ey * ey >= r * r
 
 
-def apply_moves(obstacles: list[Obstacle], spec: WorldSpec, mission: Mission) -> tuple[list[Obstacle], list[int]]:
+def _clear_of_disc(o: Obstacle, box: np.ndarray, cx: float, cy: float, r: float) -> bool:
+    """Whether the footprint of ``o`` (bounding box ``box``) keeps out of the open disc: a box not
+    turned by its bounding box (the test of before shapes existed), others exactly."""
+    if shapes.is_axis_box(o):
+        return _disc_clear(box, cx, cy, r)
+    return shapes.disc_clear(o, cx, cy, r)
+
+
+def apply_moves(obstacles: list[Obstacle], spec: WorldSpec, mission: Mission,
+                fixed: Sequence[Obstacle] = ()) -> tuple[list[Obstacle], list[int]]:
     """The obstacles after ``spec.obstacles.moves``, and for each move the index of the obstacle
     it moved, or -1 when it was not applied.
 
     Each move takes the obstacle whose centre is nearest its ``at`` (the first in placement order
     on a tie) and translates it by ``by`` if the moved footprint stays inside the map, shares no
-    interior point with another obstacle's footprint (touching is allowed) and keeps out of the
-    start and goal free discs (exact tests: the generator's boxes are axis-aligned); otherwise
-    the obstacle stays where it is. Moves apply one after the other, each to the obstacles as the
-    previous ones left them; sizes, kinds and the order of the obstacles never change."""
+    interior point with another obstacle's footprint nor with one of ``fixed`` (obstacles that
+    are never moved: the spec's walls; touching is allowed) and keeps out of the start and goal
+    free discs (exact tests on the real shapes, :mod:`navstress.world.shapes`: boxes turned or
+    not, cylinders); otherwise the obstacle stays where it is. Moves apply one after the other,
+    each to the obstacles as the previous ones left them; sizes, kinds and the order of the
+    obstacles never change."""
     moves = spec.obstacles.moves
     out = list(obstacles)
     if not moves or not out:  # (nothing to do: no box is computed for a world without moves)
@@ -319,7 +340,9 @@ def apply_moves(obstacles: list[Obstacle], spec: WorldSpec, mission: Mission) ->
     size_x, size_y = spec.size_m
     sx, sy, _ = mission.start
     discs = ((sx, sy), mission.goal)
+    fixed = list(fixed)
     boxes = _boxes(out)
+    fixed_boxes = _boxes(fixed)
     centres = np.array([(o.x, o.y) for o in out]).reshape(-1, 2)
     for mv in moves:
         ax, ay = mv.at
@@ -328,11 +351,16 @@ def apply_moves(obstacles: list[Obstacle], spec: WorldSpec, mission: Mission) ->
         moved = replace(out[k], x=out[k].x + dx, y=out[k].y + dy)
         b = _boxes([moved])[0]  # from the moved obstacle itself: the very box the world will hold
         ok = bool(b[0] >= 0.0 and b[1] >= 0.0 and b[2] <= size_x and b[3] <= size_y)
-        ok = ok and all(_disc_clear(b, cx, cy, mission.free_radius_m) for cx, cy in discs)
+        ok = ok and all(_clear_of_disc(moved, b, cx, cy, mission.free_radius_m) for cx, cy in discs)
         if ok:
             hit = (b[0] < boxes[:, 2]) & (boxes[:, 0] < b[2]) & (b[1] < boxes[:, 3]) & (boxes[:, 1] < b[3])
             hit[k] = False
-            ok = not hit.any()
+            # bounding boxes overlap: the footprints too for boxes not turned, else the exact test says
+            ok = not any(shapes.overlap(moved, out[i]) for i in np.flatnonzero(hit))
+        if ok and fixed:
+            hit = (b[0] < fixed_boxes[:, 2]) & (fixed_boxes[:, 0] < b[2]) & (b[1] < fixed_boxes[:, 3]) \
+                & (fixed_boxes[:, 1] < b[3])
+            ok = not any(shapes.overlap(moved, fixed[i]) for i in np.flatnonzero(hit))
         if ok:
             out[k] = moved
             boxes[k] = b
@@ -503,8 +531,8 @@ def level_terrain(heights: np.ndarray, cell_m: float, obstacles: list[Obstacle],
     h = np.asarray(heights, dtype=np.float64)
     if not obstacles:
         return Levelled(h.astype(np.float32), [], 0, 0)
-    corners = np.array([o.corners() for o in obstacles])  # (n, 4, 2)
-    lo, hi = corners.min(axis=1), corners.max(axis=1)
+    bb = _boxes(obstacles)  # exact footprint bounding boxes (a cylinder's: x +- r)
+    lo, hi = bb[:, :2], bb[:, 2:]
     zs = np.zeros(len(obstacles))
     roots = np.zeros(len(obstacles), np.int64)
     if pins is None:
@@ -513,7 +541,6 @@ def level_terrain(heights: np.ndarray, cell_m: float, obstacles: list[Obstacle],
     out = _level(h, float(cell_m), float(blend_m),
                  LevelBoxes(lo[:, 0].copy(), hi[:, 0].copy(), lo[:, 1].copy(), hi[:, 1].copy()),
                  PinArrays(pins.mask, pins.levels, pins.discs), LevelOut(zs, roots, joined))
-    placed = [Obstacle(kind=o.kind, x=o.x, y=o.y, yaw=o.yaw, size=o.size, z=float(z))
-              for o, z in zip(obstacles, zs)]
+    placed = [replace(o, z=float(z)) for o, z in zip(obstacles, zs)]  # (its shape kept)
     sizes = np.bincount(roots)
     return Levelled(out.astype(np.float32), placed, int(np.count_nonzero(sizes)), int(sizes.max()), int(joined[0]))

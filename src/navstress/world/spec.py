@@ -16,9 +16,9 @@ from __future__ import annotations
 import math
 import os
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, Field, SerializerFunctionWrapHandler, model_serializer, model_validator
+from pydantic import BaseModel, Field, SerializerFunctionWrapHandler, Strict, model_serializer, model_validator
 
 from navstress._models import LIST, SPEC_CONFIG, parse
 from navstress.errors import MISSING, SpecError
@@ -131,6 +131,26 @@ class ObstacleMove(BaseModel):
     by: tuple[float, float] = Field(strict=LIST)
 
 
+#: A point [x, y] inside a list (a list stands for the tuple; its numbers stay strict).
+_Point = Annotated[tuple[Annotated[float, Strict()], Annotated[float, Strict()]], Strict(False)]
+#: At most this many points in one wall polyline, and this many wall segments in a spec.
+MAX_WALL_POINTS = 1000
+MAX_WALL_SEGMENTS = 10_000
+
+
+class WallSpec(BaseModel):
+    """A wall: a polyline of ``points`` (x, y in meters, at least 2, consecutive points distinct)
+    of ``thickness_m`` and ``height_m``; one box of kind ``wall`` per segment, each extended by
+    half the thickness at both ends so that joints close (:mod:`navstress.world.shapes`). The
+    whole footprint must lie inside the map and keep out of the mission's start and goal free
+    discs; random obstacles are placed around the walls."""
+
+    model_config = _STRICT
+    points: tuple[_Point, ...] = Field(strict=LIST)
+    thickness_m: float = Field(0.2, gt=0.0, le=10.0)
+    height_m: float = Field(2.5, gt=0.0, le=100.0)
+
+
 class ObstaclesSpec(BaseModel):
     """Obstacle types and how much of the map they cover.
 
@@ -145,13 +165,18 @@ class ObstaclesSpec(BaseModel):
     total: float | None = Field(None, ge=0.0, lt=100.0)
     mix: dict[str, float] | None = None
     moves: tuple[ObstacleMove, ...] = Field((), strict=LIST)
+    walls: tuple[WallSpec, ...] = Field((), strict=LIST)
 
     @model_serializer(mode="wrap")
     def _dump(self, handler: SerializerFunctionWrapHandler) -> Any:
-        """Without moves, no ``moves`` key: the files of every world without moves keep their bytes."""
+        """Without moves (walls), no ``moves`` (``walls``) key: the files of every world without
+        them keep their bytes."""
         data = handler(self)
-        if isinstance(data, dict) and not self.moves:
-            data.pop("moves", None)
+        if isinstance(data, dict):
+            if not self.moves:
+                data.pop("moves", None)
+            if not self.walls:
+                data.pop("walls", None)
         return data
 
     def all_types(self) -> dict[str, ObstacleType]:
@@ -196,10 +221,29 @@ class ObstaclesSpec(BaseModel):
             for name, pair in (("at", mv.at), ("by", mv.by)):
                 if not all(math.isfinite(v) for v in pair):
                     raise SpecError(f"obstacles.moves[{i}].{name}", list(pair), "two finite numbers (meters)")
+        self._check_walls()
         s = sum(self.targets().values())
         if s >= 100.0:
             raise SpecError("obstacles.obstruction", round(s, 3), "a total below 100 percent")
         return self
+
+
+    def _check_walls(self) -> None:
+        segments = 0
+        for i, wall in enumerate(self.walls):
+            at = f"obstacles.walls[{i}]"
+            if not 2 <= len(wall.points) <= MAX_WALL_POINTS:
+                raise SpecError(f"{at}.points", f"{len(wall.points)} points",
+                                f"a polyline of 2 to {MAX_WALL_POINTS} points [x, y] (meters)",
+                                "give at least a start and an end point" if len(wall.points) < 2 else "split the wall")
+            for j, (p, q) in enumerate(zip(wall.points, wall.points[1:]), start=1):
+                if p == q:
+                    raise SpecError(f"{at}.points[{j}]", list(q), f"a point other than points[{j - 1}] (a segment of "
+                                    "length 0)", "remove the repeated point")
+            segments += len(wall.points) - 1
+        if segments > MAX_WALL_SEGMENTS:
+            raise SpecError("obstacles.walls", f"{segments} segments", f"at most {MAX_WALL_SEGMENTS} wall segments",
+                            "merge straight runs into one segment")
 
 
 def _unknown_type(field: str, name: str, known: dict[str, ObstacleType]) -> SpecError:
@@ -524,6 +568,7 @@ class WorldSpec(BaseModel):
             if pt is not None and not (0 <= pt[0] <= self.size_m[0] and 0 <= pt[1] <= self.size_m[1]):
                 raise SpecError(f"mission.{name}", list(pt), f"a point inside the map [0, {self.size_m[0]:g}] x [0, {self.size_m[1]:g}]")
         self._check_free_discs()
+        self._check_walls_in_map()
         for i, mv in enumerate(self.obstacles.moves):
             if not (0 <= mv.at[0] <= self.size_m[0] and 0 <= mv.at[1] <= self.size_m[1]):
                 raise SpecError(f"obstacles.moves[{i}].at", list(mv.at),
@@ -547,6 +592,37 @@ class WorldSpec(BaseModel):
                                 f"footprint, {diameter:.3g} m across, must be under half the map's side)",
                                 "use a smaller type or a larger map")
         return self
+
+    def _check_walls_in_map(self) -> None:
+        """Every wall's footprint lies inside the map and, for a mission whose start and goal the
+        spec fixes (not ``random``), keeps out of their free discs."""
+        from navstress.world.shapes import disc_clear, inside_map, wall_boxes  # (shapes imports world, which imports spec)
+
+        sx, sy = self.size_m
+        m = self.mission
+        discs: list[tuple[str, tuple[float, float]]] = []
+        if m.mode == "paper":
+            start = m.start[:2] if m.start is not None else (m.inset_m, m.inset_m)
+            goal = m.goal if m.goal is not None else (sx - m.inset_m, sy - m.inset_m)
+            discs = [("start", (start[0], start[1])), ("goal", (goal[0], goal[1]))]
+        for i, wall in enumerate(self.obstacles.walls):
+            for j, (x, y) in enumerate(wall.points):
+                if not (0 <= x <= sx and 0 <= y <= sy):
+                    raise SpecError(f"obstacles.walls[{i}].points[{j}]", [x, y],
+                                    f"a point inside the map [0, {sx:g}] x [0, {sy:g}]")
+            for j, box in enumerate(wall_boxes(wall.points, wall.thickness_m, wall.height_m)):
+                if not inside_map(box, sx, sy):
+                    raise SpecError(f"obstacles.walls[{i}].points[{j + 1}]", list(wall.points[j + 1]),
+                                    f"a wall inside the map: the segment from points[{j}] of thickness "
+                                    f"{wall.thickness_m:g} m (and half of it past each end) leaves [0, {sx:g}] x "
+                                    f"[0, {sy:g}]", "move the wall at least half its thickness from the map's edge")
+                for name, (cx, cy) in discs:
+                    if m.free_radius_m > 0 and not disc_clear(box, cx, cy, m.free_radius_m):
+                        raise SpecError(f"obstacles.walls[{i}].points[{j + 1}]", list(wall.points[j + 1]),
+                                        f"a wall clear of the mission's {name} free disc (radius "
+                                        f"mission.free_radius_m={m.free_radius_m:g} m around ({cx:g}, {cy:g})): "
+                                        f"the segment from points[{j}] crosses it",
+                                        f"move the wall or the {name}, or lower mission.free_radius_m")
 
     def _check_free_discs(self) -> None:
         """The start and goal free discs (radius ``mission.free_radius_m``) lie inside the map, in

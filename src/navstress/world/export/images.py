@@ -7,8 +7,9 @@ the range in meters is written as PNG text chunks (``navstress:z_min``, ``navstr
 ``navstress:cell_m``) and returned. Round trip error is at most half a quantisation step,
 (z_max - z_min) / (2 * (2**bits - 1)): 1/131070 of the range at 16 bits, 1/510 at 8.
 
-Preview: a hillshaded, colour-coded terrain with a colour bar in meters, obstacles as
-rotated rectangles coloured per kind, start (with heading arrow) and goal, the free
+Preview: a hillshaded, colour-coded terrain with a colour bar in meters, obstacles coloured per
+kind (boxes and walls as rotated rectangles, cylinders as discs: regular
+:data:`CYLINDER_SEGMENTS`-gons inscribed in them), start (with heading arrow) and goal, the free
 areas around them, axes in meters, and a title with the key descriptors.
 :func:`draw_world` draws onto any matplotlib ``Axes`` so that trajectories can be
 overlaid later on the same picture.
@@ -40,6 +41,9 @@ from navstress.world.colours import GOAL_COLOUR as _GOAL
 from navstress.world.colours import START_COLOUR as _START
 from navstress.world.colours import TERRAIN_STOPS, kind_colour
 from navstress.world.world import Terrain, World
+
+#: The sides of the polygon a cylinder's disc is drawn as in a preview.
+CYLINDER_SEGMENTS = 48
 
 _Z_MIN, _Z_MAX, _CELL = "navstress:z_min", "navstress:z_max", "navstress:cell_m"
 
@@ -188,7 +192,7 @@ def draw_world(ax: Axes, world: World, *, legend: bool = True, hillshade: bool =
     for kind in kinds:
         obs = [o for o in world.obstacles if o.kind == kind]
         colour = kind_colour(kind, kinds)
-        polys = [o.corners() for o in obs]
+        polys = [o.corners() if o.shape == "box" else o.outline(CYLINDER_SEGMENTS) for o in obs]
         lw = 0.3 if len(obs) > 400 else 0.6
         ax.add_collection(PolyCollection(polys, facecolors=colour, edgecolors="black", linewidths=lw,
                                          alpha=0.95, zorder=3))

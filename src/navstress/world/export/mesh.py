@@ -3,12 +3,13 @@
 The terrain is triangulated exactly as the simulator and ``Terrain.height_at`` do: one
 vertex per height sample, each cell split by the diagonal from vertex (i, j) to
 (i+1, j+1), faces counter-clockwise seen from above (normals up). Each obstacle is a box
-of its size, base at ``z``, rotated by ``yaw``, with its own vertices per face (flat normals).
+of its size (a wall: a long thin box), or a cylinder (a 32-sided prism on its circle), base at
+``z``, rotated by ``yaw``, with its own vertices per face (flat normals).
 The mission is two markers standing on the ground, as in the SDF export: ``mission_start`` (a
 disc and an arrow along the start heading) and ``mission_goal`` (a disc and a pole).
 
 Objects (glTF nodes and meshes; OBJ ``o`` and ``g`` of the same name): ``terrain``,
-``obstacles_<kind>`` (all boxes of a kind), ``mission_start``, ``mission_goal``. Every object
+``obstacles_<kind>`` (all obstacles of a kind), ``mission_start``, ``mission_goal``. Every object
 has vertex normals and a material: the terrain a texture coloured by height (one pixel per
 height sample, north up; in an OBJ export ``<stem>_terrain.png`` beside the ``.obj``, in a
 glTF embedded), the boxes a colour per kind, the markers green and red. OBJ materials are in
@@ -47,7 +48,7 @@ Z_UP_TO_Y_UP: np.ndarray = np.array(
     [[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, -1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
 
 MESH_FORMATS = ("glb", "gltf", "obj")
-_KIND_RGBA = {"tree": (31, 111, 58, 255), "building": (59, 74, 99, 255)}
+_KIND_RGBA = {"tree": (31, 111, 58, 255), "building": (59, 74, 99, 255), "wall": (140, 135, 128, 255)}
 
 
 def _material(name: str, rgba: tuple[int, int, int, int], image: Any = None) -> Any:
@@ -95,8 +96,19 @@ def _box(size: tuple[float, float, float], x: float, y: float, z_base: float, ya
     return trimesh.creation.box(extents=size, transform=tf)
 
 
+#: The sides of the prism a cylinder obstacle is meshed as.
+CYLINDER_SECTIONS = 32
+
+
 def obstacle_mesh(o: Obstacle) -> Any:
-    """One obstacle as a box ``trimesh.Trimesh`` (8 vertices, 12 faces), world coordinates."""
+    """One obstacle as a ``trimesh.Trimesh`` in world coordinates: a box (8 vertices, 12 faces),
+    or a cylinder as a :data:`CYLINDER_SECTIONS`-sided prism whose vertices lie on its circle
+    (base at ``z``, turned by its yaw)."""
+    if o.is_cylinder:
+        tf = trimesh.transformations.rotation_matrix(o.yaw, (0.0, 0.0, 1.0))  # type: ignore[no-untyped-call]
+        tf[:3, 3] = (o.x, o.y, o.z + o.size[2] / 2)
+        return trimesh.creation.cylinder(radius=o.size[0] / 2, height=o.size[2], sections=CYLINDER_SECTIONS,
+                                         transform=tf)
     return _box(o.size, o.x, o.y, o.z, o.yaw)
 
 

@@ -1,4 +1,4 @@
-"""Gazebo SDF (1.9) world: heightmap ground, static boxes, sun, physics.
+"""Gazebo SDF (1.9) world: heightmap ground, static boxes and cylinders, sun, physics.
 
 The ground is a ``<heightmap>`` whose grayscale PNG is written beside the ``.sdf`` and
 referenced by a relative URI (resolved against the SDF file by sdformat >= 9 / gz-sim;
@@ -14,7 +14,9 @@ the simulator's by at most the piecewise-linear interpolation error between old 
 plus quantisation ((z_max - z_min) / 510 at 8 bits, / 131070 at 16).
 
 Obstacles are static models named ``<kind>_<index>`` with ``<pose>x y z 0 0 yaw</pose>``
-where z = obstacle base + half its height (the box's centre), and a box of the obstacle's size.
+where z = obstacle base + half its height (the shape's centre), and a collision and a visual of
+the obstacle's shape: a ``<box>`` of its size (boxes and walls), or a ``<cylinder>`` of its radius
+and height as ``<length>`` (SDF's cylinders stand along z, as navstress's).
 The mission is two static, visual-only models standing on the ground (nothing collides with
 them): ``mission_start`` (a green disc with an arrow along the start heading) and
 ``mission_goal`` (a red disc and pole). Movers are not exported: they are steered during a
@@ -39,7 +41,7 @@ from navstress.world.export.images import heightmap_png_bytes
 from navstress.world.world import World
 
 SDF_VERSION = "1.9"
-_COLOURS = {"tree": (0.12, 0.44, 0.23), "building": (0.23, 0.29, 0.39)}
+_COLOURS = {"tree": (0.12, 0.44, 0.23), "building": (0.23, 0.29, 0.39), "wall": (0.55, 0.53, 0.5)}
 _DEFAULT_COLOUR = (0.5, 0.5, 0.5)
 
 
@@ -173,7 +175,12 @@ def _build(world: World, heightmap_uri: str, step_s: float,
         size = " ".join(_number_text(v) for v in o.size)
         for tag in ("collision", "visual"):
             el = _sub(ln, tag, name=tag)
-            _sub(_sub(_sub(el, "geometry"), "box"), "size", size)
+            if o.is_cylinder:
+                cyl = _sub(_sub(el, "geometry"), "cylinder")
+                _sub(cyl, "radius", _number_text(o.size[0] / 2))
+                _sub(cyl, "length", _number_text(o.size[2]))
+            else:
+                _sub(_sub(_sub(el, "geometry"), "box"), "size", size)
             if tag == "visual":
                 _material(el, _COLOURS.get(o.kind, _DEFAULT_COLOUR))
 

@@ -8,7 +8,10 @@ the mission, and ``"movers", <type>`` (one per mover type, drawn last: adding mo
 nothing else). Order: raw terrain, mission, levelling of the start and goal free discs
 (:mod:`navstress.world.freearea`: drivable start and goal areas; a world whose start or goal
 cannot be made drivable raises GenerationError; a world that levels them has a ``free_areas``
-descriptor), obstacles (which keep out of the mission's free discs), the spec's obstacle moves
+descriptor), the spec's walls (``obstacles.walls``: one box of kind ``wall`` per segment,
+:mod:`navstress.world.shapes`; they stand before the mission is drawn: a random mission's free
+discs keep clear of them), obstacles (which keep out of the mission's free discs and of the
+walls), the spec's obstacle moves
 (:func:`~navstress.world.placement.apply_moves`; a world with moves has a ``moves_applied``
 descriptor), levelling of the ground under each obstacle (which keeps the free areas flat; when one
 obstacle base touches both free areas, they are levelled again at one height first), movers
@@ -24,6 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from navstress.errors import GenerationError
 from navstress.robot import RobotSpec
 from navstress.seeding import rng
 from navstress.world.descriptors import describe
@@ -32,9 +36,22 @@ from navstress.world.generators.sizing import sized_to_robot
 from navstress.world.mission import make_mission
 from navstress.world.movers import mover_descriptors, place_movers
 from navstress.world.placement import apply_moves, level_terrain, place_obstacles
+from navstress.world.shapes import first_in_disc, wall_obstacles
 from navstress.world.spec import WorldSpec
 from navstress.world.terrain import make_heights
-from navstress.world.world import Terrain, World
+from navstress.world.world import Mission, Obstacle, Terrain, World
+
+
+def _check_walls_clear(walls: list[Obstacle], mission: Mission) -> None:
+    """GenerationError when a wall enters the start or goal free disc (the spec refuses it for a
+    mission it fixes; a random one is drawn clear of the walls)."""
+    (sx, sy, _), (gx, gy), r = mission.start, mission.goal, mission.free_radius_m
+    for name, (cx, cy) in (("start", (sx, sy)), ("goal", (gx, gy))):
+        k = first_in_disc(walls, cx, cy, r)
+        if k >= 0:
+            raise GenerationError(f"wall segment {k} (centre ({walls[k].x:.3g}, {walls[k].y:.3g})) crosses the {name} "
+                                  f"free disc of radius {r:g} m around ({cx:g}, {cy:g}); move the wall or the {name}, "
+                                  "or lower mission.free_radius_m")
 
 
 def generate_outdoor(spec: WorldSpec, seed: int, *, robot: RobotSpec | None = None) -> World:
@@ -48,10 +65,14 @@ def generate_outdoor(spec: WorldSpec, seed: int, *, robot: RobotSpec | None = No
     if robot is not None:
         spec = sized_to_robot(spec, robot)
     raw = make_heights(spec.ground, spec.grid_shape, spec.cell_m, rng(seed, "terrain"))
-    mission = make_mission(spec, rng(seed, "mission"))
+    walls = wall_obstacles(spec.obstacles.walls)
+    mission = make_mission(spec, rng(seed, "mission"), avoid=walls)
+    _check_walls_clear(walls, mission)
     free = level_free_areas(raw, spec.cell_m, mission, spec.size_m)
-    placement = place_obstacles(spec, mission, seed)
-    placed, moved = apply_moves(placement.obstacles, spec, mission)
+    placement = place_obstacles(spec, mission, seed, fixed=walls)
+    placed, moved = apply_moves(placement.obstacles, spec, mission, fixed=walls)
+    if walls:  # the walls first, then the placed obstacles
+        placed = walls + placed
     lev = level_terrain(free.heights, spec.cell_m, placed, pins=free.pins(spec.grid_shape, spec.cell_m) if placed else None)
     if lev.joined >= 0:  # one obstacle base touches both free areas: they are levelled at one height
         free = level_free_areas(raw, spec.cell_m, mission, spec.size_m, together=True)

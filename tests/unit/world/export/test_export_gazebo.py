@@ -102,3 +102,26 @@ def test_gazebo_reads_obstacles_and_mission_markers(sdf_load: str, tmp_path: Pat
         assert link["collisions"] == [] and len(link["visuals"]) == 2  # seen, never collided with
     arrow = next(v for v in models["mission_start"]["links"][0]["visuals"] if v["geometry"]["type"] == "box")
     assert arrow["pose"][0] == pytest.approx(MARKER["arrow_length"] / 2)  # ahead along the heading
+
+
+def test_gazebo_reads_cylinders_and_walls_as_their_shapes(sdf_load: str, tmp_path: Path) -> None:
+    """Cylinders as SDF ``<cylinder>`` (radius, length = height) centred half their height above their
+    base; a wall polyline's segments as turned boxes; as libsdformat reads them."""
+    from tests.support.world_fixtures import shapes_world
+
+    w = shapes_world(4)
+    doc = _load(sdf_load, write_sdf(w, tmp_path / "w.sdf").sdf_path)
+    models = {m["name"]: m for m in doc["worlds"][0]["models"]}
+    assert {o.shape for o in w.obstacles} == {"box", "cylinder"} and any(o.kind == "wall" for o in w.obstacles)
+    for k, o in enumerate(w.obstacles):
+        m = models[f"{o.kind}_{k:04d}"]
+        x, y, z, roll, pitch, yaw = m["pose"]
+        assert (x, y, z, roll, pitch) == pytest.approx((o.x, o.y, o.z + o.size[2] / 2, 0.0, 0.0), abs=1e-6)
+        assert math.remainder(yaw - o.yaw, 2 * math.pi) == pytest.approx(0.0, abs=1e-6)
+        (link,) = m["links"]
+        for el in (*link["collisions"], *link["visuals"]):
+            if o.is_cylinder:
+                assert el["geometry"] == {"type": "cylinder", "radius": pytest.approx(o.size[0] / 2),
+                                          "length": pytest.approx(o.size[2])}
+            else:
+                assert el["geometry"] == {"type": "box", "size": pytest.approx(list(o.size))}
