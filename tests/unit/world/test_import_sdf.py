@@ -432,7 +432,7 @@ def test_a_barn_world_loads_its_cylinders_once(barn_sample: Path, n: int) -> Non
 
 
 def test_barn_worlds_match_libsdformat(sdf_dump: str, barn_sample: Path) -> None:
-    ns = BARN_SAMPLE[:3]
+    ns = BARN_SAMPLE[:1]  # libsdformat takes ~1.5 s of CPU per BARN world: the slow suite compares 50
     files = [barn_sample / f"world_{n}.world" for n in ns]
     for f, doc in zip(files, oracle(sdf_dump, files)):
         check_matches(_load(f), doc["worlds"][0])
