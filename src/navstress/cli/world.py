@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import os
+import warnings
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -23,6 +24,7 @@ from navstress.world.export.images import PREVIEW, obstruction_pct, save_with_pr
 from navstress.world.export.mesh import write_mesh
 from navstress.world.export.sdf import write_sdf
 from navstress.world.flags import build_spec, import_spec
+from navstress.world.sources.notes import SourceWarning
 from navstress.run.robot import check_stable
 from navstress.world.generate import check_robot_fits, generate, sized_to_robot
 from navstress.world.world import World
@@ -194,7 +196,14 @@ def world_import(
     if output.is_symlink():  # a link named as -o is the user's choice: followed once, its target replaced
         output = Path(os.path.realpath(output))
     check_out_dir(output)
-    world = generate(world_spec, seed_v, robot=robot_v if robot is not None else None)
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always", SourceWarning)
+        world = generate(world_spec, seed_v, robot=robot_v if robot is not None else None)
+    for w in said:  # what the source could not bring over: one line each (others as Python shows them)
+        if issubclass(w.category, SourceWarning):
+            click.echo(f"warning: {literal(str(w.message))}", err=True)
+        else:
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
     save_with_preview(world, output)
     con = console()
     con.print(_descriptor_table(world, f"world {output}"))
