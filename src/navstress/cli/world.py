@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 from pathlib import Path
@@ -25,7 +26,7 @@ from navstress.world.export.sdf import write_sdf
 from navstress.world.flags import build_spec, import_spec
 from navstress.run.robot import check_stable
 from navstress.world.generate import check_robot_fits, generate, sized_to_robot
-from navstress.world.freespace import default_mission
+from navstress.world.freespace import clearances_for, default_mission, free_space
 from navstress.world.sources import module_for, occupancy
 from navstress.world.world import Mission, World
 
@@ -200,18 +201,18 @@ def world_import(
     check_out_dir(output)
     err = console(stderr=True)
     big = import_size_note(world_spec)
-    if big:
-        err.print(big)
-    world = generate(world_spec, seed_v, robot=robot_v if robot is not None else None)
-    if start is None and world.mission.straight_distance_m == 0.0:  # the source has no mission: draw the default one
-        world = with_mission(world, default_mission(world, half_width_m=robot_v.width_m / 2,
-                                                    half_diagonal_m=robot_v.half_diagonal_m, robot_name=robot_v.name))
-    elif start is not None:
-        check_mission_inside(world, "--start", world.mission.start[:2])
-        check_mission_inside(world, "--goal", world.mission.goal)
+    with err.status(big or "importing...") if big and err.is_terminal else contextlib.nullcontext():
+        # (a transient line on a terminal only: an error that follows stays the one line on stderr)
+        world = generate(world_spec, seed_v, robot=robot_v if robot is not None else None)
+        if start is None and world.mission.straight_distance_m == 0.0:  # the source has none: the default one
+            world = with_mission(world, default_mission(world, half_width_m=robot_v.width_m / 2,
+                                                        half_diagonal_m=robot_v.half_diagonal_m,
+                                                        robot_name=robot_v.name))
+        elif start is not None:
+            check_mission_free(world, robot_v, world.mission.start[:2], world.mission.goal)
+        save_with_preview(world, output)
     for note in world.descriptors.get("import_notes", []):
         err.print(literal(f"warning: {note}"))
-    save_with_preview(world, output)
     con = console()
     con.print(_descriptor_table(world, f"world {output}"))
     con.print(f"wrote {output}/ (world.json, terrain.npz, {PREVIEW})")
@@ -241,14 +242,25 @@ def with_mission(world: World, mission: Mission) -> World:
                  descriptors=world.descriptors, movers=world.movers, source=world.source)
 
 
-def check_mission_inside(world: World, flag: str, pt: tuple[float, ...]) -> None:
-    """A given start or goal (converted from the source's frame) must lie inside the world."""
+def check_mission_free(world: World, robot: Any, start: tuple[float, ...], goal: tuple[float, ...]) -> None:
+    """A given start and goal (converted from the source's frame) must lie inside the world, where
+    the robot stands clear of the walls (its half width and a margin)."""
     sx, sy = world.size_m
-    if 0.0 <= pt[0] <= sx and 0.0 <= pt[1] <= sy:
-        return
     o = world.source.origin if world.source is not None else (0.0, 0.0)
-    raise SpecError(flag, f"{pt[0] + o[0]:g},{pt[1] + o[1]:g}", f"a point of the imported world, in the source's frame "
-                    f"[{o[0]:g}, {o[0] + sx:g}] x [{o[1]:g}, {o[1] + sy:g}]", "give the point in the map's own frame")
+    fs = None
+    for flag, pt in (("--start", start), ("--goal", goal)):
+        shown = f"{pt[0] + o[0]:g},{pt[1] + o[1]:g}"
+        if not (0.0 <= pt[0] <= sx and 0.0 <= pt[1] <= sy):
+            raise SpecError(flag, shown, f"a point of the imported world, in the source's frame [{o[0]:g}, "
+                            f"{o[0] + sx:g}] x [{o[1]:g}, {o[1] + sy:g}]", "give the point in the map's own frame")
+        fs = fs or free_space(world)
+        need = clearances_for(robot.width_m / 2, robot.half_diagonal_m)[0]
+        i = min(int(pt[1] / fs.cell_m), fs.clearance.shape[0] - 1)
+        j = min(int(pt[0] / fs.cell_m), fs.clearance.shape[1] - 1)
+        if float(fs.clearance[i, j]) < need:
+            raise SpecError(flag, shown, f"a free point where {robot.name} stands clear of the walls (at least "
+                            f"{need:.3g} m from them; this one is {float(fs.clearance[i, j]):.3g} m)",
+                            "move it into the free space (leave --start/--goal out for a drawn mission)")
 
 
 @world_app.command("show")

@@ -72,12 +72,10 @@ class FreeSpace:
 
 def free_space_of_grid(blocked: np.ndarray, cell_m: float) -> FreeSpace:
     """The free space of a boolean grid (True: blocked), its edge counted as blocked."""
-    from scipy import ndimage
+    from navstress.world._gridkernels import edt_squared
 
-    b = np.asarray(blocked, bool)
-    padded = np.ones((b.shape[0] + 2, b.shape[1] + 2), bool)
-    padded[1:-1, 1:-1] = ~b
-    d = ndimage.distance_transform_edt(padded)[1:-1, 1:-1]
+    b = np.ascontiguousarray(blocked, dtype=np.bool_)
+    d = np.sqrt(edt_squared(b))
     clearance = np.maximum((d - _HALF_DIAG) * cell_m, 0.0).astype(np.float32)
     clearance[b] = 0.0
     return FreeSpace(cell_m=float(cell_m), blocked=b, clearance=clearance)
@@ -142,7 +140,29 @@ def free_space(world: World, cell_m: float | None = None) -> FreeSpace:
     about 4 million cells)."""
     sx, sy = world.size_m
     c = float(cell_m) if cell_m is not None else min(world.terrain.cell_m, max(0.1, math.sqrt(sx * sy / 4e6)))
-    return free_space_of_grid(rasterise(world.obstacles, world.size_m, c), c)
+    blocked = rasterise(world.obstacles, world.size_m, c)
+    outline = world.descriptors.get("map_outline_m")
+    if outline is not None:  # an imported map: the padding around it is outside the map
+        blocked |= ~_inside(np.asarray(outline, np.float64), blocked.shape, c)
+    return free_space_of_grid(blocked, c)
+
+
+def _inside(poly: np.ndarray, shape: tuple[int, ...], cell_m: float) -> np.ndarray:
+    """Cells whose whole square lies inside the convex polygon ``poly`` (counter-clockwise)."""
+    rows, cols = shape
+    x = (np.arange(cols) + 0.5) * cell_m
+    y = (np.arange(rows) + 0.5) * cell_m
+    xx, yy = np.meshgrid(x, y)
+    inside = np.ones(shape, bool)
+    for k in range(len(poly)):
+        (ax, ay), (bx, by) = poly[k], poly[(k + 1) % len(poly)]
+        ex, ey = bx - ax, by - ay
+        n = math.hypot(ex, ey)
+        if n == 0:
+            continue
+        reach = (abs(ex) + abs(ey)) / n * cell_m / 2  # how far a cell's square reaches past its centre across the edge
+        inside &= (ex * (yy - ay) - ey * (xx - ax)) / n >= reach - 1e-9
+    return inside
 
 
 def farthest_mission(fs: FreeSpace, *, pass_m: float, turn_m: float) -> Mission | None:
@@ -152,9 +172,15 @@ def farthest_mission(fs: FreeSpace, *, pass_m: float, turn_m: float) -> Mission 
     ``turn_m``). None when no cell has that clearance there."""
     part = fs.largest_part(pass_m)
     cand = part & fs.clear(turn_m)
-    ii, jj = np.nonzero(cand)
-    if len(ii) == 0:
+    rows_any = cand.any(axis=1)
+    if not rows_any.any():
         return None
+    # only the first and the last candidate of each row can be a vertex of their convex hull
+    ii = np.flatnonzero(rows_any)
+    sub = cand[ii]
+    first = np.argmax(sub, axis=1)
+    last = sub.shape[1] - 1 - np.argmax(sub[:, ::-1], axis=1)
+    ii, jj = np.concatenate([ii, ii]), np.concatenate([first, last])
     x, y = fs.centre(ii, jj)
     pts = np.stack([x, y], axis=1)
     hull = _hull_points(pts)

@@ -292,14 +292,7 @@ def classify(m: MapYaml, px: Pixels) -> np.ndarray:
     a = px.channels
     c = a.shape[2]
     has_alpha = c in (2, 4)
-    if c <= 2:  # a grey pixel is (v, v, v)
-        sums = a[:, :, 0].astype(np.int64) * 3
-    else:
-        sums = a[:, :, :3].sum(axis=2, dtype=np.int64)
-    nsum = 3
-    if m.mode == "trinary" and has_alpha:
-        sums = sums + a[:, :, -1].astype(np.int64)
-        nsum = 4
+    nsum = 4 if m.mode == "trinary" and has_alpha else 3
     top = nsum * px.maxval
     # a table over every possible sum: the same double arithmetic as map_io.cpp for each
     s = np.arange(top + 1, dtype=np.float64)
@@ -318,7 +311,13 @@ def classify(m: MapYaml, px: Pixels) -> np.ndarray:
             val = np.rint((occ - m.free_thresh) / (m.occupied_thresh - m.free_thresh) * 100.0)
             lut[mid & (val >= 100)] = OCCUPIED
             lut[mid & (val < 100)] = FREE
-    codes: np.ndarray = lut[sums]
+    if c == 1:  # a grey pixel is (v, v, v): the table at 3 v, indexed by v itself
+        codes: np.ndarray = lut[::3][a[:, :, 0]]
+    else:
+        sums = a[:, :, 0].astype(np.int64) * 3 if c == 2 else a[:, :, :3].sum(axis=2, dtype=np.int64)
+        if nsum == 4:
+            sums += a[:, :, -1]
+        codes = lut[sums]
     if m.mode == "scale" and has_alpha:
         codes[a[:, :, -1] != px.maxval] = UNKNOWN
     return codes
@@ -328,31 +327,30 @@ def rectangles(mask: np.ndarray) -> np.ndarray:
     """Axis-aligned rectangles that cover the True cells of ``mask`` exactly, without overlap:
     (n, 4) int64 rows ``(i0, j0, i1, j1)`` (half-open: rows i0..i1-1, columns j0..j1-1).
 
-    Each row's runs of True cells, and a run merged with the runs of the rows below it that have
-    the same columns (a greedy maximal extension: each rectangle is as wide as its run, then as
-    tall as identical runs go); done along rows and along columns, the fewer kept. A wall of any
-    thickness is one rectangle, a room's outline four."""
-    m = np.asarray(mask, bool)
-    a = _runs_merged(m)
-    if m.size == 0 or len(a) <= 1:
+    Each row's runs of True cells, and a run merged with the runs of the rows after it that span
+    the same columns (a greedy extension: each rectangle is as wide as its run, then as tall as
+    identical runs go); done along the rows and along the columns, the fewer rectangles kept. A
+    straight wall of any thickness is one rectangle, a room's outline four."""
+    from navstress.world._gridkernels import col_runs, row_runs
+
+    m = np.ascontiguousarray(mask, dtype=np.bool_)
+    if m.ndim != 2 or m.size == 0:
+        return np.zeros((0, 4), np.int64)
+    a = _merge(row_runs(m))
+    if len(a) <= 1:
         return a
-    b = _runs_merged(np.ascontiguousarray(m.T))[:, [1, 0, 3, 2]]
+    b = _merge(col_runs(m))[:, [1, 0, 3, 2]]
     return a if len(a) <= len(b) else b
 
 
-def _runs_merged(m: np.ndarray) -> np.ndarray:
-    rows, cols = m.shape
-    if rows == 0 or cols == 0:
+def _merge(runs: np.ndarray) -> np.ndarray:
+    """Runs ``(line, start, end)`` merged across consecutive lines with the same (start, end):
+    rows ``(line0, start, line1, end)``."""
+    if len(runs) == 0:
         return np.zeros((0, 4), np.int64)
-    p = np.zeros((rows, cols + 2), np.int8)
-    p[:, 1:-1] = m
-    d = np.diff(p, axis=1)
-    si, sj = np.nonzero(d == 1)
-    _, ej = np.nonzero(d == -1)  # (row-major: the k-th end closes the k-th start)
-    if len(si) == 0:
-        return np.zeros((0, 4), np.int64)
-    order = np.lexsort((si, ej, sj))
-    r, a, b = si[order], sj[order], ej[order]
+    r, a, b = runs[:, 0], runs[:, 1], runs[:, 2]
+    order = np.lexsort((r, b, a))
+    r, a, b = r[order], a[order], b[order]
     new = np.ones(len(r), bool)
     new[1:] = (a[1:] != a[:-1]) | (b[1:] != b[:-1]) | (r[1:] != r[:-1] + 1)
     first = np.flatnonzero(new)
@@ -453,13 +451,25 @@ def read_map(path: Path, options: SourceSpec) -> MapCells:
         raise _bad(m.path, "image", str(info.path), f"a map needing at most {limit / (1 << 30):.3g} GiB of memory to "
                    f"import (its {info.width}x{info.height} cells need about {need / (1 << 30):.3g} GiB)",
                    f"crop or downsample the map, or raise {MAX_WORLD_GIB_ENV}")
-    codes = classify(m, read_pixels(m, info))[::-1]
-    blocked = (codes == OCCUPIED) | ((codes == UNKNOWN) if options.unknown == "wall" else False)
-    return MapCells(yaml=m, cells=codes, blocked=np.ascontiguousarray(blocked), layout=lay)
+    codes = np.ascontiguousarray(classify(m, read_pixels(m, info))[::-1])
+    walls_of = np.array([False, True, options.unknown == "wall"])  # FREE, OCCUPIED, UNKNOWN
+    return MapCells(yaml=m, cells=codes, blocked=walls_of[codes], layout=lay)
 
 
 def _spec(lay: Layout, options: SourceSpec) -> WorldSpec:
     return check_memory(WorldSpec(size_m=lay.size_m, cell_m=lay.cell_m, source=options))
+
+
+def _outline(m: MapYaml, lay: Layout, shape: tuple[int, ...]) -> list[list[float]]:
+    w, h = shape[1] * m.resolution, shape[0] * m.resolution
+    c, s = math.cos(lay.yaw), math.sin(lay.yaw)
+    out = []
+    for x, y in ((0.0, 0.0), (w, 0.0), (w, h), (0.0, h)):
+        if lay.yaw == 0.0:
+            out.append([x + lay.corner[0], y + lay.corner[1]])
+        else:
+            out.append([c * x - s * y + lay.corner[0], s * x + c * y + lay.corner[1]])
+    return out
 
 
 def load(path: Path, options: SourceSpec) -> World:
@@ -491,6 +501,9 @@ def load(path: Path, options: SourceSpec) -> World:
         "map_unknown_pct": round(100 * float(counts[UNKNOWN]) / n, 4),
         "map_free_pct": round(100 * float(counts[FREE]) / n, 4),
         "walls": len(obstacles),
+        # the map's outline in the world (its lower-left, lower-right, upper-right, upper-left corners): the
+        # padding around it is outside the map, never free space for missions (navstress.world.freespace)
+        "map_outline_m": _outline(m, lay, mc.cells.shape),
     }
     if notes:
         desc["import_notes"] = notes
