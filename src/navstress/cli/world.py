@@ -74,7 +74,7 @@ def _descriptor_table(world: Any, title: str) -> Any:
     return t
 
 
-_HIDDEN = ("import_notes", "placement_", "traversability", "obstruction_", "n_obstacles", "height_m", "height_min", "height_max",
+_HIDDEN = ("import_notes", "map_outline", "placement_", "traversability", "obstruction_", "n_obstacles", "height_m", "height_min", "height_max",
            "height_std")
 
 

@@ -72,6 +72,7 @@ class FreeSpace:
 
 def free_space_of_grid(blocked: np.ndarray, cell_m: float) -> FreeSpace:
     """The free space of a boolean grid (True: blocked), its edge counted as blocked."""
+    # numba loads only when a free space is computed: `import navstress.world` stays light
     from navstress.world._gridkernels import edt_squared
 
     b = np.ascontiguousarray(blocked, dtype=np.bool_)

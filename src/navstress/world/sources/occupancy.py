@@ -331,6 +331,7 @@ def rectangles(mask: np.ndarray) -> np.ndarray:
     the same columns (a greedy extension: each rectangle is as wide as its run, then as tall as
     identical runs go); done along the rows and along the columns, the fewer rectangles kept. A
     straight wall of any thickness is one rectangle, a room's outline four."""
+    # numba loads only when a map is read: `import navstress.world` stays light
     from navstress.world._gridkernels import col_runs, row_runs
 
     m = np.ascontiguousarray(mask, dtype=np.bool_)
