@@ -217,3 +217,21 @@ def test_png_office_imports_like_its_pgm(tmp_path: Path) -> None:
         assert code == 0, err
     ja, jb = (json.loads((tmp_path / d / "world.json").read_text()) for d in ("wa", "wb"))
     assert ja["obstacles"] == jb["obstacles"] and ja["mission"] == jb["mission"]
+
+
+@pytest.mark.parametrize("flags, piece", [
+    (["--unknown", "bogus"], "error: --unknown='bogus'"),
+    (["--wall-height", "-1"], "error: --wall-height='-1' is invalid: expected a height in (0, 100] m"),
+    (["--wall-height", "101"], "error: --wall-height='101'"),
+    (["--wall-height", "nan"], "error: --wall-height="),
+    (["--kind", "png"], "error: --kind='png'"),
+    (["--start", "1,2,0"], "error: --goal is missing"),
+    (["--start", "1,2", "--goal", "3,4"], "error: --start='1,2'"),
+])
+def test_import_flags_are_checked_by_name(tmp_path: Path, flags: list[str], piece: str) -> None:
+    y = make_office(tmp_path)
+    before = snapshot(tmp_path)
+    argv = ["world", "import", str(y), "-o", str(tmp_path / "out"), *flags]
+    line = assert_one_line_error(*invoke(argv), argv)
+    assert line.startswith(piece), line
+    assert snapshot(tmp_path) == before
