@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from navstress._flags import integer, number
-from navstress.errors import SpecError
+from navstress.errors import MISSING, SpecError
 from navstress.world.spec import WorldSpec, load_spec, parse_spec
 
 _KIND_ALIASES = {"trees": "tree", "buildings": "building"}
@@ -182,6 +182,8 @@ def import_spec(source: Path, *, kind: str = "auto", wall_height: str | None = N
     flags = {"--kind": "kind"}
     if wall_height is not None:
         src["wall_height_m"] = number("--wall-height", wall_height, "a height in (0, 100] m")
+        if not 0.0 < src["wall_height_m"] <= 100.0:
+            raise SpecError("--wall-height", wall_height, "a height in (0, 100] m")
         flags["--wall-height"] = "wall_height_m"
     if unknown is not None:
         src["unknown"], flags["--unknown"] = unknown, "unknown"
@@ -189,7 +191,7 @@ def import_spec(source: Path, *, kind: str = "auto", wall_height: str | None = N
         src["meshes"], flags["--meshes"] = meshes, "meshes"
     data: dict[str, Any] = {"source": src}
     if (start is None) != (goal is None):
-        raise SpecError("--start" if start is None else "--goal", "missing", "--start and --goal given together")
+        raise SpecError("--start" if start is None else "--goal", MISSING, "--start and --goal given together")
     if start is not None and goal is not None:
         data["mission"] = {"start": _floats("--start", start, 3, "X,Y,YAW: three numbers (m, m, rad)"),
                            "goal": _floats("--goal", goal, 2, "X,Y: two numbers (m)")}
