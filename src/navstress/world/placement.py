@@ -213,8 +213,13 @@ def _type_order(targets: dict[str, float], types: dict[str, ObstacleType]) -> li
     return sorted(targets, key=lambda k: (-types[k].base_m[0] * types[k].base_m[1], k))
 
 
-def place_obstacles(spec: WorldSpec, mission: Mission, seed: int) -> PlacementResult:
+def place_obstacles(spec: WorldSpec, mission: Mission, seed: int, *,
+                    blocked: tuple[Obstacle, ...] = ()) -> PlacementResult:
     """Place every type's obstacles to its obstruction target (see the module docstring).
+
+    ``blocked``: obstacles already there (an imported world's geometry), which the placed ones
+    keep out of: each marks the raster cells of its footprint's bounding box (a cylinder: of its
+    disc), conservatively, before the mission's free discs.
 
     Raises :class:`GenerationError` naming the achieved value, the target and why, when a
     type ends more than 0.5 percentage points below its target."""
@@ -232,6 +237,15 @@ def place_obstacles(spec: WorldSpec, mission: Mission, seed: int) -> PlacementRe
     for cx, cy in ((sx0, sy0), mission.goal):
         mark_disc(ras, cx, cy, mission.free_radius_m)
     ny, nx = ras.occ.shape
+    for o in blocked:  # (none for a generated world)
+        if o.is_cylinder:
+            mark_disc(ras, o.x, o.y, o.radius_xy)
+            continue
+        b = _boxes([o])[0]
+        a0, a1 = max(0, int(b[0] // ras.rx)), min(nx - 1, int(b[2] // ras.rx))
+        b0, b1 = max(0, int(b[1] // ras.ry)), min(ny - 1, int(b[3] // ras.ry))
+        if a0 <= a1 and b0 <= b1:
+            ras.occ[b0:b1 + 1, a0:a1 + 1] = 1
     for kind in _type_order(targets, types):
         t = types[kind]
         gen = rng(seed, "obstacles", kind)
