@@ -60,6 +60,7 @@ from navstress import __version__, _files, _json
 from navstress._tables import FORMATS, Kind, read_table, write_table
 from navstress.campaign.plan import (NOMINAL, Plan, config_key_of, plan, trace_path, variant, variant_of,
                                      world_path)
+from navstress.campaign.sources import check_sources, has_sources, pin_sources
 from navstress.campaign.spec import CampaignSpec, parse_campaign_text, spec_yaml
 from navstress.errors import SpecError, StoreError
 from navstress.run.outcome import Outcome
@@ -220,6 +221,13 @@ class Store:
         d = Path(root)
         if d.exists() and not d.is_dir():
             raise StoreError(f"output={str(d)!r} exists and is not a directory; choose another -o")
+        if has_sources(spec):  # the sources' digests: the stored ones (resume), else pinned now; checked
+            stored = None
+            if (d / DB_NAME).is_file():
+                with cls.open(d) as old:
+                    stored = old.spec
+            spec = pin_sources(spec, stored)
+            check_sources(spec)  # before anything is written: a changed source file is refused
         d.mkdir(parents=True, exist_ok=True)
         _files.refuse_links(d)  # before anything is written: a planted link would take it elsewhere
         cls._refuse_foreign(d)  # before the lock file: a folder of something else is left as it was
@@ -387,9 +395,13 @@ class Store:
         if self._lock is None:
             raise StoreError(f"campaign={str(self.root)!r} is open for reading only; open it with "
                              "Store.create (the write lock) to extend it")
+        spec = pin_sources(spec, self.spec)
+        check_sources(spec)
         if spec_text is None:
             spec_text = spec_yaml(spec)
-        elif parse_campaign_text(spec_text, "spec_text", max_runs=None).digest() != spec.digest():
+        elif not has_sources(spec) and parse_campaign_text(spec_text, "spec_text", max_runs=None).digest() != spec.digest():
+            # (a spec with sources: its text names them relative to its file's folder, which the
+            # caller read it with; the text alone cannot say that folder)
             raise SpecError("spec_text", spec_text[:60] + ("..." if len(spec_text) > 60 else ""),
                             "the text of the spec given with it (it becomes spec.yaml)")
         changed = robot_change(self.spec, spec)

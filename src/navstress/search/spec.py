@@ -40,7 +40,7 @@ from navstress.run.sensors import apply_sensor_values, apply_sensors, check_suit
 from navstress.search.objectives import DESCRIPTORS
 from navstress.seeding import MAX_SEED
 from navstress.specfile import parse_text, read_text
-from navstress.world.spec import BUILTIN_TYPES, ObstacleType, WorldSpec, parse_spec
+from navstress.world.spec import BUILTIN_TYPES, ObstacleType, WorldSpec, parse_spec, resolve_source
 
 _STRICT = SPEC_CONFIG
 
@@ -492,6 +492,8 @@ def parse_search(data: Any, base_dir: str | Path | None = None) -> SearchSpec:
     ``base_dir``, a mapping with ``base:`` and overrides) is known and fits the free areas."""
     if not isinstance(data, dict):
         raise SpecError("search", type(data).__name__, "a mapping of fields at the top level")
+    if "world" in data:  # a world source relative to the spec file's folder
+        data = {**data, "world": resolve_source(data["world"], base_dir)}
     if data.get("robot") is not None:
         data = {**data, "robot": resolve_robot_ref(data["robot"], "robot", base_dir)}
     if data.get("sensors") is not None or data.get("sensors_add") is not None:

@@ -636,4 +636,23 @@ def load_spec(path: str | Path) -> WorldSpec:
         data = {}
     if not isinstance(data, dict):
         raise SpecError("spec", str(p), "a mapping of fields at the top level")
-    return parse_spec(data)
+    return parse_spec(resolve_source(data, p.parent))
+
+
+def resolve_source(world: Any, base_dir: str | Path | None) -> Any:
+    """A WorldSpec mapping with its ``source`` made absolute: a relative ``source.path`` (or a
+    ``source`` given as a bare path, ``source: office.yaml``) is taken relative to ``base_dir``
+    (the folder of the spec file that names it; None: the working directory), so that workers
+    in other processes or on other machines (Ray) find it whatever their working directory.
+    Anything else is returned as it is (the spec's validation names it)."""
+    if not isinstance(world, dict) or "source" not in world:
+        return world
+    src = world["source"]
+    if isinstance(src, str):
+        src = {"path": src}
+    if not isinstance(src, dict) or not isinstance(src.get("path"), str) or not src["path"]:
+        return world
+    p = Path(os.path.expanduser(src["path"]))
+    if not p.is_absolute():
+        p = Path(base_dir if base_dir is not None else os.getcwd()) / p
+    return {**world, "source": {**src, "path": os.path.normpath(str(p.absolute()))}}
