@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 from pathlib import Path
@@ -25,7 +26,9 @@ from navstress.world.export.sdf import write_sdf
 from navstress.world.flags import build_spec, import_spec
 from navstress.run.robot import check_stable
 from navstress.world.generate import check_robot_fits, generate, sized_to_robot
-from navstress.world.world import World
+from navstress.world.freespace import clearances_for, default_mission, free_space
+from navstress.world.sources import module_for, occupancy
+from navstress.world.world import Mission, World
 
 EXPORT_FORMATS = ("mjcf", "sdf", "gltf", "glb", "obj", "png")
 
@@ -71,7 +74,7 @@ def _descriptor_table(world: Any, title: str) -> Any:
     return t
 
 
-_HIDDEN = ("placement_", "traversability", "obstruction_", "n_obstacles", "height_m", "height_min", "height_max",
+_HIDDEN = ("import_notes", "placement_", "traversability", "obstruction_", "n_obstacles", "height_m", "height_min", "height_max",
            "height_std")
 
 
@@ -186,7 +189,9 @@ def world_import(
     """Import a world made elsewhere (an occupancy-grid map, a Gazebo world) as a navstress world.
 
     The world is shifted so its lower-left corner is (0, 0); world.json's source.origin says
-    where that is in the source's frame, and missions given here are in the source's frame."""
+    where that is in the source's frame, and missions given here are in the source's frame.
+    Without --start/--goal, a source without a mission of its own (a map) gets one: the two points
+    farthest apart in its largest free part where the robot (--robot) passes and turns."""
     seed_v = bounded_int("--seed", seed, 0, MAX_SEED)
     robot_v = load_robot_flag(robot)
     world_spec = import_spec(source, kind=kind, wall_height=wall_height, unknown=unknown, meshes=meshes,
@@ -194,11 +199,68 @@ def world_import(
     if output.is_symlink():  # a link named as -o is the user's choice: followed once, its target replaced
         output = Path(os.path.realpath(output))
     check_out_dir(output)
-    world = generate(world_spec, seed_v, robot=robot_v if robot is not None else None)
-    save_with_preview(world, output)
+    err = console(stderr=True)
+    big = import_size_note(world_spec)
+    with err.status(big or "importing...") if big and err.is_terminal else contextlib.nullcontext():
+        # (a transient line on a terminal only: an error that follows stays the one line on stderr)
+        world = generate(world_spec, seed_v, robot=robot_v if robot is not None else None)
+        if start is None and world.mission.straight_distance_m == 0.0:  # the source has none: the default one
+            world = with_mission(world, default_mission(world, half_width_m=robot_v.width_m / 2,
+                                                        half_diagonal_m=robot_v.half_diagonal_m,
+                                                        robot_name=robot_v.name))
+        elif start is not None:
+            check_mission_free(world, robot_v, world.mission.start[:2], world.mission.goal)
+        save_with_preview(world, output)
+    for note in world.descriptors.get("import_notes", []):
+        err.print(literal(f"warning: {note}"))
     con = console()
     con.print(_descriptor_table(world, f"world {output}"))
     con.print(f"wrote {output}/ (world.json, terrain.npz, {PREVIEW})")
+
+
+def import_size_note(spec: Any) -> str | None:
+    """A line announcing a large map's import (its size and memory), None for a small one."""
+    src = spec.source
+    if src is None:
+        return None
+    try:
+        mod = module_for(src)
+        if mod.KIND != "map":
+            return None
+        m = occupancy.read_yaml(Path(src.path))
+        info = occupancy.image_info(m)
+    except SpecError:
+        return None  # (the import itself reports it)
+    if info.width * info.height < 4_000_000:
+        return None
+    return (f"importing a {info.width}x{info.height} cell map ({info.width * info.height / 1e6:.1f} million cells, "
+            f"about {info.width * info.height * occupancy.BYTES_PER_PIXEL / (1 << 30):.2g} GiB at the peak)...")
+
+
+def with_mission(world: World, mission: Mission) -> World:
+    return World(spec=world.spec, seed=world.seed, terrain=world.terrain, obstacles=world.obstacles, mission=mission,
+                 descriptors=world.descriptors, movers=world.movers, source=world.source)
+
+
+def check_mission_free(world: World, robot: Any, start: tuple[float, ...], goal: tuple[float, ...]) -> None:
+    """A given start and goal (converted from the source's frame) must lie inside the world, where
+    the robot stands clear of the walls (its half width and a margin)."""
+    sx, sy = world.size_m
+    o = world.source.origin if world.source is not None else (0.0, 0.0)
+    fs = None
+    for flag, pt in (("--start", start), ("--goal", goal)):
+        shown = f"{pt[0] + o[0]:g},{pt[1] + o[1]:g}"
+        if not (0.0 <= pt[0] <= sx and 0.0 <= pt[1] <= sy):
+            raise SpecError(flag, shown, f"a point of the imported world, in the source's frame [{o[0]:g}, "
+                            f"{o[0] + sx:g}] x [{o[1]:g}, {o[1] + sy:g}]", "give the point in the map's own frame")
+        fs = fs or free_space(world)
+        need = clearances_for(robot.width_m / 2, robot.half_diagonal_m)[0]
+        i = min(int(pt[1] / fs.cell_m), fs.clearance.shape[0] - 1)
+        j = min(int(pt[0] / fs.cell_m), fs.clearance.shape[1] - 1)
+        if float(fs.clearance[i, j]) < need:
+            raise SpecError(flag, shown, f"a free point where {robot.name} stands clear of the walls (at least "
+                            f"{need:.3g} m from them; this one is {float(fs.clearance[i, j]):.3g} m)",
+                            "move it into the free space (leave --start/--goal out for a drawn mission)")
 
 
 @world_app.command("show")
