@@ -146,7 +146,7 @@ def draw_mission(size_m: tuple[float, float], obstacles: tuple[Obstacle, ...], g
     comp = labels.ravel()[cells]
 
     def index_of(x: float, y: float) -> int:
-        return min(ny - 1, max(0, int(y / cell))) * nx + min(nx - 1, max(0, int(x / cell)))
+        return int(min(ny - 1, max(0, int(y / cell))) * nx + min(nx - 1, max(0, int(x / cell))))
 
     def partner(x: float, y: float, c: int) -> tuple[float, float] | None:
         """A point drawn in component ``c`` at least ``min_d`` from (x, y), None when there is none."""
