@@ -518,6 +518,12 @@ class WorldSpec(BaseModel):
                 raise SpecError(f"size_m.{axis}", size, f"a whole multiple of cell_m={self.cell_m}",
                                 f"use size {round(n) * self.cell_m:g} or another cell_m")
         if self.source is not None:  # the mission and the moves are in the source's frame: checked on import
+            if self.generator != "outdoor":
+                raise SpecError("generator", self.generator, "no generator with a source (the world is imported)",
+                                "remove generator, or remove source")
+            if self.ground != GroundSpec():
+                raise SpecError("ground", self.ground.label(), "the source's own ground (a world with a source keeps "
+                                "its terrain)", "remove ground, or remove source")
             return self._check_movers()
         m = self.mission
         for name, pt in (("start", m.start), ("goal", m.goal)):

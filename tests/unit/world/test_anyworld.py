@@ -17,7 +17,7 @@ from navstress.robot import PROFILES, RobotSpec
 from navstress.search.spec import load_search
 from navstress.world.generate import generate
 from navstress.world.sources import missions
-from navstress.world.spec import WorldSpec, load_spec
+from navstress.world.spec import WorldSpec, load_spec, parse_spec
 from navstress.world.world import Mission, Obstacle, World, WorldSource
 from tests.support.office import write_office
 
@@ -219,3 +219,11 @@ def test_pins_come_from_the_stored_spec_and_a_changed_source_is_refused(tmp_path
     (tmp_path / "g.yaml").write_text("name: g\nexperiments: [{name: a}]\n")
     plain, _ = load_campaign(tmp_path / "g.yaml")
     assert pin_sources(plain) is plain
+
+
+@pytest.mark.parametrize("extra,field", [({"generator": "rooms"}, "generator"),
+                                         ({"ground": {"subdivisions": 3, "deformation": 1.0}}, "ground")])
+def test_what_a_source_cannot_take_is_one_line(office: Path, extra: dict[str, object], field: str) -> None:
+    with pytest.raises(SpecError) as e:
+        parse_spec({"source": {"path": str(office)}, **extra})
+    assert str(e.value).startswith(f"{field}=") and "\n" not in str(e.value)
