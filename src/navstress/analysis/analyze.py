@@ -83,6 +83,9 @@ class Analysis:
     #: the campaign's robots, (name, digest) in spec order; in a campaign of several, each
     #: navigator above is ``navigator@robot`` (:func:`navstress.analysis.stats.variants`)
     robots: list[tuple[str, str]] = field(default_factory=list)
+    #: the imported worlds' sources of the recorded runs, (kind, path, sha256) once each in run
+    #: order; empty for a campaign of generated worlds (whose JSON then has no ``sources`` key)
+    sources: list[tuple[str, str, str]] = field(default_factory=list)
 
     @property
     def refused_runs(self) -> int:
@@ -160,6 +163,7 @@ class Analysis:
             "descriptor_correlations": [c.to_json() for c in self.correlations],
             "missing": [{"experiment": e, "config": k, "recorded": d, "planned": p} for e, k, d, p in self.missing],
             "verdicts": self.verdicts.to_json(),
+            **({"sources": [{"kind": k, "path": p, "sha256": h} for k, p, h in self.sources]} if self.sources else {}),
         }
 
 
@@ -268,4 +272,6 @@ def analyze(directory: str | Path, *, params: DifficultyParams | None = None, na
                     ranges=ranges, overlaps=overlaps, indeterminism=indet, power=power, power_levels=power_levels,
                     correlations=corr, world_dirs=world_dirs, dt=dt, infeasible=infeasible, navigators=navs,
                     only_navigator=navigator, verdicts=verd, explicit=explicit, refused=refused,
-                    robots=[(r.name, r.digest) for r in spec.all_robots()])
+                    robots=[(r.name, r.digest) for r in spec.all_robots()],
+                    sources=list(dict.fromkeys((r.source_kind, r.source_path or "", r.source_sha256 or "")
+                                               for r in records if r.source_kind is not None)))

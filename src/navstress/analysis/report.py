@@ -314,6 +314,9 @@ def _summary(a: Analysis) -> str:
            f'difficulty, indeterminism and correlations use the nominal runs of <b id="difficulty-navigator">'
            f'{_e(a.navigator)}</b>; runs shown: <span id="shown-navigators">{_e(", ".join(a.shown_navigators))}'
            f'</span>; {_robots_line(a)}.</p>',
+           *([f'<p class="note" id="sources">World sources: ' + "; ".join(
+               f'<span class="source" data-kind="{_e(k)}" data-sha256="{_e(h)}">{_e(k)} <code>{_e(p)}</code> '
+               f'(sha256 {_e(h[:12])})</span>' for k, p, h in a.sources) + '</p>'] if a.sources else []),
            '<h2 id="summary">Summary</h2>',
            f'<p>Runs recorded: <b id="runs-done" data-value="{a.done}">{a.done}</b> of '
            f'<b id="runs-planned" data-value="{a.planned}">{a.planned}</b> planned.</p>']

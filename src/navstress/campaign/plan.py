@@ -58,6 +58,9 @@ class MapJob:
     map_seed: int
     world: dict[str, Any]
     world_dir: str
+    #: the robot an imported world's drawn missions are sized for (the experiment's largest, its
+    #: RobotSpec's JSON mapping); None for a generated world (sized by its spec alone)
+    robot: dict[str, Any] | None = None
 
 
 SUCCESS = "success"
@@ -186,6 +189,7 @@ def plan(spec: CampaignSpec, root: str | Path) -> Plan:
         # the default robot travels as None: its tasks are the tasks of before robots existed
         robots_json = [None if r.digest == default_digest else r.model_dump(mode="json") for r in robots]
         rule = spec.rule_of(exp)
+        largest = max(robots, key=lambda r: r.half_diagonal_m).model_dump(mode="json")
         for cfg in exp.configurations(spec.world):
             if cfg.sensor_values:  # a sweep of the robots' sensors: each configuration's own suites
                 swept = [cfg.robot(r) for r in robots]
@@ -196,7 +200,8 @@ def plan(spec: CampaignSpec, root: str | Path) -> Plan:
                 ms = cfg.map_seed if cfg.map_seed is not None else map_seed(spec.seed, exp.name, cfg.key, m)
                 wdir = base / world_path(exp.name, cfg.key, m)
                 maps.append(MapJob(key=f"{exp.name}/{cfg.key}/m{m}", experiment=exp.name, config_key=cfg.key,
-                                   map_index=m, map_seed=ms, world=cfg.world, world_dir=str(wdir)))
+                                   map_index=m, map_seed=ms, world=cfg.world, world_dir=str(wdir),
+                                   robot=largest if isinstance(cfg.world.get("source"), dict) else None))
                 ids: dict[tuple[str, str | None], list[str]] = {(variant(n.name, r.name if several else None), f): []
                                                                 for n in spec.navigators for r in robots
                                                                 for f in faults}

@@ -60,7 +60,7 @@ from navstress.run.sensors import apply_sensor_values, apply_sensors, check_suit
 from navstress.seeding import MAX_SEED
 from navstress.sequential import AdaptiveRule, check_rule
 from navstress.specfile import parse_text, read_text
-from navstress.world.spec import WorldSpec, parse_spec
+from navstress.world.spec import WorldSpec, parse_spec, resolve_source
 
 _STRICT = SPEC_CONFIG
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
@@ -523,7 +523,34 @@ def parse_campaign(data: Any, *, max_runs: int | None = MAX_PLANNED_RUNS,
     (:func:`resolve_robots`)."""
     if not isinstance(data, dict):
         raise SpecError("campaign", type(data).__name__, "a mapping of fields at the top level")
-    return check_campaign(parse(CampaignSpec, resolve_robots(data, base_dir)), max_runs=max_runs)
+    return check_campaign(parse(CampaignSpec, resolve_world_sources(resolve_robots(data, base_dir), base_dir)),
+                          max_runs=max_runs)
+
+
+def resolve_world_sources(data: Any, base_dir: str | Path | None = None) -> Any:
+    """A campaign (or search) mapping whose world sources are absolute paths
+    (:func:`~navstress.world.spec.resolve_source` on its ``world``, each experiment's ``overrides``
+    and each explicit world's ``world``); relative ones are relative to ``base_dir``."""
+    if not isinstance(data, dict):
+        return data
+    out = dict(data)
+    out["world"] = resolve_source(out.get("world"), base_dir) if "world" in out else out.get("world")
+    if "world" not in data:
+        out.pop("world")
+    exps = out.get("experiments")
+    if isinstance(exps, list):
+        new = []
+        for e in exps:
+            if isinstance(e, dict):
+                e = dict(e)
+                if "overrides" in e:
+                    e["overrides"] = resolve_source(e["overrides"], base_dir)
+                if isinstance(e.get("worlds"), list):
+                    e["worlds"] = [{**w, "world": resolve_source(w["world"], base_dir)}
+                                   if isinstance(w, dict) and "world" in w else w for w in e["worlds"]]
+            new.append(e)
+        out["experiments"] = new
+    return out
 
 
 #: What a ``robot:`` entry may be, in words (errors).

@@ -60,10 +60,11 @@ from navstress import __version__, _files, _json
 from navstress._tables import FORMATS, Kind, read_table, write_table
 from navstress.campaign.plan import (NOMINAL, Plan, config_key_of, plan, trace_path, variant, variant_of,
                                      world_path)
+from navstress.campaign.sources import check_sources, has_sources, pin_sources
 from navstress.campaign.spec import CampaignSpec, parse_campaign_text, spec_yaml
 from navstress.errors import SpecError, StoreError
 from navstress.run.outcome import Outcome
-from navstress.run.record import DEFAULT_ROBOT, DEFAULT_ROBOT_DIGEST, RunRecord, RunTask
+from navstress.run.record import DEFAULT_ROBOT, DEFAULT_ROBOT_DIGEST, SOURCE_COLUMNS, RunRecord, RunTask
 from navstress.world.world import world_descriptors
 
 DB_NAME = "campaign.sqlite"
@@ -112,7 +113,7 @@ _OUR_NAMES = {SPEC_NAME, "worlds", "traces", LOCK_NAME, DB_NAME, *_CREATION_LEFT
 _WORLD_TEMP = re.compile(r"^\.(m\d+)\.(?:old|[a-z0-9_]{8})$")
 #: Columns every store's tables must have (checked when a store is opened).
 _REQUIRED = {"meta": ("key", "value"), "planned": ("run_id", "seq", "task"),
-             "runs": tuple(c for c in COLUMNS if c not in ROBOT_COLUMNS)}
+             "runs": tuple(c for c in COLUMNS if c not in ROBOT_COLUMNS and c not in SOURCE_COLUMNS)}
 
 
 class _Connection(sqlite3.Connection):
@@ -142,8 +143,11 @@ def _connect(path: Path) -> sqlite3.Connection:
     return con
 
 
-def _schema(con: sqlite3.Connection) -> None:
-    cols = ", ".join(f"{c} {_TYPES.get(c, 'TEXT')}" + (" PRIMARY KEY" if c == "run_id" else "") for c in COLUMNS)
+def _schema(con: sqlite3.Connection, sources: bool = False) -> None:
+    """The tables; the runs table with the source columns only for a campaign with world sources
+    (``sources``): a campaign of generated worlds has the store of before sources existed."""
+    cols = ", ".join(f"{c} {_TYPES.get(c, 'TEXT')}" + (" PRIMARY KEY" if c == "run_id" else "") for c in COLUMNS
+                     if sources or c not in SOURCE_COLUMNS)
     con.execute("CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)")
     con.execute("CREATE TABLE IF NOT EXISTS planned (run_id TEXT PRIMARY KEY, seq INTEGER NOT NULL, "
                 "experiment TEXT, config TEXT, map_index INTEGER, run_index INTEGER, navigator TEXT, "
@@ -202,9 +206,17 @@ class Store:
         self._lock = lock
         #: how each runs column is selected ('r.robot', or the default's value for a store made
         #: before robots existed, opened for reading)
-        have = {r[1] for r in con.execute("PRAGMA table_info(runs)")}
-        self._select = ", ".join(f"r.{c}" if c in have else f"{_sql_text(_DEFAULT_ROBOT[c])} AS {c}"
-                                 for c in COLUMNS)
+        self._columns()
+        #: where a planned world's source is: world_dir -> its source columns (read when first needed)
+        self._sources: dict[str, dict[str, str]] | None = None
+
+    def _columns(self) -> None:
+        """The runs columns this store's table has, and how each record column is selected."""
+        have = {r[1] for r in self.con.execute("PRAGMA table_info(runs)")}
+        #: the record columns the runs table has (the source columns: a campaign with world sources)
+        self._have = tuple(c for c in COLUMNS if c in have)
+        self._select = ", ".join(f"r.{c}" if c in have else f"NULL AS {c}" if c in SOURCE_COLUMNS
+                                 else f"{_sql_text(_DEFAULT_ROBOT[c])} AS {c}" for c in COLUMNS)
 
     # ---- opening ---------------------------------------------------------------------
     @classmethod
@@ -220,6 +232,13 @@ class Store:
         d = Path(root)
         if d.exists() and not d.is_dir():
             raise StoreError(f"output={str(d)!r} exists and is not a directory; choose another -o")
+        if has_sources(spec):  # the sources' digests: the stored ones (resume), else pinned now; checked
+            stored = None
+            if (d / DB_NAME).is_file():
+                with cls.open(d) as old:
+                    stored = old.spec
+            spec = pin_sources(spec, stored)
+            check_sources(spec)  # before anything is written: a changed source file is refused
         d.mkdir(parents=True, exist_ok=True)
         _files.refuse_links(d)  # before anything is written: a planted link would take it elsewhere
         cls._refuse_foreign(d)  # before the lock file: a folder of something else is left as it was
@@ -269,7 +288,7 @@ class Store:
             with _files.replaced_on_success(d / DB_NAME, d / _TMP_DB, durable=True) as tmp:
                 con = sqlite3.connect(tmp, isolation_level=None)
                 try:
-                    _schema(con)
+                    _schema(con, has_sources(spec))
                     con.execute("BEGIN")
                     con.executemany("INSERT INTO meta VALUES (?, ?)", [
                         ("schema", SCHEMA_VERSION), ("spec_digest", spec.digest()),
@@ -387,9 +406,13 @@ class Store:
         if self._lock is None:
             raise StoreError(f"campaign={str(self.root)!r} is open for reading only; open it with "
                              "Store.create (the write lock) to extend it")
+        spec = pin_sources(spec, self.spec)
+        check_sources(spec)
         if spec_text is None:
             spec_text = spec_yaml(spec)
-        elif parse_campaign_text(spec_text, "spec_text", max_runs=None).digest() != spec.digest():
+        elif not has_sources(spec) and parse_campaign_text(spec_text, "spec_text", max_runs=None).digest() != spec.digest():
+            # (a spec with sources: its text names them relative to its file's folder, which the
+            # caller read it with; the text alone cannot say that folder)
             raise SpecError("spec_text", spec_text[:60] + ("..." if len(spec_text) > 60 else ""),
                             "the text of the spec given with it (it becomes spec.yaml)")
         changed = robot_change(self.spec, spec)
@@ -401,6 +424,11 @@ class Store:
                              "extends a campaign by adding experiments at the end of its list, all else unchanged")
         stored = {e.name for e in self.spec.experiments}
         tasks = [t for t in plan(spec, self.root).tasks if t.experiment not in stored]
+        if has_sources(spec) and SOURCE_COLUMNS[0] not in self._have:  # a first experiment on an imported world
+            for c in SOURCE_COLUMNS:
+                self.con.execute(f"ALTER TABLE runs ADD COLUMN {c} TEXT")
+            self._columns()
+            self._sources = None
         if tasks or spec.digest() != self.spec.digest():
             self.con.execute("BEGIN IMMEDIATE")
             try:
@@ -523,17 +551,43 @@ class Store:
         if row["trace"]:
             row["trace"] = _rel(row["trace"], self.root)
         row["robot"], row["robot_digest"] = self._robot_of(record.run_id)
-        vals = [row[c] for c in COLUMNS] + [time.time()]
+        cols = self._have
+        if SOURCE_COLUMNS[0] in cols and row.get(SOURCE_COLUMNS[0]) is None:  # (a failure record: the plan's)
+            row.update(self._source_of(record.run_id))
+        vals = [row.get(c) for c in cols] + [time.time()]
         self.con.execute("BEGIN IMMEDIATE")
         try:
             cur = self.con.execute(
-                f"INSERT INTO runs ({', '.join(COLUMNS)}, recorded_at) VALUES ({', '.join('?' * (len(COLUMNS) + 1))}) "
+                f"INSERT INTO runs ({', '.join(cols)}, recorded_at) VALUES ({', '.join('?' * (len(cols) + 1))}) "
                 "ON CONFLICT(run_id) DO NOTHING", vals)
             self.con.execute("COMMIT")
         except BaseException:
             self._rollback()
             raise
         return cur.rowcount == 1
+
+    def _source_of(self, run_id: str) -> dict[str, str]:
+        """The source columns of ``run_id``'s world as the plan has it (its kind, path and pinned
+        sha256), for a record made without its world (a world that could not be generated)."""
+        if self._sources is None:
+            from navstress.world.sources import module_for
+            from navstress.world.spec import SourceSpec
+
+            self._sources = {}
+            for job in self.plan().maps:
+                src = job.world.get("source")
+                if isinstance(src, dict):
+                    opt = SourceSpec.model_validate(src)
+                    try:
+                        kind = str(module_for(opt).KIND)
+                    except SpecError:
+                        kind = opt.kind
+                    self._sources[job.world_dir] = {"source_kind": kind, "source_path": opt.path,
+                                                    "source_sha256": opt.sha256 or ""}
+        try:
+            return self._sources.get(self.task(run_id).world_dir, {})
+        except StoreError:  # (not a planned run: add() refuses it anyway)
+            return {}
 
     def _robot_of(self, run_id: str) -> tuple[str, str]:
         """(name, digest) of the robot ``run_id`` was planned on: what its record is stored with,
@@ -721,7 +775,7 @@ class Store:
             r["fault"] = r["fault"] or NOMINAL
             for k, vals in params.items():
                 vals.append(cfg.get(k))
-        kinds = dict(_EXPORT_KINDS)
+        kinds = {c: k for c, k in _EXPORT_KINDS.items() if c not in SOURCE_COLUMNS or c in self._have}
         for k, vals in params.items():
             kind = _param_kind(vals)
             kinds[f"param.{k}"] = kind
@@ -841,8 +895,8 @@ def read_export(path: str | Path) -> list[dict[str, Any]]:
     if Path(path).suffix != ".parquet":
         with open(path, newline="", encoding="utf-8") as f:
             head = set(next(csv.reader(f), []))
-        kinds = {c: k for c, k in kinds.items() if c in head or c not in ROBOT_COLUMNS}
-    rows = read_table(path, kinds, nullable=("trace",))
+        kinds = {c: k for c, k in kinds.items() if c in head or (c not in ROBOT_COLUMNS and c not in SOURCE_COLUMNS)}
+    rows = read_table(path, kinds, nullable=("trace", *SOURCE_COLUMNS))
     for row in rows:
         for c in ROBOT_COLUMNS:
             row.setdefault(c, _DEFAULT_ROBOT[c])
@@ -904,10 +958,13 @@ RULES: dict[str, dict[str, _Col]] = {
     "meta": {"key": _TEXT, "value": _TEXT},
     "planned": {"run_id": _TEXT, "seq": _COUNT, "experiment": _TEXT, "config": _Col("object"), "map_index": _COUNT,
                 "run_index": _COUNT, "navigator": _TEXT, "fault": _TEXT_OR_NULL, "task": _Col("object")},
-    "runs": {**{c: _RUN_COLUMNS.get(c, _TEXT) for c in COLUMNS}, "recorded_at": _Col("real", null=True)},
+    "runs": {**{c: _RUN_COLUMNS.get(c, _TEXT) for c in COLUMNS if c not in SOURCE_COLUMNS},
+             "recorded_at": _Col("real", null=True)},
     "attempts": {"run_id": _TEXT, "attempt": _Col("int", least=1), "kind": _TEXT, "reason": _TEXT,
                  "at": _Col("real", null=True)},
 }
+#: The rules of the runs table's source columns (a campaign with world sources has them).
+SOURCE_RULES: dict[str, _Col] = {c: _TEXT_OR_NULL for c in SOURCE_COLUMNS}
 #: The planned columns a run's record repeats (they must agree).
 _SAME_AS_PLANNED = ("experiment", "map_index", "run_index", "navigator", "fault")
 
@@ -950,7 +1007,8 @@ def _check_types(con: sqlite3.Connection, root: Path) -> None:
         if table not in tables:
             continue  # attempts: stores made before it existed (the required tables are checked before)
         have = {r[1] for r in con.execute(f"PRAGMA table_info({table})")}
-        cols = {c: col for c, col in cols.items() if c in have}  # (the robot columns of an old store)
+        cols = {**cols, **(SOURCE_RULES if table == "runs" else {})}
+        cols = {c: col for c, col in cols.items() if c in have}  # (the robot columns of an old store; sources)
         where = " OR ".join(col.bad_sql(c) for c, col in cols.items())
         bad = con.execute(f"SELECT rowid, * FROM {table} WHERE {where} LIMIT 1").fetchone()
         if bad is not None:

@@ -53,7 +53,8 @@ def generate_world(job: MapJob) -> None:
     """Generate and save the world of ``job`` unless a complete one is already there."""
     if is_world_dir(job.world_dir):
         return
-    generate(parse_spec(job.world), job.map_seed).save(job.world_dir)
+    robot = None if job.robot is None else RunTask("", "", 0, "", robot=job.robot).robot_spec()
+    generate(parse_spec(job.world), job.map_seed, robot=robot).save(job.world_dir)
 
 
 def attempt_world(job: MapJob) -> str | Infra | None:

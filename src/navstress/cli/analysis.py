@@ -106,6 +106,8 @@ def analyze_cmd(
     robots = ", ".join(f"{n} ({d})" for n, d in a.robots)
     con.print(literal(f"robot {robots}" if len(a.robots) <= 1 else
                       f"robots {robots}: each result below is one navigator@robot's"))
+    for kind, path, sha in a.sources:
+        con.print(literal(f"world source: {kind} {path} (sha256 {sha[:12]})"))
     if not a.done:
         con.print("no run recorded yet: nothing to analyse")
     t = Table(title=f"Difficulty (nominal runs of {a.navigator})")

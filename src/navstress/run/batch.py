@@ -29,7 +29,7 @@ from navstress.errors import NavstressError, SpecError
 from navstress.isolate import Worker
 from navstress.run.live import execute_live
 from navstress.run.mission import execute
-from navstress.run.record import RunRecord, RunTask
+from navstress.run.record import RunRecord, RunTask, without_source
 from navstress.run.robot import task_robot
 from navstress.run.trace import TOPIC_PERCEIVED, read_movers, read_poses, read_robot
 from navstress.seeding import derive_seed
@@ -156,7 +156,7 @@ def record_line(rec: RunRecord) -> str:
 
 def record_dict(rec: RunRecord) -> dict[str, Any]:
     """A run's record as ``runs.jsonl`` and ``navstress run --json`` write it (see :func:`record_line`)."""
-    d = asdict(rec)
+    d = without_source(asdict(rec))
     d["params"] = d["config"]
     d["config"] = config_key_of(rec.run_id, rec.experiment, rec.config)
     d["fault"] = rec.fault or NOMINAL

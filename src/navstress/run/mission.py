@@ -464,6 +464,14 @@ def _write_trace(tw: TraceWriter, world: World, r: RunResult, robot: RobotSpec) 
         tw.movers(r.movers[0], r.movers[1], [(mv.id, mv.kind, mv.shape, mv.size) for mv in world.movers])
 
 
+def source_fields(world: World) -> dict[str, str]:
+    """A record's source fields for a run on ``world``: its source's kind, path and sha256 (an
+    imported world), none for a generated world."""
+    if world.source is None:
+        return {}
+    return {"source_kind": world.source.kind, "source_path": world.source.path, "source_sha256": world.source.sha256}
+
+
 def execute(task: RunTask, watch: RunWatcher | None = None) -> RunRecord:
     """Run one planned run end to end and return its record; writes ``task.trace_path``.
 
@@ -502,4 +510,4 @@ def execute(task: RunTask, watch: RunWatcher | None = None) -> RunRecord:
         goal_distance_m=f.goal_distance_m if math.isfinite(f.goal_distance_m) else math.nan,  # NaN = unknown
         path_length_m=res.path_length_m, tortuousness=res.tortuousness, collisions=f.collisions,
         first_collision_s=f.first_collision_s, errors=errors, trace=os.fspath(trace_path),
-        robot=robot.name, robot_digest=robot.digest)
+        robot=robot.name, robot_digest=robot.digest, **source_fields(world))

@@ -141,13 +141,18 @@ class RunRecord:
     trace: str | None  # path of the MCAP trace relative to the campaign dir (or absolute), None if none
     robot: str = DEFAULT_ROBOT  # the simulated robot's name
     robot_digest: str = DEFAULT_ROBOT_DIGEST  # its description's digest (RobotSpec.digest)
+    #: an imported world's source (World.source: kind, absolute path, sha256); None for a generated
+    #: world, whose record, row and line have no such keys (their text of before sources existed)
+    source_kind: str | None = None
+    source_path: str | None = None
+    source_sha256: str | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "reason", cap_message(str(self.reason)))
         object.__setattr__(self, "errors", cap_errors(list(self.errors)))
 
     def to_row(self) -> dict[str, Any]:
-        row = asdict(self)
+        row = without_source(asdict(self))
         row["config"] = _json.dumps(self.config, sort_keys=True)
         row["errors"] = _json.dumps(self.errors)
         return row
@@ -155,7 +160,8 @@ class RunRecord:
     @classmethod
     def from_row(cls, row: dict[str, Any]) -> "RunRecord":
         names = {f.name for f in fields(cls)}
-        d = {k: row[k] for k in names if k in row or k not in _ROBOT_COLUMNS}  # (old rows: the default robot)
+        # (old rows: the default robot; a generated world's: no source)
+        d = {k: row[k] for k in names if k in row or k not in (*_ROBOT_COLUMNS, *SOURCE_COLUMNS)}
         d["config"] = json.loads(d["config"]) if isinstance(d["config"], str) else d["config"]
         d["errors"] = json.loads(d["errors"]) if isinstance(d["errors"], str) else d["errors"]
         return cls(**d)
@@ -163,6 +169,17 @@ class RunRecord:
 
 #: The record's robot columns (absent from rows made before robots existed: the default robot's).
 _ROBOT_COLUMNS = ("robot", "robot_digest")
+#: The record's world source columns (only in the rows of a run on an imported world).
+SOURCE_COLUMNS = ("source_kind", "source_path", "source_sha256")
+
+
+def without_source(d: dict[str, Any]) -> dict[str, Any]:
+    """``d`` (a record's mapping) without its source keys when the record has no source (a
+    generated world's: the keys of before sources existed)."""
+    if d.get("source_kind") is None and d.get("source_path") is None and d.get("source_sha256") is None:
+        for c in SOURCE_COLUMNS:
+            d.pop(c, None)
+    return d
 
 
 def ungenerated(r: RunRecord) -> bool:

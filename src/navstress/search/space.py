@@ -66,11 +66,25 @@ class Space:
     base: dict[str, Any]
     map_seeds: int | None  # None: the map seed is not searched
     moves: MovesSpec | None = None
+    #: an imported base world's extent in its source's frame, (x0, y0, x1, y1): where searched
+    #: moves' points are drawn (None: a generated world's map, from (0, 0) to its size)
+    extent: tuple[float, float, float, float] | None = None
 
     @classmethod
     def from_spec(cls, spec: SearchSpec) -> "Space":
         s = spec.space
-        return cls(tuple(s.parameters), spec.seed, dict(spec.world), s.map_seeds if s.map_seed else None, s.moves)
+        extent = None
+        if s.moves is not None and isinstance(spec.world.get("source"), dict):
+            from navstress.world.sources import load_source
+            from navstress.world.spec import parse_spec
+
+            options = parse_spec(spec.world).source
+            assert options is not None
+            w = load_source(options)
+            ox, oy = w.source.origin if w.source is not None else (0.0, 0.0)
+            extent = (ox, oy, ox + w.spec.size_m[0], oy + w.spec.size_m[1])
+        return cls(tuple(s.parameters), spec.seed, dict(spec.world), s.map_seeds if s.map_seed else None, s.moves,
+                   extent)
 
     @property
     def n_moves(self) -> int:
@@ -104,11 +118,12 @@ class Space:
         overrides = world_overrides(params, self.base)
         if self.moves is not None:
             size = self._size(params)
+            x0, y0, x1, y1 = self.extent if self.extent is not None else (0.0, 0.0, size[0], size[1])
             moves = []
             r = self.moves.radius_m
             for i in range(self.moves.count):
                 ux, uy, udx, udy = (float(v) for v in u[len(self.parameters) + MOVE_COORDS * i:][:MOVE_COORDS])
-                mv = {"at_x": scaled(ux, 0.0, size[0]), "at_y": scaled(uy, 0.0, size[1]),
+                mv = {"at_x": scaled(ux, x0, x1), "at_y": scaled(uy, y0, y1),
                       "dx": scaled(udx, -r, r), "dy": scaled(udy, -r, r)}
                 params.update({move_name(i, f): v for f, v in mv.items()})
                 moves.append({"at": [mv["at_x"], mv["at_y"]], "by": [mv["dx"], mv["dy"]]})

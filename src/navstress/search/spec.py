@@ -40,7 +40,7 @@ from navstress.run.sensors import apply_sensor_values, apply_sensors, check_suit
 from navstress.search.objectives import DESCRIPTORS
 from navstress.seeding import MAX_SEED
 from navstress.specfile import parse_text, read_text
-from navstress.world.spec import BUILTIN_TYPES, ObstacleType, WorldSpec, parse_spec
+from navstress.world.spec import BUILTIN_TYPES, ObstacleType, WorldSpec, parse_spec, resolve_source
 
 _STRICT = SPEC_CONFIG
 
@@ -73,6 +73,11 @@ DEFAULT_DESCRIPTORS: tuple[dict[str, Any], ...] = (
 MAX_BUDGET_RUNS = 10_000_000
 #: The side of a square map: the one tuple-valued WorldSpec field a space may search.
 SIZE_PATH = "size_m"
+#: The mission's coordinates a space may search, one path each (for an imported world, in the
+#: source's frame): ``mission.start.x`` -> (``start``, index 0), ...
+MISSION_PATHS: dict[str, tuple[str, int]] = {
+    "mission.start.x": ("start", 0), "mission.start.y": ("start", 1), "mission.start.yaw": ("start", 2),
+    "mission.goal.x": ("goal", 0), "mission.goal.y": ("goal", 1)}
 _NOT_SEARCHED = {"cell_m": "the terrain resolution, not a property of the world; set it under world"}
 #: Most parameters whose every corner is checked (2**n WorldSpecs); above, the two extreme corners
 #: and each parameter's extremes with the others at their low are checked.
@@ -297,6 +302,15 @@ def world_overrides(values: dict[str, float | int], base: dict[str, Any]) -> dic
     for path, v in values.items():
         if is_sensor_path(path):  # the robot's, not the world's (the campaign's WorldEntry.sensors)
             continue
+        if path in MISSION_PATHS:  # a coordinate of the start or goal: the point, the rest from the base
+            name, i = MISSION_PATHS[path]
+            mission = out.setdefault("mission", {})
+            if name not in mission:
+                given = (base.get("mission") or {}).get(name)
+                mission[name] = [float(c) for c in given] if isinstance(given, list) else (
+                    [0.0, 0.0, 0.0] if name == "start" else [0.0, 0.0])
+            mission[name][i] = float(v)
+            continue
         if path == SIZE_PATH:
             out[SIZE_PATH] = [float(v), float(v)]
             continue
@@ -350,7 +364,8 @@ _PATH_EXAMPLES = ("a numeric WorldSpec parameter path such as 'obstacles.obstruc
                   "'obstacles.types.tree.variability', 'ground.deformation', 'ground.subdivisions' or 'size_m'")
 
 
-def _check_parameter(i: int, p: ParameterSpec, base: dict[str, Any], robot: RobotSpec | None = None) -> None:
+def _check_parameter(i: int, p: ParameterSpec, base: dict[str, Any], robot: RobotSpec | None = None,
+                     searched: frozenset[str] = frozenset()) -> None:
     where = f"space.parameters[{i}]"
     if is_sensor_path(p.path):  # a sensor of the robot: a numeric parameter of its kind
         skind = sensor_path_kind(robot or RobotSpec(), p.path, where=f"{where}.path")
@@ -365,7 +380,18 @@ def _check_parameter(i: int, p: ParameterSpec, base: dict[str, Any], robot: Robo
     if p.path in _NOT_SEARCHED:
         raise SpecError(f"{where}.path", p.path, _PATH_EXAMPLES, _NOT_SEARCHED[p.path])
     parts = p.path.split(".")
-    kind = "float" if p.path == SIZE_PATH else _numeric_kind(_leaf(WorldSpec, parts))
+    if p.path in MISSION_PATHS:
+        name, coord = MISSION_PATHS[p.path]
+        given = (base.get("mission") or {}).get(name)
+        if p.kind != "float":
+            raise SpecError(f"{where}.kind", p.kind, f"float ({p.path} is a coordinate)", "set kind: float")
+        if coord < 2 and not isinstance(given, list):  # the other coordinate: searched too, or the base's
+            other = f"mission.{name}.{'yx'[coord]}"
+            if other not in searched:
+                raise SpecError(f"{where}.path", p.path, f"a {name} searched with both coordinates ({other} too), "
+                                f"or given in world.mission.{name}", f"add {other} to the space or set world.mission.{name}")
+    kind = ("float" if p.path == SIZE_PATH or p.path in MISSION_PATHS
+            else _numeric_kind(_leaf(WorldSpec, parts)))
     if kind is None:
         raise SpecError(f"{where}.path", p.path, _PATH_EXAMPLES, "check the spelling against `navstress world` options")
     if parts[0] == "obstacles" and parts[1] in ("types", "obstruction", "mix"):
@@ -492,6 +518,8 @@ def parse_search(data: Any, base_dir: str | Path | None = None) -> SearchSpec:
     ``base_dir``, a mapping with ``base:`` and overrides) is known and fits the free areas."""
     if not isinstance(data, dict):
         raise SpecError("search", type(data).__name__, "a mapping of fields at the top level")
+    if "world" in data:  # a world source relative to the spec file's folder
+        data = {**data, "world": resolve_source(data["world"], base_dir)}
     if data.get("robot") is not None:
         data = {**data, "robot": resolve_robot_ref(data["robot"], "robot", base_dir)}
     if data.get("sensors") is not None or data.get("sensors_add") is not None:
@@ -525,7 +553,7 @@ def parse_search(data: Any, base_dir: str | Path | None = None) -> SearchSpec:
         if p.path in seen:
             raise SpecError(f"space.parameters[{i}].path", p.path, "a path given once")
         seen.add(p.path)
-        _check_parameter(i, p, spec.world, spec.robot)
+        _check_parameter(i, p, spec.world, spec.robot, frozenset(q.path for q in params))
     _check_corners(spec)
     check_faults(spec.faults)
     _check_objective(spec, seen)

@@ -219,10 +219,14 @@ def _type_order(targets: dict[str, float], types: dict[str, ObstacleType]) -> li
     return sorted(targets, key=lambda k: (-types[k].base_m[0] * types[k].base_m[1], k))
 
 
-def place_obstacles(spec: WorldSpec, mission: Mission, seed: int, fixed: Sequence[Obstacle] = ()) -> PlacementResult:
+def place_obstacles(spec: WorldSpec, mission: Mission, seed: int, fixed: Sequence[Obstacle] = (), *,
+                    blocked: Sequence[Obstacle] = ()) -> PlacementResult:
     """Place every type's obstacles to its obstruction target (see the module docstring), clear of
     the ``fixed`` obstacles already there (the spec's walls: each marks every raster cell its
     closed footprint touches, :func:`navstress.world.shapes.mark`, so that no placed box overlaps it).
+
+    ``blocked``: obstacles already there (an imported world's geometry), which the placed ones
+    keep out of in the same way as ``fixed``.
 
     Raises :class:`GenerationError` naming the achieved value, the target and why, when a
     type ends more than 0.5 percentage points below its target."""
@@ -242,6 +246,8 @@ def place_obstacles(spec: WorldSpec, mission: Mission, seed: int, fixed: Sequenc
     for o in fixed:
         shapes.mark(ras.occ, ras.rx, ras.ry, o)
     ny, nx = ras.occ.shape
+    for o in blocked:  # (none for a generated world)
+        shapes.mark(ras.occ, ras.rx, ras.ry, o)
     for kind in _type_order(targets, types):
         t = types[kind]
         gen = rng(seed, "obstacles", kind)

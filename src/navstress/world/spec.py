@@ -562,6 +562,12 @@ class WorldSpec(BaseModel):
                 raise SpecError(f"size_m.{axis}", size, f"a whole multiple of cell_m={self.cell_m}",
                                 f"use size {round(n) * self.cell_m:g} or another cell_m")
         if self.source is not None:  # the mission and the moves are in the source's frame: checked on import
+            if self.generator != "outdoor":
+                raise SpecError("generator", self.generator, "no generator with a source (the world is imported)",
+                                "remove generator, or remove source")
+            if self.ground != GroundSpec():
+                raise SpecError("ground", self.ground.label(), "the source's own ground (a world with a source keeps "
+                                "its terrain)", "remove ground, or remove source")
             return self._check_movers()
         m = self.mission
         for name, pt in (("start", m.start), ("goal", m.goal)):
@@ -712,4 +718,23 @@ def load_spec(path: str | Path) -> WorldSpec:
         data = {}
     if not isinstance(data, dict):
         raise SpecError("spec", str(p), "a mapping of fields at the top level")
-    return parse_spec(data)
+    return parse_spec(resolve_source(data, p.parent))
+
+
+def resolve_source(world: Any, base_dir: str | Path | None) -> Any:
+    """A WorldSpec mapping with its ``source`` made absolute: a relative ``source.path`` (or a
+    ``source`` given as a bare path, ``source: office.yaml``) is taken relative to ``base_dir``
+    (the folder of the spec file that names it; None: the working directory), so that workers
+    in other processes or on other machines (Ray) find it whatever their working directory.
+    Anything else is returned as it is (the spec's validation names it)."""
+    if not isinstance(world, dict) or "source" not in world:
+        return world
+    src = world["source"]
+    if isinstance(src, str):
+        src = {"path": src}
+    if not isinstance(src, dict) or not isinstance(src.get("path"), str) or not src["path"]:
+        return world
+    p = Path(os.path.expanduser(src["path"]))
+    if not p.is_absolute():
+        p = Path(base_dir if base_dir is not None else os.getcwd()) / p
+    return {**world, "source": {**src, "path": os.path.normpath(str(p.absolute()))}}

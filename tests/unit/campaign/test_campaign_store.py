@@ -18,6 +18,7 @@ from navstress.run.batch import failure_record
 from navstress.campaign.presets import demo, preset_yaml
 from navstress.campaign.spec import parse_campaign
 from navstress.campaign.store import COLUMNS, Store, read_export
+from navstress.run.record import SOURCE_COLUMNS
 from navstress.errors import StoreError
 from navstress.run.record import RunRecord
 
@@ -92,7 +93,8 @@ def test_record_once_and_roundtrip(tmp_path: Path) -> None:
         assert s.outcome_counts() == {"success": 2, "fail-collision": 1, "fail-error": 0, "fail-timeout": 1,
                                       "fail-other": 0}
         cols = [r[1] for r in s.con.execute("PRAGMA table_info(runs)")]
-        assert set(COLUMNS) <= set(cols)
+        # a campaign of generated worlds: every record column but the world source's (none)
+        assert set(COLUMNS) - set(SOURCE_COLUMNS) <= set(cols) and not set(SOURCE_COLUMNS) & set(cols)
         assert s.con.execute("PRAGMA journal_mode").fetchone()[0] == "wal"
 
 
@@ -144,7 +146,8 @@ def test_export_roundtrip(tmp_path: Path, fmt: str) -> None:
     params = list(dict.fromkeys(k for r in recs for k in r.config))
     # the record's columns (with params after config), then one typed column per swept parameter (no
     # world is generated here)
-    columns = [c for name in COLUMNS for c in ((name, "params") if name == "config" else (name,))]
+    columns = [c for name in COLUMNS if name not in SOURCE_COLUMNS
+               for c in ((name, "params") if name == "config" else (name,))]
     assert [list(r) for r in rows] == [columns + [f"param.{k}" for k in params]] * 5
     # the keys are those of every table: config the configuration key, fault "nominal" for none
     assert [(r["config"], r["fault"]) for r in rows] == [(b.run_id.split("/")[1], b.fault or "nominal") for b in recs]
