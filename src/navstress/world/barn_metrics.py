@@ -170,16 +170,19 @@ def barn_cspace(lattice: np.ndarray, robot_cells: int = 2) -> np.ndarray:
 
 
 def cspace(size_m: tuple[float, float], obstacles: tuple[Obstacle, ...] | list[Obstacle], clearance_m: float,
-           cell_m: float = CELL_M) -> tuple[np.ndarray, float]:
+           cell_m: float = CELL_M, origin: tuple[float, float] = (0.0, 0.0)) -> tuple[np.ndarray, float]:
     """The C-space of a world (see module doc) and its cell: True where a robot's centre at the
-    cell's centre would be closer than ``clearance_m`` to a footprint or to the map's edge."""
+    cell's centre would be closer than ``clearance_m`` to a footprint or to the map's edge. The
+    cells' lower-left corners at ``origin`` + (j, i) * cell (a lattice world's own cells: its
+    lattice's corner, modulo the cell), covering the map."""
     cell = max(cell_m, math.sqrt(size_m[0] * size_m[1] / MAX_CELLS))
-    cols = max(1, int(math.floor(size_m[0] / cell + 1e-9)))
-    rows = max(1, int(math.floor(size_m[1] / cell + 1e-9)))
-    d = footprint_distance((rows, cols), cell, obstacles, clearance_m, origin=(cell / 2, cell / 2))
+    ox, oy = origin[0] % cell, origin[1] % cell
+    cols = max(1, int(math.floor((size_m[0] - ox) / cell + 1e-9)))
+    rows = max(1, int(math.floor((size_m[1] - oy) / cell + 1e-9)))
+    d = footprint_distance((rows, cols), cell, obstacles, clearance_m, origin=(ox + cell / 2, oy + cell / 2))
     occ = d < clearance_m
-    xs = (np.arange(cols) + 0.5) * cell
-    ys = (np.arange(rows) + 0.5) * cell
+    xs = ox + (np.arange(cols) + 0.5) * cell
+    ys = oy + (np.arange(rows) + 0.5) * cell
     occ |= ((xs < clearance_m) | (xs > size_m[0] - clearance_m))[None, :]
     occ |= ((ys < clearance_m) | (ys > size_m[1] - clearance_m))[:, None]
     return occ, cell
@@ -221,12 +224,13 @@ def shortest_path(occ: np.ndarray, start: tuple[int, int], goal: tuple[int, int]
     return np.stack([cells // cols, cells % cols], axis=1)
 
 
-def _cell(occ_shape: tuple[int, int], cell: float, x: float, y: float) -> tuple[int, int]:
-    return (min(max(int(math.floor(y / cell)), 0), occ_shape[0] - 1),
-            min(max(int(math.floor(x / cell)), 0), occ_shape[1] - 1))
+def _cell(occ_shape: tuple[int, int], cell: float, x: float, y: float,
+          origin: tuple[float, float] = (0.0, 0.0)) -> tuple[int, int]:
+    return (min(max(int(math.floor((y - origin[1]) / cell)), 0), occ_shape[0] - 1),
+            min(max(int(math.floor((x - origin[0]) / cell)), 0), occ_shape[1] - 1))
 
 
-def _path_cells(points: np.ndarray, cell: float, shape: tuple[int, int]) -> np.ndarray:
+def _path_cells(points: np.ndarray, cell: float, shape: tuple[int, int], origin: tuple[float, float]) -> np.ndarray:
     """The cells a polyline of points (m) passes, sampled every quarter cell, consecutive duplicates dropped."""
     out: list[tuple[int, int]] = []
     pts = np.asarray(points, np.float64).reshape(-1, 2)
@@ -236,7 +240,7 @@ def _path_cells(points: np.ndarray, cell: float, shape: tuple[int, int]) -> np.n
         n = max(1, int(math.ceil(float(np.hypot(*(b - a))) / (cell / 4))))
         for t in range(n + (1 if k + 1 == len(pts) else 0)):
             p = a + (b - a) * (t / n)
-            c = _cell(shape, cell, float(p[0]), float(p[1]))
+            c = _cell(shape, cell, float(p[0]), float(p[1]), origin)
             if not out or out[-1] != c:
                 out.append(c)
     return np.array(out, np.int64).reshape(-1, 2)
@@ -245,26 +249,28 @@ def _path_cells(points: np.ndarray, cell: float, shape: tuple[int, int]) -> np.n
 def barn_difficulty_of(size_m: tuple[float, float], obstacles: tuple[Obstacle, ...] | list[Obstacle],
                        start: tuple[float, float], goal: tuple[float, float], *, robot: RobotSpec | None = None,
                        clearance_m: float | None = None, path: np.ndarray | None = None,
-                       cell_m: float = CELL_M) -> dict[str, Any]:
+                       cell_m: float = CELL_M, origin: tuple[float, float] = (0.0, 0.0)) -> dict[str, Any]:
     """BARN's five metrics (:data:`NAMES`, see module doc) of a world's parts: along ``path``
     ((n, 2) points in meters, in the world's frame) when given, else along the shortest path from
     ``start`` to ``goal`` through the C-space of the robot's clearance (``clearance_m``, default
     half the width of ``robot``, default the nominal RobotSpec). Every metric is None, and
     ``reason`` says why, when there is no path (start or goal in the C-space's obstacles, or
-    apart); else ``reason`` is None. Also ``path_cells`` and ``cell_m``, the grid's."""
+    apart); else ``reason`` is None. Also ``path_cells`` and ``cell_m``, the grid's. ``origin``: a
+    corner of the grid's cells (:func:`cspace`)."""
     if clearance_m is None:
         clearance_m = (robot or RobotSpec()).width_m / 2
-    occ, cell = cspace(size_m, obstacles, clearance_m, cell_m)
+    occ, cell = cspace(size_m, obstacles, clearance_m, cell_m, origin)
+    o = (origin[0] % cell, origin[1] % cell)
     out: dict[str, Any] = dict.fromkeys(NAMES)
     out.update(reason=None, path_cells=0, cell_m=cell)
     if path is not None:
-        cells = _path_cells(np.asarray(path, np.float64), cell, occ.shape)
+        cells = _path_cells(np.asarray(path, np.float64), cell, occ.shape, o)
         if occ[cells[:, 0], cells[:, 1]].any():
             out["reason"] = "the path given passes through the C-space's obstacles"
             return out
     else:
-        s = _cell(occ.shape, cell, start[0], start[1])
-        g = _cell(occ.shape, cell, goal[0], goal[1])
+        s = _cell(occ.shape, cell, start[0], start[1], o)
+        g = _cell(occ.shape, cell, goal[0], goal[1], o)
         if occ[s] or occ[g]:
             out["reason"] = f"the {'start' if occ[s] else 'goal'} is closer than {clearance_m:.3g} m to an obstacle or the edge"
             return out
@@ -280,10 +286,11 @@ def barn_difficulty_of(size_m: tuple[float, float], obstacles: tuple[Obstacle, .
 
 
 def barn_difficulty(world: World, *, robot: RobotSpec | None = None, clearance_m: float | None = None,
-                    path: np.ndarray | None = None, cell_m: float = CELL_M) -> dict[str, Any]:
+                    path: np.ndarray | None = None, cell_m: float = CELL_M,
+                    origin: tuple[float, float] = (0.0, 0.0)) -> dict[str, Any]:
     """:func:`barn_difficulty_of` a world (its obstacles, mission and size)."""
     return barn_difficulty_of(world.size_m, world.obstacles, world.mission.start[:2], world.mission.goal,
-                              robot=robot, clearance_m=clearance_m, path=path, cell_m=cell_m)
+                              robot=robot, clearance_m=clearance_m, path=path, cell_m=cell_m, origin=origin)
 
 
 def barn_descriptor(metrics: dict[str, Any]) -> dict[str, Any]:
