@@ -488,29 +488,142 @@ class SourceSpec(BaseModel):
     sha256: str | None = Field(None, pattern=r"^[0-9a-f]{64}$")
 
 
+#: The free gap (m) a passage must leave beside a robot of its width: a door or corridor at least
+#: this much wider than the robot (the ``rooms`` generator's check, with the robot it is made for).
+PASSAGE_MARGIN_M = 0.1
+
+
 class RoomsSpec(BaseModel):
-    """The ``rooms`` generator's parameters (docs/worlds.md, "Generators"). OWNED BY THE GENERATORS HELPER."""
+    """The ``rooms`` generator's parameters (docs/worlds.md, "Generators: rooms and clutter").
+
+    A floor plan filling the map: room bands along horizontal corridors and one vertical corridor
+    (the spine) joining them. Room sides (between wall centre lines) are drawn in
+    ``[room_min_m, room_max_m]``; ``corridor_width_m`` and ``door_width_m`` are clear widths;
+    each room has ``doors_min`` to ``doors_max`` doors (the first onto its corridor, the others onto
+    a corridor or a neighbouring room); ``furniture_pct`` percent of the rooms' floor is covered by
+    box furniture (a few sizes, kept off doorways and the mission's free discs, every room staying
+    reachable). Walls are boxes of kind ``wall``, ``wall_thickness_m`` thick and ``wall_height_m``
+    high, one per straight run between doors and junctions.
+
+        >>> RoomsSpec(room_min_m=3.0, room_max_m=5.0).room_max_m
+        5.0
+    """
 
     model_config = _STRICT
-    room_size_m: tuple[float, float] = Field((4.0, 8.0), strict=LIST)
-    corridor_width_m: float = Field(2.0, gt=0.0, le=20.0)
-    door_width_m: float = Field(1.0, gt=0.0, le=10.0)
-    doors_per_room: tuple[int, int] = Field((1, 2), strict=LIST)
-    wall_thickness_m: float = Field(0.15, gt=0.0, le=2.0)
+    room_min_m: float = Field(3.0, ge=1.0, le=100.0, description="smallest room side, between wall centre lines (m)")
+    room_max_m: float = Field(6.0, ge=1.0, le=100.0, description="largest room side, between wall centre lines (m)")
+    corridor_width_m: float = Field(2.0, gt=0.0, le=20.0, description="clear corridor width (m)")
+    door_width_m: float = Field(1.0, gt=0.0, le=10.0, description="clear door width (m)")
+    doors_min: int = Field(1, ge=1, le=8, description="fewest doors of a room")
+    doors_max: int = Field(2, ge=1, le=8, description="most doors of a room")
+    wall_thickness_m: float = Field(0.15, ge=0.02, le=1.0)
     wall_height_m: float = Field(2.5, gt=0.0, le=20.0)
-    clutter_pct: float = Field(0.0, ge=0.0, lt=60.0)
+    furniture_pct: float = Field(0.0, ge=0.0, le=35.0, description="percent of the rooms' floor covered by furniture")
+
+    @model_validator(mode="after")
+    def _check(self) -> "RoomsSpec":
+        t = self.wall_thickness_m
+        if self.room_min_m > self.room_max_m:
+            raise SpecError("rooms.room_min_m", self.room_min_m, f"a side <= rooms.room_max_m={self.room_max_m:g}",
+                            "lower room_min_m or raise room_max_m")
+        if self.doors_min > self.doors_max:
+            raise SpecError("rooms.doors_min", self.doors_min, f"at most rooms.doors_max={self.doors_max}",
+                            "lower doors_min or raise doors_max")
+        clear = self.room_min_m - t
+        need = self.doors_min * self.door_width_m + (self.doors_min + 1) * t
+        if need > clear + 1e-9:
+            raise SpecError("rooms.door_width_m", self.door_width_m,
+                            f"{self.doors_min} door(s) that fit the smallest room's side (clear {clear:.3g} m, "
+                            f"with a wall of {t:g} m beside each door: at most "
+                            f"{(clear - (self.doors_min + 1) * t) / self.doors_min:.3g} m)",
+                            "narrow the doors, lower doors_min or raise room_min_m")
+        if self.corridor_width_m < 2 * t:
+            raise SpecError("rooms.corridor_width_m", self.corridor_width_m,
+                            f"a corridor at least twice the wall thickness ({2 * t:g} m)")
+        return self
+
+    def check_fits(self, size_m: tuple[float, float]) -> None:
+        """SpecError when the map cannot hold one room beside a corridor (the smallest floor plan)."""
+        t, pitch = self.wall_thickness_m, self.corridor_width_m + self.wall_thickness_m
+        for axis, size in zip("xy", size_m):
+            need = self.room_min_m + pitch + t
+            if size + 1e-9 < need:
+                raise SpecError("rooms.room_min_m", self.room_min_m,
+                                f"rooms that fit the {size_m[0]:g}x{size_m[1]:g} m map (one room and a corridor "
+                                f"take {need:.3g} m along {axis}, walls included)",
+                                "enlarge the map (size_m) or make rooms and corridors smaller")
+
+    def check_robot(self, width_m: float, name: str) -> None:
+        """SpecError when a robot ``width_m`` wide cannot pass the corridors or the doors."""
+        for field, w, what in (("corridor_width_m", self.corridor_width_m, "corridor"),
+                               ("door_width_m", self.door_width_m, "door")):
+            if w < width_m + PASSAGE_MARGIN_M - 1e-9:
+                raise SpecError(f"rooms.{field}", w, f"a {what} wider than the robot {name!r} ({width_m:.3g} m wide) "
+                                f"by at least {PASSAGE_MARGIN_M:g} m", f"widen the {what}s or choose a smaller robot")
 
 
 class ClutterSpec(BaseModel):
-    """The ``clutter`` generator's parameters (BARN's kind; docs/worlds.md, "Generators"). OWNED BY THE GENERATORS HELPER."""
+    """The ``clutter`` generator's parameters: BARN's worlds (Perille et al. 2020, "Benchmarking
+    Metric Ground Navigation"; its generator ``gen_world_ca.py`` in github.com/dperille/jackal-map-creation),
+    docs/worlds.md, "Generators: rooms and clutter".
+
+    A lattice of ``lattice_m`` cells: an obstacle field of ``cells_x`` x ``cells_y`` cells made by
+    BARN's cellular automaton (each cell filled with probability ``fill_pct`` percent, then
+    ``smooth_iterations`` rounds of its rule), its two side columns walls, behind it a start
+    corridor of ``corridor_cells`` rows closed by a back wall; an upright cylinder of radius
+    ``radius_m`` and height ``height_m`` at each occupied cell. The robot starts ``start_m`` above
+    the lattice's lower edge facing +y, the goal ``goal_m`` ahead (BARN: 3 m and 10 m).
+
+        >>> ClutterSpec().cells_x, ClutterSpec().lattice_m
+        (30, 0.15)
+    """
 
     model_config = _STRICT
-    fill_pct: float = Field(15.0, ge=0.0, le=100.0)
-    smooth_iterations: int = Field(4, ge=0, le=50)
-    cells: tuple[int, int] = Field((30, 30), strict=LIST)
-    lattice_m: float = Field(0.15, gt=0.0, le=5.0)
-    radius_m: float = Field(0.075, gt=0.0, le=5.0)
-    height_m: float = Field(1.0, gt=0.0, le=20.0)
+    fill_pct: float = Field(20.0, ge=0.0, le=100.0, description="initial fill of the field, percent of its cells")
+    smooth_iterations: int = Field(4, ge=0, le=50, description="rounds of the cellular automaton's smoothing rule")
+    cells_x: int = Field(30, ge=5, le=1000, description="field width in lattice cells (side walls included)")
+    cells_y: int = Field(30, ge=1, le=1000, description="field length in lattice cells (along the travel, +y)")
+    corridor_cells: int = Field(34, ge=2, le=1000, description="rows from the lattice's lower edge to the field (back wall included)")
+    lattice_m: float = Field(0.15, gt=0.0, le=5.0, description="lattice cell side (m)")
+    radius_m: float = Field(0.075, gt=0.0, le=2.5, description="cylinder radius (m)")
+    height_m: float = Field(1.0, gt=0.0, le=20.0, description="cylinder height (m)")
+    start_m: float = Field(3.0, gt=0.0, le=1000.0, description="start's distance above the lattice's lower edge (m)")
+    goal_m: float = Field(10.0, gt=0.0, le=2000.0, description="goal's distance ahead of the start, along +y (m)")
+
+    @model_validator(mode="after")
+    def _check(self) -> "ClutterSpec":
+        if 2 * self.radius_m > self.lattice_m + 1e-12:
+            raise SpecError("clutter.radius_m", self.radius_m, f"a radius <= half the lattice cell "
+                            f"(clutter.lattice_m={self.lattice_m:g} m): cylinders must not overlap",
+                            "lower radius_m or raise lattice_m")
+        if self.start_m >= self.corridor_cells * self.lattice_m:
+            raise SpecError("clutter.start_m", self.start_m, f"a start inside the corridor, below the field "
+                            f"(< corridor_cells x lattice_m = {self.corridor_cells * self.lattice_m:g} m)",
+                            "lower start_m or raise corridor_cells")
+        if self.start_m <= self.lattice_m:
+            raise SpecError("clutter.start_m", self.start_m, f"a start above the back wall (> lattice_m={self.lattice_m:g} m)")
+        return self
+
+    @property
+    def width_m(self) -> float:
+        """The lattice's width (the field's, walls included)."""
+        return self.cells_x * self.lattice_m
+
+    @property
+    def span_m(self) -> float:
+        """The layout's length along y: the lattice (corridor and field) or the goal, whichever reaches farther, plus 1 m."""
+        return max((self.corridor_cells + self.cells_y) * self.lattice_m, self.start_m + self.goal_m) + 1.0
+
+    def check_fits(self, size_m: tuple[float, float]) -> None:
+        """SpecError when the map cannot hold the layout (lattice and goal)."""
+        sx, sy = size_m
+        if self.width_m > sx + 1e-9:
+            raise SpecError("clutter.cells_x", self.cells_x, f"a field that fits the map's width {sx:g} m "
+                            f"(cells_x x lattice_m = {self.width_m:g} m)", "enlarge size_m or lower cells_x")
+        if self.span_m > sy + 1e-9:
+            raise SpecError("clutter.cells_y", self.cells_y, f"a layout that fits the map's height {sy:g} m (corridor, "
+                            f"field and goal take {self.span_m:g} m, a 1 m margin included)",
+                            "enlarge size_m or shorten the field, corridor or goal_m")
 
 
 class WorldSpec(BaseModel):
@@ -573,7 +686,12 @@ class WorldSpec(BaseModel):
         for name, pt in (("start", m.start), ("goal", m.goal)):
             if pt is not None and not (0 <= pt[0] <= self.size_m[0] and 0 <= pt[1] <= self.size_m[1]):
                 raise SpecError(f"mission.{name}", list(pt), f"a point inside the map [0, {self.size_m[0]:g}] x [0, {self.size_m[1]:g}]")
-        self._check_free_discs()
+        if self.generator == "rooms":  # (free discs on flat floors: the generator keeps furniture out of them)
+            self.rooms.check_fits(self.size_m)
+        elif self.generator == "clutter":
+            self.clutter.check_fits(self.size_m)
+        else:
+            self._check_free_discs()
         self._check_walls_in_map()
         for i, mv in enumerate(self.obstacles.moves):
             if not (0 <= mv.at[0] <= self.size_m[0] and 0 <= mv.at[1] <= self.size_m[1]):
