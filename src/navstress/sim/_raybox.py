@@ -298,16 +298,19 @@ def box_pass(boxes: np.ndarray, beams: Beams, params: np.ndarray, origin: np.nda
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def scan_ranges(params: np.ndarray, origin: np.ndarray, rot: np.ndarray, boxes: np.ndarray,
+def scan_ranges(params: np.ndarray, origin: np.ndarray, rot: np.ndarray, boxes: np.ndarray, discs: np.ndarray,
                 *arrays: Any) -> None:
-    """One scan's ranges (terrain, then boxes) from the sensor at ``origin``, oriented ``rot``:
-    :func:`~navstress.sim._raycast.terrain_kernel` then :func:`box_pass` in one compiled call
+    """One scan's ranges (terrain, then upright cylinders ``discs``, then boxes) from the sensor at
+    ``origin``, oriented ``rot``: :func:`~navstress.sim._raycast.terrain_kernel`, :func:`disc_pass`
+    then :func:`box_pass` in one compiled call
     (``params``: a one-record :data:`~navstress.sim._raycast.SCAN_PARAMS` array; ``arrays``:
     :func:`scan_arrays`, the ranges written)."""
     grid = TerrainGrid(*arrays[:_E_GRID])
     beams = Beams(*arrays[_E_GRID:_E_BEAMS])
     out = arrays[_E_BEAMS]
     terrain_kernel(grid, beams, params, origin, rot, out)
+    if discs.shape[0] > 0:
+        disc_pass(discs, beams, params, origin, rot, out)
     box_pass(boxes, beams, params, origin, rot, out)
 
 
@@ -392,28 +395,40 @@ def _ray_cylinder(cyl: Cylinder, ray: Ray) -> float:
 def disc_pass(discs: np.ndarray, beams: Beams, params: np.ndarray, origin: np.ndarray, rot: np.ndarray,
               out: np.ndarray, circle: int = 0) -> None:
     """Lower ``out[channel, azimuth]`` with the hits on upright cylinders (rows ``[x, y, r, zb,
-    zt]``: the disc movers); the ray directions as :func:`box_pass` computes them. Per cylinder
-    only the azimuth columns its bounding circle in the sensor's xy plane can span (with a margin)
-    are tested; no range filter (the box pass applies it; ``params``: a one-record
-    :data:`~navstress.sim._raycast.SCAN_PARAMS` array, its ``max_range`` read; ``circle`` as in
-    :func:`box_pass`)."""
+    zt]``: the cylinder obstacles, then the disc movers); the ray directions as :func:`box_pass`
+    computes them. Per cylinder only the azimuth columns its bounding circle in the sensor's xy
+    plane can span and the channels whose elevation its bounding sphere can reach (each with a
+    margin) are tested; cylinders are visited near first (bucketed by the near side of their
+    bounding sphere) and a ray whose current range is already below that near side skips the
+    cylinder: the same ranges as testing every ray against every cylinder. No range filter (the
+    box pass applies it; ``params``: a one-record :data:`~navstress.sim._raycast.SCAN_PARAMS`
+    array, its ``max_range`` read; ``circle`` as in :func:`box_pass`)."""
     cos_el, sin_el, cos_az, sin_az = beams
     max_range = params[0].max_range
     nch = cos_el.shape[0]
     naz = cos_az.shape[0]
+    nd = discs.shape[0]
     ox, oy, oz = origin[0], origin[1], origin[2]
     uwx, uwy, uwz = rot[0, 2], rot[1, 2], rot[2, 2]
     ncirc = naz if circle <= 0 else circle
     step = TWO_PI / ncirc
-    for i in range(discs.shape[0]):
-        cx, cy, r, zb, zt = discs[i, 0], discs[i, 1], discs[i, 2], discs[i, 3], discs[i, 4]
-        cyl = Cylinder(cx, cy, r, zb, zt)
+    tilt = math.sqrt(rot[2, 0] ** 2 + rot[2, 1] ** 2)
+    # per cylinder: columns q0..q1 (of the circle), channels k0..k1, near side; bucketed by near
+    span = np.empty((nd, 4), np.int64)
+    nears = np.empty(nd)
+    cnt = np.zeros(NBUCKET + 1, np.int64)
+    bscale = NBUCKET / max_range
+    for i in range(nd):
+        r, zb, zt = discs[i, 2], discs[i, 3], discs[i, 4]
         hz = 0.5 * (zt - zb)
-        px, py, pz = cx - ox, cy - oy, 0.5 * (zb + zt) - oz
+        px, py, pz = discs[i, 0] - ox, discs[i, 1] - oy, 0.5 * (zb + zt) - oz
         sx = rot[0, 0] * px + rot[1, 0] * py + rot[2, 0] * pz
         sy = rot[0, 1] * px + rot[1, 1] * py + rot[2, 1] * pz
-        wid = r + hz * math.sqrt(rot[2, 0] ** 2 + rot[2, 1] ** 2) + 1e-6
+        sz = rot[0, 2] * px + rot[1, 2] * py + rot[2, 2] * pz
+        wid = r + hz * tilt + 1e-6
         rho = math.sqrt(sx * sx + sy * sy)
+        span[i, 0] = 0
+        span[i, 1] = -1  # (none)
         if rho - wid > max_range:
             continue
         if rho <= wid * 1.001:
@@ -425,7 +440,45 @@ def disc_pass(discs: np.ndarray, beams: Beams, params: np.ndarray, origin: np.nd
             q1 = int(math.ceil((th + dl) / step))
             if q1 - q0 >= ncirc - 1:
                 q0, q1 = 0, ncirc - 1
-        for q in range(q0, q1 + 1):
+        # channels: a ray meets the bounding sphere (centre s, radius rb) only if its elevation is
+        # within asin(rb / |s|) of the centre's; nothing on it is nearer than |s| - rb
+        rb = math.sqrt(r * r + hz * hz) * 1.001 + 1e-6
+        dist = math.sqrt(rho * rho + sz * sz)
+        k0, k1 = 0, nch - 1
+        near = -INF
+        if dist > rb:
+            near = (dist - rb) * (1.0 - 1e-9) - 1e-9
+            el = math.asin(max(-1.0, min(1.0, sz / dist)))
+            de = math.asin(rb / dist) * 1.001 + 1e-6
+            lo = math.sin(max(-0.5 * math.pi, el - de))
+            hi = math.sin(min(0.5 * math.pi, el + de))
+            while k0 < nch and sin_el[k0] < lo:
+                k0 += 1
+            while k1 >= 0 and sin_el[k1] > hi:
+                k1 -= 1
+            if k0 > k1:
+                continue
+        span[i, 0] = q0
+        span[i, 1] = q1
+        span[i, 2] = k0
+        span[i, 3] = k1
+        nears[i] = near
+        cnt[min(int(max(near, 0.0) * bscale), NBUCKET - 1) + 1] += 1
+    for q in range(NBUCKET):
+        cnt[q + 1] += cnt[q]
+    order = np.empty(cnt[NBUCKET], np.int64)
+    for i in range(nd):
+        if span[i, 1] >= span[i, 0]:
+            bk = min(int(max(nears[i], 0.0) * bscale), NBUCKET - 1)
+            order[cnt[bk]] = i
+            cnt[bk] += 1
+    for e in range(order.shape[0]):
+        i = order[e]
+        cyl = Cylinder(discs[i, 0], discs[i, 1], discs[i, 2], discs[i, 3], discs[i, 4])
+        near = nears[i]
+        k0 = span[i, 2]
+        k1 = span[i, 3]
+        for q in range(span[i, 0], span[i, 1] + 1):
             a = q % ncirc
             if a >= naz:  # (a column of the circle that the fan does not cast)
                 continue
@@ -434,7 +487,9 @@ def disc_pass(discs: np.ndarray, beams: Beams, params: np.ndarray, origin: np.nd
             awx = rot[0, 0] * ca + rot[0, 1] * sa
             awy = rot[1, 0] * ca + rot[1, 1] * sa
             awz = rot[2, 0] * ca + rot[2, 1] * sa
-            for k in range(nch):
+            for k in range(k0, k1 + 1):
+                if out[k, a] < near:  # (stopped before the cylinder's bounding sphere)
+                    continue
                 ce = cos_el[k]
                 se = sin_el[k]
                 t = _ray_cylinder(cyl, Ray(ox, oy, oz, ce * awx + se * uwx, ce * awy + se * uwy, ce * awz + se * uwz))
@@ -558,6 +613,21 @@ def rays_ranges(grid: TerrainGrid, boxes: np.ndarray, discs: np.ndarray, origin:
             if tc < t:
                 t = tc
         out[r] = t if (min_range <= t <= max_range) else INF
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def lower_with_discs(discs: np.ndarray, origins: np.ndarray, dirs: np.ndarray, max_range: float,
+                     out: np.ndarray) -> None:  # pragma: no cover - compiled
+    """Lower the per-ray ranges ``out`` (:func:`~navstress.sim._raycast.cast_rays_kernel`'s,
+    inf = none) with the hits on the upright cylinders ``discs`` within ``max_range``."""
+    for r in range(origins.shape[0]):
+        ray = Ray(origins[r, 0], origins[r, 1], origins[r, 2], dirs[r, 0], dirs[r, 1], dirs[r, 2])
+        t = out[r]
+        for i in range(discs.shape[0]):
+            tc = _ray_cylinder(Cylinder(discs[i, 0], discs[i, 1], discs[i, 2], discs[i, 3], discs[i, 4]), ray)
+            if tc < t and tc <= max_range:
+                t = tc
+        out[r] = t
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

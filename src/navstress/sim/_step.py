@@ -169,6 +169,7 @@ class MjArrays(NamedTuple):
     geom_aabb: np.ndarray
     bvh_aabb: np.ndarray
     geom_contype: np.ndarray
+    geom_type: np.ndarray
 
 
 class RobotArrays(NamedTuple):
@@ -851,18 +852,20 @@ def mover_shapes(f: float, p0: np.ndarray, p1: np.ndarray, size: np.ndarray, dis
                  box_idx: np.ndarray, discs: np.ndarray, boxes: np.ndarray) -> None:  # pragma: no cover
     """The movers' lidar shapes at fraction ``f`` of the control period (as :func:`_place_movers`,
     between ``MoverArrays.pose0`` and ``pose1``; arrays passed one by one: numba unboxes a tuple
-    slowly): ``discs`` rows (x, y, r, z bottom, z top) of the movers ``disc_idx``, the last
-    ``len(box_idx)`` rows of ``boxes`` (x, y, yaw, half length, half width, z bottom, z top, cos
+    slowly): the last ``len(disc_idx)`` rows of ``discs`` (x, y, r, z bottom, z top) those of the
+    movers ``disc_idx``, the last ``len(box_idx)`` rows of ``boxes`` (x, y, yaw, half length, half width, z bottom, z top, cos
     yaw, sin yaw) those of the movers ``box_idx``; ``size``: the movers' (length, width, height)."""
     first_box = boxes.shape[0] - box_idx.shape[0]
+    first_disc = discs.shape[0] - disc_idx.shape[0]
     for r in range(disc_idx.shape[0]):
         i = disc_idx[r]
+        d = first_disc + r
         z = p0[i, 2] + f * (p1[i, 2] - p0[i, 2])
-        discs[r, 0] = p0[i, 0] + f * (p1[i, 0] - p0[i, 0])
-        discs[r, 1] = p0[i, 1] + f * (p1[i, 1] - p0[i, 1])
-        discs[r, 2] = 0.5 * size[i, 0]
-        discs[r, 3] = z - 0.5 * size[i, 2]
-        discs[r, 4] = z + 0.5 * size[i, 2]
+        discs[d, 0] = p0[i, 0] + f * (p1[i, 0] - p0[i, 0])
+        discs[d, 1] = p0[i, 1] + f * (p1[i, 1] - p0[i, 1])
+        discs[d, 2] = 0.5 * size[i, 0]
+        discs[d, 3] = z - 0.5 * size[i, 2]
+        discs[d, 4] = z + 0.5 * size[i, 2]
     for r in range(box_idx.shape[0]):
         i = box_idx[r]
         b = first_box + r
@@ -906,7 +909,7 @@ def _steps(k_stop: int, s: Any, p: Any, g: LoopArrays) -> int:  # pragma: no cov
     qpos, qvel, xpos = mj.qpos, mj.qvel, mj.xpos
     wqpos, obstacle_of_geom, contact_out = p.wheel_qpos, rb.obstacle_of_geom, col.current
     slots = MjSlotArrays(mj.mocap_pos, mj.mocap_quat, mj.geom_size, mj.geom_rbound, mj.geom_aabb, mj.bvh_aabb,
-                         mj.geom_contype)
+                         mj.geom_contype, mj.geom_type)
     pool_every = p.pool_every
     while True:
         k = s.k

@@ -51,7 +51,6 @@ from navstress.sim.lidar import LidarScene
 
 __all__ = ["DepthCamera"]
 
-_NO_DISCS = np.zeros((0, 5))
 _E_GRID = len(TerrainGrid._fields)
 
 
@@ -527,7 +526,7 @@ class DepthCamera:
         boxes = s.boxes if scene_boxes is None else scene_boxes
         if boxes.ndim != 2 or boxes.shape[1] != 9 or boxes.dtype != np.float64:
             raise SpecError("scene_boxes", getattr(boxes, "shape", None), "float64 rows of LidarScene.boxes' 9 columns")
-        d = _NO_DISCS if discs is None else np.ascontiguousarray(discs, dtype=np.float64).reshape(-1, 5)
+        d = self.scene.discs if discs is None else np.ascontiguousarray(discs, dtype=np.float64).reshape(-1, 5)
         g = s.grid
         n: int = render_kernel(q, self._mxyz, self._mrot, boxes, d, self.rotation, self.origin, self._out, *g,
                                *self._cam)

@@ -1,4 +1,4 @@
-"""3-D lidar: a fast ray caster against the heightfield terrain and the box obstacles.
+"""3-D lidar: a fast ray caster against the heightfield terrain and the obstacles (boxes, cylinders).
 
 Exact to the geometry MuJoCo simulates (checked against ``mujoco.mj_ray`` in the tests):
 
@@ -12,10 +12,13 @@ Exact to the geometry MuJoCo simulates (checked against ``mujoco.mj_ray`` in the
   (ranges differ by that divided by the sine of the grazing angle).
 - boxes: :class:`~navstress.world.world.Obstacle` -> oriented box from ``z`` to ``z + sz``,
   yaw about z only; faces two-sided (a ray starting inside a box hits its exit face).
+- cylinders (``Obstacle.shape == "cylinder"``) -> upright solid cylinder of radius ``size[0] / 2``
+  from ``z`` to ``z + sz``: the side and both caps, exactly (the same kernel as the disc movers',
+  :func:`navstress.sim._raybox._ray_cylinder`), also two-sided.
 
 The scan marches, per azimuth column, the plane of its 32 channels once, lowest unresolved
 channel first (channel-major over the columns, a cell walk with per-cell maxima deciding the
-exact tests); the boxes then lower those ranges in a box-major pass (near boxes first). See
+exact tests); the cylinders, then the boxes lower those ranges in shape-major passes (boxes near first). See
 :func:`navstress.sim._raycast.terrain_kernel` and :func:`navstress.sim._raybox.box_pass`.
 
     >>> import numpy as np
@@ -41,7 +44,6 @@ from navstress.world.world import World
 
 __all__ = ["LidarConfig", "LidarScene", "Lidar", "build_scene", "cast_rays"]
 
-_NO_DISCS = np.zeros((0, 5))
 
 
 @dataclass(frozen=True)
@@ -115,7 +117,8 @@ class LidarConfig:
 class LidarScene:
     """What the lidar sees: terrain heights (float32, ``Terrain`` convention), ``cell_m``, and
     boxes as rows ``[x, y, yaw, half_sx, half_sy, z_bottom, z_top]`` (stored with cos(yaw), sin(yaw)
-    appended as columns 7 and 8). Derived acceleration data
+    appended as columns 7 and 8), and upright cylinders ``discs`` as rows ``[x, y, radius, z_bottom,
+    z_top]`` (the cylinder obstacles; the disc movers are added per scan). Derived acceleration data
     (max/min-height mipmaps: ``mip`` float64 (2, n) for the per-ray path, ``mipf`` the same values
     as float32 (n, 2) max/min pairs for scans, exact since they are maxima/minima of float32
     heights; terrain gradient bound) is computed on construction; ``grid`` holds the terrain as
@@ -124,6 +127,7 @@ class LidarScene:
     heights: np.ndarray
     cell_m: float
     boxes: np.ndarray
+    discs: np.ndarray = field(default_factory=lambda: np.zeros((0, 5)))
     mip: np.ndarray = field(init=False, repr=False)
     mipf: np.ndarray = field(init=False, repr=False)
     mip_offsets: np.ndarray = field(init=False, repr=False)
@@ -146,8 +150,16 @@ class LidarScene:
         if not np.all(np.isfinite(b)) or np.any(b[:, 3:5] <= 0) or np.any(b[:, 6] < b[:, 5]):
             raise SpecError("scene.boxes", "invalid rows", "finite [x, y, yaw, hx>0, hy>0, zb, zt>=zb]")
         b = np.ascontiguousarray(np.column_stack([b, np.cos(b[:, 2]), np.sin(b[:, 2])]))
+        c = np.asarray(self.discs, dtype=np.float64)
+        c = np.ascontiguousarray(c.reshape(-1, 5) if c.size == 0 or (c.ndim == 1 and c.size == 5) else c)
+        if c.ndim != 2 or c.shape[1] != 5:
+            raise SpecError("scene.discs", f"shape {c.shape}", "rows of 5 values [x, y, r, zb, zt]")
+        if not np.all(np.isfinite(c)) or np.any(c[:, 2] <= 0) or np.any(c[:, 4] < c[:, 3]):
+            raise SpecError("scene.discs", "invalid rows", "finite [x, y, r>0, zb, zt>=zb]")
         h.setflags(write=False)
         b.setflags(write=False)
+        c.setflags(write=False)
+        object.__setattr__(self, "discs", c)
         object.__setattr__(self, "heights", h)
         object.__setattr__(self, "cell_m", float(self.cell_m))
         object.__setattr__(self, "boxes", b)
@@ -191,19 +203,22 @@ class LidarScene:
 
 
 def build_scene(world: World) -> LidarScene:
-    """The lidar scene of a world: its terrain and one box per obstacle."""
+    """The lidar scene of a world: its terrain, one box per box obstacle and one disc per cylinder
+    (each kind in the world's order)."""
     obs = world.obstacles
-    boxes = np.array([[o.x, o.y, o.yaw, o.size[0] / 2, o.size[1] / 2, o.z, o.z + o.size[2]] for o in obs],
-                     dtype=np.float64).reshape(-1, 7)
-    return LidarScene(world.terrain.heights, world.terrain.cell_m, boxes)
+    boxes = np.array([[o.x, o.y, o.yaw, o.size[0] / 2, o.size[1] / 2, o.z, o.z + o.size[2]] for o in obs
+                      if not o.is_cylinder], dtype=np.float64).reshape(-1, 7)
+    discs = np.array([[o.x, o.y, o.size[0] / 2, o.z, o.z + o.size[2]] for o in obs if o.is_cylinder],
+                     dtype=np.float64).reshape(-1, 5)
+    return LidarScene(world.terrain.heights, world.terrain.cell_m, boxes, discs)
 
 
 def cast_rays(scene: LidarScene, origins: np.ndarray, directions: np.ndarray, max_range: float) -> np.ndarray:
     """Distance (metres) along each ray to the first surface, inf if none within ``max_range``.
 
     ``origins`` and ``directions`` are (N, 3) in the world frame; directions need not be unit
-    (they are normalised). Per-ray path: every box is tested, so cost grows with the number of
-    boxes; use :class:`Lidar` for scans.
+    (they are normalised). Per-ray path: every box and cylinder is tested, so cost grows with the
+    number of obstacles; use :class:`Lidar` for scans.
     """
     o = np.ascontiguousarray(origins, dtype=np.float64).reshape(-1, 3)
     d = np.ascontiguousarray(directions, dtype=np.float64).reshape(-1, 3)
@@ -217,6 +232,8 @@ def cast_rays(scene: LidarScene, origins: np.ndarray, directions: np.ndarray, ma
     d = d / n[:, None]
     out = np.empty(o.shape[0])
     _raycast.cast_rays_kernel(scene.grid, scene.boxes, o, d, float(max_range), out)
+    if scene.discs.shape[0]:
+        _raybox.lower_with_discs(scene.discs, o, d, float(max_range), out)
     return out
 
 
@@ -294,7 +311,7 @@ class Lidar:
         o, r = _check_pose(origin, rotation)
         # terrain first (no boxes, no min-range filter), then the boxes lower it and filter:
         # bit-identical to scan_kernel with the boxes (min_range applies to the nearer hit)
-        _raybox.scan_ranges(self._params, o, r, self.scene.boxes, *self._arrays)
+        _raybox.scan_ranges(self._params, o, r, self.scene.boxes, self.scene.discs, *self._arrays)
         return self._out
 
     def scan(self, origin: np.ndarray, rotation: np.ndarray, rng: np.random.Generator | None = None) -> np.ndarray:
@@ -317,17 +334,18 @@ class Lidar:
         equal to it within 1e-15), up to the rounding of that pose; the pose arithmetic, its check,
         the terrain and box passes and the count run in one compiled call (the simulation's path).
 
-        ``discs`` (rows x, y, radius, z bottom, z top: upright cylinders) and ``boxes`` (rows of
-        ``LidarScene.boxes`` without the cos/sin columns) are seen too, for this scan only (the
-        movers where they are at scan time): exact ray-cylinder hits before the box pass, the
-        boxes with the scene's. ``scene_boxes`` (the simulation's path, no copy): every box of
+        ``discs`` (rows x, y, radius, z bottom, z top): every upright cylinder of this scan, the
+        scene's (``LidarScene.discs``) and the extra ones (the disc movers where they are at scan
+        time); None: the scene's. Exact ray-cylinder hits before the box pass. ``boxes`` (rows of
+        ``LidarScene.boxes`` without the cos/sin columns) are seen too, for this scan only, with
+        the scene's. ``scene_boxes`` (the simulation's path, no copy): every box of
         this scan, in ``LidarScene.boxes``' 9-column layout (the scene's, then the extra ones)."""
         s = self.scene
         all_boxes = s.boxes if scene_boxes is None else scene_boxes
         if boxes is not None and len(boxes):
             b = np.asarray(boxes, dtype=np.float64).reshape(-1, 7)
             all_boxes = np.concatenate([s.boxes, np.column_stack([b, np.cos(b[:, 2]), np.sin(b[:, 2])])])
-        d = _NO_DISCS if discs is None else np.ascontiguousarray(discs, dtype=np.float64).reshape(-1, 5)
+        d = self.scene.discs if discs is None else np.ascontiguousarray(discs, dtype=np.float64).reshape(-1, 5)
         q, m = np.asarray(qpos), np.ascontiguousarray(mount, dtype=np.float64)
         if q.dtype != np.float64 or q.ndim != 1 or q.shape[0] < 7 or m.shape != (3,):
             raise SpecError("qpos", getattr(qpos, "shape", qpos), "a float64 (>= 7,) body pose and a (3,) mount")
@@ -343,7 +361,7 @@ class Lidar:
         range buffer (:meth:`last_ranges`); returns the number of returns. ``discs`` and
         ``scene_boxes`` as in :meth:`scan_body`."""
         boxes = self.scene.boxes if scene_boxes is None else scene_boxes
-        d = _NO_DISCS if discs is None else np.ascontiguousarray(discs, dtype=np.float64).reshape(-1, 5)
+        d = self.scene.discs if discs is None else np.ascontiguousarray(discs, dtype=np.float64).reshape(-1, 5)
         q, m = np.asarray(qpos), np.ascontiguousarray(mount, dtype=np.float64)
         mr = np.ascontiguousarray(mount_rot, dtype=np.float64)
         if q.dtype != np.float64 or q.ndim != 1 or q.shape[0] < 7 or m.shape != (3,) or mr.shape != (3, 3):
@@ -372,7 +390,7 @@ class Lidar:
                                                              np.ascontiguousarray(b.sin_az[:columns])), buf)
             self._fans[columns] = fan
         boxes = self.scene.boxes if scene_boxes is None else scene_boxes
-        d = _NO_DISCS if discs is None else np.ascontiguousarray(discs, dtype=np.float64).reshape(-1, 5)
+        d = self.scene.discs if discs is None else np.ascontiguousarray(discs, dtype=np.float64).reshape(-1, 5)
         q, m = np.asarray(qpos), np.ascontiguousarray(mount, dtype=np.float64)
         mr = np.ascontiguousarray(mount_rot, dtype=np.float64)
         if q.dtype != np.float64 or q.ndim != 1 or q.shape[0] < 7 or m.shape != (3,) or mr.shape != (3, 3):

@@ -7,10 +7,12 @@ stores hfield row 0 at -y, which is World's row 0 (y = 0), so rows map one to on
 ``elevation`` attribute lists rows from +y down, so :func:`world_to_mjcf` writes them flipped.
 Each cell is split along the (i, j)-(i+1, j+1) diagonal, as ``Terrain.height_at`` assumes.
 
-Obstacles are static boxes named ``obstacle_<index>`` (geom group 1, collision bit 2), or, with
+Obstacles are static geoms named ``obstacle_<index>`` (geom group 1, collision bit 2: a box turned
+by its yaw, or an upright cylinder for ``Obstacle.shape == "cylinder"``), or, with
 ``obstacle_pool=K`` (what :class:`~navstress.sim.simulation.Simulation` uses), K mocap "slot"
-bodies ``obstacle_slot_<s>`` that :class:`ObstaclePool` fills with the obstacles near the robot:
-MuJoCo then computes a few boxes each step instead of every obstacle of the map. The
+bodies ``obstacle_slot_<s>`` that :class:`ObstaclePool` fills with the obstacles near the robot
+(a slot's geom takes the type, box or cylinder, of the obstacle it holds):
+MuJoCo then computes a few geoms each step instead of every obstacle of the map. The
 robot (geom group 3) is an RMP 400 class skid steer: a chassis body with a belly box that
 touches the ground (bit 1), a massless bumper box of the full footprint that touches obstacles
 (bit 2), and four sphere wheels (bit 1: ground only) on velocity-servo hinges.
@@ -43,7 +45,7 @@ from navstress.errors import SimulationError
 from navstress.robot import RobotSpec
 from navstress.sim.config import SimConfig
 from navstress.sim.drives import MAX_WHEELS, WHEEL_MASS_FRACTION, drive_model
-from navstress.world.world import World
+from navstress.world.world import Obstacle, World
 
 TERRAIN_GROUP = 0
 OBSTACLE_GROUP = 1
@@ -96,12 +98,22 @@ def _world_xml(world: World, *, inline: bool, pool: int = 0) -> tuple[str, str, 
                     f'<geom name="obstacle_slot_{k}" type="box" size="0.5 0.5 0.5" group="{OBSTACLE_GROUP}" '
                     f'contype="{OBSTACLE_BIT}" conaffinity="0" rgba="0.3 0.5 0.3 1"/></body>')
     for k, o in enumerate(world.obstacles if pool == 0 else ()):
-        hx, hy, hz = (s / 2 for s in o.size)
-        body.append(f'<geom name="obstacle_{k}" type="box" size="{_xml_float(hx)} {_xml_float(hy)} {_xml_float(hz)}" '
-                    f'pos="{_xml_float(o.x)} {_xml_float(o.y)} {_xml_float(o.z + hz)}" euler="0 0 {_xml_float(o.yaw)}" '
+        body.append(f'<geom name="obstacle_{k}" {_obstacle_geom(o)} '
                     f'group="{OBSTACLE_GROUP}" contype="{OBSTACLE_BIT}" conaffinity="{OBSTACLE_BIT}" '
                     f'rgba="0.3 0.5 0.3 1"/>')
     return asset, "\n".join(body), norm
+
+
+def _obstacle_geom(o: Obstacle) -> str:
+    """An obstacle's geom type, size and pose attributes: a box turned by its yaw, or an upright
+    cylinder (MJCF size = radius, half height) without a turn (its yaw has no effect)."""
+    hz = o.size[2] / 2
+    pos = f'pos="{_xml_float(o.x)} {_xml_float(o.y)} {_xml_float(o.z + hz)}"'
+    if o.is_cylinder:
+        return f'type="cylinder" size="{_xml_float(o.size[0] / 2)} {_xml_float(hz)}" {pos}'
+    hx, hy = o.size[0] / 2, o.size[1] / 2
+    return (f'type="box" size="{_xml_float(hx)} {_xml_float(hy)} {_xml_float(hz)}" {pos} '
+            f'euler="0 0 {_xml_float(o.yaw)}"')
 
 
 def world_to_mjcf(world: World) -> str:
@@ -337,13 +349,16 @@ def build_model(world: World, robot: RobotSpec = RobotSpec(), cfg: SimConfig = S
 class ObstaclePool:
     """Keeps the obstacles near the robot in the model's obstacle slots.
 
-    :meth:`update` puts in a slot every obstacle whose footprint circle comes within ``margin_m``
-    of the robot's footprint circle (centre distance <= robot reach + obstacle reach + margin) and
-    empties the slots of the others (parked far below the map, collisions off). An obstacle keeps
-    its slot while it stays near. Exact as long as the robot moves less than ``margin_m`` between
-    updates (the simulation updates every 0.1 s; 1.2 m/s top speed). With more near obstacles than
-    slots, the nearest ones (by gap) are kept: the pool is then approximate, and ``overflows``
-    counts such updates.
+    :meth:`update` puts in a slot every obstacle whose footprint comes within ``margin_m`` of the
+    robot's footprint circle (the distance from the robot's centre to the obstacle's footprint:
+    a box's turned rectangle, a cylinder's circle, at most robot reach + margin) and empties the
+    slots of the others (parked far below the map, collisions off). A slot takes either shape:
+    its geom's type, size, bounding radius and boxes are rewritten with the obstacle it gets. A
+    long wall thus enters the pool only where the robot comes near it, not from half its length
+    away. An obstacle keeps its slot while it stays near. Exact as long as the robot moves less
+    than ``margin_m`` between updates (the simulation updates every 0.1 s; 1.2 m/s top speed).
+    With more near obstacles than slots, the nearest ones (by gap) are kept: the pool is then
+    approximate, and ``overflows`` counts such updates.
     """
 
     def __init__(self, rm: RobotModel, world: World, robot: RobotSpec, margin_m: float) -> None:
@@ -352,24 +367,28 @@ class ObstaclePool:
         obs = world.obstacles
         n = len(obs)
         self.centre = np.array([[o.x, o.y, o.z + o.size[2] / 2] for o in obs], np.float64).reshape(n, 3)
+        # a cylinder's half sizes: (radius, radius, half height)
         self.half = np.array([[s / 2 for s in o.size] for o in obs], np.float64).reshape(n, 3)
-        self.quat = np.array([[math.cos(o.yaw / 2), 0.0, 0.0, math.sin(o.yaw / 2)] for o in obs],
+        self.quat = np.array([[1.0, 0.0, 0.0, 0.0] if o.is_cylinder else
+                              [math.cos(o.yaw / 2), 0.0, 0.0, math.sin(o.yaw / 2)] for o in obs],
                              np.float64).reshape(n, 4)
+        self.turn = np.array([[math.cos(o.yaw), math.sin(o.yaw)] for o in obs], np.float64).reshape(n, 2)
+        self.geom_type = np.array([GEOM_CYLINDER if o.is_cylinder else GEOM_BOX for o in obs], np.int64)
         robot_reach = math.hypot(robot.length_m, robot.width_m) / 2
-        self.reach = np.hypot(self.half[:, 0], self.half[:, 1]) + robot_reach + margin_m
+        self.reach = np.full(n, robot_reach + margin_m, np.float64)
         k = len(rm.slot_geoms)
         self.slot_obstacle = -np.ones(k, np.int64)
         self.mocap = np.array([m.body_mocapid[b] for b in rm.slot_bodies], np.int64)
         self.bvh = np.array([m.body_bvhadr[b] for b in rm.slot_bodies], np.int64)
-        self.arrays = PoolArrays(self.centre, self.half, self.quat, self.reach, np.zeros(n, np.float64),
-                                 self.slot_obstacle, rm.slot_geoms, self.mocap, self.bvh)
+        self.arrays = PoolArrays(self.centre, self.half, self.quat, self.turn, self.geom_type, self.reach,
+                                 np.zeros(n, np.float64), self.slot_obstacle, rm.slot_geoms, self.mocap, self.bvh)
         self.overflows = 0
 
     def update(self, data: mujoco.MjData) -> int:
         """Refill the slots for the robot's current position; returns the number of filled slots."""
         m, rm = self.rm.model, self.rm
         slots = MjSlotArrays(data.mocap_pos, data.mocap_quat, m.geom_size, m.geom_rbound, m.geom_aabb, m.bvh_aabb,
-                             m.geom_contype)
+                             m.geom_contype, m.geom_type)
         nfill = fill_obstacle_slots(float(data.qpos[0]), float(data.qpos[1]), self.arrays, rm.obstacle_of_geom, slots,
                                     PARK_Z_M, OBSTACLE_BIT)
         if nfill < 0:
@@ -378,13 +397,19 @@ class ObstaclePool:
         return nfill
 
 
+GEOM_BOX = int(mujoco.mjtGeom.mjGEOM_BOX)
+GEOM_CYLINDER = int(mujoco.mjtGeom.mjGEOM_CYLINDER)
+
+
 class PoolArrays(NamedTuple):
     """The arrays of an obstacle pool that :func:`fill_obstacle_slots` reads and updates."""
 
-    centre: np.ndarray  # (n, 3) obstacle box centres
-    half: np.ndarray  # (n, 3) half sizes
-    quat: np.ndarray  # (n, 4) orientation
-    reach: np.ndarray  # (n,) centre distance within which an obstacle is near
+    centre: np.ndarray  # (n, 3) obstacle centres (footprint centre, half height)
+    half: np.ndarray  # (n, 3) half sizes (a cylinder: radius, radius, half height)
+    quat: np.ndarray  # (n, 4) orientation (a cylinder: none)
+    turn: np.ndarray  # (n, 2) cos, sin of the yaw (a box's footprint)
+    geom_type: np.ndarray  # (n,) MuJoCo geom type: GEOM_BOX or GEOM_CYLINDER
+    reach: np.ndarray  # (n,) distance from the robot's centre to the footprint within which an obstacle is near
     dist: np.ndarray  # (n,) scratch: gap of each obstacle
     slot_obstacle: np.ndarray  # (K,) obstacle in each slot, -1: empty
     slot_geom: np.ndarray  # (K,) geom of each slot
@@ -394,7 +419,7 @@ class PoolArrays(NamedTuple):
 
 class MjSlotArrays(NamedTuple):
     """The MuJoCo arrays that :func:`fill_obstacle_slots` writes: mjData's mocap poses, mjModel's
-    geom sizes, bounds, AABBs, BVH boxes and collision types."""
+    geom sizes, bounds, AABBs, BVH boxes, collision types and geom types."""
 
     mocap_pos: np.ndarray
     mocap_quat: np.ndarray
@@ -403,31 +428,48 @@ class MjSlotArrays(NamedTuple):
     geom_aabb: np.ndarray
     bvh_aabb: np.ndarray
     geom_contype: np.ndarray
+    geom_type: np.ndarray
 
 
 def empty_pool_arrays() -> PoolArrays:
     """The :class:`PoolArrays` of no pool (same array types as a pool's)."""
     e2, e1, ei = np.zeros((0, 3)), np.zeros(0), np.zeros(0, np.int64)
-    return PoolArrays(e2, e2.copy(), np.zeros((0, 4)), e1, e1.copy(), ei, ei.copy(), ei.copy(), ei.copy())
+    return PoolArrays(e2, e2.copy(), np.zeros((0, 4)), np.zeros((0, 2)), ei.copy(), e1, e1.copy(), ei, ei.copy(),
+                      ei.copy(), ei.copy())
+
+
+@numba.njit(cache=True, inline="always")
+def footprint_distance(dx: float, dy: float, hx: float, hy: float, c: float, s: float,
+                       cylinder: bool) -> float:  # pragma: no cover - compiled
+    """Distance from a point at (dx, dy) from an obstacle's footprint centre to its footprint
+    (0 inside): a cylinder's circle of radius ``hx``, a box's rectangle of half sides (hx, hy)
+    turned by the yaw whose cos, sin are ``c``, ``s``."""
+    if cylinder:
+        return max(math.sqrt(dx * dx + dy * dy) - hx, 0.0)
+    ex = max(abs(c * dx + s * dy) - hx, 0.0)
+    ey = max(abs(-s * dx + c * dy) - hy, 0.0)
+    return math.sqrt(ex * ex + ey * ey)
 
 
 @numba.njit(cache=True)
 def fill_obstacle_slots(x: float, y: float, pool: PoolArrays, obstacle_of_geom: np.ndarray, slots: MjSlotArrays,
                         park_z: float, contype: int) -> int:  # pragma: no cover - compiled
     """Numba core of :meth:`ObstaclePool.update` for the robot at (x, y): empty slots parked at
-    ``park_z`` (minus 10 m per slot), filled ones given collision type ``contype``; returns minus
-    the count when it overflowed."""
+    ``park_z`` (minus 10 m per slot), filled ones given collision type ``contype`` and the geom
+    type, size, bounds of their obstacle; returns minus the count when it overflowed."""
     mocap_pos, mocap_quat, geom_size = slots.mocap_pos, slots.mocap_quat, slots.geom_size
     geom_rbound, geom_aabb, bvh_aabb = slots.geom_rbound, slots.geom_aabb, slots.bvh_aabb
-    geom_contype = slots.geom_contype
+    geom_contype, slot_type = slots.geom_contype, slots.geom_type
     centre, half, quat, reach, dist = pool.centre, pool.half, pool.quat, pool.reach, pool.dist
+    turn, gtype = pool.turn, pool.geom_type
     slot_obstacle, slot_geom, slot_mocap, slot_bvh = pool.slot_obstacle, pool.slot_geom, pool.slot_mocap, pool.slot_bvh
     n = centre.shape[0]
     k = slot_obstacle.shape[0]
     near = 0
     for i in range(n):
-        dx, dy = centre[i, 0] - x, centre[i, 1] - y
-        d = (dx * dx + dy * dy) ** 0.5 - reach[i]
+        cyl = gtype[i] == GEOM_CYLINDER
+        d = footprint_distance(x - centre[i, 0], y - centre[i, 1], half[i, 0], half[i, 1], turn[i, 0], turn[i, 1],
+                               cyl) - reach[i]
         dist[i] = d
         if d <= 0.0:
             near += 1
@@ -465,16 +507,24 @@ def fill_obstacle_slots(x: float, y: float, pool: PoolArrays, obstacle_of_geom: 
         b = slot_mocap[s]
         obstacle_of_geom[g] = i
         geom_contype[g] = contype
+        slot_type[g] = gtype[i]
         for a in range(3):
             mocap_pos[b, a] = centre[i, a]
-            geom_size[g, a] = half[i, a]
             geom_aabb[g, a] = 0.0
             geom_aabb[g, 3 + a] = half[i, a]
             bvh_aabb[slot_bvh[s], a] = 0.0
             bvh_aabb[slot_bvh[s], 3 + a] = half[i, a]
+        if gtype[i] == GEOM_CYLINDER:  # MuJoCo's cylinder size: radius, half height
+            geom_size[g, 0] = half[i, 0]
+            geom_size[g, 1] = half[i, 2]
+            geom_size[g, 2] = 0.0
+        else:
+            for a in range(3):
+                geom_size[g, a] = half[i, a]
         for a in range(4):
             mocap_quat[b, a] = quat[i, a]
-        geom_rbound[g] = (half[i, 0] ** 2 + half[i, 1] ** 2 + half[i, 2] ** 2) ** 0.5
+        geom_rbound[g] = (half[i, 0] ** 2 + half[i, 1] ** 2 + half[i, 2] ** 2) ** 0.5 if gtype[i] != GEOM_CYLINDER \
+            else (half[i, 0] ** 2 + half[i, 2] ** 2) ** 0.5
     filled = 0
     for s in range(k):
         if slot_obstacle[s] >= 0:

@@ -39,7 +39,6 @@ from navstress.sim import _raybox
 from navstress.sim.lidar import Lidar, LidarConfig, LidarScene
 from navstress.sim.suite import lidar_config
 
-_NO_DISCS = np.zeros((0, 5))
 _TWO_PI = 2.0 * math.pi
 
 
@@ -150,7 +149,7 @@ class Lidar2dCaster(RayCaster):
         origin = q[:3] + rb @ self.mount_v
         dirs = np.ascontiguousarray(self._dirs_body @ rb.T)
         boxes = self.scene.boxes if scene_boxes is None else scene_boxes
-        d = _NO_DISCS if discs is None else np.ascontiguousarray(discs, dtype=np.float64).reshape(-1, 5)
+        d = self.scene.discs if discs is None else np.ascontiguousarray(discs, dtype=np.float64).reshape(-1, 5)
         _raybox.rays_ranges(self.scene.grid, boxes, d, origin, dirs, self.max_range, self.min_range, self._out)
         return self._out, int(np.count_nonzero(self._out < np.inf))
 

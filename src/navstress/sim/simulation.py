@@ -209,7 +209,7 @@ class Simulation:
             mover_every=self._mover_every, n_obstacles=n_obst)
         self._arrays = step_loop.loop_arrays(
             step_loop.MjArrays(d.qpos, d.qvel, d.ctrl, d.xpos, d.xmat, warn, d.mocap_pos, d.mocap_quat, m.geom_size,
-                               m.geom_rbound, m.geom_aabb, m.bvh_aabb, m.geom_contype),
+                               m.geom_rbound, m.geom_aabb, m.bvh_aabb, m.geom_contype, m.geom_type),
             step_loop.RobotArrays(rm.wheel_of_geom, rm.obstacle_of_geom),
             pool.arrays if pool is not None else empty_pool_arrays(),
             step_loop.SensorArrays(self._jitter, self._samples, self._noise),
@@ -338,18 +338,20 @@ class Simulation:
         pose[:, 3] = self._mover_state[:, mover_control.YAW]
         self._mover_arrays = step_loop.MoverArrays(rm.mover_mocap.astype(np.int64), pose, pose.copy(),
                                                    np.zeros((n, 2)))
-        # lidar shapes: discs (x, y, r, z bottom, z top) and boxes (LidarScene rows, after the static ones)
+        # lidar shapes: discs (x, y, r, z bottom, z top) and boxes (LidarScene rows), each after the static ones
         self._disc_movers = np.array([i for i, mv in enumerate(world.movers) if mv.shape == "disc"], np.int64)
         self._box_movers = np.array([i for i, mv in enumerate(world.movers) if mv.shape != "disc"], np.int64)
         self._mover_size = np.array([mv.size for mv in world.movers], np.float64).reshape(n, 3)
         self._scan_discs = np.zeros((len(self._disc_movers), 5))
         self._scan_boxes: np.ndarray | None = None
-        if self._casters:  # the scene's boxes, then one row per box mover (rewritten per cast)
+        if self._casters:  # the scene's boxes and discs, then one row per mover (rewritten per cast)
             assert self._scene is not None
-            boxes = self._scene.boxes
-            nb = boxes.shape[0]
+            boxes, discs = self._scene.boxes, self._scene.discs
+            nb, nd = boxes.shape[0], discs.shape[0]
             self._scan_boxes = np.zeros((nb + len(self._box_movers), 9))
             self._scan_boxes[:nb] = boxes
+            self._scan_discs = np.zeros((nd + len(self._disc_movers), 5))
+            self._scan_discs[:nd] = discs
 
     def _step_movers(self) -> None:
         """Run the movers' controller for the next period from the robot's true state; the bodies

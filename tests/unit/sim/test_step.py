@@ -33,11 +33,20 @@ def _pool_world(seed: int, n: int) -> tuple[list[Obstacle], np.ndarray]:
     return obs, g.uniform(2, 38, (6, 2))
 
 
+def _box_gap(o: Obstacle, x: float, y: float) -> float:
+    """Distance from (x, y) to a box's footprint: the point in the box's frame, outside its sides."""
+    c, s = math.cos(o.yaw), math.sin(o.yaw)
+    lx, ly = c * (x - o.x) + s * (y - o.y), -s * (x - o.x) + c * (y - o.y)
+    return math.hypot(max(abs(lx) - o.size[0] / 2, 0.0), max(abs(ly) - o.size[1] / 2, 0.0))
+
+
 @settings(max_examples=10, deadline=None)
 @given(seed=st.integers(0, 2**31), n=st.integers(0, 120), margin=st.floats(0.0, 3.0))
 def test_pool_holds_exactly_the_obstacles_near_the_robot(seed: int, n: int, margin: float) -> None:
-    """Brute force: after each update the filled slots hold exactly the obstacles within reach,
-    each with its pose and size; empty slots collide with nothing; an obstacle keeps its slot."""
+    """Brute force: after each update the filled slots hold exactly the obstacles whose footprint
+    is within reach (robot reach + margin from the robot's centre), each with its pose and size;
+    empty slots collide with nothing; an obstacle keeps its slot (cylinders and long walls:
+    test_shapes.py)."""
     obs, spots = _pool_world(seed, n)
     w = flat(obstacles=tuple(obs))
     r = RobotSpec()
@@ -49,8 +58,7 @@ def test_pool_holds_exactly_the_obstacles_near_the_robot(seed: int, n: int, marg
     for x, y in spots:
         d.qpos[0:2] = (x, y)
         pool.update(d)
-        want = {k for k, o in enumerate(obs)
-                if math.hypot(o.x - x, o.y - y) <= math.hypot(o.size[0], o.size[1]) / 2 + robot_reach + margin}
+        want = {k for k, o in enumerate(obs) if _box_gap(o, x, y) <= robot_reach + margin}
         slots = {int(o): s for s, o in enumerate(pool.slot_obstacle) if o >= 0}
         assert set(slots) == want and pool.overflows == 0
         for k, s in slots.items():
