@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from navstress.analysis.barn import BarnScores, barn_scores, barn_worlds
 from navstress.analysis.descriptors_corr import Correlation, correlations, mean_descriptors, world_descriptors
 from navstress.analysis.difficulty import (LEVEL_RANK, LEVELS, Difficulty, DifficultyParams, LevelRange, Overlap,
                                            assign_levels, level_ranges, reference_keys)
@@ -86,6 +87,8 @@ class Analysis:
     #: the imported worlds' sources of the recorded runs, (kind, path, sha256) once each in run
     #: order; empty for a campaign of generated worlds (whose JSON then has no ``sources`` key)
     sources: list[tuple[str, str, str]] = field(default_factory=list)
+    #: BARN's score of the runs on BARN worlds (:mod:`navstress.analysis.barn`); None: no BARN world
+    barn: BarnScores | None = None
 
     @property
     def refused_runs(self) -> int:
@@ -132,7 +135,14 @@ class Analysis:
         return self.difficulty.level(experiment, key)
 
     def to_json(self) -> dict[str, Any]:
-        """A JSON-able summary (numbers only; no trajectories)."""
+        """A JSON-able summary (numbers only; no trajectories); ``barn`` only for a campaign on
+        BARN worlds."""
+        out = self._json()
+        if self.barn is not None:
+            out["barn"] = self.barn.to_json()
+        return out
+
+    def _json(self) -> dict[str, Any]:
         return {
             "campaign": self.name, "navigator": self.navigator, "navigators": self.shown_navigators,
             "robots": [{"name": n, "digest": d} for n, d in self.robots],
@@ -220,10 +230,15 @@ def analyze(directory: str | Path, *, params: DifficultyParams | None = None, na
     for r in records:
         if ungenerated(r):
             by_key.setdefault((r.experiment, config_key(r)), []).append(r)
+    barn = barn_worlds(spec)
+    barn_keys = {(w.experiment, w.key) for w in barn}
+    timed = [r for r in generated if r.outcome == Outcome.SUCCESS.value and (r.experiment, config_key(r)) in barn_keys]
     try:
-        # the trajectories Q2 reads: read by worker processes (when there are many) while the rest is computed
-        cache.prefetch([trace_path(root, r) for r in generated if r.navigator == nav and fault_name(r.fault) == NOMINAL],
-                       wait=False)
+        # the trajectories Q2 reads (and BARN's score: its successful runs'): read by worker processes
+        # (when there are many) while the rest is computed
+        cache.prefetch(list(dict.fromkeys(
+            [trace_path(root, r) for r in generated if r.navigator == nav and fault_name(r.fault) == NOMINAL]
+            + [trace_path(root, r) for r in timed])), wait=False)
         stats = config_stats(records, planned_configs(spec, planned_runs), confidence=confidence, interval=interval)
         refused = {k: split_refused(by_key[k])[1] for k in dict.fromkeys([s.key for s in stats] + list(by_key))
                    if k in by_key}
@@ -252,6 +267,7 @@ def analyze(directory: str | Path, *, params: DifficultyParams | None = None, na
         verd = verdicts(records, rule_of(spec), [(s.experiment, s.config_key, s.navigator, s.fault) for s in stats],
                         rules_of(spec))
         cache.wait()
+        scores = barn_scores(spec, records, lambda r: cache.get(trace_path(root, r)), worlds=barn) if barn else None
     finally:
         if owned:
             cache.close()  # (its reading processes; a caller's cache keeps them for its next reads)
@@ -274,4 +290,4 @@ def analyze(directory: str | Path, *, params: DifficultyParams | None = None, na
                     only_navigator=navigator, verdicts=verd, explicit=explicit, refused=refused,
                     robots=[(r.name, r.digest) for r in spec.all_robots()],
                     sources=list(dict.fromkeys((r.source_kind, r.source_path or "", r.source_sha256 or "")
-                                               for r in records if r.source_kind is not None)))
+                                               for r in records if r.source_kind is not None)), barn=scores)

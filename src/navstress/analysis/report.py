@@ -569,6 +569,53 @@ def _verdicts(a: Analysis, max_worlds: int = 2000) -> str:
     return "\n".join(out)
 
 
+def _barn(a: Analysis) -> str:
+    """BARN's score (:mod:`navstress.analysis.barn`): per navigator and fault, overall and per world."""
+    b = a.barn
+    assert b is not None
+    out = ['<h2 id="barn">BARN score</h2>',
+           '<p class="note" id="barn-formula">The BARN benchmark\'s score of each run: <i>success</i> &times; '
+           '<i>t</i><sub>opt</sub> / clip(<i>t</i>, 2 <i>t</i><sub>opt</sub>, 8 <i>t</i><sub>opt</sub>), with '
+           '<i>t</i><sub>opt</sub> = <i>L</i> / 2 m/s, <i>L</i> the length of start &rarr; the world\'s path file '
+           '&rarr; goal, and <i>t</i> BARN\'s clock (from the robot\'s first 0.1 m to its first time within 1 m of the '
+           'goal, on the run\'s ground truth). 0 for a failed run, at most 0.5 (a success within twice the optimal '
+           'time). A world\'s score is the mean of its runs, the overall score the mean over every run: BARN\'s own '
+           'figure, beside navstress\'s outcomes, verdicts and indeterminism below. See docs/worlds.md, "The BARN '
+           'benchmark".</p>']
+    groups = [g for g in b.groups if a.shows(g.navigator)]
+    if b.notes:
+        out.append('<div class="note" id="barn-notes"><ul>' + "".join(f"<li>{_e(n)}</li>" for n in b.notes)
+                   + "</ul></div>")
+    if not groups:
+        out.append('<p class="note">No run recorded on a BARN world yet.</p>')
+        return "\n".join(out)
+    rows = "".join(
+        f'<tr data-navigator="{_e(g.navigator)}" data-fault="{_e(g.fault)}">{_first(g.navigator, g.fault)}'
+        + _cell("barn_score", g.score, _fmt(g.score, 4), "key") + _cell("runs", g.runs) + _cell("successes", g.successes)
+        + _cell("success_rate", g.successes / g.runs if g.runs else None, _pc(g.successes / g.runs if g.runs else None))
+        + _cell("worlds", sum(1 for w in g.worlds if w.runs)) + "</tr>" for g in groups)
+    out.append('<table id="barn-overall" class="keyed"><tr><th class="l">navigator and fault</th>'
+               '<th class="key">BARN score (mean over runs)</th><th>runs</th><th>successes</th><th>success rate</th>'
+               f'<th>worlds</th></tr>{rows}</table>')
+    who = len(groups) > 1
+    for g in groups:
+        wrows = "".join(
+            f'<tr data-experiment="{_e(w.world.experiment)}" data-config="{_e(w.world.key)}" '
+            f'data-navigator="{_e(g.navigator)}" data-fault="{_e(g.fault)}" data-world="{w.world.index}">'
+            + _first(w.world.key, _sub(w.world.experiment, g.navigator, g.fault, who))
+            + _cell("barn_score", w.score, _fmt(w.score, 4), "key") + _cell("runs", len(w.runs))
+            + _cell("successes", w.successes) + _cell("mean_t_s", w.mean_t_s, _fmt(w.mean_t_s))
+            + _cell("t_opt_s", w.world.t_opt_s, _fmt(w.world.t_opt_s))
+            + _cell("path_length_m", w.world.length_m, _fmt(w.world.length_m)) + "</tr>"
+            for w in g.worlds)
+        slug = "barn-" + _slug(g.navigator, g.fault)[4:]
+        out.append(f'<h3>Per world: {_e(g.navigator)}, {_e(g.fault)}</h3>'
+                   f'<table id="{slug}" class="sortable keyed barn-worlds"><tr><th class="l">world</th>'
+                   '<th class="key">BARN score</th><th>runs</th><th>successes</th><th>mean t of successes (s)</th>'
+                   f'<th>t<sub>opt</sub> (s)</th><th>path length (m)</th></tr>{wrows}</table>')
+    return "\n".join(out)
+
+
 def _indeterminism(a: Analysis) -> str:
     out = ['<h2 id="indeterminism">Indeterminism (Q2)</h2>',
            f'<p class="note">Nominal runs of <b>{_e(a.navigator)}</b>. For the repeated runs on one map, at each time t (step {a.dt:g} s) the maximum distance '
@@ -973,10 +1020,15 @@ def render_report(a: Analysis, *, cache: TrajectoryCache | None = None, max_poin
     if progress is not None:
         progress("writing the summary and the charts", 1, 2 + (len(_config_keys(a)) if a.done else 0))
     body = [_summary(a)] + [s.html for s in sections]
+    barn = a.done > 0 and a.barn is not None
+    if barn:
+        body.append(_barn(a))
     if a.done:
         body += [_difficulty(a), _class_figures(a), _verdicts(a), _indeterminism(a), _fault_power(a), _correlations(a),
                  _configs(a, cache, max_points, link_base, progress)]
     links = [("summary", "Summary"), *((s.id, s.title) for s in sections)]
+    if barn:
+        links.append(("barn", "BARN score"))
     if a.done:
         links += [("difficulty", "Difficulty"), ("classes", "Classes"), ("verdicts", "Verdicts"),
                   ("indeterminism", "Indeterminism"), ("fault-power", "Fault power"), ("descriptors", "Descriptors"),

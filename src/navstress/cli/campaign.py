@@ -24,7 +24,7 @@ from navstress import _files, _json
 from navstress._console import console, literal
 from navstress._percent import percent
 from navstress.campaign.executors import run_campaign
-from navstress.campaign.presets import PRESETS, preset_yaml
+from navstress.campaign.presets import ALL_PRESETS, preset_yaml
 from navstress.campaign.progress import CampaignProgress, format_counts
 from navstress.campaign.registry import DEFAULT_EXECUTOR, executor_help
 from navstress.campaign.replay import replay as do_replay
@@ -44,15 +44,23 @@ app.add_typer(campaign_app, name="campaign")
 @campaign_app.command("init")
 def init(
     out: Annotated[Path, typer.Option("--output", "-o", help="Spec file to write (YAML).")],
-    preset: Annotated[str, typer.Option("--preset", help="demo (85 runs: trees, terrain with adaptive repetition, movers; under a minute on 2 cores), paper (the paper's five classes, 2,375 runs) or dynamic (intercepting pedestrians: their count and how close they aim, 90 runs).")] = "demo",
+    preset: Annotated[str, typer.Option("--preset", help="demo (85 runs: trees, terrain with adaptive repetition, movers; under a minute on 2 cores), paper (the paper's five classes, 2,375 runs), dynamic (intercepting pedestrians: their count and how close they aim, 90 runs) or barn (the BARN benchmark's protocol on the worlds of --barn DIR: its 50 test worlds x 10 runs, or all 300 with --all; the report adds BARN's score).")] = "demo",
+    barn: Annotated[Path | None, typer.Option("--barn", metavar="DIR", help="The BARN worlds folder of --preset barn, laid out as in the BARN repository (world_N.world and path_files/path_N.npy).")] = None,
+    all_worlds: Annotated[bool, typer.Option("--all", help="With --preset barn: all 300 BARN worlds (3,000 runs), not the 50 of its test set.")] = False,
     force: Annotated[bool, typer.Option("--force", help="Overwrite an existing file.")] = False,
 ) -> None:
     """Write a ready campaign spec from a preset."""
-    if preset not in PRESETS:
-        raise SpecError("--preset", preset, f"one of {list(PRESETS)}")
+    if preset not in ALL_PRESETS:
+        raise SpecError("--preset", preset, f"one of {list(ALL_PRESETS)}")
+    if preset != "barn" and (barn is not None or all_worlds):
+        raise SpecError("--barn" if barn is not None else "--all", str(barn) if barn is not None else True,
+                        "no --barn or --all with --preset " + preset, "use --preset barn, or leave them out")
     if out.exists() and not force:
         raise SpecError("--output", str(out), "a path that does not exist yet", "pass --force to overwrite it")
-    _files.write_atomic(out, preset_yaml(preset))
+    if out.is_dir():
+        raise SpecError("--output", str(out), "a file path (this is a folder)")
+    text = preset_yaml(preset, folder=barn, all_worlds=all_worlds)  # checks the BARN folder before anything is written
+    _files.write_atomic(out, text)
     typer.echo(literal(f"wrote {out} (preset {preset})"))
 
 
