@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
+from navstress.world.spec import wall_segment
 from navstress.world.world import Obstacle
 
 if TYPE_CHECKING:
@@ -170,10 +171,9 @@ def wall_boxes(points: Sequence[tuple[float, float]], thickness_m: float, height
                kind: str = WALL_KIND, z: float = 0.0) -> list[Obstacle]:
     """The boxes of a wall polyline (see the module docstring): one per segment, in order."""
     out: list[Obstacle] = []
-    for (ax, ay), (bx, by) in zip(points, points[1:]):
-        length = math.hypot(bx - ax, by - ay)
-        out.append(Obstacle(kind=kind, x=(ax + bx) / 2, y=(ay + by) / 2, yaw=math.atan2(by - ay, bx - ax),
-                            size=(length + thickness_m, thickness_m, height_m), z=z))
+    for a, b in zip(points, points[1:]):
+        x, y, yaw, length = wall_segment(a, b, thickness_m)
+        out.append(Obstacle(kind=kind, x=x, y=y, yaw=yaw, size=(length, thickness_m, height_m), z=z))
     return out
 
 

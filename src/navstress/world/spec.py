@@ -18,6 +18,7 @@ import os
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
+import numpy as np
 from pydantic import BaseModel, Field, SerializerFunctionWrapHandler, Strict, model_serializer, model_validator
 
 from navstress._models import LIST, SPEC_CONFIG, parse
@@ -149,6 +150,31 @@ class WallSpec(BaseModel):
     points: tuple[_Point, ...] = Field(strict=LIST)
     thickness_m: float = Field(0.2, gt=0.0, le=10.0)
     height_m: float = Field(2.5, gt=0.0, le=100.0)
+
+
+def wall_segment(a: tuple[float, float], b: tuple[float, float], thickness_m: float) -> tuple[float, float, float, float]:
+    """(x, y, yaw, length) of the box of the wall segment from ``a`` to ``b``: centred on the
+    segment's midpoint, turned along it, extended by half the thickness at both ends
+    (:mod:`navstress.world.shapes` makes the wall's boxes from it)."""
+    (ax, ay), (bx, by) = a, b
+    return (ax + bx) / 2, (ay + by) / 2, math.atan2(by - ay, bx - ax), math.hypot(bx - ax, by - ay) + thickness_m
+
+
+def _box_corners(x: float, y: float, yaw: float, sx: float, sy: float) -> np.ndarray:
+    """The corners of a turned box's footprint, as ``Obstacle.corners`` computes them."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    local = np.array([[sx / 2, sy / 2], [-sx / 2, sy / 2], [-sx / 2, -sy / 2], [sx / 2, -sy / 2]])
+    out: np.ndarray = local @ np.array([[c, -s], [s, c]]).T + np.array([x, y])
+    return out
+
+
+def _box_distance(x: float, y: float, yaw: float, sx: float, sy: float, px: float, py: float) -> float:
+    """The distance from (px, py) to a turned box's footprint (0 inside)."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    dx, dy = px - x, py - y
+    ex = max(abs(c * dx + s * dy) - sx / 2, 0.0)
+    ey = max(abs(-s * dx + c * dy) - sy / 2, 0.0)
+    return math.hypot(ex, ey)
 
 
 class ObstaclesSpec(BaseModel):
@@ -720,7 +746,6 @@ class WorldSpec(BaseModel):
     def _check_walls_in_map(self) -> None:
         """Every wall's footprint lies inside the map and, for a mission whose start and goal the
         spec fixes (not ``random``), keeps out of their free discs."""
-        from navstress.world.shapes import disc_clear, inside_map, wall_boxes  # (shapes imports world, which imports spec)
 
         sx, sy = self.size_m
         m = self.mission
@@ -734,17 +759,21 @@ class WorldSpec(BaseModel):
                 if not (0 <= x <= sx and 0 <= y <= sy):
                     raise SpecError(f"obstacles.walls[{i}].points[{j}]", [x, y],
                                     f"a point inside the map [0, {sx:g}] x [0, {sy:g}]")
-            for j, box in enumerate(wall_boxes(wall.points, wall.thickness_m, wall.height_m)):
-                if not inside_map(box, sx, sy):
+            for j, (a, b) in enumerate(zip(wall.points, wall.points[1:])):
+                cx, cy, yaw, length = wall_segment(a, b, wall.thickness_m)
+                corners = _box_corners(cx, cy, yaw, length, wall.thickness_m)
+                if not (corners[:, 0].min() >= 0 and corners[:, 1].min() >= 0 and corners[:, 0].max() <= sx
+                        and corners[:, 1].max() <= sy):
                     raise SpecError(f"obstacles.walls[{i}].points[{j + 1}]", list(wall.points[j + 1]),
                                     f"a wall inside the map: the segment from points[{j}] of thickness "
                                     f"{wall.thickness_m:g} m (and half of it past each end) leaves [0, {sx:g}] x "
                                     f"[0, {sy:g}]", "move the wall at least half its thickness from the map's edge")
-                for name, (cx, cy) in discs:
-                    if m.free_radius_m > 0 and not disc_clear(box, cx, cy, m.free_radius_m):
+                for name, (px, py) in discs:
+                    if m.free_radius_m > 0 and _box_distance(cx, cy, yaw, length, wall.thickness_m, px, py) < \
+                            m.free_radius_m:
                         raise SpecError(f"obstacles.walls[{i}].points[{j + 1}]", list(wall.points[j + 1]),
                                         f"a wall clear of the mission's {name} free disc (radius "
-                                        f"mission.free_radius_m={m.free_radius_m:g} m around ({cx:g}, {cy:g})): "
+                                        f"mission.free_radius_m={m.free_radius_m:g} m around ({px:g}, {py:g})): "
                                         f"the segment from points[{j}] crosses it",
                                         f"move the wall or the {name}, or lower mission.free_radius_m")
 
