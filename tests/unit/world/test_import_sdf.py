@@ -8,8 +8,10 @@ and a sample of BARN's worlds."""
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
+import os
 import random
 import shutil
 import subprocess
@@ -26,7 +28,7 @@ from tests.support.required import need
 from navstress.world.sources import sdf
 from navstress.world.sources.notes import SourceWarning
 from navstress.world.spec import SourceSpec
-from navstress.world.world import Obstacle, World
+from navstress.world.world import World
 
 SOURCE = Path(__file__).resolve().parents[2] / "oracles" / "sdf_dump.cc"
 TOL = 1e-6
@@ -55,7 +57,7 @@ def sdf_dump(tmp_path_factory: pytest.TempPathFactory) -> str:
 def oracle(exe: str, files: list[Path], env: dict[str, str] | None = None) -> list[dict[str, Any]]:
     """libsdformat's reading of each file (one process for all)."""
     r = subprocess.run([exe, *map(str, files)], capture_output=True, text=True, timeout=600,
-                       env=None if env is None else {**__import__("os").environ, **env})
+                       env=None if env is None else {**os.environ, **env})
     docs = [json.loads(line) for line in r.stdout.splitlines() if line.strip()]
     assert len(docs) == len(files), r.stderr[-2000:]
     for d in docs:
@@ -428,7 +430,7 @@ def test_a_barn_world_loads_its_cylinders_once(barn_sample: Path, n: int) -> Non
     assert msg == f"{f}: 1 element not imported or approximated: lights (1): sun"
     check_barn(w, f, barn_sample / "path_files" / f"path_{n}.npy")
     assert w.source is not None and w.source.kind == "sdf" and w.source.path == str(f.resolve())
-    assert w.source.sha256 == __import__("hashlib").sha256(f.read_bytes()).hexdigest()
+    assert w.source.sha256 == hashlib.sha256(f.read_bytes()).hexdigest()
 
 
 def test_barn_worlds_match_libsdformat(sdf_dump: str, barn_sample: Path) -> None:

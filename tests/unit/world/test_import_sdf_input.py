@@ -20,7 +20,8 @@ from navstress.world.export.sdf import write_sdf
 from navstress.world.sources import sdf
 from navstress.world.sources.notes import SourceWarning
 from navstress.world.spec import SourceSpec
-from navstress.world.world import World
+from navstress.world.sources.placeholder import placeholder_mission
+from navstress.world.world import Obstacle, World
 
 BOX = "<link name='l'><collision name='c'><geometry><box><size>1 2 3</size></box></geometry></collision></link>"
 
@@ -193,3 +194,25 @@ def test_world_import_writes_the_world_and_prints_the_warning_once(tmp_path: Pat
     # --meshes bbox: the unreadable mesh is still named
     code, _o, err = cli("world", "import", str(p), "-o", str(tmp_path / "out2"), "--meshes", "bbox")
     assert code == 0 and "meshes whose bounding box could not be read (1): n::l::c (m.stl: not found)" in err
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_the_placeholder_mission_is_free_and_far(seed: int) -> None:
+    g = np.random.default_rng(seed)
+    obs = tuple(Obstacle("box" if k % 2 else "cylinder", float(g.uniform(0, 30)), float(g.uniform(0, 20)),
+                         float(g.uniform(-3, 3)), (float(g.uniform(0.2, 3)), float(g.uniform(0.2, 3)), 1.0),
+                         shape="box" if k % 2 else "cylinder") for k in range(40))
+    obs = tuple(o if not o.is_cylinder else Obstacle(o.kind, o.x, o.y, 0.0, (o.size[0], o.size[0], 1.0),
+                                                      shape="cylinder") for o in obs)
+    m = placeholder_mission((30.0, 20.0), obs, clearance_m=0.5)
+    for x, y in (m.start[:2], m.goal):
+        assert 0.5 <= x <= 29.5 and 0.5 <= y <= 19.5
+        for o in obs:
+            c, s = math.cos(o.yaw), math.sin(o.yaw)
+            u, v = (x - o.x) * c + (y - o.y) * s, -(x - o.x) * s + (y - o.y) * c
+            if o.is_cylinder:
+                assert math.hypot(u, v) > o.size[0] / 2 + 0.5
+            else:
+                assert abs(u) > o.size[0] / 2 + 0.5 or abs(v) > o.size[1] / 2 + 0.5
+    assert m.straight_distance_m > 20  # far apart: across the 30 x 20 m map
+    assert m.start[2] == pytest.approx(math.atan2(m.goal[1] - m.start[1], m.goal[0] - m.start[0]))
