@@ -44,12 +44,8 @@ SHAPES = (
 )
 
 
-def _oracle_scene(obstacles: tuple[Obstacle, ...]) -> dict[str, object]:
-    """The oracle's shapes, from the obstacles' own fields (not from the lidar scene)."""
-    boxes = tuple((o.x, o.y, o.yaw, o.size[0] / 2, o.size[1] / 2, o.z, o.z + o.size[2]) for o in obstacles
-                  if o.shape == "box")
-    discs = tuple((o.x, o.y, o.size[0] / 2, o.z, o.z + o.size[2]) for o in obstacles if o.shape == "cylinder")
-    return {"boxes": boxes, "discs": discs}
+def _oracle_scene(obstacles: tuple[Obstacle, ...]) -> dict[str, tuple[tuple[float, ...], ...]]:
+    return o2.obstacle_shapes(obstacles)
 
 
 def _close(got: np.ndarray, want: np.ndarray, tol: float = 1e-6) -> None:
