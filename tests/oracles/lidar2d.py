@@ -6,6 +6,7 @@ time, independent of the scan kernels. Test code only."""
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -92,6 +93,16 @@ def ray_cylinder(o: np.ndarray, d: np.ndarray, cyl: tuple[float, float, float, f
             if 0 <= t < best and (ex + t * d[0]) ** 2 + (ey + t * d[1]) ** 2 <= r * r:
                 best = t
     return best
+
+
+def obstacle_shapes(obstacles: Any) -> dict[str, tuple[tuple[float, ...], ...]]:
+    """The ``boxes`` and ``discs`` keywords of :func:`ranges` for world obstacles, from their own
+    fields (``Obstacle.shape``: a box (x, y, yaw, half sides, z bottom, z top) or an upright
+    cylinder (x, y, radius, z bottom, z top), base at ``z``), not from the lidar's scene."""
+    boxes = tuple((o.x, o.y, o.yaw, o.size[0] / 2, o.size[1] / 2, o.z, o.z + o.size[2]) for o in obstacles
+                  if o.shape == "box")
+    discs = tuple((o.x, o.y, o.size[0] / 2, o.z, o.z + o.size[2]) for o in obstacles if o.shape == "cylinder")
+    return {"boxes": boxes, "discs": discs}
 
 
 def ranges(origin: np.ndarray, dirs_world: np.ndarray, *, plane: tuple[float, float, float] | None,

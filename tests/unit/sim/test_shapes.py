@@ -44,12 +44,8 @@ SHAPES = (
 )
 
 
-def _oracle_scene(obstacles: tuple[Obstacle, ...]) -> dict[str, object]:
-    """The oracle's shapes, from the obstacles' own fields (not from the lidar scene)."""
-    boxes = tuple((o.x, o.y, o.yaw, o.size[0] / 2, o.size[1] / 2, o.z, o.z + o.size[2]) for o in obstacles
-                  if o.shape == "box")
-    discs = tuple((o.x, o.y, o.size[0] / 2, o.z, o.z + o.size[2]) for o in obstacles if o.shape == "cylinder")
-    return {"boxes": boxes, "discs": discs}
+def _oracle_scene(obstacles: tuple[Obstacle, ...]) -> dict[str, tuple[tuple[float, ...], ...]]:
+    return o2.obstacle_shapes(obstacles)
 
 
 def _close(got: np.ndarray, want: np.ndarray, tol: float = 1e-6) -> None:
@@ -242,7 +238,7 @@ def test_pool_and_static_cylinders_give_the_same_run() -> None:
 
 
 @pytest.mark.parametrize("pool", [0, 32])
-@pytest.mark.parametrize("offset", [0.0, 0.25, 0.5])
+@pytest.mark.parametrize("offset", [0.0, 0.5, 0.8])  # (0.8: the corner meets it, 12 cm before a box would)
 def test_the_robot_stops_where_it_meets_a_cylinder(pool: int, offset: float) -> None:
     """Driving straight along +x at a cylinder of radius R whose centre is ``offset`` to the side:
     the bumper (a box of half length L, half width W) meets it when its front face reaches
@@ -388,7 +384,8 @@ def test_ray_cylinder_hits_the_surface_first(o: tuple[float, float, float], d: t
     cyl = (cx, cy, r, zb, zb + h)
     ov = np.array(o)
     t = _ray_cyl(ov, dv, cyl)
-    want = o2.ray_cylinder(ov, dv, cyl)
+    with np.errstate(over="ignore"):  # (a direction with a tiny z: a cap's t overflows to inf)
+        want = o2.ray_cylinder(ov, dv, cyl)
     assert (math.isfinite(t)) == (math.isfinite(want)) or abs(min(t, 1e9) - min(want, 1e9)) < 1e-9
     if not math.isfinite(t):
         return
