@@ -58,7 +58,7 @@ def pin_sources(spec: CampaignSpec, stored: CampaignSpec | None = None) -> Campa
     A spec without sources is returned as it is (the same object)."""
     if not has_sources(spec):
         return spec
-    from navstress.world.sources import load_source
+    from navstress.world.sources import load_source  # here: importing a source (numba, scipy) only where a world names one
 
     known = _pins(stored) if stored is not None else {}
 
@@ -90,7 +90,7 @@ def check_sources(spec: CampaignSpec) -> None:
     (one line naming the file) for a source that cannot be imported or whose digest is not its
     pin. (A given start or goal outside the map or inside an obstacle is the map's world
     generation failure, recorded as such: a search's candidates may put it there.)"""
-    from navstress.world.sources import load_source
+    from navstress.world.sources import load_source  # here: importing a source (numba, scipy) only where a world names one
 
     for where, options in sources_of(spec):
         try:

@@ -65,6 +65,7 @@ from navstress.campaign.spec import CampaignSpec, parse_campaign_text, spec_yaml
 from navstress.errors import SpecError, StoreError
 from navstress.run.outcome import Outcome
 from navstress.run.record import DEFAULT_ROBOT, DEFAULT_ROBOT_DIGEST, SOURCE_COLUMNS, RunRecord, RunTask
+from navstress.world.spec import SourceSpec
 from navstress.world.world import world_descriptors
 
 DB_NAME = "campaign.sqlite"
@@ -570,8 +571,7 @@ class Store:
         """The source columns of ``run_id``'s world as the plan has it (its kind, path and pinned
         sha256), for a record made without its world (a world that could not be generated)."""
         if self._sources is None:
-            from navstress.world.sources import module_for
-            from navstress.world.spec import SourceSpec
+            from navstress.world.sources import module_for  # here: importing a source (numba, scipy) only where a world names one
 
             self._sources = {}
             for job in self.plan().maps:

@@ -39,7 +39,7 @@ from navstress.seeding import derive_seed
 from navstress.campaign.spec import deep_merge
 from navstress.search.spec import (SIZE_PATH, MovesSpec, ParameterSpec, SearchSpec, base_cell_m, scaled,
                                    world_overrides)
-from navstress.world.spec import WorldSpec
+from navstress.world.spec import WorldSpec, parse_spec
 
 #: The seed path of the map seeds of a search (under the search's seed).
 MAP_SEED_PATH = "search-map"
@@ -75,8 +75,7 @@ class Space:
         s = spec.space
         extent = None
         if s.moves is not None and isinstance(spec.world.get("source"), dict):
-            from navstress.world.sources import load_source
-            from navstress.world.spec import parse_spec
+            from navstress.world.sources import load_source  # here: importing a source (numba, scipy) only where a world names one
 
             options = parse_spec(spec.world).source
             assert options is not None

@@ -18,12 +18,18 @@ from dataclasses import replace
 from pathlib import Path
 from types import ModuleType
 
+import numpy as np
+
 from navstress.errors import SpecError
 from navstress.robot import RobotSpec
-from navstress.world.sources import directory, occupancy, sdf
+from navstress.seeding import rng
+from navstress.world.descriptors import describe
+from navstress.world.movers import mover_descriptors, place_movers
+from navstress.world.placement import apply_moves, level_terrain, place_obstacles
+from navstress.world.sources import directory, missions, occupancy, sdf
 from navstress.world.sources.digest import file_sha256
 from navstress.world.spec import SourceSpec, WorldSpec
-from navstress.world.world import Mission, World
+from navstress.world.world import Mission, Terrain, World
 
 #: The source modules, in the order ``kind: auto`` asks them.
 MODULES: tuple[ModuleType, ...] = (directory, occupancy, sdf)
@@ -97,15 +103,6 @@ def realise(spec: WorldSpec, seed: int, *, robot: RobotSpec | None = None) -> Wo
     the source's (kind, absolute path, sha256, origin). Deterministic in (spec, seed, robot, the
     source's bytes). ``robot`` (default the RMP 400) sets the clearance and the descriptors'."""
     assert spec.source is not None
-    import numpy as np
-
-    from navstress.seeding import rng
-    from navstress.world.descriptors import describe
-    from navstress.world.movers import mover_descriptors, place_movers
-    from navstress.world.placement import apply_moves, level_terrain, place_obstacles
-    from navstress.world.sources import missions
-    from navstress.world.world import Terrain
-
     robot = robot or RobotSpec()
     base = load_source(spec.source)
     src = base.source
