@@ -207,7 +207,13 @@ def world_import(
         # (a transient line on a terminal only: an error that follows stays the one line on stderr)
         with warnings.catch_warnings(record=True) as said:
             warnings.simplefilter("always", SourceWarning)
-            world = generate(world_spec, seed_v, robot=robot_v if robot is not None else None)
+            try:
+                world = generate(world_spec, seed_v, robot=robot_v if robot is not None else None)
+            except SpecError as err:  # a given point is refused: named by the flag that gave it
+                flag = {"mission.start": "--start", "mission.goal": "--goal"}.get(err.field)
+                if flag is None:
+                    raise
+                raise SpecError(flag, err.value, err.expected, err.fix) from None
         if start is None and world.mission.straight_distance_m == 0.0:  # the source has none: the default one
             world = with_mission(world, default_mission(world, half_width_m=robot_v.width_m / 2,
                                                         half_diagonal_m=robot_v.half_diagonal_m,

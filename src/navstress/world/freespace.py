@@ -144,11 +144,11 @@ def free_space(world: World, cell_m: float | None = None) -> FreeSpace:
     blocked = rasterise(world.obstacles, world.size_m, c)
     outline = world.descriptors.get("map_outline_m")
     if outline is not None:  # an imported map: the padding around it is outside the map
-        blocked |= ~_inside(np.asarray(outline, np.float64), blocked.shape, c)
+        blocked |= ~cells_inside(np.asarray(outline, np.float64), blocked.shape, c)
     return free_space_of_grid(blocked, c)
 
 
-def _inside(poly: np.ndarray, shape: tuple[int, ...], cell_m: float) -> np.ndarray:
+def cells_inside(poly: np.ndarray, shape: tuple[int, ...], cell_m: float) -> np.ndarray:
     """Cells whose whole square lies inside the convex polygon ``poly`` (counter-clockwise)."""
     rows, cols = shape
     x = (np.arange(cols) + 0.5) * cell_m

@@ -133,7 +133,8 @@ def realise(spec: WorldSpec, seed: int, *, robot: RobotSpec | None = None) -> Wo
     else:
         mission = missions.draw_mission(size, imported, rng(seed, "mission"), clearance=clearance,
                                         half_width=robot.width_m / 2, min_distance_m=m.min_distance_m,
-                                        free_radius_m=free_r, start=start, goal=goal)
+                                        free_radius_m=free_r, start=start, goal=goal,
+                                        outline=base.descriptors.get("map_outline_m"), where=src.path)
     obstacles = list(imported)
     desc_extra: dict[str, object] = {}
     if spec.obstacles.moves:
@@ -154,7 +155,10 @@ def realise(spec: WorldSpec, seed: int, *, robot: RobotSpec | None = None) -> Wo
             added = [replace(o, z=float(h.flat[0])) for o in added]
         obstacles = [*obstacles, *added]
     movers = place_movers(out_spec, mission, tuple(obstacles), seed) if not spec.movers.empty else ()
-    desc = describe(out_spec, terrain, tuple(obstacles), mission, robot=robot, placement=placement)
+    # what the import said of its source (a map's cells and outline, its notes), then the world's own
+    # descriptors; a world directory's saved descriptors are made anew instead
+    desc = {} if src.kind == "dir" else dict(base.descriptors)
+    desc.update(describe(out_spec, terrain, tuple(obstacles), mission, robot=robot, placement=placement))
     desc.update(desc_extra)
     if not spec.movers.empty:
         desc.update(mover_descriptors(out_spec, movers))

@@ -16,10 +16,12 @@ maps; an office is smaller)."""
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
 from navstress.errors import GenerationError, SpecError
+from navstress.world.freespace import cells_inside
 from navstress.world.world import Mission, Obstacle, WorldSource
 
 #: The clearance of a drawn start or goal beyond the robot's half diagonal (m).
@@ -74,11 +76,15 @@ def occupancy(size_m: tuple[float, float], obstacles: tuple[Obstacle, ...], cell
 
 
 def clearance_map(size_m: tuple[float, float], obstacles: tuple[Obstacle, ...],
-                  cell: float) -> np.ndarray:
-    """A lower bound of each raster cell centre's distance (m) to the nearest footprint and to the map's edges."""
+                  cell: float, outline: Sequence[Sequence[float]] | None = None) -> np.ndarray:
+    """A lower bound of each raster cell centre's distance (m) to the nearest footprint and to the
+    map's edges; with ``outline`` (an imported map's, ``map_outline_m``), the cells outside it
+    (the padding) count as obstacles."""
     from scipy import ndimage  # (as the descriptors import it: only where used)
 
     occ = occupancy(size_m, obstacles, cell)
+    if outline is not None:
+        occ |= ~cells_inside(np.asarray(outline, np.float64), occ.shape, cell)
     ny, nx = occ.shape
     if occ.any():
         d = ndimage.distance_transform_edt(~occ) * cell - cell * math.sqrt(0.5)
@@ -125,22 +131,25 @@ def usable(mission: Mission, size_m: tuple[float, float], obstacles: tuple[Obsta
 def draw_mission(size_m: tuple[float, float], obstacles: tuple[Obstacle, ...], gen: np.random.Generator, *,
                  clearance: float, half_width: float, min_distance_m: float, free_radius_m: float,
                  start: tuple[float, float, float] | None = None,
-                 goal: tuple[float, float] | None = None) -> Mission:
+                 goal: tuple[float, float] | None = None,
+                 outline: Sequence[Sequence[float]] | None = None, where: str = "the imported map") -> Mission:
     """A start/goal pair drawn with ``gen`` in the free space (see the module docstring); a given
     ``start`` or ``goal`` (navstress's frame) is kept and the other drawn. GenerationError when
     the free space holds no such pair."""
     from scipy import ndimage
 
     cell = raster_cell(size_m)
-    dist = clearance_map(size_m, obstacles, cell)
+    dist = clearance_map(size_m, obstacles, cell, outline)
     ny, nx = dist.shape
     free = dist >= clearance
     labels, _ = ndimage.label(dist >= half_width, structure=np.ones((3, 3), bool))
     min_d = min(min_distance_m, MIN_DISTANCE_CAP * math.hypot(*size_m))
     cells = np.flatnonzero(free)
     if cells.size == 0:
-        raise GenerationError(f"no free point with the robot's clearance of {clearance:.3g} m in the "
-                              f"{size_m[0]:g}x{size_m[1]:g} m imported map; use a smaller robot or a map with more room")
+        raise GenerationError(f"{where}: no free point where the robot can stand and turn (a clearance of {clearance:.3g} m from "
+                              f"every obstacle and edge) in the {size_m[0]:g}x{size_m[1]:g} m imported map; use a "
+                              "smaller robot, or a map with more room (for a map: check its negate and thresholds, "
+                              "or import unknown cells as free)")
     cx = (cells % nx + 0.5) * cell
     cy = (cells // nx + 0.5) * cell
     comp = labels.ravel()[cells]
