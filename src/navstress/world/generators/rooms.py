@@ -471,7 +471,7 @@ class _RoomRaster:
         return int(labels.max()) <= 1
 
 
-def _furniture(spec: WorldSpec, spaces: list[Space], edges: list[Edge], doors: list[Door], walls: list[Obstacle],
+def _furniture(spec: WorldSpec, spaces: list[Space], edges: list[Edge], doors: list[Door], walls: list[Obstacle], *,
                mission: Mission, robot: RobotSpec, cell: float, gen: np.random.Generator) -> list[Obstacle]:
     rs = spec.rooms
     t, g = rs.wall_thickness_m, FURNITURE_GAP_M
@@ -578,7 +578,8 @@ def generate_rooms(spec: WorldSpec, seed: int, *, robot: RobotSpec | None = None
     walls = _walls(spaces, edges, doors, rs)
     mission = _mission(spec, spaces, walls, rb, r, rng(seed, "mission"))
     cell = raster_cell_for(spec.size_m)
-    furniture = _furniture(spec, spaces, edges, doors, walls, mission, rb, cell, rng(seed, "rooms", "furniture"))
+    furniture = _furniture(spec, spaces, edges, doors, walls, mission=mission, robot=rb, cell=cell,
+                           gen=rng(seed, "rooms", "furniture"))
     obstacles = tuple(walls + furniture)
     _check_reachable(spec, spaces, list(obstacles), mission, rb, cell)
     rows, cols = spec.grid_shape
