@@ -134,6 +134,10 @@ def world_generate(
     mover_behaviour: Annotated[str | None, typer.Option("--mover-behaviour", metavar="TYPE=KIND,...", help=(
         "Behaviour per mover type: crossing (the default), patrol, intercept or still-then-move, "
         "e.g. pedestrians=intercept; their parameters go under movers.behaviour in a --spec file."))] = None,
+    generator: Annotated[str | None, typer.Option("--generator", metavar="outdoor|rooms|clutter", help=(
+        "World generator: outdoor (the paper's worlds, the default), rooms (a floor plan of rooms and "
+        "corridors) or clutter (BARN's cylinder fields); their parameters under rooms/clutter in a "
+        "--spec file (docs/worlds.md)."))] = None,
     spec: Annotated[Path | None, typer.Option("--spec", metavar="FILE", help=(
         "WorldSpec file (YAML or JSON); the flags above override its fields."))] = None,
     seed: Annotated[str, typer.Option(metavar="N", help=(
@@ -149,8 +153,9 @@ def world_generate(
     robot_v = load_robot_flag(robot)
     world_spec = build_spec(spec_file=spec, size=size, cell=cell, subdivisions=subdivisions,
                             deformation=deformation, ground=ground, trees=trees, buildings=buildings,
-                            obstruction=obstruction, mix=mix, movers=movers, mover_behaviour=mover_behaviour)
-    if robot is not None:
+                            obstruction=obstruction, mix=mix, movers=movers, mover_behaviour=mover_behaviour,
+                            generator=generator)
+    if robot is not None and world_spec.generator == "outdoor":  # (rooms and clutter size their own free discs)
         world_spec = sized_to_robot(world_spec, robot_v, field="--robot")
     if output.is_symlink():  # a link named as -o is the user's choice: followed once, its target replaced
         output = Path(os.path.realpath(output))

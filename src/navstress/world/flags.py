@@ -80,14 +80,15 @@ _FIELD_FLAGS = {
     "ground.deformation": "--deformation", "ground.model": "--ground",
     "obstacles.obstruction.tree": "--trees", "obstacles.obstruction.building": "--buildings",
     "obstacles.total": "--obstruction", "obstacles.mix": "--mix",
-    "movers.count": "--movers", "movers.behaviour": "--mover-behaviour",
+    "movers.count": "--movers", "movers.behaviour": "--mover-behaviour", "generator": "--generator",
 }
 
 
 def build_spec(*, spec_file: Path | None = None, size: str | None = None, cell: str | None = None,
                subdivisions: str | None = None, deformation: str | None = None, ground: str | None = None,
                trees: str | None = None, buildings: str | None = None, obstruction: str | None = None,
-               mix: str | None = None, movers: str | None = None, mover_behaviour: str | None = None) -> WorldSpec:
+               mix: str | None = None, movers: str | None = None, mover_behaviour: str | None = None,
+               generator: str | None = None) -> WorldSpec:
     """The WorldSpec from an optional spec file with flags overriding it (raises SpecError
     naming the flag when a flag value is the culprit)."""
     data: dict[str, Any] = load_spec(spec_file).model_dump(mode="python") if spec_file else {}
@@ -149,6 +150,9 @@ def build_spec(*, spec_file: Path | None = None, size: str | None = None, cell: 
         given.add("--mover-behaviour")
     if mv:
         data["movers"] = mv
+    if generator is not None:  # outdoor (the default), rooms or clutter; their parameters in a --spec file
+        data["generator"] = generator
+        given.add("--generator")
     try:
         return parse_spec(data)
     except SpecError as e:

@@ -544,7 +544,7 @@ class RoomsSpec(BaseModel):
     doors_max: int = Field(2, ge=1, le=8, description="most doors of a room")
     wall_thickness_m: float = Field(0.15, ge=0.02, le=1.0)
     wall_height_m: float = Field(2.5, gt=0.0, le=20.0)
-    furniture_pct: float = Field(0.0, ge=0.0, le=35.0, description="percent of the rooms' floor covered by furniture")
+    furniture_pct: float = Field(0.0, ge=0.0, le=30.0, description="percent of the rooms' floor covered by furniture")
 
     @model_validator(mode="after")
     def _check(self) -> "RoomsSpec":

@@ -16,8 +16,8 @@ per straight run between doors (runs merged along each line); at a junction the 
 owns the crossing square and the other stops at its face, so walls touch but never overlap.
 
 Furniture (``furniture_pct`` percent of the rooms' floor, each room its share): boxes of kind
-``furniture`` of a few sizes (:data:`FURNITURE`, turned by 0 or 90 degrees), 5 cm off walls and
-each other, off every doorway (the door's width plus the robot's clearance each side, as deep as the
+``furniture`` of a few sizes (:data:`FURNITURE`, turned by 0 or 90 degrees; two in three against a
+wall, the others anywhere), 5 cm off walls and each other, off every doorway (the door's width plus the robot's clearance each side, as deep as the
 door is wide plus the clearance) and off the mission's free discs; a piece that would split a
 room's free space (cells of :func:`~navstress.world.generators.raster.raster_cell_for` at the
 robot's clearance, 4-connected) is not placed. Every room is then checked reachable from the
@@ -26,7 +26,8 @@ start by a flood fill of the whole map (GenerationError otherwise).
 Mission: with ``mission.start``/``goal`` given, those (each must be clear of walls and furniture
 by the robot's clearance); else the start and goal at the centres of two rooms: ``mode: paper``
 the rooms nearest the lower-left and upper-right corners, ``mode: random`` a random room and one
-of the farther half of rooms from it (``rng(seed, "mission")``); the start faces the goal. Free
+of the farther half of rooms from it (``rng(seed, "mission")``); in a plan of one room, the goal at
+the centre of the corridor farthest from it; the start faces the goal. Free
 discs: ``mission.free_radius_m`` when the spec sets it, else the robot's half diagonal + 0.5 m.
 
 Sub-streams: ``rng(seed, "rooms", "layout")`` (bands, spine, rooms), ``("rooms", "doors")``,
@@ -66,7 +67,7 @@ FURNITURE_GAP_M = 0.05
 #: Extra free-disc radius beyond the robot's half diagonal when the spec sets none (m).
 FREE_MARGIN_M = 0.5
 #: Tries per piece of furniture and per room before its share is left short.
-FURNITURE_TRIES = 60
+FURNITURE_TRIES = 120
 DOOR_TRIES = 20
 
 
@@ -295,10 +296,21 @@ def _doors(spaces: list[Space], edges: list[Edge], rs: RoomsSpec, gen: np.random
         if not onto:
             raise GenerationError(f"room {i} has no wall on a corridor (a floor plan the rooms generator should not make)")
         main = max(onto, key=lambda k: (edges[k].b - edges[k].a, -k))
-        while have[i] < rs.doors_min:
-            if not place(main):
-                raise GenerationError(f"no room for {rs.doors_min} door(s) of {w:g} m on a room's corridor side; "
-                                      "narrow rooms.door_width_m or raise rooms.room_min_m")
+        e = edges[main]
+        n = rs.doors_min
+        slack = (e.b - e.a) - 3 * t - n * w - (n - 1) * t  # spread at random around the n doors
+        if slack < -EPS:
+            raise GenerationError(f"no room for {n} door(s) of {w:g} m on a room's corridor side; "
+                                  "narrow rooms.door_width_m or raise rooms.room_min_m")
+        gaps = np.diff(np.concatenate([[0.0], np.sort(gen.random(n)), [1.0]])) * max(0.0, slack)
+        d0 = e.a + 1.5 * t
+        taken = by_line.setdefault((e.horizontal, round(e.at, 9)), [])
+        for k in range(n):
+            d0 += float(gaps[k])
+            taken.append((d0, d0 + w))
+            doors.append(Door(main, d0, d0 + w))
+            have[i] += 1
+            d0 += w + t
     for i in rooms:  # the others: onto a corridor or a neighbour room that still takes one
         cands = list(side_of[i])
         while have[i] < want[i] and cands:
@@ -393,11 +405,15 @@ def _mission(spec: WorldSpec, spaces: list[Space], walls: list[Obstacle], robot:
                                                                    rooms[k].centre[1] - rooms[a].centre[1]), k))
         far = [k for k in far if k != a][:max(1, (len(rooms) - 1 + 1) // 2)]
         b = far[int(gen.integers(len(far)))] if far else a
+    def farthest(pool: list[Space], frm: Space) -> Space:
+        return max(pool, key=lambda q: math.hypot(q.centre[0] - frm.centre[0], q.centre[1] - frm.centre[1]))
+
+    goal_space = rooms[b]
+    if a == b:  # the rooms nearest both corners are one: the room farthest from it, or (one room) a corridor
+        others = [q for k, q in enumerate(rooms) if k != a]
+        goal_space = farthest(others or [q for q in spaces if q.kind == "corridor"], rooms[a])
     start_xy = m.start[:2] if m.start is not None else rooms[a].centre
-    goal = m.goal if m.goal is not None else rooms[b].centre
-    if m.start is None and m.goal is None and a == b:
-        raise GenerationError(f"a floor plan of one room cannot hold a start and a goal in two rooms; enlarge the "
-                              f"map or lower rooms.room_min_m")
+    goal = m.goal if m.goal is not None else goal_space.centre
     yaw = float(m.start[2]) if m.start is not None else math.atan2(goal[1] - start_xy[1], goal[0] - start_xy[0])
     clear = robot.width_m / 2
     for name, (x, y) in (("start", start_xy), ("goal", goal)):
@@ -455,7 +471,7 @@ class _RoomRaster:
         return int(labels.max()) <= 1
 
 
-def _furniture(spec: WorldSpec, spaces: list[Space], edges: list[Edge], doors: list[Door], walls: list[Obstacle],
+def _furniture(spec: WorldSpec, spaces: list[Space], edges: list[Edge], doors: list[Door], walls: list[Obstacle], *,
                mission: Mission, robot: RobotSpec, cell: float, gen: np.random.Generator) -> list[Obstacle]:
     rs = spec.rooms
     t, g = rs.wall_thickness_m, FURNITURE_GAP_M
@@ -465,7 +481,7 @@ def _furniture(spec: WorldSpec, spaces: list[Space], edges: list[Edge], doors: l
     zones = _door_zones(edges, doors, rs.door_width_m + clearance, clearance)
     discs = ((mission.start[0], mission.start[1]), mission.goal)
     out: list[Obstacle] = []
-    carry = 0.0  # the share a room could not take, handed to the next
+    carry = 0.0  # the share a room did not take (or took too much), handed to the next
     for s in spaces:
         if s.kind != "room":
             continue
@@ -493,6 +509,11 @@ def _furniture(spec: WorldSpec, spaces: list[Space], edges: list[Edge], doors: l
                 continue
             x0 = lx + float(gen.random()) * (hx - lx)
             y0 = ly + float(gen.random()) * (hy - ly)
+            side = int(gen.integers(6))  # 0-3: against a wall (left, right, bottom, top); 4-5: anywhere
+            if side < 2:
+                x0 = (lx, hx)[side]
+            elif side < 4:
+                y0 = (ly, hy)[side - 2]
             r = (x0, y0, x0 + length, y0 + width)
             ok = not any(_overlaps(r, z) for z in room_zones)
             ok = ok and not any(_disc_hits(r, cx, cy, mission.free_radius_m) for cx, cy in discs)
@@ -505,7 +526,7 @@ def _furniture(spec: WorldSpec, spaces: list[Space], edges: list[Edge], doors: l
                 misses = 0
             else:
                 misses += 1
-        carry = max(0.0, target - got)
+        carry = target - got  # (signed: what one room took too much the next takes less)
         out += placed
     return out
 
@@ -557,7 +578,8 @@ def generate_rooms(spec: WorldSpec, seed: int, *, robot: RobotSpec | None = None
     walls = _walls(spaces, edges, doors, rs)
     mission = _mission(spec, spaces, walls, rb, r, rng(seed, "mission"))
     cell = raster_cell_for(spec.size_m)
-    furniture = _furniture(spec, spaces, edges, doors, walls, mission, rb, cell, rng(seed, "rooms", "furniture"))
+    furniture = _furniture(spec, spaces, edges, doors, walls, mission=mission, robot=rb, cell=cell,
+                           gen=rng(seed, "rooms", "furniture"))
     obstacles = tuple(walls + furniture)
     _check_reachable(spec, spaces, list(obstacles), mission, rb, cell)
     rows, cols = spec.grid_shape
