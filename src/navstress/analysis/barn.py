@@ -95,10 +95,14 @@ def load_path(path: str | Path) -> np.ndarray:
     the file when it is missing, unreadable or of another shape."""
     p = Path(path)
     try:
-        arr = np.load(p, allow_pickle=False)
+        loaded = np.load(p, allow_pickle=False)
     except (OSError, ValueError, EOFError) as err:
         raise SpecError("path file", str(p), "a BARN path file (a .npy array of lattice cells, shape (n, 2))",
                         f"it could not be read ({type(err).__name__}); restore it from the BARN folder") from None
+    if not isinstance(loaded, np.ndarray):  # an .npz archive
+        raise SpecError("path file", str(p), "a BARN path file (a .npy array of lattice cells, shape (n, 2))",
+                        "it is an archive of several arrays")
+    arr: np.ndarray = loaded
     if arr.ndim != 2 or arr.shape[1] != 2 or arr.shape[0] < 1 or arr.dtype.kind not in "iuf" \
             or not np.isfinite(arr).all():
         raise SpecError("path file", str(p), "a BARN path file (a .npy array of lattice cells, shape (n, 2))",
