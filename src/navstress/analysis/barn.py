@@ -13,8 +13,10 @@ is first 0.1 m away from its start to when it is first within 1 m of the goal. A
 
     >>> score(True, 30.0, 6.0), score(True, 5.0, 6.0), score(True, 60.0, 6.0), score(False, 12.0, 6.0)
     (0.2, 0.5, 0.125, 0.0)
-    >>> round(path_length(np.array([[0, 0], [0, 1]]), (0.0, 0.0), (0.0, 10.0)), 4)
-    10.0
+    >>> cells_xy(np.array([[0, 0], [0, 1]])).round(3).tolist()
+    [[-4.575, 5.075], [-4.575, 5.225]]
+    >>> round(path_length(np.array([[0, 0], [0, 1]]), (-4.575, 5.075), (-4.575, 6.225)), 4)
+    1.15
 
 navstress's runs give each term: ``success`` is the run's outcome (navstress's success: the
 navigator said it arrived within ``goal_tolerance_m`` of the goal, no collision, no timeout);
@@ -95,10 +97,14 @@ def load_path(path: str | Path) -> np.ndarray:
     the file when it is missing, unreadable or of another shape."""
     p = Path(path)
     try:
-        arr = np.load(p, allow_pickle=False)
+        loaded = np.load(p, allow_pickle=False)
     except (OSError, ValueError, EOFError) as err:
         raise SpecError("path file", str(p), "a BARN path file (a .npy array of lattice cells, shape (n, 2))",
                         f"it could not be read ({type(err).__name__}); restore it from the BARN folder") from None
+    if not isinstance(loaded, np.ndarray):  # an .npz archive
+        raise SpecError("path file", str(p), "a BARN path file (a .npy array of lattice cells, shape (n, 2))",
+                        "it is an archive of several arrays")
+    arr: np.ndarray = loaded
     if arr.ndim != 2 or arr.shape[1] != 2 or arr.shape[0] < 1 or arr.dtype.kind not in "iuf" \
             or not np.isfinite(arr).all():
         raise SpecError("path file", str(p), "a BARN path file (a .npy array of lattice cells, shape (n, 2))",

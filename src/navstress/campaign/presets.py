@@ -165,6 +165,11 @@ BARN_SCANNER: dict[str, Any] = {
     "fov_deg": 270.0, "beams": 721, "rate_hz": 50.0, "min_range_m": 0.1, "max_range_m": 30.0,
     "range_noise_std_m": 0.001,
 }
+#: Free ground kept around a BARN world's cylinders when it is imported (``source.margin_m``):
+#: the cylinders span y in [0, 9.6] m of the file's frame, BARN's goal is at y = 13 on Gazebo's
+#: open 100 m ground plane; 5 m puts the map's edge 1.6 m beyond the goal (the simulation stops a
+#: robot 0.7 m from an edge) and leaves room around the corridor, as Gazebo's open ground does.
+BARN_MARGIN_M = 5.0
 #: What a BARN folder holds (errors).
 BARN_LAYOUT = ("a BARN worlds folder laid out as in the BARN repository (jackal_helper/worlds/BARN: "
                "world_N.world and path_files/path_N.npy)")
@@ -204,7 +209,7 @@ def barn(folder: str | Path, *, all_worlds: bool = False) -> dict[str, Any]:
     worlds = BARN_ALL_WORLDS if all_worlds else BARN_TEST_WORLDS
     d = check_barn_folder(folder, worlds)
     entries = [{"key": f"world_{n}", "map_seed": n,
-                "world": {"source": {"path": str(barn_world_file(d, n))},
+                "world": {"source": {"path": str(barn_world_file(d, n)), "margin_m": BARN_MARGIN_M},
                           "mission": {"start": list(BARN_START), "goal": list(BARN_GOAL)}}}
                for n in worlds]
     return {

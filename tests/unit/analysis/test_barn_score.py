@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import json
 import math
-import tarfile
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -26,10 +26,9 @@ from navstress.campaign.store import Store
 from navstress.errors import SpecError
 from navstress.run.record import RunRecord
 from navstress.run.trace import TOPIC_TRUTH, TraceWriter
+from tests.support.analysis_synth import make_store, record
+from tests.support.barn import barn_dir
 
-BARN_TAR = Path(__file__).resolve().parents[4] / "shared" / "barn" / "BARN.tar.xz"
-if not BARN_TAR.is_file():
-    BARN_TAR = Path("/work/shared/barn/BARN.tar.xz")
 
 
 # ---- the formula ----------------------------------------------------------------------------------
@@ -91,13 +90,11 @@ def test_path_length_of_a_known_path_file(tmp_path: Path) -> None:
     assert cells_xy(np.array([[15, j] for j in range(30)]))[:, 0].tolist() == pytest.approx([-2.325] * 30)
 
 
-def test_path_length_of_barn_files(tmp_path: Path) -> None:
+def test_path_length_of_barn_files(tmp_path_factory: pytest.TempPathFactory) -> None:
     """The shared BARN path files: every length at least the straight 10 m, at most a few times it."""
-    with tarfile.open(BARN_TAR) as tar:
-        members = [m for m in tar.getmembers() if m.name in {f"BARN/path_files/path_{n}.npy" for n in (0, 6, 294)}]
-        tar.extractall(tmp_path, members=members, filter="data")
+    folder = barn_dir(tmp_path_factory, (0, 6, 294))
     for n in (0, 6, 294):
-        cells = load_path(tmp_path / "BARN" / "path_files" / f"path_{n}.npy")
+        cells = load_path(folder / "path_files" / f"path_{n}.npy")
         assert cells.shape[1] == 2 and len(cells) >= 30  # the field is 30 cells deep
         assert 10.0 < path_length(cells) < 30.0
 
@@ -147,14 +144,6 @@ def test_barn_time_none_when_the_goal_is_never_reached() -> None:
 # ---- in a campaign's analysis and report -----------------------------------------------------------
 
 
-def extract_barn(dest: Path, worlds: tuple[int, ...]) -> Path:
-    """The BARN folder with only the world and path files of ``worlds`` (from the shared archive)."""
-    want = {f"BARN/world_{n}.world" for n in worlds} | {f"BARN/path_files/path_{n}.npy" for n in worlds}
-    with tarfile.open(BARN_TAR) as tar:
-        tar.extractall(dest, members=[m for m in tar.getmembers() if m.name in want], filter="data")
-    return dest / "BARN"
-
-
 def small_barn_spec(folder: Path, worlds: tuple[int, ...], runs: int) -> dict:
     """The barn preset's spec on ``worlds`` only (the preset itself checks the whole test set)."""
     full = {"name": "barn", "seed": 2020, "robot": "jackal"}
@@ -181,8 +170,8 @@ def _record(store: Store, n: int, r: int, outcome: str, duration: float, rows: n
                      first_collision_s=None, errors=[], trace=trace)
 
 
-def test_barn_score_in_analyze_and_report(tmp_path: Path) -> None:
-    folder = extract_barn(tmp_path / "src", (0, 6))
+def test_barn_score_in_analyze_and_report(tmp_path_factory: pytest.TempPathFactory, tmp_path: Path) -> None:
+    folder = barn_dir(tmp_path_factory, (0, 6))
     spec_d = small_barn_spec(folder, (0, 6), 2)
     text = yaml.safe_dump(spec_d)
     root = tmp_path / "camp"
@@ -222,7 +211,6 @@ def test_barn_score_in_analyze_and_report(tmp_path: Path) -> None:
 
 def test_no_barn_key_for_other_campaigns(tmp_path: Path) -> None:
     """A campaign without BARN worlds: no ``barn`` key, no section (its outputs keep their bytes)."""
-    from tests.support.analysis_synth import make_store, record
     store = make_store(tmp_path / "c", trees=[0], defs=[], maps=1, runs=1)
     store.add(record("trees", "tree=0", 0, 0))
     store.close()
@@ -230,8 +218,10 @@ def test_no_barn_key_for_other_campaigns(tmp_path: Path) -> None:
     assert a.barn is None and "barn" not in a.to_json()
 
 
-def test_barn_worlds_need_barns_mission_and_path_files(tmp_path: Path) -> None:
-    folder = extract_barn(tmp_path / "src", (0,))
+def test_barn_worlds_need_barns_mission_and_path_files(tmp_path_factory: pytest.TempPathFactory,
+                                                      tmp_path: Path) -> None:
+    folder = tmp_path / "BARN"  # a copy: this test breaks a path file
+    shutil.copytree(barn_dir(tmp_path_factory, (0,)), folder)
     good = small_barn_spec(folder, (0,), 1)
     assert [w.index for w in barn_worlds(parse_campaign(good))] == [0]
     other = small_barn_spec(folder, (0,), 1)

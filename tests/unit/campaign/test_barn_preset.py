@@ -48,7 +48,7 @@ def test_the_test_set_protocol(barn_dir: Path) -> None:
     assert laser.params["fov_deg"] == 270.0 and laser.params["beams"] == 721 and laser.params["rate_hz"] == 50.0
     for w, n in zip(exp.worlds or (), range(0, 300, 6)):
         assert w.map_seed == n
-        assert w.world["source"] == {"path": str((barn_dir / f"world_{n}.world").resolve())}
+        assert w.world["source"] == {"path": str((barn_dir / f"world_{n}.world").resolve()), "margin_m": 5.0}
         assert Path(w.world["source"]["path"]).is_absolute()
         assert w.world["mission"] == {"start": list(BARN_START), "goal": list(BARN_GOAL)}
 

@@ -32,7 +32,7 @@ NOT_NUMERIC = {"kind_names", "output", "out", "json_out", "keep", "junit", "worl
                "run_id", "name", "navigator", "navigator_config", "fault", "fmt", "table", "preset", "objective",
                "executor", "ray_address", "live_host", "a", "b", "weights", "course", "ground", "mix", "movers",
                "mover_behaviour", "baseline", "robot", "ref", "sensor", "sensor_add", "source", "kind", "unknown", "meshes", "start", "goal",
-               "generator"}
+               "generator", "barn"}
 #: Options read only with --live.
 LIVE_ONLY = {"live_port", "live_wait", "speed"}
 EXTREMES = ["1e-300", "5e-324", "1e-9", "1e300", "9" * 30, "0", "-0", "-1", "-1e300", "nan", "inf", "-inf"]
