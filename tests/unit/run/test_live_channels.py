@@ -27,10 +27,9 @@ LASER = {"name": "front_laser", "kind": "lidar2d", "profile": "ust10",
          "mount": {"xyz": [0.12, 0, 0.3], "rpy": [0, 0, 0]}}
 CAM = {"name": "cam", "kind": "depth", "profile": "d435", "width": 32, "height": 24}
 
+# no sensor list (the default lidar only), and both kinds of sensor that add topics
 ROBOTS: dict[str, Any] = {
     "rmp400": lambda: RobotSpec(),
-    "jackal": lambda: profile("jackal"),
-    "jackal+laser": lambda: with_sensors(profile("jackal"), sensors=[LASER]),
     "jackal+laser+cam": lambda: with_sensors(profile("jackal"), sensors=[LASER, CAM]),
 }
 
