@@ -1,7 +1,10 @@
 """Watch a run in Foxglove as it happens: ``navstress run WORLD --live``.
 
-The run's process starts a Foxglove WebSocket server (``foxglove-sdk``) on ``127.0.0.1`` (port
-8765 by default), waits until a client subscribes (at most ``wait_s``), then runs the mission
+The run's process makes a channel for every topic the run will send (those below and its robot's
+sensors'), then starts a Foxglove WebSocket server (``foxglove-sdk``) on ``127.0.0.1`` (port
+8765 by default), waits until a client subscribes (at most ``wait_s``) and its subscriptions
+settle (none new for :data:`SETTLE_S`: the server takes a request for several channels one at a
+time), then runs the mission
 paced to the wall clock (``speed`` simulated seconds per real second) and sends, after every
 control step, the messages a trace holds (:class:`~navstress.run.trace.TraceMessages`, the same
 topics, schemas and protobuf encoding; log times are simulated time):
@@ -23,6 +26,14 @@ topics, schemas and protobuf encoding; log times are simulated time):
   trace records them: :class:`~navstress.run.trace.SensorRecorder`); their frames are on ``/tf``
   with the mounts;
 - at the end: the last events (the outcome) and the final map.
+
+Every channel before the server: foxglove-sdk (0.30.3) sends a client the advertisement of a
+channel made while it is connected BEFORE it records that channel as advertised to it, so a client
+that subscribes as soon as it learns of a channel (the Foxglove app does, for the topics its panels
+show) can be refused ("Unknown channel ID") and never get that topic. The channels of a server's
+context when a client connects are advertised and recorded before the server reads the client's
+first request: they cannot be refused. (``late_topics`` lists any channel made after the server
+started: only for a robot other than the one the publisher was made for.)
 
 What the server logs about its clients (a client that fails the handshake or sends a message the
 protocol does not know) reaches standard error only through :class:`ClientLog`: escaped (a client's
@@ -79,6 +90,10 @@ BACKLOG = 32_768
 LIDAR_PERIOD_S = 0.5
 #: Fewest simulated seconds between two readings of one sensor sent live (a 40 Hz scanner: 10 a second).
 SENSOR_PERIOD_S = 0.1
+#: Wall seconds without a new subscription after which a client's subscriptions count as settled
+#: and the run starts (:meth:`LivePublisher._settle`), and the longest such wait.
+SETTLE_S = 0.2
+SETTLE_MAX_S = 2.0
 
 
 @dataclass(frozen=True)
@@ -178,7 +193,7 @@ class ClientLog(logging.Handler):
 class LivePublisher(TraceMessages):
     """A Foxglove WebSocket server for one run (module doc); a :class:`~navstress.run.mission.RunWatcher`."""
 
-    def __init__(self, settings: LiveSettings) -> None:
+    def __init__(self, settings: LiveSettings, robot: RobotSpec | None = None) -> None:
         import foxglove  # local: only live runs need the server
 
         self.settings = settings
@@ -187,13 +202,22 @@ class LivePublisher(TraceMessages):
         self._channels: dict[str, Any] = {}
         self._subscribed = threading.Event()
         self._resend = threading.Event()
+        self._last_subscribe = 0.0
+        #: topics whose channel was made while a client could be connected (:meth:`_channel`)
+        self.late_topics: list[str] = []
+        self._serving = False
         outer = self
 
         class Listener(foxglove.ServerListener):  # type: ignore[misc,name-defined]
             def on_subscribe(self, client: Any, channel: Any) -> None:
+                outer._last_subscribe = time.monotonic()
                 outer._subscribed.set()
                 outer._resend.set()
 
+        # every channel of the run made before the server starts (module doc, "Every channel
+        # before the server"): a channel made later races its own advertisement
+        self._sensors = SensorRecorder((robot.sensors or ()) if robot is not None else (), SENSOR_PERIOD_S)
+        self._advertise(self._sensors)
         self._log = ClientLog().install()  # before the server: its first client may be a bad one
         try:
             self._server = foxglove.start_server(name="navstress", host=settings.host, port=settings.port,
@@ -202,22 +226,32 @@ class LivePublisher(TraceMessages):
         except BaseException:
             self._log.uninstall()
             raise
+        self._serving = True
         self._statics: list[tuple[str, Any, int]] | None = None
         self._collecting = False
         self._events_sent: Counter[tuple[float, str, str]] = Counter()
         self._drawings_sent = 0
         self._maps_sent = 0
         self._next_lidar = 0.0
-        self._sensors = SensorRecorder((), SENSOR_PERIOD_S)
         self._wall0 = 0.0
 
     @property
     def port(self) -> int:
         return int(self._server.port)
 
+    def _advertise(self, sensors: SensorRecorder) -> None:
+        """A channel for every topic a run sends (:func:`_topics`) and for ``sensors``' topics."""
+        for topic, cls in _topics().items():
+            self._channel(topic, cls)
+        for sensor in sensors.sensors:
+            for topic, cls in sensor_topics(sensor).items():
+                self._channel(topic, cls)
+
     def _channel(self, topic: str, cls: Any) -> Any:
         ch = self._channels.get(topic)
         if ch is None:
+            if self._serving:  # (only for a robot other than the one the publisher was made for)
+                self.late_topics.append(topic)
             fds = build_file_descriptor_set(cls)
             schema = self._fg.Schema(name=cls.DESCRIPTOR.full_name, encoding="protobuf", data=fds.SerializeToString())
             ch = self._channels[topic] = self._fg.Channel(topic, schema=schema, message_encoding="protobuf",
@@ -231,21 +265,30 @@ class LivePublisher(TraceMessages):
 
     # -- the run's hooks (navstress.run.mission.RunWatcher) --------------------------------------------
     def start(self, world: World, robot: RobotSpec, sim: Simulation) -> None:
-        """Advertise every topic, send the world and the robot, wait for a client (at most
-        ``wait_s``), start the clock. (Every channel is advertised before the run: a client
-        subscribes when it learns of a channel, and a message sent before that is lost to it.)"""
-        for topic, cls in _topics().items():
-            self._channel(topic, cls)
+        """Send the world and the robot, wait for a client (at most ``wait_s``) and its
+        subscriptions to settle, start the clock. (Every channel was advertised before the
+        server started: a client subscribes when it learns of a channel, and a message sent
+        before that is lost to it.)"""
         self._sensors = SensorRecorder(robot.sensors or (), SENSOR_PERIOD_S)
-        for sensor in self._sensors.sensors:
-            for topic, cls in sensor_topics(sensor).items():
-                self._channel(topic, cls)
+        self._advertise(self._sensors)  # nothing new unless ``robot`` is not the publisher's
         self._statics, self._collecting = [], True
         world_messages(self, world)
         self.robot(robot, belief=True)
         self._collecting = False
-        self._subscribed.wait(max(0.0, self.settings.wait_s))
+        if self._subscribed.wait(max(0.0, self.settings.wait_s)):
+            self._settle()
         self._wall0 = time.monotonic() - sim.t / self.settings.speed
+
+    def _settle(self) -> None:
+        """After a client's first subscription: wait until none came for :data:`SETTLE_S` (at
+        most :data:`SETTLE_MAX_S`). The server takes a request for several channels one channel
+        at a time; the run starting at the first would send its first steps to only some of them."""
+        t_end = time.monotonic() + SETTLE_MAX_S
+        while (now := time.monotonic()) < t_end:
+            quiet = now - self._last_subscribe
+            if quiet >= SETTLE_S:
+                return
+            time.sleep(min(SETTLE_S - quiet, t_end - now))
 
     def _resend_statics(self) -> None:
         if self._resend.is_set() and self._statics is not None:
@@ -346,7 +389,7 @@ def execute_live(task: RunTask, settings: LiveSettings) -> RunRecord:
     stops when the run ends."""
     if not (math.isfinite(settings.speed) and settings.speed > 0):
         raise ValueError(f"speed={settings.speed!r}: expected a number > 0")
-    pub = LivePublisher(settings)
+    pub = LivePublisher(settings, task.robot_spec())
     try:
         return execute(task, watch=pub)
     finally:

@@ -113,9 +113,9 @@ def test_the_live_view_advertises_and_sends_each_sensor_on_its_trace_topics() ->
     from navstress.sim.simulation import Simulation
 
     class Watched(LivePublisher):
-        def __init__(self, settings: LiveSettings) -> None:
+        def __init__(self, settings: LiveSettings, robot: Any) -> None:
             self.sent: list[tuple[str, str, int]] = []
-            super().__init__(settings)
+            super().__init__(settings, robot)
 
         def _put(self, topic: str, msg: Any, log_time: int) -> None:
             self.sent.append((topic, msg.DESCRIPTOR.full_name, log_time))
@@ -124,10 +124,11 @@ def test_the_live_view_advertises_and_sends_each_sensor_on_its_trace_topics() ->
     robot = with_sensors(profile("jackal"), sensors=[LASER, CAM])
     world = _world()
     sim = Simulation(world, robot, SimConfig(), seed=2)
-    pub = Watched(LiveSettings(port=0, wait_s=0.0, speed=50.0))
+    pub = Watched(LiveSettings(port=0, wait_s=0.0, speed=50.0), robot)
     try:
         pub.start(world, robot, sim)
         assert {"/sensors/front_laser", "/sensors/cam/depth", "/sensors/cam/calibration"} <= set(pub._channels)
+        assert pub.late_topics == []  # made before the server started (test_live_channels.py)
         for _ in range(3):
             obs = sim.observe()
             sim.command(Command(0.3, 0.0))
