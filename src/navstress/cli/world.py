@@ -214,11 +214,11 @@ def world_import(
             warnings.simplefilter("always", SourceWarning)
             try:
                 world = generate(world_spec, seed_v, robot=robot_v if robot is not None else None)
-            except SpecError as err:  # a given point is refused: named by the flag that gave it
-                flag = {"mission.start": "--start", "mission.goal": "--goal"}.get(err.field)
+            except SpecError as bad:  # a given point is refused: named by the flag that gave it
+                flag = {"mission.start": "--start", "mission.goal": "--goal"}.get(bad.field)
                 if flag is None:
                     raise
-                raise SpecError(flag, err.value, err.expected, err.fix) from None
+                raise SpecError(flag, bad.value, bad.expected, bad.fix) from None
         if start is None and world.mission.straight_distance_m == 0.0:  # the source has none: the default one
             world = with_mission(world, default_mission(world, half_width_m=robot_v.width_m / 2,
                                                         half_diagonal_m=robot_v.half_diagonal_m,
