@@ -450,7 +450,9 @@ def test_all_300_barn_worlds_load(tmp_path_factory: pytest.TempPathFactory) -> N
 
 @pytest.mark.slow
 def test_barns_test_set_matches_libsdformat(sdf_dump: str, tmp_path_factory: pytest.TempPathFactory) -> None:
-    ns = range(0, 300, 6)
+    # every fifth world of BARN's test set (0, 30, ..., 270): libsdformat takes about 1.5 s of CPU a
+    # world, and the suite's budget is 10 minutes on 2 cores (all 50 matched when this was written)
+    ns = range(0, 300, 30)
     d = barn_dir(tmp_path_factory, ns, paths=False)
     files = [d / f"world_{n}.world" for n in ns]
     for f, doc in zip(files, oracle(sdf_dump, files)):
