@@ -34,8 +34,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def _tar() -> Path:
-    for d in (ROOT, *ROOT.parents):
-        p = d / "shared" / "barn" / "BARN.tar.xz"
+    for d in (ROOT / "tests" / "data", ROOT, *ROOT.parents):  # the repository's copy, or shared/ beside the checkout
+        p = d / "barn" / "BARN.tar.xz" if d.name == "data" else d / "shared" / "barn" / "BARN.tar.xz"
         if p.is_file():
             return p
     raise SystemExit("no shared/barn/BARN.tar.xz beside the checkout: pass --barn DIR")

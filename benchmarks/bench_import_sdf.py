@@ -28,8 +28,8 @@ from navstress.world.spec import SourceSpec
 
 def _tar_default() -> Path:
     here = Path(__file__).resolve().parents[1]
-    for d in (here, *here.parents):
-        p = d / "shared" / "barn" / "BARN.tar.xz"
+    for d in (here / "tests" / "data", here, *here.parents):  # the repository's copy, or shared/ beside the checkout
+        p = d / "barn" / "BARN.tar.xz" if d.name == "data" else d / "shared" / "barn" / "BARN.tar.xz"
         if p.is_file():
             return p
     sys.exit("BARN.tar.xz not found: give --barn DIR or --tar FILE")

@@ -1,4 +1,5 @@
-"""The BARN worlds for tests: extracted from ``shared/barn/BARN.tar.xz`` (beside the checkout; or
+"""The BARN worlds for tests: extracted from ``tests/data/barn/BARN.tar.xz`` (a copy of
+``shared/barn/BARN.tar.xz``, kept in the repository so that every checkout has it; or
 ``NAVSTRESS_BARN_TAR``), only the members a test asks for, once per session (per pytest worker),
 into a folder laid out as BARN's: ``world_N.world`` and ``path_files/path_N.npy``. Skipped with
 the reason where the archive is missing (failed under CI)."""
@@ -20,23 +21,18 @@ N_WORLDS = 300
 
 
 def barn_tar() -> Path | None:
-    """The BARN archive: ``NAVSTRESS_BARN_TAR``, else ``shared/barn/BARN.tar.xz`` beside the checkout
-    or above it (a worktree)."""
+    """The BARN archive: ``NAVSTRESS_BARN_TAR``, else the repository's copy."""
     env = os.environ.get("NAVSTRESS_BARN_TAR")
     if env:
         return Path(env) if Path(env).is_file() else None
-    for d in (ROOT, *ROOT.parents):
-        p = d / "shared" / "barn" / "BARN.tar.xz"
-        if p.is_file():
-            return p
-    return None
+    p = ROOT / "tests" / "data" / "barn" / "BARN.tar.xz"
+    return p if p.is_file() else None
 
 
 def barn_dir(factory: pytest.TempPathFactory, worlds: Iterable[int] | None = None, *, paths: bool = True) -> Path:
     """A BARN folder holding ``worlds`` (indices; None: all 300) and, with ``paths``, their path files."""
     tar = barn_tar()
-    need(tar is not None, "the BARN worlds (shared/barn/BARN.tar.xz beside the checkout, or NAVSTRESS_BARN_TAR) "
-                          "are missing")
+    need(tar is not None, "the BARN worlds (tests/data/barn/BARN.tar.xz, or NAVSTRESS_BARN_TAR) are missing")
     assert tar is not None
     ids = sorted(set(range(N_WORLDS) if worlds is None else worlds))
     wanted = {f"BARN/world_{i}.world" for i in ids}

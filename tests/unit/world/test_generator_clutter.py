@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import math
 import re
-import tarfile
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +23,7 @@ from navstress.world import generate, parse_spec
 from navstress.world.barn_metrics import barn_cspace, barn_difficulty_of, grid_metrics
 from navstress.world.generators.clutter import ca_field
 from navstress.world.spec import ClutterSpec
+from tests.support.barn import barn_dir
 from navstress.world.world import Obstacle
 
 JACKAL = PROFILES["jackal"]
@@ -187,17 +187,8 @@ WORLDS = list(range(0, 300, 25))
 
 @pytest.fixture(scope="module")
 def barn(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """BARN worlds and paths extracted from shared/barn/BARN.tar.xz (the members needed only)."""
-    root = Path(__file__).resolve()
-    tar = next((d / "shared" / "barn" / "BARN.tar.xz" for d in root.parents
-                if (d / "shared" / "barn" / "BARN.tar.xz").is_file()), None)
-    if tar is None:
-        pytest.skip("shared/barn/BARN.tar.xz is missing")
-    want = {f"BARN/world_{i}.world" for i in WORLDS} | {f"BARN/path_files/path_{i}.npy" for i in WORLDS}
-    out = tmp_path_factory.mktemp("barn")
-    with tarfile.open(tar, "r:xz") as tf:
-        tf.extractall(out, members=[m for m in tf.getmembers() if m.name in want], filter="data")
-    return out / "BARN"
+    """BARN worlds and paths (the members needed only, tests/support/barn.py)."""
+    return barn_dir(tmp_path_factory, WORLDS)
 
 
 def test_barn_worlds_score_finite_in_range_and_denser_harder(barn: Path) -> None:
