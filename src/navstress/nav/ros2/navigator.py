@@ -1,0 +1,303 @@
+"""The ``ros2`` navigator: navstress as the simulator of a ROS 2 system, over Zenoh.
+
+For each run: a router (navstress's own on 127.0.0.1, or the user's), a node ``/navstress``
+that publishes the clock, the frame tree, the odometry, every sensor and the goal, and hears
+``/cmd_vel``; optionally the stack itself, started for the run and stopped at its end. Each
+control cycle (``step``) publishes the readings of simulated time t, then
+
+* ``lockstep``: waits for the stack's command of that cycle (a ``TwistStamped`` stamped at or
+  after t, or any ``Twist`` that arrives after the readings), at most ``reply_budget_s`` of wall
+  time; past it the cycle goes on with the last command (a *miss*, counted in
+  :attr:`Ros2Navigator.misses`). A stack that answers every cycle in budget gets the same inputs,
+  and so (if it is itself deterministic) gives the same run, whatever its speed.
+* ``paced``: sleeps until the wall clock reaches ``t / real_time_factor`` since the start, then
+  takes the latest command: for stacks that cannot be driven cycle by cycle; not reproducible.
+
+Failures around the stack (a router that cannot be reached or dies, a stack that never appears,
+exits, stops answering for ``silence_s``, or publishes garbage on ``/cmd_vel``) end the run with
+``Status("error", ..., infrastructure=True)``: Fail-Other, never a hang.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import shlex
+import signal
+import subprocess
+import threading
+import time
+import weakref
+from typing import Any
+
+from navstress.errors import NavigatorError
+from navstress.nav.api import Command, NavMission, Observation, Status
+from navstress.nav.ros2 import rmw
+from navstress.nav.ros2.config import Ros2Config
+from navstress.nav.ros2.messages import TWIST, TWIST_STAMPED, Encoder, Twist
+from navstress.nav.ros2.node import Node, Publisher, Sample
+from navstress.nav.ros2.router import Router, reachable, start_router
+from navstress.robot import RobotSpec
+
+__all__ = ["Ros2Navigator"]
+
+STDERR_TAIL = 16 * 1024
+
+
+def _kill_group(proc: subprocess.Popen[bytes]) -> None:
+    with contextlib.suppress(ProcessLookupError, PermissionError):
+        os.killpg(proc.pid, signal.SIGTERM)
+    try:
+        proc.wait(timeout=2.0)
+    except Exception:
+        pass
+    with contextlib.suppress(ProcessLookupError, PermissionError):
+        os.killpg(proc.pid, signal.SIGKILL)
+    with contextlib.suppress(Exception):
+        proc.wait(timeout=5.0)
+
+
+class Ros2Navigator:
+    """A ROS 2 stack under test, reached over Zenoh (see the module's docstring)."""
+
+    def __init__(self, config: Ros2Config) -> None:
+        self.cfg = config
+        self.control_rate_hz = float(config.control_rate_hz)
+        self.failure: str | None = None
+        #: lockstep cycles that went on without the stack's command (budget passed)
+        self.misses = 0
+        #: the simulated times of the missed cycles
+        self.missed_at: list[float] = []
+        #: navstress's own wall time per cycle (publish + bookkeeping, the wait left out), seconds
+        self.overhead_s: list[float] = []
+        self.domain_id: int | None = None
+        self.router_endpoint: str | None = None
+        self._router: Router | None = None
+        self._node: Node | None = None
+        self._proc: subprocess.Popen[bytes] | None = None
+        self._proc_finalizer: Any = None
+        self._stderr = bytearray()
+        self._pubs: dict[tuple[str, str], Publisher] = {}
+        self._enc: Encoder | None = None
+        self._cv = threading.Condition()
+        self._cmd: Twist | None = None
+        self._count = 0  # commands received
+        self._bad: str | None = None
+        self._last_cmd_wall: float | None = None
+        self._wall0 = 0.0
+        self._mission: NavMission | None = None
+        self._pose: Any = None
+
+    # ------------------------------------------------------------------ Navigator
+    def reset(self, mission: NavMission, robot: RobotSpec, *, seed: int) -> None:
+        self._teardown()
+        self.failure, self.misses, self.overhead_s, self.missed_at = None, 0, [], []
+        self._cmd, self._count, self._bad, self._last_cmd_wall = None, 0, None, None
+        cfg = self.cfg
+        self._mission, self._pose = mission, None
+        if cfg.router == "auto":
+            self._router = start_router()
+            self.router_endpoint = self._router.endpoint
+        else:
+            why = reachable(cfg.router)
+            if why is not None:
+                self._fail(why)
+                return
+            self.router_endpoint = cfg.router
+        self.domain_id = cfg.domain_pool[0]
+        node = self._node = Node(router=self.router_endpoint, domain_id=self.domain_id, distro=cfg.distro,
+                                 namespace=cfg.namespace, name=cfg.node_name, seed=seed)
+        self._enc = Encoder(cfg, tuple(robot.sensors or ()))
+        types = {"auto": (TWIST, TWIST_STAMPED), "twist": (TWIST,), "twist_stamped": (TWIST_STAMPED,)}[cfg.cmd_vel_type]
+        node.subscription(cfg.topics.cmd_vel, types, self._on_cmd)
+        self._pub(cfg.topics.clock, "rosgraph_msgs/msg/Clock", depth=1)
+        self._pub(cfg.topics.tf, "tf2_msgs/msg/TFMessage", depth=100)
+        self._pub(cfg.topics.tf_static, "tf2_msgs/msg/TFMessage", depth=1, durability="transient_local")
+        self._pub(cfg.topics.odom, "nav_msgs/msg/Odometry")
+        self._pub(cfg.topics.goal, "geometry_msgs/msg/PoseStamped")
+        if cfg.launch is not None:
+            self._launch()
+        goal_topic = cfg.topics.goal
+        deadline = time.monotonic() + cfg.startup_timeout_s
+        seen = False
+        while not seen and time.monotonic() < deadline and self._proc_dead() is None:
+            seen = node.wait_for(lambda g: any(e.kind == "MS" and e.topic == goal_topic for e in g),
+                                 min(0.2, max(0.0, deadline - time.monotonic())))
+        if not seen and self._proc_dead() is None:
+            self._fail(f"no subscriber of {goal_topic} appeared on domain {self.domain_id} at "
+                       f"{self.router_endpoint} within {cfg.startup_timeout_s:g} s (is the stack running, on "
+                       "this router and domain?)")
+            return
+        dead = self._proc_dead()
+        if dead is not None:
+            self._fail(dead)
+            return
+        enc = self._enc
+        self._publish(cfg.topics.tf_static, "tf2_msgs/msg/TFMessage", enc.tf_static(), 0)
+        self._publish(cfg.topics.clock, "rosgraph_msgs/msg/Clock", enc.clock(0.0), 0)
+        self._publish(goal_topic, "geometry_msgs/msg/PoseStamped", enc.goal(0.0, mission), 0)
+        self._wall0 = time.monotonic()
+
+    def step(self, obs: Observation) -> Command | Status:
+        if self.failure is not None:
+            return Status("error", self.failure, infrastructure=True)
+        if self._node is None or self._enc is None:
+            return self._fail("the ros2 navigator was stepped before reset")
+        w0 = time.perf_counter()
+        cfg, enc = self.cfg, self._enc
+        t, n = obs.t, enc_ns(obs.t)
+        dead = self._proc_dead() or self._router_dead()
+        if dead is not None:
+            return self._fail(dead)
+        with self._cv:
+            before = self._count
+        self._publish(cfg.topics.clock, "rosgraph_msgs/msg/Clock", enc.clock(t), n)
+        for name, readings in obs.readings.items():
+            for r in readings:
+                for topic, typ, msg in enc.sensor(name, r):
+                    self._publish(topic, typ, msg, enc_ns(getattr(r, "t", t)))
+        self._publish(cfg.topics.odom, "nav_msgs/msg/Odometry", enc.odometry(obs.odom), n)
+        self._publish(cfg.topics.tf, "tf2_msgs/msg/TFMessage", enc.tf(t, obs.odom, obs.pose), n)
+        w1 = time.perf_counter()
+        if cfg.mode == "lockstep":
+            def answered() -> bool:
+                c = self._cmd
+                if self._bad is not None or c is None:
+                    return self._bad is not None
+                return (c.stamp_ns >= n) if c.stamp_ns is not None else self._count > before
+
+            with self._cv:
+                ok = self._cv.wait_for(answered, cfg.reply_budget_s)
+            if not ok:
+                self.misses += 1
+                self.missed_at.append(t)
+        else:
+            delay = self._wall0 + t / cfg.real_time_factor - time.monotonic()
+            if delay > 0:
+                time.sleep(delay)
+        w2 = time.perf_counter()
+        with self._cv:
+            cmd, bad, last = self._cmd, self._bad, self._last_cmd_wall
+        if bad is not None:
+            return self._fail(f"the stack published on {cfg.topics.cmd_vel} {bad}")
+        now = time.monotonic()
+        since = last if last is not None else self._wall0
+        if now - since > cfg.silence_s:
+            what = "no command" if last is None else "no command since its last one"
+            return self._fail(f"the stack stopped answering: {what} on {cfg.topics.cmd_vel} for "
+                              f"{now - since:.1f} s of wall time (silence_s {cfg.silence_s:g})")
+        self.overhead_s.append((w1 - w0) + (time.perf_counter() - w2))
+        if cmd is None:
+            return Command(0.0, 0.0)
+        if self._arrived(obs, cmd):
+            return Status("arrived")
+        return Command(cmd.v, cmd.omega)
+
+    def close(self) -> None:
+        self._teardown()
+
+    # ------------------------------------------------------------------ internals
+    def _arrived(self, obs: Observation, cmd: Twist) -> bool:
+        """Arrival when the goal went by topic (which has no verdict): the stack holds still
+        (both velocities under 1e-3) while the pose sensor puts the robot within the mission's goal
+        tolerance. With the action, its result says it (SUCCEEDED)."""
+        if self.cfg.goal == "action" or self._mission is None:
+            return False
+        if obs.pose is not None:
+            self._pose = obs.pose
+        p = self._pose
+        if p is None or abs(cmd.v) >= 1e-3 or abs(cmd.omega) >= 1e-3:
+            return False
+        g = self._mission.goal
+        return bool((p.x - g[0]) ** 2 + (p.y - g[1]) ** 2 <= self._mission.goal_tolerance_m ** 2)
+
+    def _fail(self, message: str) -> Status:
+        self.failure = message
+        return Status("error", message, infrastructure=True)
+
+    def _on_cmd(self, s: Sample) -> None:
+        with self._cv:
+            if s.message is None:
+                self._bad = self._bad or (s.error or "an unreadable sample")
+            else:
+                try:
+                    self._cmd = Encoder.twist(s.ros_type or TWIST, s.message)
+                except Exception as e:  # a message of the right type with fields we cannot read
+                    self._bad = self._bad or f"a command navstress cannot read ({type(e).__name__}: {e})"
+                self._count += 1
+                self._last_cmd_wall = time.monotonic()
+            self._cv.notify_all()
+
+    def _pub(self, topic: str, ros_type: str, *, depth: int = 10, durability: str = "volatile",
+             reliability: str = "reliable") -> Publisher:
+        key = (topic, ros_type)
+        p = self._pubs.get(key)
+        if p is None:
+            assert self._node is not None
+            q = self.cfg.qos.get(topic)
+            qos = rmw.Qos(q.reliability, q.durability, q.depth) if q is not None else \
+                rmw.Qos(reliability, durability, depth)  # type: ignore[arg-type]
+            p = self._pubs[key] = self._node.publisher(topic, ros_type, qos)
+        return p
+
+    def _publish(self, topic: str, ros_type: str, msg: Any, stamp_ns: int) -> None:
+        self._pub(topic, ros_type).publish(msg, stamp_ns)
+
+    def _launch(self) -> None:
+        cfg = self.cfg
+        assert cfg.launch is not None and self.router_endpoint is not None
+        env = {**os.environ, "ROS_DOMAIN_ID": str(self.domain_id), "RMW_IMPLEMENTATION": "rmw_zenoh_cpp",
+               "ZENOH_CONFIG_OVERRIDE": (f'connect/endpoints=["{self.router_endpoint}"];'
+                                         'listen/endpoints=["tcp/127.0.0.1:0"];scouting/multicast/enabled=false'),
+               "NAVSTRESS_ZENOH_ROUTER": self.router_endpoint, **cfg.launch.env}
+        argv = list(cfg.launch.command)
+        try:
+            proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                                    stderr=subprocess.PIPE, cwd=cfg.launch.cwd, env=env, start_new_session=True)
+        except OSError as e:
+            raise NavigatorError(f"cannot start the ROS 2 stack {shlex.join(argv)!r}: {e.strerror or e}; "
+                                 "fix the navigator config's launch.command") from e
+        self._proc = proc
+        self._proc_finalizer = weakref.finalize(self, _kill_group, proc)
+        self._stderr = tail = bytearray()
+        stream = proc.stderr
+        assert stream is not None
+
+        def drain() -> None:
+            with contextlib.suppress(Exception):
+                while chunk := os.read(stream.fileno(), 1 << 16):
+                    tail.extend(chunk)
+                    del tail[: max(0, len(tail) - STDERR_TAIL)]
+
+        threading.Thread(target=drain, name="navstress-ros2-stderr", daemon=True).start()
+
+    def _proc_dead(self) -> str | None:
+        p = self._proc
+        if p is None or p.poll() is None:
+            return None
+        lines = [ln for ln in bytes(self._stderr).decode("utf-8", "replace").splitlines() if ln.strip()][-5:]
+        return (f"the ROS 2 stack exited with code {p.returncode}; "
+                + ("last stderr lines: " + " | ".join(ln[:300] for ln in lines) if lines else "no stderr output"))
+
+    def _router_dead(self) -> str | None:
+        r = self._router
+        if r is not None and not r.alive:
+            return f"the Zenoh router at {r.endpoint} stopped"
+        return None
+
+    def _teardown(self) -> None:
+        if self._proc_finalizer is not None:
+            self._proc_finalizer()
+            self._proc_finalizer, self._proc = None, None
+        if self._node is not None:
+            self._node.close()
+            self._node = None
+        self._pubs.clear()
+        if self._router is not None:
+            self._router.stop()
+            self._router = None
+
+
+def enc_ns(t: float) -> int:
+    """Simulated seconds as integer nanoseconds (the stamps' clock)."""
+    return int(round(t * 1e9))

@@ -1,0 +1,226 @@
+"""A small ROS 2 navigation stack written on zenoh-ros2-sdk (an implementation of rmw_zenoh's
+conventions that is not navstress's): the test stack of docs/ros2.md.
+
+It subscribes to ``/clock``, ``/odom``, ``/tf``, ``/scan`` and ``/goal_pose``, and
+publishes a command on ``/cmd_vel`` for each control cycle (a ``TwistStamped`` stamped with the cycle's ``/clock``, or a
+``Twist`` with ``--twist``): a go-to-goal controller that turns away from returns closer than
+``--clear`` meters ahead. It reads the router from ``NAVSTRESS_ZENOH_ROUTER`` (``tcp/HOST:PORT``)
+and the domain from ``ROS_DOMAIN_ID``, as a stack launched by navstress gets them.
+
+    python tests/support/ros2_stack.py [--twist] [--speed 0.8] [--mode silent|garbage|wrongtype|crash]
+
+``--mode`` makes the faulty stacks of the fault tests: ``silent`` never publishes a command,
+``garbage`` publishes bytes that are not CDR on the Twist key, ``wrongtype`` publishes
+``std_msgs/String`` on ``/cmd_vel``, ``crash`` exits after its first command.
+
+The SDK would fetch message definitions from the network; here they are written from rosbags'
+typestore into a temporary directory first (:func:`write_msg_files`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+TYPES = ("geometry_msgs/msg/Twist", "geometry_msgs/msg/TwistStamped", "geometry_msgs/msg/PoseStamped",
+         "nav_msgs/msg/Odometry", "sensor_msgs/msg/LaserScan", "tf2_msgs/msg/TFMessage", "std_msgs/msg/String",
+         "rosgraph_msgs/msg/Clock")
+
+
+def _field_text(t: tuple) -> str:
+    kind, spec = t
+    name = getattr(kind, "name", str(kind))
+    if name == "BASE":
+        base = spec[0]
+        return "string" if base == "string" else base
+    if name == "NAME":
+        return spec.replace("/msg/", "/")
+    if name == "SEQUENCE":
+        return _field_text(spec[0]) + "[]"
+    if name == "ARRAY":
+        return _field_text(spec[0]) + f"[{spec[1]}]"
+    raise ValueError(f"unknown field {t!r}")
+
+
+def write_msg_files(root: Path, types: tuple[str, ...] = TYPES) -> Path:
+    """``<root>/<pkg>/msg/<Name>.msg`` for ``types`` and every type they use."""
+    from rosbags.typesys import Stores, get_typestore
+
+    ts = get_typestore(Stores.ROS2_JAZZY)
+    todo, done = list(types), set()
+    while todo:
+        t = todo.pop()
+        if t in done:
+            continue
+        done.add(t)
+        consts, fields = ts.fielddefs[t]
+        lines = [f"{ct} {cn}={cv}" for cn, ct, cv in consts]
+        for fname, ftype in fields:
+            lines.append(f"{_field_text(ftype)} {fname}")
+            k, spec = ftype
+            inner = spec[0] if getattr(k, "name", "") in ("SEQUENCE", "ARRAY") else (k, spec)
+            if getattr(inner[0], "name", "") == "NAME":
+                todo.append(inner[1])
+        pkg, _, name = t.split("/")
+        p = root / pkg / "msg" / f"{name}.msg"
+        p.parent.mkdir(parents=True, exist_ok=True)
+        p.write_text("\n".join(lines) + "\n")
+    return root
+
+
+def _yaw(q) -> float:
+    return math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--twist", action="store_true", help="publish Twist, not TwistStamped")
+    ap.add_argument("--speed", type=float, default=0.8)
+    ap.add_argument("--clear", type=float, default=0.6)
+    ap.add_argument("--mode", default="normal", choices=("normal", "silent", "garbage", "wrongtype", "crash"))
+    args = ap.parse_args()
+    router = os.environ["NAVSTRESS_ZENOH_ROUTER"]
+    host, port = router.split("/", 1)[1].rsplit(":", 1)
+    domain = int(os.environ.get("ROS_DOMAIN_ID", "0"))
+    msgdir = write_msg_files(Path(tempfile.mkdtemp(prefix="ros2-stack-msgs-")))
+
+    from zenoh_ros2_sdk import ROS2Publisher, ROS2Subscriber
+    from zenoh_ros2_sdk.message_registry import get_registry
+
+    get_registry(str(msgdir))  # the registry reads these, never the network
+    common = dict(router_ip=host, router_port=int(port), domain_id=domain, node_name="test_stack")
+    lock = threading.Lock()
+    state: dict = {"goal": None, "map_odom": (0.0, 0.0, 0.0), "front": math.inf, "sent": 0}
+    out_type = "geometry_msgs/msg/Twist" if args.twist else "geometry_msgs/msg/TwistStamped"
+    if args.mode == "wrongtype":
+        pub = ROS2Publisher(topic="/cmd_vel", msg_type="std_msgs/msg/String", **common)
+    else:
+        pub = ROS2Publisher(topic="/cmd_vel", msg_type=out_type, **common)
+
+    # navstress publishes, each control cycle of time t, /clock at t and the odometry (stamped at
+    # its reading, at most t); Zenoh may hand the two subscriptions' samples over in either order,
+    # so an odometry is paired with the first clock at or after its stamp, and the command of that
+    # cycle is computed when both are in, stamped with that clock (older clocks are dropped)
+    clocks: list = []
+    odoms: list = []
+
+    def _ns(t) -> int:
+        return t.sec * 1_000_000_000 + t.nanosec
+
+    def pair() -> tuple | None:
+        while odoms and clocks:
+            s_odom = _ns(odoms[0].header.stamp)
+            if _ns(clocks[0]) < s_odom:
+                clocks.pop(0)
+                continue
+            return clocks.pop(0), odoms.pop(0)
+        return None
+
+    def on_clock(m) -> None:
+        with lock:
+            clocks.append(m.clock)
+            p = pair()
+        if p is not None:
+            guarded(*p)
+
+    def on_odom(m) -> None:
+        with lock:
+            odoms.append(m)
+            p = pair()
+        if p is not None:
+            guarded(*p)
+
+    def on_goal(m) -> None:
+        with lock:
+            state["goal"] = (m.pose.position.x, m.pose.position.y)
+
+    def on_tf(m) -> None:
+        for tr in m.transforms:
+            if tr.header.frame_id == "map" and tr.child_frame_id == "odom":
+                with lock:
+                    state["map_odom"] = (tr.transform.translation.x, tr.transform.translation.y,
+                                         _yaw(tr.transform.rotation))
+
+    def on_scan(m) -> None:
+        n = len(m.ranges)
+        front = math.inf
+        for i in range(n):
+            a = m.angle_min + i * m.angle_increment
+            if abs(a) < 0.5 and m.ranges[i] < front:
+                front = float(m.ranges[i])
+        with lock:
+            state["front"] = front
+
+    def guarded(clock, m) -> None:
+        try:
+            control(clock, m)
+        except Exception:  # shown on stderr (the SDK would swallow it), which navstress reports
+            import traceback
+
+            traceback.print_exc()
+
+    def control(clock, m) -> None:
+        with lock:
+            goal, (mx, my, myaw), front = state["goal"], state["map_odom"], state["front"]
+        if args.mode == "silent":
+            return
+        if args.mode == "garbage":
+            pub.pub.put(b"\x01\x02not cdr", attachment=pub._create_attachment(0, 0))
+            return
+        if args.mode == "wrongtype":
+            pub.publish(data="forward")
+            return
+        ox, oy, oyaw = m.pose.pose.position.x, m.pose.pose.position.y, _yaw(m.pose.pose.orientation)
+        c, s = math.cos(myaw), math.sin(myaw)
+        x, y, yaw = mx + c * ox - s * oy, my + s * ox + c * oy, myaw + oyaw
+        v = w = 0.0
+        if goal is not None:
+            d = math.hypot(goal[0] - x, goal[1] - y)
+            err = math.atan2(goal[1] - y, goal[0] - x) - yaw
+            err = math.atan2(math.sin(err), math.cos(err))
+            w = max(-1.5, min(1.5, 2.0 * err))
+            v = min(args.speed, d) * max(0.0, math.cos(err))
+            if d < 0.2:  # there: hold still (navstress's sign of arrival by topic)
+                v = w = 0.0
+            if front < args.clear:
+                v, w = 0.0, 1.0
+        lin = dict(x=v, y=0.0, z=0.0)
+        ang = dict(x=0.0, y=0.0, z=w)
+        from zenoh_ros2_sdk import get_message_class
+
+        V = get_message_class("geometry_msgs/msg/Vector3")
+        T = get_message_class("geometry_msgs/msg/Twist")
+        tw = T(linear=V(**lin), angular=V(**ang))
+        if args.twist:
+            pub.publish(linear=tw.linear, angular=tw.angular)
+        else:
+            # stamped with the node's clock (the simulated /clock, as use_sim_time gives a ROS node)
+            H = get_message_class("std_msgs/msg/Header")
+            pub.publish(header=H(stamp=clock, frame_id="base_link"), twist=tw)
+        state["sent"] += 1
+        if args.mode == "crash" and state["sent"] >= 3:
+            os._exit(3)
+
+    subs = [ROS2Subscriber(topic="/clock", msg_type="rosgraph_msgs/msg/Clock", callback=on_clock, **common),
+            ROS2Subscriber(topic="/goal_pose", msg_type="geometry_msgs/msg/PoseStamped", callback=on_goal, **common),
+            ROS2Subscriber(topic="/tf", msg_type="tf2_msgs/msg/TFMessage", callback=on_tf, **common),
+            ROS2Subscriber(topic="/scan", msg_type="sensor_msgs/msg/LaserScan", callback=on_scan, **common),
+            ROS2Subscriber(topic="/odom", msg_type="nav_msgs/msg/Odometry", callback=on_odom, **common)]
+    print("test stack up", flush=True)
+    try:
+        while True:
+            time.sleep(3600)
+    finally:
+        for s in subs:
+            s.close()
+        pub.close()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
