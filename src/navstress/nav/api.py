@@ -35,7 +35,8 @@ from navstress.sensors.kinds.pose import PoseReading
 
 __all__ = [
     "Command", "DebugDraw", "DepthImage", "LaserScan", "DebugLine", "DebugPoints", "DebugText", "Imu", "InvalidAnswer", "LidarScan",
-    "NavMission", "Navigator", "Observation", "Odometry", "PoseReading", "Status", "check_answer", "check_debug",
+    "NavMission", "Navigator", "Observation", "Odometry", "PoseReading", "PriorMap", "Status", "check_answer",
+    "check_debug",
     "raised_by_navigator",
 ]
 
@@ -95,6 +96,21 @@ class Status:
     infrastructure: bool = False
 
 
+@dataclass(frozen=True, eq=False)
+class PriorMap:
+    """A prior map of the world's static obstacles, for a navigator whose USER asked for one (as
+    a ROS 2 user runs Nav2's ``map_server`` with a map file): handed over only through the
+    optional hook ``prior_map(provider)`` (see :class:`Navigator`), never otherwise; the default
+    is no map. ``occupied``: (rows, cols) bool, True where an obstacle may touch the cell; row
+    ``i``, column ``j`` is the square of side ``cell_m`` whose lower-left corner is
+    ``origin_xy + (j, i) * cell_m`` in the map frame (rows along +y). Terrain relief and movers
+    are not in it."""
+
+    occupied: np.ndarray
+    origin_xy: tuple[float, float]
+    cell_m: float
+
+
 @runtime_checkable
 class Navigator(Protocol):
     """The contract every navigation stack under test implements (in-process).
@@ -108,7 +124,10 @@ class Navigator(Protocol):
     ``perceived_trajectory()``, ``final_map()`` (also read once per simulated second when the run
     records the navigator's view), ``debug()`` (a :class:`DebugDraw` of the last step, or None;
     read after every step when the run records the navigator's view) and ``want_debug(on)``
-    (told before ``reset`` whether ``debug()`` will be read, so its work can be skipped).
+    (told before ``reset`` whether ``debug()`` will be read, so its work can be skipped),
+    ``prior_map(provider)`` (called once before ``reset``; ``provider(cell_m)`` returns the
+    world's :class:`PriorMap` at that cell size, for a navigator configured to be given one:
+    ground truth a user chose to give, as a prior map is in a real deployment).
     """
 
     def reset(self, mission: NavMission, robot: RobotSpec, *, seed: int) -> None: ...

@@ -30,8 +30,8 @@ import mujoco
 import numpy as np
 
 from navstress.errors import NavstressError, SimulationError
-from navstress.nav.api import (DebugDraw, InvalidAnswer, NavMission, Navigator, Status, check_answer, check_debug,
-                               raised_by_navigator)
+from navstress.nav.api import (DebugDraw, InvalidAnswer, NavMission, Navigator, PriorMap, Status, check_answer,
+                               check_debug, raised_by_navigator)
 from navstress.nav.registry import make_navigator
 from navstress.robot import RobotSpec
 from navstress.run.metrics import drop_jitter, path_length, tortuousness
@@ -45,6 +45,7 @@ from navstress.sim.config import SimConfig
 from navstress.sim.sensors import euler_from_mat
 from navstress.sim.simulation import Simulation
 from navstress.sensors import rotation_rpy
+from navstress.world.freespace import rasterise
 from navstress.world.world import World
 
 DEFAULT_CONTROL_RATE_HZ = 10.0
@@ -52,6 +53,8 @@ CONTROL_JITTER = 0.05
 LIDAR_TRACE_PERIOD_S = 1.0  # with record_lidar, one full scan per simulated second goes into the trace  # each control period is scaled by 1 + U(-j, j), drawn from the run seed
 #: With ``record_navigator``, the navigator's map goes into the trace once per this many simulated seconds.
 MAP_TRACE_PERIOD_S = 1.0
+#: The most cells a prior map (:func:`prior_map`) may have.
+MAX_PRIOR_MAP_CELLS = 4096 * 4096
 
 
 @dataclass
@@ -201,6 +204,23 @@ def mission_bounds(world: World, sim_config: Any = None) -> tuple[float, float, 
     return (m, m, float(sx) - m, float(sy) - m)
 
 
+def prior_map(world: World, cell_m: float) -> PriorMap:
+    """The world's static obstacles as a :class:`~navstress.nav.api.PriorMap` of ``cell_m``
+    cells over the whole world (origin (0, 0); :func:`navstress.world.freespace.rasterise`), for
+    the optional hook ``prior_map`` (a navigator the user configured to be given a map);
+    ValueError, one line, for a cell size that is not positive or a map of more than
+    :data:`MAX_PRIOR_MAP_CELLS` cells."""
+    sx, sy = world.terrain.size_m  # the extent the simulation holds (as mission_bounds)
+    if not (math.isfinite(cell_m) and cell_m > 0):
+        raise ValueError(f"a prior map's cell size must be a positive number of metres, not {cell_m!r}")
+    cells = math.ceil(sx / cell_m - 1e-9) * math.ceil(sy / cell_m - 1e-9)
+    if cells > MAX_PRIOR_MAP_CELLS:
+        raise ValueError(f"a prior map of the {sx:g} x {sy:g} m world at {cell_m:g} m would have {cells:,} cells, "
+                         f"more than {MAX_PRIOR_MAP_CELLS:,}: use larger cells")
+    return PriorMap(occupied=rasterise(world.obstacles, (float(sx), float(sy)), float(cell_m)), origin_xy=(0.0, 0.0),
+                    cell_m=float(cell_m))
+
+
 def true_pose(sim: Any) -> tuple[float, float, float, float, float, float, float]:
     """The chassis pose now, from the free joint's qpos (what the observer records)."""
     q = sim.data.qpos
@@ -255,6 +275,14 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Any
             if not raised_by_navigator(err):
                 raise
             events.append((0.0, "warning", f"navigator want_debug() raised {type(err).__name__}: {err}"))
+        give_map = attr_through_wrappers(navigator, "prior_map")  # only a navigator told to take a map asks
+        try:
+            if callable(give_map):
+                give_map(lambda cell_m: prior_map(world, cell_m))
+        except BaseException as err:  # an optional hook: a warning, not the run's failure
+            if not raised_by_navigator(err):
+                raise
+            events.append((0.0, "warning", f"navigator prior_map() raised {type(err).__name__}: {err}"))
         try:
             # the navigator learns the sensors at reset: the robot with its resolved suite, never None
             navigator.reset(mission, robot.model_copy(update={"sensors": sim.sensors}),

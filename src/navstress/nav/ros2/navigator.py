@@ -31,10 +31,9 @@ import weakref
 from typing import Any
 
 from navstress.errors import NavigatorError
-from navstress.nav.api import Command, NavMission, Observation, Status
-from navstress.nav.ros2 import rmw
+from navstress.nav.api import Command, NavMission, Observation, PriorMap, Status
 from navstress.nav.ros2.config import Ros2Config
-from navstress.nav.ros2.messages import TWIST, TWIST_STAMPED, Encoder, Twist
+from navstress.nav.ros2.messages import POSE_STAMPED, TWIST, TWIST_STAMPED, Encoder, Twist
 from navstress.nav.ros2.node import Node, Publisher, Sample
 from navstress.nav.ros2.router import Router, reachable, start_router
 from navstress.robot import RobotSpec
@@ -87,6 +86,7 @@ class Ros2Navigator:
         self._wall0 = 0.0
         self._mission: NavMission | None = None
         self._pose: Any = None
+        self._prior_map: PriorMap | str | None = None  # the run loop's map (map: world), or why none
 
     # ------------------------------------------------------------------ Navigator
     def reset(self, mission: NavMission, robot: RobotSpec, *, seed: int) -> None:
@@ -95,6 +95,11 @@ class Ros2Navigator:
         self._cmd, self._count, self._bad, self._last_cmd_wall = None, 0, None, None
         cfg = self.cfg
         self._mission, self._pose = mission, None
+        prior = self._prior_map
+        if cfg.map == "world" and not isinstance(prior, PriorMap):
+            self._fail("map: world, but no map of the world: "
+                       + (prior or "the run loop gave none (run it through navstress.run_mission)"))
+            return
         if cfg.router == "auto":
             self._router = start_router()
             self.router_endpoint = self._router.endpoint
@@ -107,14 +112,11 @@ class Ros2Navigator:
         self.domain_id = cfg.domain_pool[0]
         node = self._node = Node(router=self.router_endpoint, domain_id=self.domain_id, distro=cfg.distro,
                                  namespace=cfg.namespace, name=cfg.node_name, seed=seed)
-        self._enc = Encoder(cfg, tuple(robot.sensors or ()))
+        self._enc = Encoder(cfg, tuple(robot.sensors or ()), prior if isinstance(prior, PriorMap) else None)
         types = {"auto": (TWIST, TWIST_STAMPED), "twist": (TWIST,), "twist_stamped": (TWIST_STAMPED,)}[cfg.cmd_vel_type]
         node.subscription(cfg.topics.cmd_vel, types, self._on_cmd)
-        self._pub(cfg.topics.clock, "rosgraph_msgs/msg/Clock", depth=1)
-        self._pub(cfg.topics.tf, "tf2_msgs/msg/TFMessage", depth=100)
-        self._pub(cfg.topics.tf_static, "tf2_msgs/msg/TFMessage", depth=1, durability="transient_local")
-        self._pub(cfg.topics.odom, "nav_msgs/msg/Odometry")
-        self._pub(cfg.topics.goal, "geometry_msgs/msg/PoseStamped")
+        for topic, ros_type in self._enc.publications():
+            self._pub(topic, ros_type)
         if cfg.launch is not None:
             self._launch()
         goal_topic = cfg.topics.goal
@@ -133,9 +135,10 @@ class Ros2Navigator:
             self._fail(dead)
             return
         enc = self._enc
-        self._publish(cfg.topics.tf_static, "tf2_msgs/msg/TFMessage", enc.tf_static(), 0)
+        for topic, ros_type, msg, stamp in enc.latched():
+            self._publish(topic, ros_type, msg, stamp)
         self._publish(cfg.topics.clock, "rosgraph_msgs/msg/Clock", enc.clock(0.0), 0)
-        self._publish(goal_topic, "geometry_msgs/msg/PoseStamped", enc.goal(0.0, mission), 0)
+        self._publish(goal_topic, POSE_STAMPED, enc.goal(0.0, mission), 0)
         self._wall0 = time.monotonic()
 
     def step(self, obs: Observation) -> Command | Status:
@@ -151,13 +154,8 @@ class Ros2Navigator:
             return self._fail(dead)
         with self._cv:
             before = self._count
-        self._publish(cfg.topics.clock, "rosgraph_msgs/msg/Clock", enc.clock(t), n)
-        for name, readings in obs.readings.items():
-            for r in readings:
-                for topic, typ, msg in enc.sensor(name, r):
-                    self._publish(topic, typ, msg, enc_ns(getattr(r, "t", t)))
-        self._publish(cfg.topics.odom, "nav_msgs/msg/Odometry", enc.odometry(obs.odom), n)
-        self._publish(cfg.topics.tf, "tf2_msgs/msg/TFMessage", enc.tf(t, obs.odom, obs.pose), n)
+        for topic, ros_type, msg, stamp in enc.cycle(obs):
+            self._publish(topic, ros_type, msg, stamp)
         w1 = time.perf_counter()
         if cfg.mode == "lockstep":
             def answered() -> bool:
@@ -196,6 +194,19 @@ class Ros2Navigator:
     def close(self) -> None:
         self._teardown()
 
+    def prior_map(self, provider: Any) -> None:
+        """The run loop's optional hook (:class:`navstress.nav.api.Navigator`): with ``map:
+        world`` the world's map at ``map_resolution_m`` is taken here, before ``reset``, and
+        published on ``/map``: ground truth the user chose to give, as Nav2's ``map_server`` gives
+        a map file; with ``map: none`` nothing is asked."""
+        self._prior_map = None
+        if self.cfg.map != "world":
+            return
+        try:
+            self._prior_map = provider(self.cfg.map_resolution_m)
+        except ValueError as e:  # a map too large for its resolution: the run fails, saying so
+            self._prior_map = str(e)
+
     # ------------------------------------------------------------------ internals
     def _arrived(self, obs: Observation, cmd: Twist) -> bool:
         """Arrival when the goal went by topic (which has no verdict): the stack holds still
@@ -228,16 +239,12 @@ class Ros2Navigator:
                 self._last_cmd_wall = time.monotonic()
             self._cv.notify_all()
 
-    def _pub(self, topic: str, ros_type: str, *, depth: int = 10, durability: str = "volatile",
-             reliability: str = "reliable") -> Publisher:
+    def _pub(self, topic: str, ros_type: str) -> Publisher:
         key = (topic, ros_type)
         p = self._pubs.get(key)
         if p is None:
-            assert self._node is not None
-            q = self.cfg.qos.get(topic)
-            qos = rmw.Qos(q.reliability, q.durability, q.depth) if q is not None else \
-                rmw.Qos(reliability, durability, depth)  # type: ignore[arg-type]
-            p = self._pubs[key] = self._node.publisher(topic, ros_type, qos)
+            assert self._node is not None and self._enc is not None
+            p = self._pubs[key] = self._node.publisher(topic, ros_type, self._enc.qos(topic))
         return p
 
     def _publish(self, topic: str, ros_type: str, msg: Any, stamp_ns: int) -> None:
