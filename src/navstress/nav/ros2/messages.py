@@ -99,8 +99,8 @@ _DEPTH_SENSOR = 5
 def sensor_topics(sensors: Iterable[Sensor], cfg: Ros2Config) -> dict[str, str]:
     """The base topic of each declared sensor (its trace topic ``/sensors/<name>`` becomes this):
     the configured one (``topics.sensors``), else the first of a kind on its kind's usual name
-    (``/scan``, ``/points``), else ``/<name>``; a default never takes a topic another sensor
-    already has."""
+    (``/scan``, ``/points``), else ``/<name>``, else ``/sensors/<name>``: a default never takes a
+    topic that is configured or that an earlier sensor (or the IMU) has."""
     sensors = list(sensors)
     out: dict[str, str] = {s.name: cfg.topics.sensors[s.name] for s in sensors if s.name in cfg.topics.sensors}
     taken = set(out.values()) | {cfg.topics.sensors.get(IMU_FRAME, IMU_TOPIC)}
@@ -108,7 +108,8 @@ def sensor_topics(sensors: Iterable[Sensor], cfg: Ros2Config) -> dict[str, str]:
     for s in sensors:
         if s.name not in out:
             first = _FIRST_TOPIC.get(s.kind) if s.kind not in seen else None
-            out[s.name] = first if first is not None and first not in taken else "/" + s.name
+            choices = [c for c in (first, "/" + s.name, encode.topic(s.name)) if c is not None]
+            out[s.name] = next((c for c in choices if c not in taken), choices[-1])
             taken.add(out[s.name])
         seen.add(s.kind)
     return out
