@@ -391,3 +391,51 @@ def test_map_world_without_the_run_loops_map_fails_the_run_in_one_line() -> None
     asked: list[float] = []
     Ros2Navigator(Ros2Config()).prior_map(asked.append)
     assert asked == []
+
+
+class _MapTaker:
+    """A navigator that asks for the prior map (or whose hook raises) and stands still."""
+
+    def __init__(self, cell_m: float | None, fail: bool = False) -> None:
+        self.cell_m, self.fail, self.got = cell_m, fail, None
+
+    def prior_map(self, provider: Any) -> None:
+        if self.fail:
+            raise RuntimeError("no thanks")
+        self.got = provider(self.cell_m) if self.cell_m is not None else None
+
+    def reset(self, mission: Any, robot: Any, *, seed: int) -> None: ...
+
+    def step(self, obs: Observation) -> Any:
+        from navstress.nav.api import Command
+
+        return Command(0.0, 0.0)
+
+    def close(self) -> None: ...
+
+
+@pytest.mark.parametrize("case", ["asks", "declines", "raises", "faulted"])
+def test_run_loop_hands_the_prior_map_only_through_the_hook(case: str) -> None:
+    """The run loop calls ``prior_map`` once before reset (through fault wrappers too); the map
+    is the world's; a hook that raises is one warning event and the run goes on."""
+    import navstress
+    from navstress.nav.faults import FaultyNavigator, SmallFootprint
+    from navstress.run.mission import prior_map
+    from navstress.world import Mission, World, WorldSpec
+    from navstress.world.world import Obstacle
+
+    world = World.flat(WorldSpec(size_m=(12.0, 10.0)), mission=Mission((2.0, 5.0, 0.0), (10.0, 5.0), 1.0),
+                       obstacles=(Obstacle("rock", 6.0, 2.0, 0.0, (1.0, 0.6, 1.0)),))
+    nav = _MapTaker(None if case == "declines" else 0.25, fail=case == "raises")
+    res = navstress.run_mission(world, FaultyNavigator(nav, SmallFootprint()) if case == "faulted" else nav, seed=1, timeout_s=0.3)
+    warnings = [m for _t, level, m in res.events if "prior_map" in m]
+    if case == "raises":
+        assert warnings == ["navigator prior_map() raised RuntimeError: no thanks"]
+        return
+    assert warnings == []
+    if case == "declines":
+        assert nav.got is None
+        return
+    want = prior_map(world, 0.25)
+    assert isinstance(nav.got, PriorMap) and nav.got.cell_m == 0.25 and nav.got.origin_xy == (0.0, 0.0)
+    assert np.array_equal(nav.got.occupied, want.occupied) and want.occupied.any()
