@@ -207,9 +207,10 @@ def mission_bounds(world: World, sim_config: Any = None) -> tuple[float, float, 
 def prior_map(world: World, cell_m: float) -> PriorMap:
     """The world's static obstacles as a :class:`~navstress.nav.api.PriorMap` of ``cell_m``
     cells over the whole world (origin (0, 0); :func:`navstress.world.freespace.rasterise`), for
-    the optional hook ``prior_map`` (a navigator the user configured to be given a map);
-    ValueError, one line, for a cell size that is not positive or a map of more than
-    :data:`MAX_PRIOR_MAP_CELLS` cells."""
+    the optional hook ``prior_map``. This is ground truth: a navigator gets it only when its user
+    chose to give it a map (the ``ros2`` navigator's ``map: world``, as a ROS 2 user gives Nav2's
+    ``map_server`` a map file); a navigator never sees the world otherwise. ValueError, one line,
+    for a cell size that is not positive or a map of more than :data:`MAX_PRIOR_MAP_CELLS` cells."""
     sx, sy = world.terrain.size_m  # the extent the simulation holds (as mission_bounds)
     if not (math.isfinite(cell_m) and cell_m > 0):
         raise ValueError(f"a prior map's cell size must be a positive number of metres, not {cell_m!r}")

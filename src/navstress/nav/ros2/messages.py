@@ -39,8 +39,9 @@ QoS (:meth:`Encoder.qos`): every publisher is reliable (no sample dropped under 
 lockstep runs stay reproducible; a reliable publisher matches both reliable and best-effort
 subscriptions, such as Nav2's SensorDataQoS ones) and volatile, keep last 10, except
 ``/clock`` (depth 1), ``/tf`` (100), the sensors (5, SensorDataQoS's depth), ``/tf_static``
-and ``/map`` (transient local, depth 1: a stack that subscribes late still gets them). The
-configuration's ``qos:`` overrides any of these, by topic.
+and ``/map`` (transient local, depth 1: a stack that subscribes late still gets them); the
+``/cmd_vel`` subscription is reliable, volatile, keep last 10. The configuration's ``qos:``
+overrides any of these, by topic.
 """
 
 from __future__ import annotations
@@ -147,7 +148,8 @@ class Encoder:
 
     def __init__(self, cfg: Ros2Config, sensors: tuple[Sensor, ...], prior_map: PriorMap | None = None) -> None:
         self.cfg = cfg
-        self.types = rmw.typestore(cfg.distro).types
+        store = rmw.typestore(cfg.distro)
+        self.types = store.types
         self.sensors = {s.name: s for s in sensors}
         self.topics = sensor_topics(sensors, cfg)
         self.imu_topic = cfg.topics.sensors.get(IMU_FRAME, IMU_TOPIC)
@@ -155,6 +157,10 @@ class Encoder:
         self._scan_params = {s.name: Lidar2dParams.model_validate(s.params) for s in sensors if s.kind == "lidar2d"}
         self._imu_t: float | None = None
         self._map_odom: tuple[float, float, float] | None = None
+        # rosbags generates a type's CDR code at its first use (5-20 ms a type): here, before the
+        # run, rather than in its first cycle
+        for _, ros_type in [*self.publications(), (TWIST, TWIST), (TWIST_STAMPED, TWIST_STAMPED)]:
+            store.get_msgdef(ros_type)
 
     # ----------------------------------------------------------- topics and QoS
     def publications(self) -> list[tuple[str, str]]:

@@ -83,6 +83,11 @@ class Publisher:
             node.domain_id, node.zid, node.node_id, entity_id, "MP", namespace=node.namespace, node=node.name,
             topic=topic, ros_type=ros_type, distro=node.distro, qos=qos))
 
+    def matched(self) -> bool:
+        """Whether a subscriber's declaration has reached this publisher (its samples are routed
+        to someone now); True when Zenoh cannot tell (an advanced publisher)."""
+        return bool(getattr(self._pub, "matching_status", True))
+
     def publish(self, message: Any, stamp_ns: int) -> None:
         self._seq += 1
         data = bytes(self._store.serialize_cdr(message, self.ros_type))
