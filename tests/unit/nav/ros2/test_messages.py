@@ -439,3 +439,26 @@ def test_run_loop_hands_the_prior_map_only_through_the_hook(case: str) -> None:
     want = prior_map(world, 0.25)
     assert isinstance(nav.got, PriorMap) and nav.got.cell_m == 0.25 and nav.got.origin_xy == (0.0, 0.0)
     assert np.array_equal(nav.got.occupied, want.occupied) and want.occupied.any()
+
+
+def test_a_launched_stack_gets_the_goal_before_the_first_cycle() -> None:
+    """zenoh-ros2-sdk announces a subscription before it can receive: the goal (volatile, sent
+    once) was lost in about 2 runs of 3 (the test stack then never moved). Three runs in a row:
+    each stack's first command already drives towards the goal."""
+    import sys
+    from pathlib import Path
+
+    import navstress
+    from navstress.nav.ros2 import ros2_from_config
+    from navstress.world import Mission, World, WorldSpec
+
+    stack = Path(__file__).resolve().parents[4] / "tests" / "support" / "ros2_stack.py"
+    world = World.flat(WorldSpec(size_m=(20.0, 20.0)), mission=Mission((3.0, 3.0, 0.0), (12.0, 3.0), 1.0))
+    robot = {"base": "jackal", "sensors": [ROBOT["sensors"][0]]}
+    for seed in range(3):
+        nav = ros2_from_config(config={
+            "launch": {"command": [sys.executable, str(stack)]}, "reply_budget_s": 1.0, "control_rate_hz": 10.0})
+        res = navstress.run_mission(world, nav, seed=seed, timeout_s=0.25, robot=robot)
+        assert nav.failure is None, nav.failure
+        assert nav._proc is None  # the stack was stopped with the run
+        assert res.commands[0, 1] > 0.5, (seed, res.commands[:3].tolist(), bytes(nav._stderr).decode()[-500:])
