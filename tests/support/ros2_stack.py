@@ -103,49 +103,69 @@ def main() -> int:
     else:
         pub = ROS2Publisher(topic="/cmd_vel", msg_type=out_type, **common)
 
-    # navstress publishes, each control cycle of time t, /clock at t and the odometry (stamped at
-    # its reading, at most t); Zenoh may hand the two subscriptions' samples over in either order,
-    # so an odometry is paired with the first clock at or after its stamp, and the command of that
-    # cycle is computed when both are in, stamped with that clock (older clocks are dropped)
-    clocks: list = []
+    # navstress publishes, each control cycle of time t: /clock at t, one /tf stamped t (odom ->
+    # base_link, and map -> odom once the pose sensor has spoken), the sensors, and the odometry
+    # (stamped at its reading, at most t). Zenoh may hand different subscriptions' samples over in
+    # any order, so the stack gathers a cycle's clock, /tf and odometry (the first clock at or
+    # after the odometry's stamp) and computes the cycle's command once all three are in: the
+    # same inputs give the same command, whatever the order they came in (lockstep replays).
+    clocks: dict = {}  # clock ns -> the clock message
+    tfs: dict = {}  # stamp ns -> map -> odom in that /tf (or None)
     odoms: list = []
 
     def _ns(t) -> int:
         return t.sec * 1_000_000_000 + t.nanosec
 
-    def pair() -> tuple | None:
+    def ready() -> tuple | None:
         while odoms and clocks:
             s_odom = _ns(odoms[0].header.stamp)
-            if _ns(clocks[0]) < s_odom:
-                clocks.pop(0)
-                continue
-            return clocks.pop(0), odoms.pop(0)
+            at = min((c for c in clocks if c >= s_odom), default=None)
+            if at is None:
+                return None
+            if at not in tfs:
+                return None
+            for c in [c for c in clocks if c < at]:
+                clocks.pop(c)
+            for c in [c for c in tfs if c < at]:
+                tfs.pop(c)
+            mo = tfs.pop(at)
+            if mo is not None:
+                state["map_odom"] = mo
+            return clocks.pop(at), odoms.pop(0)
         return None
 
     def on_clock(m) -> None:
         with lock:
-            clocks.append(m.clock)
-            p = pair()
+            clocks[_ns(m.clock)] = m.clock
+            p = ready()
         if p is not None:
             guarded(*p)
 
     def on_odom(m) -> None:
         with lock:
             odoms.append(m)
-            p = pair()
+            p = ready()
+        if p is not None:
+            guarded(*p)
+
+    def on_tf(m) -> None:
+        mo = None
+        stamp = None
+        for tr in m.transforms:
+            stamp = _ns(tr.header.stamp)
+            if tr.header.frame_id == "map" and tr.child_frame_id == "odom":
+                mo = (tr.transform.translation.x, tr.transform.translation.y, _yaw(tr.transform.rotation))
+        if stamp is None:
+            return
+        with lock:
+            tfs[stamp] = mo
+            p = ready()
         if p is not None:
             guarded(*p)
 
     def on_goal(m) -> None:
         with lock:
             state["goal"] = (m.pose.position.x, m.pose.position.y)
-
-    def on_tf(m) -> None:
-        for tr in m.transforms:
-            if tr.header.frame_id == "map" and tr.child_frame_id == "odom":
-                with lock:
-                    state["map_odom"] = (tr.transform.translation.x, tr.transform.translation.y,
-                                         _yaw(tr.transform.rotation))
 
     def on_scan(m) -> None:
         n = len(m.ranges)

@@ -94,6 +94,24 @@ def attr_through_wrappers(nav: Any, name: str) -> Any:
     return None
 
 
+def _run_notes(navigator: Any, t: float) -> list[tuple[float, str, str]]:
+    """The navigator's own notes on the run (optional hook ``run_notes()``, read after ``close``:
+    texts such as the ``ros2`` navigator's missed cycles), as info events at ``t``; a hook that
+    raises or answers anything but a list of strings is one warning event."""
+    hook = attr_through_wrappers(navigator, "run_notes")
+    if not callable(hook):
+        return []
+    try:
+        notes = hook()
+    except BaseException as err:
+        if not raised_by_navigator(err):
+            raise
+        return [(t, "warning", f"navigator run_notes() raised {type(err).__name__}: {err}")]
+    if not isinstance(notes, (list, tuple)) or not all(isinstance(n, str) for n in notes):
+        return [(t, "warning", f"navigator run_notes() answered {type(notes).__name__}, not a list of strings")]
+    return [(t, "info", f"navigator: {n[:500]}") for n in notes]
+
+
 def check_map(answer: object) -> tuple[np.ndarray, tuple[float, float], float]:
     """A navigator's map (``final_map()``'s ``answer``) as (float32 grid, (x, y), cell_m);
     :class:`InvalidAnswer` when it is not a 2-D grid with a finite origin and a cell size > 0."""
@@ -360,6 +378,7 @@ def run_mission(world: World, navigator: Navigator, *, run_seed: int, robot: Any
             if not raised_by_navigator(err):
                 raise
             events.append((sim.t if sim is not None else 0.0, "warning", f"navigator close raised {err!r}"))
+        events.extend(_run_notes(navigator, sim.t if sim is not None else 0.0))
 
     if sim is None:  # the world could not be simulated at all
         truth = np.zeros((0, 7))

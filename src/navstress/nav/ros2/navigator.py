@@ -70,6 +70,8 @@ class Ros2Navigator:
         self.misses = 0
         #: the simulated times of the missed cycles
         self.missed_at: list[float] = []
+        #: the processes the last reset started (the router, the stack): all stopped by close
+        self.started_pids: list[int] = []
         #: navstress's own wall time per cycle (publish + bookkeeping, the wait left out), seconds
         self.overhead_s: list[float] = []
         self.domain_id: int | None = None
@@ -95,6 +97,7 @@ class Ros2Navigator:
     def reset(self, mission: NavMission, robot: RobotSpec, *, seed: int) -> None:
         self._teardown()
         self.failure, self.misses, self.overhead_s, self.missed_at = None, 0, [], []
+        self.started_pids = []
         self._cmd, self._count, self._bad, self._last_cmd_wall = None, 0, None, None
         cfg = self.cfg
         self._mission, self._pose = mission, None
@@ -105,6 +108,7 @@ class Ros2Navigator:
             return
         if cfg.router == "auto":
             self._router = start_router()
+            self.started_pids.append(self._router.proc.pid)
             self.router_endpoint = self._router.endpoint
         else:
             why = reachable(cfg.router)
@@ -143,7 +147,15 @@ class Ros2Navigator:
         goal_pub = self._pub(goal_topic, POSE_STAMPED)
         while not goal_pub.matched() and time.monotonic() < deadline and self._proc_dead() is None:
             time.sleep(0.002)
-        time.sleep(SETTLE_S)
+        # a stack declares its endpoints one after another (the goal's may come before the
+        # odometry's): the first cycle goes out when the graph has been quiet for SETTLE_S, so
+        # that a stack that is still starting up does not miss it (and a replay starts alike)
+        last, quiet_since = sorted(map(repr, node.graph())), time.monotonic()
+        while time.monotonic() - quiet_since < SETTLE_S and time.monotonic() < deadline:
+            time.sleep(0.02)
+            now = sorted(map(repr, node.graph()))
+            if now != last:
+                last, quiet_since = now, time.monotonic()
         enc = self._enc
         for topic, ros_type, msg, stamp in enc.latched():
             self._publish(topic, ros_type, msg, stamp)
@@ -200,6 +212,20 @@ class Ros2Navigator:
         if self._arrived(obs, cmd):
             return Status("arrived")
         return Command(cmd.v, cmd.omega)
+
+    def run_notes(self) -> list[str]:
+        """What the run loop records of this run (events in the trace): the time mode, the cycles
+        that went on without the stack's command, and the failure around the stack if any. Wall
+        times are left out (a trace holds what the same seeds reproduce); the per-cycle overhead is
+        :attr:`overhead_s` and ``benchmarks/bench_ros2.py``."""
+        cfg = self.cfg
+        mode = (f"lockstep (reply budget {cfg.reply_budget_s:g} s)" if cfg.mode == "lockstep"
+                else f"paced at {cfg.real_time_factor:g}x real time")
+        n = len(self.overhead_s)
+        notes = [f"ros2 {mode}, distro {cfg.distro}, domain {self.domain_id}: {n} cycles"
+                 + (f", {self.misses} without the stack's command in budget (first at t={self.missed_at[0]:.2f} s)"
+                    if cfg.mode == "lockstep" and self.misses else "")]
+        return notes
 
     def close(self) -> None:
         self._teardown()
@@ -275,6 +301,7 @@ class Ros2Navigator:
             raise NavigatorError(f"cannot start the ROS 2 stack {shlex.join(argv)!r}: {e.strerror or e}; "
                                  "fix the navigator config's launch.command") from e
         self._proc = proc
+        self.started_pids.append(proc.pid)
         self._proc_finalizer = weakref.finalize(self, _kill_group, proc)
         self._stderr = tail = bytearray()
         stream = proc.stderr
