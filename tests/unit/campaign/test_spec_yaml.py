@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parents[3]
 
 def _specs() -> dict[str, CampaignSpec]:
     out = {name: parse_campaign(preset(name), max_runs=None) for name in PRESETS}
-    for name in ("suite.yaml", "jackal_2d.yaml", "jackal_2d_depth.yaml", "rooms.yaml", "clutter.yaml"):
+    for name in ("suite.yaml", "jackal_2d.yaml", "jackal_2d_depth.yaml", "rooms.yaml", "clutter.yaml", "ros2/campaign.yaml"):
         out[f"examples/{name}"] = load_campaign(ROOT / "examples" / name)[0]
     return out
 
