@@ -1,0 +1,115 @@
+"""The ros2 navigator under bad input and faults: one line before anything starts for a bad
+configuration; a classified run (Fail-Other, with the reason), never a traceback or a hang, for a
+router that cannot be reached or dies, a stack that never answers, crashes, or publishes garbage
+or the wrong type on /cmd_vel; and every process navstress started is gone afterwards."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+import navstress
+from navstress.nav.ros2 import ros2_from_config
+from navstress.nav.ros2.router import free_port
+from navstress.world import Mission, World, WorldSpec
+from tests.support.cli_run import cli
+
+pytestmark = pytest.mark.slow
+
+STACK = str(Path(__file__).resolve().parents[1] / "support" / "ros2_stack.py")
+ROBOT: dict[str, Any] = {"base": "jackal", "sensors": [
+    {"name": "front_laser", "kind": "lidar2d", "profile": "ust10", "mount": {"xyz": [0.12, 0, 0.3], "rpy": [0, 0, 0]}}]}
+
+
+def _world() -> World:
+    return World.flat(WorldSpec(size_m=(16.0, 16.0)), mission=Mission((3.0, 3.0, 0.0), (10.0, 5.0), 1.0))
+
+
+def _gone(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    return False
+
+
+def _run(cfg: dict[str, Any], *, during: Any = None) -> tuple[Any, Any, float]:
+    nav = ros2_from_config(config=cfg)
+    if during is not None:
+        threading.Thread(target=during, args=(nav,), daemon=True).start()
+    t0 = time.monotonic()
+    r = navstress.run_mission(_world(), nav, seed=2, timeout_s=20.0, robot=ROBOT)
+    wall = time.monotonic() - t0
+    assert all(_gone(p) for p in nav.started_pids), nav.started_pids
+    return r, nav, wall
+
+
+def _stack(*args: str, **over: Any) -> dict[str, Any]:
+    return {"launch": {"command": [sys.executable, STACK, *args]}, "startup_timeout_s": 60.0,
+            "reply_budget_s": 0.2, "silence_s": 2.0, **over}
+
+
+@pytest.mark.parametrize("mode, reason", [
+    ("silent", "the stack stopped answering: no command on /cmd_vel for"),
+    ("garbage", "the stack published on /cmd_vel a payload that is not a CDR geometry_msgs/msg/Twist"),
+    ("wrongtype", "the stack published on /cmd_vel a sample of type std_msgs/msg/String, not"),
+    ("crash", "the ROS 2 stack exited with code 3"),
+])
+def test_a_faulty_stack_is_a_classified_run(mode: str, reason: str) -> None:
+    r, nav, wall = _run(_stack("--mode", mode, *(("--twist",) if mode == "garbage" else ())))
+    assert r.classification.outcome.label == "Fail-Other"
+    assert reason in r.classification.reason, r.classification.reason
+    assert "\n" not in r.classification.reason
+    assert wall < 60.0
+
+
+def test_a_router_that_cannot_be_reached_is_a_classified_run() -> None:
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    r, _, _ = _run({"router": endpoint})
+    assert r.classification.outcome.label == "Fail-Other"
+    assert f"no Zenoh router answers at {endpoint}" in r.classification.reason
+
+
+def test_a_router_that_dies_mid_run_ends_the_run() -> None:
+    def kill_router(nav: Any) -> None:
+        deadline = time.monotonic() + 60.0
+        while not nav.overhead_s and time.monotonic() < deadline:  # the run is under way
+            time.sleep(0.01)
+        time.sleep(0.3)
+        os.kill(nav.started_pids[0], signal.SIGKILL)
+
+    r, _, wall = _run(_stack(reply_budget_s=5.0), during=kill_router)
+    assert r.classification.outcome.label == "Fail-Other", r.classification.reason
+    assert "the Zenoh router at tcp/127.0.0.1:" in r.classification.reason and "stopped" in r.classification.reason
+    assert wall < 60.0
+
+
+@pytest.mark.parametrize("config, field", [
+    ({"domain_id": 233}, "navigator-config.domain_id"),
+    ({"domain_id": [1, 1]}, "navigator-config.domain_id"),
+    ({"topics": {"cmd_vel": "/2cmd"}}, "navigator-config.topics.cmd_vel"),
+    ({"topics": {"scan": "/scan"}}, "navigator-config.topics.scan"),
+    ({"topics": {"odom": "odom"}}, "navigator-config.topics.odom"),
+    ({"router": "tcp/127.0.0.1:99999"}, "navigator-config.router"),
+    ({"mode": "fast"}, "navigator-config.mode"),
+])
+def test_a_bad_configuration_is_one_line_before_anything_runs(tmp_path: Path, config: dict[str, Any],
+                                                               field: str) -> None:
+    world = tmp_path / "w"
+    _world().save(world)
+    out = tmp_path / "out"
+    code, stdout, stderr = cli("run", str(world), "--navigator", "ros2", "--navigator-config", json.dumps(config),
+                               "-o", str(out), "--robot", "jackal")
+    assert code == 2, stdout + stderr
+    lines = [ln for ln in (stdout + stderr).splitlines() if ln.strip() and "NavigatorNote" not in ln
+             and "make_navigator" not in ln]
+    assert any(field in ln for ln in lines), lines
+    assert not out.exists()
