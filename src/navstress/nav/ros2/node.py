@@ -30,15 +30,27 @@ SAMPLE_MISS_DETECTION_HEARTBEAT_S = 0.5
 
 
 def session_config(router: str) -> zenoh.Config:
-    """rmw_zenoh's session configuration, bound to loopback: a peer that connects to ``router``,
-    listens on 127.0.0.1 only (for the stack's direct connection), multicast scouting off."""
+    """rmw_zenoh's session configuration (its ``config/DEFAULT_RMW_ZENOH_SESSION_CONFIG.json5``,
+    the "ROS setting" entries), bound to loopback: a peer that connects to ``router`` (retrying
+    without end), listens on 127.0.0.1 only (for the stack's direct connection), multicast scouting
+    off, gossip sent to the router only and peers met through it auto-connected (the one of greater
+    zid connects), every sample timestamped (the advanced publisher's cache needs it), queries
+    answered within 60 s."""
     conf = zenoh.Config()
-    conf.insert_json5("mode", '"peer"')
-    conf.insert_json5("connect/endpoints", f'["{router}"]')
-    conf.insert_json5("listen/endpoints", '["tcp/127.0.0.1:0"]')
-    conf.insert_json5("scouting/multicast/enabled", "false")
-    conf.insert_json5("scouting/gossip/enabled", "true")
-    conf.insert_json5("timestamping/enabled", '{"router": true, "peer": true, "client": true}')
+    for key, value in (
+            ("mode", '"peer"'),
+            ("connect/endpoints", f'["{router}"]'),
+            ("connect/timeout_ms", "{router: -1, peer: -1, client: 0}"),
+            ("listen/endpoints", '["tcp/127.0.0.1:0"]'),
+            ("scouting/multicast/enabled", "false"),
+            ("scouting/gossip/enabled", "true"),
+            ("scouting/gossip/multihop", "false"),
+            ("scouting/gossip/target", '{router: ["router", "peer"], peer: ["router"]}'),
+            ("scouting/gossip/autoconnect", '{router: [], peer: ["router", "peer"]}'),
+            ("scouting/gossip/autoconnect_strategy", '{peer: {to_router: "always", to_peer: "greater-zid"}}'),
+            ("timestamping/enabled", "{router: true, peer: true, client: true}"),
+            ("queries_default_timeout", "60000")):  # routing/peer/mode: Zenoh's default, peer_to_peer
+        conf.insert_json5(key, value)
     return conf
 
 
