@@ -182,7 +182,8 @@ class Node:
                      qos: rmw.Qos = rmw.Qos()) -> None:
         """Hear ``topic`` whatever type it is published with: ``callback`` gets each sample, decoded
         when its type is one of ``ros_types`` (a subscription token is declared for each of them),
-        or with ``error`` set (another type, a payload that is not CDR of its type)."""
+        or with ``error`` set (another type, a payload that is not CDR of its type). A transient-local
+        ``qos`` also hears what publishers sent before it joined (their caches)."""
         store = self.store
         wanted = {rmw.dds_type_name(t): t for t in ros_types}
         lv = self.session.liveliness()
@@ -216,7 +217,19 @@ class Node:
                 return
             callback(Sample(ros, msg, att))
 
-        self._closers.append(self.session.declare_subscriber(f"{base}/*/*", on_sample))
+        key = f"{base}/*/*"
+        if qos.durability == "transient_local":
+            # as SubscriptionData::init (rmw_subscription_data.cpp): an advanced subscriber that
+            # detects late publishers and asks their caches for ``depth`` samples, recovers missed
+            # samples by the publisher's heartbeat when reliable, and can be detected
+            recovery = zenoh.ext.RecoveryConfig(periodic_queries=None, heartbeat=True) \
+                if qos.reliability == "reliable" else None
+            self._closers.append(zenoh.ext.declare_advanced_subscriber(
+                self.session, key, on_sample, subscriber_detection=True, recovery=recovery,
+                history=zenoh.ext.HistoryConfig(detect_late_publishers=True,
+                                                max_samples=qos.depth or rmw.Qos.DEFAULT_DEPTH)))
+        else:
+            self._closers.append(self.session.declare_subscriber(key, on_sample))
 
     # ------------------------------------------------------------------ the graph
     def _on_token(self, s: zenoh.Sample) -> None:

@@ -167,6 +167,37 @@ def test_late_subscriber_gets_transient_local_sample_with_rmw_attachment(router:
             session.close()  # type: ignore[no-untyped-call]
 
 
+@pytest.mark.parametrize("reliability", ["reliable", "best_effort"])
+def test_transient_local_subscription_hears_what_was_published_before(router: Router, reliability: str) -> None:
+    """A navstress transient-local subscription (SubscriptionData::init's advanced subscriber)
+    gets the last ``depth`` samples a transient-local publisher cached before it joined."""
+    domain = 31 if reliability == "reliable" else 32
+    qos = rmw.Qos(reliability, "transient_local", 2)  # type: ignore[arg-type]
+    pub_node = Node(router=router.endpoint, domain_id=domain, distro="jazzy", namespace="/", name="pub", seed=1)
+    sub_node = Node(router=router.endpoint, domain_id=domain, distro="jazzy", namespace="/", name="sub", seed=2)
+    typ = "std_msgs/msg/String"
+    heard: list[str] = []
+    try:
+        pub = pub_node.publisher("/status", typ, qos)
+        for text in ("one", "two", "three"):
+            pub.publish(pub_node.store.types[typ](data=text))
+        time.sleep(0.2)
+        sub_node.subscription("/status", (typ,), lambda s: heard.append(s.message.data), qos)
+        deadline = time.monotonic() + 10.0
+        while len(heard) < 2 and time.monotonic() < deadline:
+            time.sleep(0.02)
+        time.sleep(0.2)
+        assert heard == ["two", "three"]  # the cache keeps depth (2) samples
+        pub.publish(pub_node.store.types[typ](data="four"))
+        deadline = time.monotonic() + 10.0
+        while len(heard) < 3 and time.monotonic() < deadline:
+            time.sleep(0.02)
+        assert heard == ["two", "three", "four"]
+    finally:
+        sub_node.close()
+        pub_node.close()
+
+
 def test_router_process_is_gone_after_stop() -> None:
     r = start_router()
     assert r.alive and r.endpoint.startswith("tcp/127.0.0.1:")
