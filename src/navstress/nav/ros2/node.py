@@ -164,10 +164,9 @@ class Node:
 
     # ------------------------------------------------------------------ entities
     def gid(self, entity_id: int) -> bytes:
-        """16 bytes from the seed and the entity id, zero-padded to Humble's 24 (rmw_zenoh's Humble
-        GID is its 16-byte hash in a 24-byte array)."""
-        gid = hashlib.blake2b(f"navstress-gid/{self._seed}/{entity_id}".encode(), digest_size=16).digest()
-        return gid.ljust(rmw.gid_size(self.distro), b"\0")
+        """16 bytes from the seed and the entity id (:func:`rmw.gid_size`, Humble included)."""
+        return hashlib.blake2b(f"navstress-gid/{self._seed}/{entity_id}".encode(),
+                               digest_size=rmw.gid_size(self.distro)).digest()
 
     def _entity(self) -> int:
         self._next_entity += 1

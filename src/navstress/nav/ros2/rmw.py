@@ -14,8 +14,9 @@ files (rolling, 2025; paths under ``rmw_zenoh_cpp/src/detail/``):
   deadline/lifespan/lease, automatic liveliness); a depth of 0 means the default.
 * ``attachment_helpers.cpp``: the attachment is ``zenoh::ext::Serializer`` of int64 sequence
   number, int64 source timestamp, ``std::array<uint8_t, RMW_GID_STORAGE_SIZE>`` (a sequence:
-  LEB128 length, then the bytes; the reader refuses any other length). RMW_GID_STORAGE_SIZE is 16
-  from Iron on and 24 in Humble's ``rmw/types.h``.
+  LEB128 length, then the bytes; the reader refuses any other length). The GID is 16 bytes on
+  every distribution, Humble included (rmw_zenoh's Humble port hard-codes 16 where Humble's
+  ``rmw/types.h`` says 24: ros2/rmw_zenoh#388).
 * ``rmw_publisher_data.cpp``: sequence numbers start at 1; the source timestamp is the wall clock
   (``get_system_time_in_ns``); the GID is XXH3-128 of the entity's token (navstress derives its
   GIDs from the run seed instead: 16 opaque bytes to every receiver, see :class:`Attachment`).
@@ -105,9 +106,12 @@ def demangle(chunk: str) -> str:
 
 
 def gid_size(distro: str) -> int:
-    """Bytes of a GID on ``distro``: ``RMW_GID_STORAGE_SIZE`` of its ``rmw/types.h`` (24 in Humble,
-    16 from Iron on); rmw_zenoh's attachment reader refuses a GID of any other length."""
-    return 24 if distro == "humble" else 16
+    """Bytes of a GID in rmw_zenoh's attachment on ``distro``: 16 on every distribution. Humble's
+    ``rmw/types.h`` says RMW_GID_STORAGE_SIZE 24, but rmw_zenoh's Humble port hard-codes 16
+    (ros2/rmw_zenoh#388, "Updates to compile against Humble"), and its attachment reader refuses
+    a GID of any other length."""
+    del distro
+    return 16
 
 
 @dataclass(frozen=True)
