@@ -73,7 +73,9 @@ def ros_type_name(dds: str) -> str:
 @functools.cache
 def type_hash(ros_type: str, distro: str) -> str:
     """The type hash in ``distro``'s key expressions: ``RIHS01_<sha256>`` of the type description
-    (REP 2011, computed by rosbags) from Jazzy on, :data:`TYPE_HASH_NOT_SUPPORTED` on Humble."""
+    (REP 2011, computed by rosbags) from Jazzy on (``rosidl_stringify_type_hash`` in
+    ``rmw_publisher_data.cpp``), :data:`TYPE_HASH_NOT_SUPPORTED` on Humble, which has no type
+    hashes: rmw_zenoh's Humble port writes that constant string (ros2/rmw_zenoh#388)."""
     if distro == "humble":
         return TYPE_HASH_NOT_SUPPORTED
     return str(typestore(distro).hash_rihs01(ros_type))
