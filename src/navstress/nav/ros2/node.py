@@ -185,11 +185,6 @@ class Node:
         ``qos`` also hears what publishers sent before it joined (their caches)."""
         store = self.store
         wanted = {rmw.dds_type_name(t): t for t in ros_types}
-        lv = self.session.liveliness()
-        for t in ros_types:
-            self._closers.append(lv.declare_token(rmw.endpoint_token(
-                self.domain_id, self.zid, self.node_id, self._entity(), "MS", namespace=self.namespace,
-                node=self.name, topic=topic, ros_type=t, distro=self.distro, qos=qos)))
         base = f"{self.domain_id}/{rmw.strip_slashes(topic)}"
         nbase = len(base.split("/"))
 
@@ -229,6 +224,13 @@ class Node:
                                                 max_samples=qos.depth or rmw.Qos.DEFAULT_DEPTH)))
         else:
             self._closers.append(self.session.declare_subscriber(key, on_sample))
+        # the tokens after the subscriber, as SubscriptionData::init: a stack that sees them can
+        # publish at once without a sample lost
+        lv = self.session.liveliness()
+        for t in ros_types:
+            self._closers.append(lv.declare_token(rmw.endpoint_token(
+                self.domain_id, self.zid, self.node_id, self._entity(), "MS", namespace=self.namespace,
+                node=self.name, topic=topic, ros_type=t, distro=self.distro, qos=qos)))
 
     # ------------------------------------------------------------------ the graph
     def _on_token(self, s: zenoh.Sample) -> None:
