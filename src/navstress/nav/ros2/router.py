@@ -121,15 +121,27 @@ def start_router(*, timeout_s: float = 20.0, tries: int = 3) -> Router:
 
 
 def _config(endpoint: str) -> Any:
+    """rmw_zenoh's router configuration (its ``config/DEFAULT_RMW_ZENOH_ROUTER_CONFIG.json5``, the
+    "ROS setting" entries) listening on ``endpoint`` only: no multicast scouting, gossip to routers
+    and peers, no failover brokering (every peer connects to every other directly), timestamps,
+    60 s query timeout."""
     import zenoh  # the router process only
 
     conf = zenoh.Config()
-    conf.insert_json5("mode", '"router"')
-    conf.insert_json5("listen/endpoints", f'["{endpoint}"]')
-    conf.insert_json5("connect/endpoints", "[]")
-    conf.insert_json5("scouting/multicast/enabled", "false")
-    conf.insert_json5("scouting/gossip/enabled", "true")
-    conf.insert_json5("timestamping/enabled", '{"router": true, "peer": true, "client": true}')
+    for key, value in (
+            ("mode", '"router"'),
+            ("listen/endpoints", f'["{endpoint}"]'),
+            ("connect/endpoints", "[]"),
+            ("scouting/multicast/enabled", "false"),
+            ("scouting/gossip/enabled", "true"),
+            ("scouting/gossip/multihop", "false"),
+            ("scouting/gossip/target", '{router: ["router", "peer"], peer: ["router"]}'),
+            ("scouting/gossip/autoconnect", '{router: [], peer: ["router", "peer"]}'),
+            ("scouting/gossip/autoconnect_strategy", '{router: {to_router: "always", to_peer: "always"}}'),
+            ("timestamping/enabled", "{router: true, peer: true, client: true}"),
+            ("queries_default_timeout", "60000"),
+            ("routing/router/peers_failover_brokering", "false")):
+        conf.insert_json5(key, value)
     return conf
 
 
