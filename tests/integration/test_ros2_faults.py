@@ -19,27 +19,10 @@ import pytest
 import navstress
 from navstress.nav.ros2 import ros2_from_config
 from navstress.nav.ros2.router import free_port
-from navstress.world import Mission, World, WorldSpec
 from tests.support.cli_run import cli
+from tests.support.ros2_runs import ROBOT, STACK, gone as _gone, world as _world
 
 pytestmark = pytest.mark.slow
-
-STACK = str(Path(__file__).resolve().parents[1] / "support" / "ros2_stack.py")
-ROBOT: dict[str, Any] = {"base": "jackal", "sensors": [
-    {"name": "front_laser", "kind": "lidar2d", "profile": "ust10", "mount": {"xyz": [0.12, 0, 0.3], "rpy": [0, 0, 0]}}]}
-
-
-def _world() -> World:
-    return World.flat(WorldSpec(size_m=(16.0, 16.0)), mission=Mission((3.0, 3.0, 0.0), (10.0, 5.0), 1.0))
-
-
-def _gone(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return True
-    return False
-
 
 def _run(cfg: dict[str, Any], *, during: Any = None) -> tuple[Any, Any, float]:
     nav = ros2_from_config(config=cfg)

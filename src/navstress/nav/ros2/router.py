@@ -18,7 +18,6 @@ from __future__ import annotations
 import contextlib
 import os
 import select
-import signal
 import socket
 import subprocess
 import sys
@@ -28,6 +27,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from navstress.errors import NavigatorError
+from navstress.nav.external import _kill_group
 
 __all__ = ["Router", "endpoint_address", "free_port", "reachable", "start_router"]
 
@@ -77,12 +77,7 @@ class Router:
 
 
 def _kill(proc: subprocess.Popen[bytes]) -> None:
-    with contextlib.suppress(ProcessLookupError, PermissionError):
-        os.killpg(proc.pid, signal.SIGKILL)
-    with contextlib.suppress(Exception):
-        proc.kill()
-    with contextlib.suppress(Exception):
-        proc.wait(timeout=5.0)
+    _kill_group(proc)
     for stream in (proc.stdout, proc.stderr):
         with contextlib.suppress(Exception):
             if stream is not None:
