@@ -96,3 +96,35 @@ def test_a_bad_configuration_is_one_line_before_anything_runs(tmp_path: Path, co
              and "make_navigator" not in ln]
     assert any(field in ln for ln in lines), lines
     assert not out.exists()
+
+
+def test_parallel_runs_on_a_shared_router_take_different_domain_ids() -> None:
+    """Two runs reset at once on one user router with the pool [7, 8, 9]: each holds its own id
+    (a third run, while both hold theirs, gets the third; a pool of one taken id is refused)."""
+    from navstress.nav.api import NavMission
+    from navstress.nav.ros2.router import start_router
+    from navstress.robot.profiles import profile
+
+    router = start_router()
+    navs = [ros2_from_config(config={"router": router.endpoint, "domain_id": [7, 8, 9], "startup_timeout_s": 0.5})
+            for _ in range(3)]
+    mission = NavMission((0.0, 0.0, 0.0), (5.0, 0.0))
+    robot = profile("jackal").model_copy(update={"sensors": ()})
+    try:
+        ts = [threading.Thread(target=n.reset, args=(mission, robot), kwargs={"seed": 1}) for n in navs[:2]]
+        for t in ts:
+            t.start()
+        for t in ts:
+            t.join(30.0)
+        got = sorted(n.domain_id for n in navs[:2])
+        assert len(set(got)) == 2 and set(got) <= {7, 8, 9}, got
+        navs[2].reset(mission, robot, seed=1)
+        assert {navs[2].domain_id, *got} == {7, 8, 9}
+        full = ros2_from_config(config={"router": router.endpoint, "domain_id": [7, 8], "startup_timeout_s": 0.5})
+        full.reset(mission, robot, seed=1)
+        assert full.failure is not None and "every domain id of the pool [7, 8] is taken" in full.failure
+        full.close()
+    finally:
+        for n in navs:
+            n.close()
+        router.stop()

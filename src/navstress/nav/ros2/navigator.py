@@ -30,16 +30,20 @@ import time
 import weakref
 from typing import Any
 
+import zenoh
+
 from navstress.errors import NavigatorError
 from navstress.nav.api import Command, NavMission, Observation, PriorMap, Status
 from navstress.nav.ros2.config import Ros2Config
 from navstress.nav.ros2.messages import POSE_STAMPED, TWIST, TWIST_STAMPED, Encoder, Twist
-from navstress.nav.ros2.node import Node, Publisher, Sample
+from navstress.nav.ros2.node import Node, Publisher, Sample, session_config
 from navstress.nav.ros2.router import Router, reachable, start_router
 from navstress.robot import RobotSpec
 
 __all__ = ["Ros2Navigator"]
 
+#: how long a domain-id claim waits for the other runs' claims to reach it (wall seconds)
+CLAIM_SETTLE_S = 0.3
 STDERR_TAIL = 16 * 1024
 #: wall seconds between the stack's goal subscription appearing (and matching) and the goal
 #: going out, so that the stack's subscriptions are in place (see ``reset``)
@@ -77,6 +81,9 @@ class Ros2Navigator:
         self.domain_id: int | None = None
         self.router_endpoint: str | None = None
         self._router: Router | None = None
+        self._claim_session: Any = None
+        self._claim_token: Any = None
+        self._claim_sub: Any = None
         self._node: Node | None = None
         self._proc: subprocess.Popen[bytes] | None = None
         self._proc_finalizer: Any = None
@@ -116,7 +123,16 @@ class Ros2Navigator:
                 self._fail(why)
                 return
             self.router_endpoint = cfg.router
-        self.domain_id = cfg.domain_pool[0]
+        pool = cfg.domain_pool
+        if len(pool) == 1 or cfg.router == "auto":  # a router of its own: no one else to share with
+            self.domain_id = pool[0]
+        else:
+            claimed = self._claim_domain(pool)
+            if claimed is None:
+                self._fail(f"every domain id of the pool {list(pool)} is taken on {self.router_endpoint} by other "
+                           "navstress runs; give a longer domain_id list or fewer workers")
+                return
+            self.domain_id = claimed
         node = self._node = Node(router=self.router_endpoint, domain_id=self.domain_id, distro=cfg.distro,
                                  namespace=cfg.namespace, name=cfg.node_name, seed=seed)
         self._enc = Encoder(cfg, tuple(robot.sensors or ()), prior if isinstance(prior, PriorMap) else None)
@@ -329,7 +345,53 @@ class Ros2Navigator:
             return f"the Zenoh router at {r.endpoint} stopped"
         return None
 
+    def _claim_domain(self, pool: tuple[int, ...]) -> int | None:
+        """The first domain id of ``pool`` that no other navstress run holds on the shared router,
+        held (a liveliness token ``@navstress/domain/<id>/<zid>``) until the run's end. An id with
+        a holder is skipped; two runs that claim a free id at once both see both tokens: the one
+        with the smaller zid keeps it, the other tries the next id.
+        Nothing is written anywhere but on the router."""
+        assert self.router_endpoint is not None
+        s = self._claim_session = zenoh.open(session_config(self.router_endpoint))
+        me = str(s.info.zid())
+        lv = s.liveliness()
+        # the claims as a liveliness subscriber sees them (its history first): a query sent while
+        # the session is still joining the router can find no one
+        held: dict[str, bool] = {}
+        lock = threading.Lock()
+
+        def on_token(t: Any) -> None:
+            with lock:
+                held[str(t.key_expr)] = t.kind != zenoh.SampleKind.DELETE
+
+        self._claim_sub = lv.declare_subscriber("@navstress/domain/**", on_token, history=True)
+        deadline = time.monotonic() + 5.0
+        while not list(s.info.routers_zid()) and time.monotonic() < deadline:
+            time.sleep(0.01)
+        time.sleep(CLAIM_SETTLE_S)
+
+        def holders(d: int) -> list[str]:
+            with lock:
+                return sorted(k.rsplit("/", 1)[1] for k, on in held.items()
+                              if on and k.startswith(f"@navstress/domain/{d}/"))
+
+        for d in pool:
+            if holders(d):  # held by a run under way
+                continue
+            token = lv.declare_token(f"@navstress/domain/{d}/{me}")
+            time.sleep(CLAIM_SETTLE_S)  # let a concurrent claim's token reach us
+            now = holders(d)
+            if not now or now[0] == me:
+                self._claim_token = token
+                return d
+            token.undeclare()  # type: ignore[no-untyped-call]
+        return None
+
     def _teardown(self) -> None:
+        if self._claim_session is not None:
+            with contextlib.suppress(Exception):
+                self._claim_session.close()
+            self._claim_session, self._claim_token, self._claim_sub = None, None, None
         if self._proc_finalizer is not None:
             self._proc_finalizer()
             self._proc_finalizer, self._proc = None, None
