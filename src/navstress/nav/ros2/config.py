@@ -57,11 +57,12 @@ def check_topic_name(name: str) -> str | None:
     for tok in name[1:].split("/"):
         if not tok:
             return "it has an empty token ('//')"
-        if tok[0].isdigit():
+        if tok[0] in "0123456789":
             return f"token {tok!r} starts with a digit"
         if not _TOKEN.match(tok):
-            bad = next(c for c in tok if not (c.isalnum() or c == "_"))
-            return f"token {tok!r} holds {bad!r} (only letters, digits and '_')"
+            # ASCII only: ROS 2 refuses non-ASCII letters and digits too ('é', '٣')
+            bad = next(c for c in tok if not (c.isascii() and (c.isalnum() or c == "_")))
+            return f"token {tok!r} holds {bad!r} (only ASCII letters, digits and '_')"
     return None
 
 
