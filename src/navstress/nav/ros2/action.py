@@ -32,9 +32,10 @@ from typing import Any
 
 import zenoh
 
+from navstress.nav.api import Status
 from navstress.nav.ros2 import rmw
 
-__all__ = ["ACTION_TYPE", "ActionClient", "GOAL_STATUS", "Outcome", "register_action_types",
+__all__ = ["ACTION_TYPE", "ActionClient", "GOAL_STATUS", "action_verdict", "Outcome", "register_action_types",
            "service_type_hash"]
 
 ACTION_TYPE = "nav2_msgs/action/NavigateToPose"
@@ -89,7 +90,7 @@ def _register(store: Any, defs: dict[str, str]) -> None:
     it parses, so each is parsed under a placeholder and renamed; references to types of
     ``defs`` are written ``@Name`` in the text and resolved here)."""
     from rosbags.typesys import get_types_from_msg
-    from rosbags.typesys.base import Nodetype
+    from rosbags.interfaces import Nodetype
 
     def fix(f: Any) -> Any:
         kind, spec = f
@@ -114,7 +115,7 @@ def _register(store: Any, defs: dict[str, str]) -> None:
 
 
 def _rename(f: Any, refs: dict[str, str]) -> Any:
-    from rosbags.typesys.base import Nodetype
+    from rosbags.interfaces import Nodetype
 
     kind, spec = f
     if kind == Nodetype.NAME:
@@ -172,6 +173,19 @@ class Outcome:
 
     status: str
     message: str
+
+
+def action_verdict(o: Outcome | None, action_name: str) -> Status | None:
+    """The run's verdict from the goal's outcome: SUCCEEDED -> arrived; ABORTED, CANCELED or
+    REJECTED -> the stack's own error (Fail-Error) with the result's message; an answer navstress
+    cannot read -> a failure around the stack (Fail-Other); None while the goal runs."""
+    if o is None:
+        return None
+    if o.status == "SUCCEEDED":
+        return Status("arrived")
+    if o.status in ("ABORTED", "CANCELED", "REJECTED"):
+        return Status("error", f"{action_name} {o.status.lower()}: {o.message}")
+    return Status("error", f"{action_name}: {o.message}", infrastructure=True)
 
 
 class ActionClient:
