@@ -150,16 +150,49 @@ def register_action_types(distro: str, action: str = ACTION_TYPE) -> Any:
 
 
 @functools.cache
+def _hash_store(distro: str) -> Any:
+    """A private typestore for service hashes: rosbags writes ``service_msgs/ServiceEventInfo``'s
+    ``char[16] client_gid`` as ``char``, but rosidl maps ``.msg``'s ``char`` to IDL ``uint8``
+    before it hashes (rmw_zenoh's design.md: AddTwoInts is ``RIHS01_e118de6b...``)."""
+    from rosbags.interfaces import Nodetype
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_HUMBLE if distro == "humble" else Stores.ROS2_JAZZY)
+    name = "service_msgs/msg/ServiceEventInfo"
+    consts, fields = store.fielddefs[name]
+    store.fielddefs[name] = (consts, [(fn, (Nodetype.ARRAY, ((Nodetype.BASE, ("uint8", 0)), 16)))
+                                      if fn == "client_gid" else (fn, ft) for fn, ft in fields])
+    return store
+
+
+@functools.cache
 def service_type_hash(srv: str, distro: str) -> str:
     """The type hash of service type ``srv`` (``pkg/srv/Name`` or ``pkg/action/Name_SendGoal``)
-    in ``distro``'s key expressions and tokens; its request and response types must be in the
-    typestore (:func:`register_action_types`)."""
+    in ``distro``'s key expressions and tokens; its request and response types must be
+    registered (:func:`register_action_types`)."""
     if distro == "humble":
         return rmw.TYPE_HASH_NOT_SUPPORTED
-    store = rmw.typestore(distro)
+    store, hs = rmw.typestore(distro), _hash_store(distro)
     with _LOCK:
-        _register_service(store, srv)
-    return str(store.hash_rihs01(srv))
+        for t in (f"{srv}_Request", f"{srv}_Response"):
+            if t not in hs.fielddefs:
+                _copy(store, hs, t)
+        _register_service(hs, srv)
+    return str(hs.hash_rihs01(srv))
+
+
+def _copy(src: Any, dst: Any, name: str) -> None:
+    """Register ``name`` and the types it uses from ``src`` into ``dst``."""
+    from rosbags.interfaces import Nodetype
+
+    if name in dst.fielddefs:
+        return
+    consts, fields = src.fielddefs[name]
+    dst.register({name: (consts, fields)})
+    for _, (kind, spec) in fields:
+        inner = spec[0] if kind in (Nodetype.SEQUENCE, Nodetype.ARRAY) else (kind, spec)
+        if inner[0] == Nodetype.NAME:
+            _copy(src, dst, inner[1])
 
 
 def service_key(domain_id: int, service: str, srv: str, distro: str) -> str:
