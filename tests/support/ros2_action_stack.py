@@ -55,7 +55,7 @@ def main() -> int:
     zid = str(session.info.zid())
     base = f"/{args.name.strip('/')}/_action"
     lock = threading.Lock()
-    state: dict = {"goal_id": None, "pending": [], "cmds": 0, "moved": False, "still": 0, "done": None}
+    state: dict = {"goal_id": None, "pending": [], "cmds": 0, "moved": False, "still": 0, "done": None, "goal_pose": None}
     keep: list = [session.liveliness().declare_token(rmw.node_token(domain, zid, 0, "/", "bt_navigator"))]
     status_key = rmw.topic_key(domain, f"{base}/status", "action_msgs/msg/GoalStatusArray", distro)
     keep.append(session.liveliness().declare_token(rmw.endpoint_token(
@@ -94,7 +94,7 @@ def main() -> int:
     def on_send_goal(query: zenoh.Query) -> None:
         req = store.deserialize_cdr(query.payload.to_bytes(), f"{ACTION}_SendGoal_Request")
         with lock:
-            state["goal_id"] = req.goal_id
+            state["goal_id"], state["goal_pose"] = req.goal_id, req.goal.pose
         p = req.goal.pose
         goal_pub.publish(header=p.header, pose=p.pose)
         reply(query, T[f"{ACTION}_SendGoal_Response"](
@@ -104,9 +104,11 @@ def main() -> int:
     def finish() -> None:
         with lock:
             done, pending = state["done"], list(state["pending"])
+            if done is None:
+                return
             state["pending"].clear()
-        if done is None:
-            return
+        print(f"action server: goal ends with status {done[0]}, {len(pending)} get_result waiting",
+              file=sys.stderr, flush=True)
         code, result = done
         for q in pending:
             reply(q, T[f"{ACTION}_GetResult_Response"](status=code, result=result), f"{ACTION}_GetResult_Response")
@@ -130,9 +132,12 @@ def main() -> int:
     def on_cmd(sample: zenoh.Sample) -> None:
         try:
             m = store.deserialize_cdr(sample.payload.to_bytes(), "geometry_msgs/msg/TwistStamped")
-        except Exception:
+        except Exception as e:
+            print(f"action server: unreadable command ({e})", file=sys.stderr, flush=True)
             return
         v, w = m.twist.linear.x, m.twist.angular.z
+        if state["cmds"] < 50 and state["goal_pose"] is not None:  # the controller may subscribe late
+            goal_pub.publish(header=state["goal_pose"].header, pose=state["goal_pose"].pose)
         with lock:
             if state["goal_id"] is None or state["done"] is not None:
                 return

@@ -254,10 +254,11 @@ class ActionClient:
         node.subscription(f"{base}/feedback", (f"{action_type}_FeedbackMessage",), self._on_feedback)
 
     # ------------------------------------------------------------------ graph
-    def server_seen(self) -> bool:
-        """Whether a server of the action's send_goal service has its token up."""
+    def server_seen(self, graph: list[Any] | None = None) -> bool:
+        """Whether a server of the action's send_goal service has its token up (in ``graph``, as
+        ``Node.wait_for`` hands it over: never call ``node.graph()`` inside that wait)."""
         service = self.services["send_goal"][0]
-        return any(e.kind == "SS" and e.topic == service for e in self.node.graph())
+        return any(e.kind == "SS" and e.topic == service for e in (self.node.graph() if graph is None else graph))
 
     # ------------------------------------------------------------------ requests
     def _query(self, what: str, request: Any, timeout_s: float, on_reply: Any) -> None:
@@ -310,7 +311,7 @@ class ActionClient:
             return self._set(Outcome("BAD_REPLY", err))
         if not msg.accepted:
             return self._set(Outcome("REJECTED", f"the {self.name} action server rejected the goal"))
-        self._query("get_result", T[f"{a}_GetResult_Request"](goal_id=self._uuid()), 1e6, self._on_result)
+        self._query("get_result", T[f"{a}_GetResult_Request"](goal_id=self._uuid()), 86400.0, self._on_result)
         return None
 
     def _on_result(self, msg: Any, err: str | None) -> None:

@@ -128,7 +128,7 @@ class Ros2Navigator:
 
         def ready(g: list[Any]) -> bool:
             return ((not want_topic or any(e.kind == "MS" and e.topic == goal_topic for e in g))
-                    and (act is None or act.server_seen()))
+                    and (act is None or act.server_seen(g)))
 
         while not seen and time.monotonic() < deadline and self._proc_dead() is None:
             seen = node.wait_for(ready, min(0.2, max(0.0, deadline - time.monotonic())))
