@@ -21,6 +21,7 @@ exits, stops answering for ``silence_s``, or publishes garbage on ``/cmd_vel``) 
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import os
 import shlex
 import signal
@@ -34,6 +35,8 @@ import zenoh
 
 from navstress.errors import NavigatorError
 from navstress.nav.api import Command, NavMission, Observation, PriorMap, Status
+from navstress.nav.ros2 import rmw
+from navstress.nav.ros2.action import ActionClient, action_verdict
 from navstress.nav.ros2.config import Ros2Config
 from navstress.nav.ros2.messages import POSE_STAMPED, TWIST, TWIST_STAMPED, Encoder, Twist
 from navstress.nav.ros2.node import Node, Publisher, Sample, session_config
@@ -97,6 +100,7 @@ class Ros2Navigator:
         self._last_cmd_wall: float | None = None
         self._wall0 = 0.0
         self._mission: NavMission | None = None
+        self._action: ActionClient | None = None
         self._pose: Any = None
         self._prior_map: PriorMap | str | None = None  # the run loop's map (map: world), or why none
 
@@ -145,11 +149,20 @@ class Ros2Navigator:
         goal_topic = cfg.topics.goal
         deadline = time.monotonic() + cfg.startup_timeout_s
         seen = False
+        act = self._action = ActionClient(node, cfg.action_name) if cfg.goal != "topic" else None  # nav/ros2/action.py
+        want_topic = cfg.goal != "action"
+
+        def ready(g: list[Any]) -> bool:
+            return ((not want_topic or any(e.kind == "MS" and e.topic == goal_topic for e in g))
+                    and (act is None or act.server_seen(g)))
+
         while not seen and time.monotonic() < deadline and self._proc_dead() is None:
-            seen = node.wait_for(lambda g: any(e.kind == "MS" and e.topic == goal_topic for e in g),
-                                 min(0.2, max(0.0, deadline - time.monotonic())))
+            seen = node.wait_for(ready, min(0.2, max(0.0, deadline - time.monotonic())))
         if not seen and self._proc_dead() is None:
-            self._fail(f"no subscriber of {goal_topic} appeared on domain {self.domain_id} at "
+            what = (f"no subscriber of {goal_topic}" if want_topic and act is None else
+                    f"no server of the {cfg.action_name} action" if not want_topic else
+                    f"no subscriber of {goal_topic} and server of the {cfg.action_name} action")
+            self._fail(f"{what} appeared on domain {self.domain_id} at "
                        f"{self.router_endpoint} within {cfg.startup_timeout_s:g} s (is the stack running, on "
                        "this router and domain?)")
             return
@@ -176,7 +189,14 @@ class Ros2Navigator:
         for topic, ros_type, msg, stamp in enc.latched():
             self._publish(topic, ros_type, msg, stamp)
         self._publish(cfg.topics.clock, "rosgraph_msgs/msg/Clock", enc.clock(0.0), 0)
-        self._publish(goal_topic, POSE_STAMPED, enc.goal(0.0, mission), 0)
+        if want_topic:
+            self._publish(goal_topic, POSE_STAMPED, enc.goal(0.0, mission), 0)
+        if act is not None:
+            gid = hashlib.blake2b(f"navstress-goal/{seed}".encode(), digest_size=16).digest()
+            early = act.send(enc.goal(0.0, mission), gid, cfg.startup_timeout_s)
+            if early is not None and early.status in ("NO_ANSWER", "BAD_REPLY"):
+                self._fail(early.message)
+                return
         self._wall0 = time.monotonic()
 
     def step(self, obs: Observation) -> Command | Status:
@@ -223,6 +243,9 @@ class Ros2Navigator:
             return self._fail(f"the stack stopped answering: {what} on {cfg.topics.cmd_vel} for "
                               f"{now - since:.1f} s of wall time (silence_s {cfg.silence_s:g})")
         self.overhead_s.append((w1 - w0) + (time.perf_counter() - w2))
+        verdict = action_verdict(self._action.outcome(), cfg.action_name) if self._action is not None else None
+        if verdict is not None:
+            return verdict
         if cmd is None:
             return Command(0.0, 0.0)
         if self._arrived(obs, cmd):
@@ -388,6 +411,10 @@ class Ros2Navigator:
         return None
 
     def _teardown(self) -> None:
+        if self._action is not None:
+            self._action.cancel()
+            self._action.close()
+            self._action = None
         if self._claim_session is not None:
             with contextlib.suppress(Exception):
                 self._claim_session.close()
