@@ -35,7 +35,6 @@ import zenoh
 
 from navstress.errors import NavigatorError
 from navstress.nav.api import Command, NavMission, Observation, PriorMap, Status
-from navstress.nav.ros2 import rmw
 from navstress.nav.ros2.action import ActionClient, action_verdict
 from navstress.nav.ros2.config import Ros2Config
 from navstress.nav.ros2.messages import POSE_STAMPED, TWIST, TWIST_STAMPED, Encoder, Twist
