@@ -30,6 +30,7 @@ import time
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
 import zenoh
 
 from navstress.nav.api import Status
@@ -284,8 +285,7 @@ class ActionClient:
 
     def _uuid(self) -> Any:
         T = self.node.store.types
-        return T["unique_identifier_msgs/msg/UUID"](uuid=__import__("numpy").frombuffer(
-            self._goal_id or bytes(16), dtype="uint8").copy())
+        return T["unique_identifier_msgs/msg/UUID"](uuid=np.frombuffer(self._goal_id or bytes(16), dtype="uint8").copy())
 
     def send(self, pose_stamped: Any, goal_id: bytes, timeout_s: float) -> Outcome | None:
         """send_goal (waits up to ``timeout_s`` for the answer); when accepted, get_result is asked
