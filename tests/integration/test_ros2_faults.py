@@ -62,17 +62,28 @@ def test_a_router_that_cannot_be_reached_is_a_classified_run() -> None:
 
 
 def test_a_router_that_dies_mid_run_ends_the_run() -> None:
-    def kill_router(nav: Any) -> None:
-        deadline = time.monotonic() + 60.0
-        while not nav.overhead_s and time.monotonic() < deadline:  # the run is under way
-            time.sleep(0.01)
-        time.sleep(0.3)
-        os.kill(nav.started_pids[0], signal.SIGKILL)
+    nav = ros2_from_config(config=_stack(reply_budget_s=5.0))
+    step = nav.step
+    calls = [0]
 
-    r, _, wall = _run(_stack(reply_budget_s=5.0), during=kill_router)
+    def step_then_kill(obs: Any) -> Any:  # the router is killed after the 5th cycle, whatever the load
+        calls[0] += 1
+        out = step(obs)
+        if calls[0] == 5:
+            os.kill(nav.started_pids[0], signal.SIGKILL)
+            deadline = time.monotonic() + 10.0
+            while nav._router is not None and nav._router.alive and time.monotonic() < deadline:
+                time.sleep(0.01)
+        return out
+
+    nav.step = step_then_kill  # type: ignore[method-assign]
+    t0 = time.monotonic()
+    r = navstress.run_mission(_world(), nav, seed=2, timeout_s=20.0, robot=ROBOT)
+    assert all(_gone(p) for p in nav.started_pids), nav.started_pids
     assert r.classification.outcome.label == "Fail-Other", r.classification.reason
     assert "the Zenoh router at tcp/127.0.0.1:" in r.classification.reason and "stopped" in r.classification.reason
-    assert wall < 60.0
+    assert calls[0] == 6  # the next cycle saw it
+    assert time.monotonic() - t0 < 60.0
 
 
 @pytest.mark.parametrize("config, field", [
