@@ -12,11 +12,17 @@ Printed, per round (best of ``--rounds``):
 * ``overhead``: the ros2 navigator's own wall time per cycle (building, serialising and
   publishing the cycle's messages, and reading the command), the wait for the stack left out
   (``Ros2Navigator.overhead_s``): mean, median, p95;
-* ``cycle``: wall time per control cycle of the whole loop (simulation + navstress + the round
-  trip to the responder) from the first cycle to the last (the start of the router and the
-  stack left out: about a second per run), and the real-time factor;
-* the baseline, measured in the same run: the same mission with an in-process navigator that
-  answers the same constant command (the simulation's own cost per cycle).
+* ``whole loop``: wall time per control cycle of the whole loop (simulation + navstress + the
+  round trip to the responder + the responder's own Python work), from the end of the
+  navigator's ``reset`` to its ``close`` (the start of the router and the stack left out: about
+  a second per run), and the real-time factor (100 ms of simulated time per cycle);
+* the baseline, measured in the same round, timed the same way: the same mission with an
+  in-process navigator that answers the same constant command (the simulation's own cost per
+  cycle, the floor under the whole loop);
+* the load average, as this machine is shared: figures taken under load are upper bounds.
+
+The targets (issue 38): at most 1 ms of navstress overhead per 10 Hz cycle, and a whole loop of
+at most 2 ms per cycle (50x real time) with a fast stack.
 
     .venv/bin/python benchmarks/bench_ros2.py [--rounds 3] [--seconds 60]
 """
@@ -89,16 +95,39 @@ class Constant:
 
     control_rate_hz = 10.0
 
+    def __init__(self) -> None:
+        self.cycles = 0
+
     def reset(self, mission: Any, robot: Any, *, seed: int) -> None:
-        pass
+        self.cycles = 0
 
     def step(self, obs: Any) -> Any:
         from navstress.nav.api import Command
 
+        self.cycles += 1
         return Command(V, W)
 
     def close(self) -> None:
         pass
+
+
+def timed(nav: Any) -> dict[str, float]:
+    """Marks the wall time at the end of ``nav.reset`` (the router, the stack and the graph are
+    up for ros2; nothing for the baseline) and at the start of ``nav.close``: the stepping loop
+    lies between the two, for both navigators alike."""
+    marks: dict[str, float] = {}
+    reset, close = nav.reset, nav.close
+
+    def timed_reset(*args: Any, **kw: Any) -> None:
+        reset(*args, **kw)
+        marks["stepping"] = time.perf_counter()
+
+    def timed_close() -> None:
+        marks.setdefault("closing", time.perf_counter())
+        close()
+
+    nav.reset, nav.close = timed_reset, timed_close
+    return marks
 
 
 def main() -> int:
@@ -118,44 +147,38 @@ def main() -> int:
                                             "mount": {"xyz": [0.12, 0, 0.3], "rpy": [0, 0, 0]}}]}
     cfg = {"launch": {"command": [sys.executable, os.path.abspath(__file__), "--responder"]},
            "control_rate_hz": 10.0, "reply_budget_s": 2.0}
-    print(f"bench_ros2: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}")
+    print(f"bench_ros2: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+          f"Python {platform.python_version()}, load average {os.getloadavg()[0]:.2f} at the start")
     navstress.run_mission(world, Constant(), seed=1, timeout_s=2.0, robot=robot)  # compiled, cached
-    best: dict[str, Any] = {}
+    rows: list[dict[str, Any]] = []
     for r in range(a.rounds):
-        t0 = time.perf_counter()
-        res = navstress.run_mission(world, Constant(), seed=1, timeout_s=a.seconds, robot=robot)
-        base = (time.perf_counter() - t0) / (res.facts.duration_s if hasattr(res.facts, "duration_s") else a.seconds)
+        base_nav = Constant()
+        bm = timed(base_nav)
+        res = navstress.run_mission(world, base_nav, seed=1, timeout_s=a.seconds, robot=robot)
+        base_ms = (bm["closing"] - bm["stepping"]) / max(base_nav.cycles, 1) * 1e3
         nav = ros2_from_config(config=cfg)
-        marks: dict[str, float] = {}
-        reset, close = nav.reset, nav.close
-
-        def timed_reset(*args: Any, **kw: Any) -> None:
-            reset(*args, **kw)
-            marks["stepping"] = time.perf_counter()  # router, stack and graph are up
-
-        def timed_close() -> None:
-            marks["closing"] = time.perf_counter()
-            close()
-
-        nav.reset, nav.close = timed_reset, timed_close  # type: ignore[method-assign]
+        marks = timed(nav)
         res2 = navstress.run_mission(world, nav, seed=1, timeout_s=a.seconds, robot=robot)
-        wall = marks["closing"] - marks["stepping"]
         o = np.array(nav.overhead_s) * 1e3
         cycles = len(o)
+        loop_ms = (marks["closing"] - marks["stepping"]) / max(cycles, 1) * 1e3
         row = {"overhead_mean_ms": float(o.mean()), "overhead_median_ms": float(np.median(o)),
                "overhead_p95_ms": float(np.percentile(o, 95)), "cycles": cycles, "misses": nav.misses,
-               "wall_s": wall, "base_cycle_ms": base * 1e3 / 10.0, "outcome": res2.classification.outcome.label}
+               "loop_ms": loop_ms, "base_ms": base_ms, "load": os.getloadavg()[0],
+               "outcomes": (res.classification.outcome.label, res2.classification.outcome.label)}
+        rows.append(row)
         print(f"round {r + 1}: overhead per cycle mean {row['overhead_mean_ms']:.3f} ms, median "
               f"{row['overhead_median_ms']:.3f} ms, p95 {row['overhead_p95_ms']:.3f} ms; {cycles} cycles, "
-              f"{nav.misses} missed; {wall:.2f} s wall for {a.seconds:g} s simulated (start-up left out); "
-              f"in-process baseline {row['base_cycle_ms']:.3f} ms per cycle")
-        if not best or row["overhead_mean_ms"] < best["overhead_mean_ms"]:
-            best = row
-    per_cycle_loop = best["wall_s"] / max(best["cycles"], 1) * 1e3
+              f"{nav.misses} missed; whole loop {loop_ms:.3f} ms per cycle = {100.0 / loop_ms:.0f}x real time; "
+              f"in-process baseline {base_ms:.3f} ms per cycle = {100.0 / base_ms:.0f}x; "
+              f"load {row['load']:.2f}; outcomes {row['outcomes'][0]}/{row['outcomes'][1]}")
+    best = min(rows, key=lambda x: x["overhead_mean_ms"])
+    fastest = min(rows, key=lambda x: x["loop_ms"])
     print(f"best: navstress overhead {best['overhead_mean_ms']:.3f} ms per 10 Hz cycle (target <= 1 ms): "
-          f"{'met' if best['overhead_mean_ms'] <= 1.0 else 'NOT met'}; whole loop {per_cycle_loop:.2f} ms per cycle "
-          f"= {100.0 / per_cycle_loop:.0f}x real time with this responder (target >= 50x), of which the "
-          f"simulation alone {best['base_cycle_ms']:.3f} ms")
+          f"{'met' if best['overhead_mean_ms'] <= 1.0 else 'NOT met'}; fastest whole loop "
+          f"{fastest['loop_ms']:.3f} ms per cycle = {100.0 / fastest['loop_ms']:.0f}x real time with this "
+          f"responder (target >= 50x): {'met' if fastest['loop_ms'] <= 2.0 else 'NOT met'}; the in-process "
+          f"baseline of that round {fastest['base_ms']:.3f} ms per cycle")
     return 0
 
 
