@@ -2,10 +2,12 @@
 
 The stack is a minimal responder in another process (``--responder``, raw eclipse-zenoh, no
 ROS): one subscription on every key of the domain, which keeps the last ``/clock`` and answers
-each ``/odom`` at once with a ``TwistStamped`` stamped with that clock (pre-serialised CDR, a
-constant command), so the figures are navstress's and Zenoh's, not a stack's. The mission: a
+each ``/odom`` at once with a ``TwistStamped`` stamped with that clock (a constant command,
+serialised by rosbags), so the figures are navstress's and Zenoh's, not a stack's. The mission: a
 Jackal with one UST-10-class 2D scanner (1081 beams, 40 Hz) on a flat 40 m world, 10 Hz control
-(the issue's figure: <= 1 ms of navstress overhead per 10 Hz cycle), 60 simulated seconds.
+(the issue's figure: <= 1 ms of navstress overhead per 10 Hz cycle), driving a 10 m circle that
+stays inside the world, so that both navigators' runs last the full 60 simulated seconds
+(Fail-TimeOut) and step the same number of cycles.
 
 Printed, per round (best of ``--rounds``):
 
@@ -142,7 +144,7 @@ def main() -> int:
     from navstress.nav.ros2 import ros2_from_config
     from navstress.world import Mission, World, WorldSpec
 
-    world = World.flat(WorldSpec(size_m=(40.0, 40.0)), mission=Mission((5.0, 20.0, 0.0), (38.0, 38.0), 0.5))
+    world = World.flat(WorldSpec(size_m=(40.0, 40.0)), mission=Mission((20.0, 10.0, 0.0), (38.0, 38.0), 0.5))
     robot = {"base": "jackal", "sensors": [{"name": "front_laser", "kind": "lidar2d", "profile": "ust10",
                                             "mount": {"xyz": [0.12, 0, 0.3], "rpy": [0, 0, 0]}}]}
     cfg = {"launch": {"command": [sys.executable, os.path.abspath(__file__), "--responder"]},
