@@ -19,7 +19,7 @@ import navstress
 from navstress.campaign.store import Store
 from navstress.nav.ros2 import ros2_from_config
 from tests.support.cli_run import cli
-from tests.support.ros2_runs import ROBOT, STACK, gone as _gone, world as _world
+from tests.support.ros2_runs import ROBOT, STACK, gone as _gone, world as _world, world_past_a_box
 
 pytestmark = pytest.mark.slow
 
@@ -31,9 +31,9 @@ def _config(*args: str, **over: Any) -> dict[str, Any]:
             **over}
 
 
-def _run(cfg: dict[str, Any], trace: Path | None = None, seed: int = 3) -> tuple[Any, Any]:
+def _run(cfg: dict[str, Any], trace: Path | None = None, seed: int = 3, world: Any = None) -> tuple[Any, Any]:
     nav = ros2_from_config(config=cfg)
-    r = navstress.run_mission(_world(), nav, seed=seed, timeout_s=30.0, robot=ROBOT, trace=trace)
+    r = navstress.run_mission(world or _world(), nav, seed=seed, timeout_s=30.0, robot=ROBOT, trace=trace)
     assert len(nav.started_pids) == 2  # the router and the stack ...
     assert all(_gone(p) for p in nav.started_pids)  # ... both stopped with the run
     return r, nav
@@ -64,9 +64,11 @@ def test_paced_runs_at_a_multiple_of_the_wall_clock() -> None:
 
 def test_same_seed_same_run_in_lockstep(tmp_path: Path) -> None:
     """The stack is deterministic and answers every cycle: the same seed gives the same trace,
-    byte for byte (navstress's own part; the stack's indeterminism is its own, docs/ros2.md)."""
-    a, nav_a = _run(_config(), tmp_path / "a.mcap", seed=5)
-    b, nav_b = _run(_config(), tmp_path / "b.mcap", seed=5)
+    byte for byte (navstress's own part; the stack's indeterminism is its own, docs/ros2.md). The
+    world has a box the scan sees, so each command depends on the cycle's scan as well as its
+    clock, /tf and odometry (a stack that handled the scan late now and then ran differently)."""
+    a, nav_a = _run(_config(), tmp_path / "a.mcap", seed=5, world=world_past_a_box())
+    b, nav_b = _run(_config(), tmp_path / "b.mcap", seed=5, world=world_past_a_box())
     assert nav_a.misses == nav_b.misses == 0
     assert a.classification == b.classification
     assert (tmp_path / "a.mcap").read_bytes() == (tmp_path / "b.mcap").read_bytes()

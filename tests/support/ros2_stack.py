@@ -20,8 +20,10 @@ typestore into a temporary directory first (:func:`write_msg_files`).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import os
+import queue
 import sys
 import tempfile
 import threading
@@ -90,7 +92,8 @@ def main() -> int:
     domain = int(os.environ.get("ROS_DOMAIN_ID", "0"))
     msgdir = write_msg_files(Path(tempfile.mkdtemp(prefix="ros2-stack-msgs-")))
 
-    from zenoh_ros2_sdk import ROS2Publisher, ROS2Subscriber
+    import zenoh
+    from zenoh_ros2_sdk import ROS2Publisher, ROS2Subscriber, get_message_class
     from zenoh_ros2_sdk.message_registry import get_registry
 
     get_registry(str(msgdir))  # the registry reads these, never the network
@@ -227,11 +230,58 @@ def main() -> int:
         if args.mode == "crash" and state["sent"] >= 3:
             os._exit(3)
 
-    subs = [ROS2Subscriber(topic="/clock", msg_type="rosgraph_msgs/msg/Clock", callback=on_clock, **common),
-            ROS2Subscriber(topic="/goal_pose", msg_type="geometry_msgs/msg/PoseStamped", callback=on_goal, **common),
-            ROS2Subscriber(topic="/tf", msg_type="tf2_msgs/msg/TFMessage", callback=on_tf, **common),
-            ROS2Subscriber(topic="/scan", msg_type="sensor_msgs/msg/LaserScan", callback=on_scan, **common),
-            ROS2Subscriber(topic="/odom", msg_type="nav_msgs/msg/Odometry", callback=on_odom, **common)]
+    inbox: queue.SimpleQueue = queue.SimpleQueue()
+
+    class Subscriber(ROS2Subscriber):  # type: ignore[misc]
+        """The SDK's subscriber with two changes. Its samples are queued by Zenoh's network thread
+        (a direct callback) and handled on one thread in that order (``pump``): with the SDK's
+        own (zenoh-python's default indirect callback, a Python thread per subscription) the scan
+        or the goal could be handled after a cycle's /tf now and then, and the same inputs gave
+        another run. Its liveliness tokens are declared after the subscriber itself, as rmw_zenoh
+        does (SubscriptionData::init declares the token last): the SDK declares them first, and a
+        peer that waits for the token of /goal_pose (navstress) may publish the goal before the
+        router routes it here."""
+
+        later = True
+
+        def _declare_liveliness_tokens(self) -> None:
+            if not self.later:
+                super()._declare_liveliness_tokens()
+
+        def in_order(self) -> None:
+            self.sub.undeclare()
+            self.sub = self.session_mgr.session.declare_subscriber(
+                self.keyexpr, zenoh.handlers.Callback(lambda sample: inbox.put((self, sample)), indirect=False))
+
+    def pump() -> None:
+        while True:
+            sub, sample = inbox.get()
+            sub._process_sample(sample)  # (the SDK's: decodes, calls the callback, logs what raises)
+
+    subs = [Subscriber(topic="/clock", msg_type="rosgraph_msgs/msg/Clock", callback=on_clock, **common),
+            Subscriber(topic="/tf", msg_type="tf2_msgs/msg/TFMessage", callback=on_tf, **common),
+            Subscriber(topic="/scan", msg_type="sensor_msgs/msg/LaserScan", callback=on_scan, **common),
+            Subscriber(topic="/odom", msg_type="nav_msgs/msg/Odometry", callback=on_odom, **common),
+            Subscriber(topic="/goal_pose", msg_type="geometry_msgs/msg/PoseStamped", callback=on_goal, **common)]
+    # rosbags compiles a type's CDR code at its first message (0.1 s and more on a loaded machine):
+    # done before navstress hears of the stack, so that the first cycle's reply is not late
+    store = pub.session_mgr.store
+    if args.mode == "normal":
+        V, T = get_message_class("geometry_msgs/msg/Vector3"), get_message_class("geometry_msgs/msg/Twist")
+        tw = T(linear=V(x=0.0, y=0.0, z=0.0), angular=V(x=0.0, y=0.0, z=0.0))
+        fields = dict(linear=tw.linear, angular=tw.angular) if args.twist else dict(
+            header=get_message_class("std_msgs/msg/Header")(
+                stamp=get_message_class("builtin_interfaces/msg/Time")(sec=0, nanosec=0), frame_id="base_link"),
+            twist=tw)
+        store.serialize_cdr(pub.msg_class(**fields), out_type)
+    for s in subs:
+        with contextlib.suppress(Exception):  # (the bytes are no message: only the code is wanted)
+            store.deserialize_cdr(b"\x00\x01\x00\x00", s.msg_type)
+        s.in_order()
+    threading.Thread(target=pump, name="stack-inbox", daemon=True).start()
+    for s in subs:  # every subscription routed before any is announced; /goal_pose (what navstress waits for) last
+        s.later = False
+        s._declare_liveliness_tokens()
     print("test stack up", flush=True)
     try:
         while True:
