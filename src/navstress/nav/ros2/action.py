@@ -3,18 +3,8 @@
 A ROS 2 action is three services and two topics under ``<action>/_action/`` (rcl_action):
 ``send_goal`` (``<Action>_SendGoal``), ``get_result`` (``<Action>_GetResult``), ``cancel_goal``
 (``action_msgs/srv/CancelGoal``), ``status`` (``action_msgs/msg/GoalStatusArray``) and
-``feedback`` (``<Action>_FeedbackMessage``). rmw_zenoh (``rmw_client_data.cpp``,
-``rmw_service_data.cpp``) makes a service request a Zenoh query on the service's key expression
-``<domain>/<service>/<DDS service type>/<type hash>`` with the CDR request as payload and the
-client's attachment (sequence number, timestamp, GID); the server replies on the same key with its
-attachment carrying the request's sequence number and the client's GID. A client declares a
-liveliness token of kind ``SC`` per service.
-
-The type hash of a service (REP 2011) is the RIHS01 hash of the *service's* type description: a
-type named after the service whose fields are ``request_message``, ``response_message`` and
-``event_message`` (``<Srv>_Event``: ``service_msgs/ServiceEventInfo info``, the request and the
-response as sequences bounded to 1), with all referenced types. Humble writes
-``TypeHashNotSupported`` for every type (:data:`rmw.TYPE_HASH_NOT_SUPPORTED`).
+``feedback`` (``<Action>_FeedbackMessage``); the services go as :mod:`navstress.nav.ros2.service`
+carries any service.
 
 Nav2's ``NavigateToPose`` differs by distribution: Humble's result is ``std_msgs/Empty``, Jazzy's
 (and later) carries ``error_code`` and ``error_msg``.
@@ -23,18 +13,16 @@ Nav2's ``NavigateToPose`` differs by distribution: Humble's result is ``std_msgs
 from __future__ import annotations
 
 import contextlib
-import functools
-import re
 import threading
-import time
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import zenoh
 
 from navstress.nav.api import Status
-from navstress.nav.ros2 import rmw
+from navstress.nav.ros2 import rmw, service
+from navstress.nav.ros2.service import (ServiceClient, register, register as _register, register_service,
+                                        service_key, service_type_hash)
 
 __all__ = ["ACTION_TYPE", "ActionClient", "GOAL_STATUS", "action_verdict", "Outcome", "register_action_types",
            "service_type_hash"]
@@ -83,121 +71,15 @@ _CANCEL = {
 }
 
 
-_PLACEHOLDER = "navstress_tmp/msg/Placeholder"
-
-
-def _register(store: Any, defs: dict[str, str]) -> None:
-    """Register message definitions under their exact names (rosbags rewrites ``pkg/srv/X`` names
-    it parses, so each is parsed under a placeholder and renamed; references to types of
-    ``defs`` are written ``@Name`` in the text and resolved here)."""
-    from rosbags.typesys import get_types_from_msg
-    from rosbags.interfaces import Nodetype
-
-    def fix(f: Any) -> Any:
-        kind, spec = f
-        if kind == Nodetype.NAME:
-            return (kind, spec[1:] if spec.startswith("@") else spec)
-        if kind in (Nodetype.SEQUENCE, Nodetype.ARRAY):
-            return (kind, (fix(spec[0]), spec[1]))
-        return f
-
-    for name, text in defs.items():
-        if name in store.fielddefs:
-            continue
-        refs = {}
-        for i, m in enumerate(sorted(set(re.findall(r"@(\S+?)(?=[\[\s])", text)))):
-            refs[f"navstress_ref{i}/msg/R"] = m
-        for k, m in refs.items():
-            text = text.replace(f"@{m}", k)
-        parsed = get_types_from_msg(text, _PLACEHOLDER)
-        consts, fields = parsed[_PLACEHOLDER]
-        fields = [(fn, fix(_rename(ft, refs))) for fn, ft in fields]
-        store.register({name: (consts, fields)})
-
-
-def _rename(f: Any, refs: dict[str, str]) -> Any:
-    from rosbags.interfaces import Nodetype
-
-    kind, spec = f
-    if kind == Nodetype.NAME:
-        return (kind, refs.get(spec, spec))
-    if kind in (Nodetype.SEQUENCE, Nodetype.ARRAY):
-        return (kind, (_rename(spec[0], refs), spec[1]))
-    return f
-
-
-def _register_service(store: Any, srv: str) -> None:
-    """The service type itself and its event type (for the type hash)."""
-    _register(store, {
-        f"{srv}_Event": (f"service_msgs/ServiceEventInfo info\n@{srv}_Request[<=1] request\n"
-                         f"@{srv}_Response[<=1] response\n"),
-        srv: (f"@{srv}_Request request_message\n@{srv}_Response response_message\n"
-              f"@{srv}_Event event_message\n"),
-    })
-
-
-_LOCK = threading.Lock()
-
-
 def register_action_types(distro: str, action: str = ACTION_TYPE) -> Any:
     """Register ``action``'s types (and its services' types) in ``distro``'s typestore; the store."""
     store = rmw.typestore(distro)
-    with _LOCK:
-        _register(store, _CANCEL)
-        _register(store, _defs(action, distro))
+    with service._LOCK:
+        register(store, _CANCEL)
+        register(store, _defs(action, distro))
         for srv in (f"{action}_SendGoal", f"{action}_GetResult", "action_msgs/srv/CancelGoal"):
-            _register_service(store, srv)
+            register_service(store, srv)
     return store
-
-
-@functools.cache
-def _hash_store(distro: str) -> Any:
-    """A private typestore for service hashes: rosbags writes ``service_msgs/ServiceEventInfo``'s
-    ``char[16] client_gid`` as ``char``, but rosidl maps ``.msg``'s ``char`` to IDL ``uint8``
-    before it hashes (rmw_zenoh's design.md: AddTwoInts is ``RIHS01_e118de6b...``)."""
-    from rosbags.interfaces import Nodetype
-    from rosbags.typesys import Stores, get_typestore
-
-    store = get_typestore(Stores.ROS2_HUMBLE if distro == "humble" else Stores.ROS2_JAZZY)
-    name = "service_msgs/msg/ServiceEventInfo"
-    consts, fields = store.fielddefs[name]
-    store.fielddefs[name] = (consts, [(fn, (Nodetype.ARRAY, ((Nodetype.BASE, ("uint8", 0)), 16)))
-                                      if fn == "client_gid" else (fn, ft) for fn, ft in fields])
-    return store
-
-
-@functools.cache
-def service_type_hash(srv: str, distro: str) -> str:
-    """The type hash of service type ``srv`` (``pkg/srv/Name`` or ``pkg/action/Name_SendGoal``)
-    in ``distro``'s key expressions and tokens; its request and response types must be
-    registered (:func:`register_action_types`)."""
-    if distro == "humble":
-        return rmw.TYPE_HASH_NOT_SUPPORTED
-    store, hs = rmw.typestore(distro), _hash_store(distro)
-    with _LOCK:
-        for t in (f"{srv}_Request", f"{srv}_Response"):
-            if t not in hs.fielddefs:
-                _copy(store, hs, t)
-        _register_service(hs, srv)
-    return str(hs.hash_rihs01(srv))
-
-
-def _copy(src: Any, dst: Any, name: str) -> None:
-    """Register ``name`` and the types it uses from ``src`` into ``dst``."""
-    from rosbags.interfaces import Nodetype
-
-    if name in dst.fielddefs:
-        return
-    consts, fields = src.fielddefs[name]
-    dst.register({name: (consts, fields)})
-    for _, (kind, spec) in fields:
-        inner = spec[0] if kind in (Nodetype.SEQUENCE, Nodetype.ARRAY) else (kind, spec)
-        if inner[0] == Nodetype.NAME:
-            _copy(src, dst, inner[1])
-
-
-def service_key(domain_id: int, service: str, srv: str, distro: str) -> str:
-    return f"{domain_id}/{service.strip('/')}/{rmw.dds_type_name(srv)}/{service_type_hash(srv, distro)}"
 
 
 @dataclass(frozen=True)
@@ -239,17 +121,7 @@ class ActionClient:
         self._goal_id: bytes | None = None
         self.status: str | None = None  # the latest status of our goal on the status topic
         self.feedback = 0  # feedback messages heard for our goal
-        self._seq = 0
-        self._gids: dict[str, bytes] = {}
-        self._tokens: list[Any] = []
-        lv = node.session.liveliness()
-        for what, (service, srv) in self.services.items():
-            eid = node._entity()
-            self._gids[what] = node.gid(eid)
-            self._tokens.append(lv.declare_token(
-                f"{rmw.ADMIN_SPACE}/{node.domain_id}/{node.zid}/{node.node_id}/{eid}/SC/%/"
-                f"{rmw.mangle(node.namespace)}/{rmw.mangle(node.name)}/{rmw.mangle(service)}/"
-                f"{rmw.dds_type_name(srv)}/{service_type_hash(srv, node.distro)}/{rmw.Qos().keyexpr()}"))
+        self._clients = {what: ServiceClient(node, service, srv) for what, (service, srv) in self.services.items()}
         node.subscription(f"{base}/status", ("action_msgs/msg/GoalStatusArray",), self._on_status,
                           rmw.Qos("reliable", "transient_local", 1))
         node.subscription(f"{base}/feedback", (f"{action_type}_FeedbackMessage",), self._on_feedback)
@@ -263,25 +135,7 @@ class ActionClient:
 
     # ------------------------------------------------------------------ requests
     def _query(self, what: str, request: Any, timeout_s: float, on_reply: Any) -> None:
-        service, srv = self.services[what]
-        store, node = self.node.store, self.node
-        self._seq += 1
-        att = rmw.Attachment(self._seq, time.time_ns(), self._gids[what]).to_bytes()
-        payload = bytes(store.serialize_cdr(request, f"{srv}_Request"))
-
-        def cb(reply: zenoh.Reply) -> None:
-            ok = reply.ok
-            if ok is None:
-                return
-            try:
-                msg = store.deserialize_cdr(ok.payload.to_bytes(), f"{srv}_Response")
-            except Exception as e:  # the server's fault: reported as the outcome
-                on_reply(None, f"a {srv} reply navstress cannot decode ({type(e).__name__}: {e})")
-                return
-            on_reply(msg, None)
-
-        node.session.get(service_key(node.domain_id, service, srv, node.distro), cb, payload=payload,
-                         attachment=att, encoding=zenoh.Encoding("application/cdr"), timeout=timeout_s)
+        self._clients[what].call_async(request, timeout_s, on_reply)
 
     def _uuid(self) -> Any:
         T = self.node.store.types
@@ -362,7 +216,5 @@ class ActionClient:
             self.feedback += 1
 
     def close(self) -> None:
-        for t in self._tokens:
-            with contextlib.suppress(Exception):
-                t.undeclare()
-        self._tokens.clear()
+        for c in self._clients.values():
+            c.close()
