@@ -8,10 +8,14 @@ publishes a command on ``/cmd_vel`` for each control cycle (a ``TwistStamped`` s
 and the domain from ``ROS_DOMAIN_ID``, as a stack launched by navstress gets them.
 
     python tests/support/ros2_stack.py [--twist] [--speed 0.8] [--mode silent|garbage|wrongtype|crash]
+                                       [--lifecycle tf|never]
 
 ``--mode`` makes the faulty stacks of the fault tests: ``silent`` never publishes a command,
 ``garbage`` publishes bytes that are not CDR on the Twist key, ``wrongtype`` publishes
 ``std_msgs/String`` on ``/cmd_vel``, ``crash`` exits after its first command.
+``--lifecycle tf|never`` makes it a lifecycle node as Nav2's BT navigator is: it serves
+``/test_stack/get_state`` (``inactive`` or ``active``) and drops goals while inactive; ``tf``
+activates it at its first ``/tf`` (a Nav2 costmap activates once ``map -> base_link`` exists).
 
 The SDK would fetch message definitions from the network; here they are written from rosbags'
 typestore into a temporary directory first (:func:`write_msg_files`).
@@ -32,7 +36,7 @@ from pathlib import Path
 
 TYPES = ("geometry_msgs/msg/Twist", "geometry_msgs/msg/TwistStamped", "geometry_msgs/msg/PoseStamped",
          "nav_msgs/msg/Odometry", "sensor_msgs/msg/LaserScan", "tf2_msgs/msg/TFMessage", "std_msgs/msg/String",
-         "rosgraph_msgs/msg/Clock")
+         "rosgraph_msgs/msg/Clock", "lifecycle_msgs/msg/State")
 
 
 def _field_text(t: tuple) -> str:
@@ -86,6 +90,9 @@ def main() -> int:
     ap.add_argument("--speed", type=float, default=0.8)
     ap.add_argument("--clear", type=float, default=0.6)
     ap.add_argument("--mode", default="normal", choices=("normal", "silent", "garbage", "wrongtype", "crash"))
+    ap.add_argument("--lifecycle", default=None, choices=("tf", "never"),
+                    help="a lifecycle node as Nav2's BT navigator is: inactive, dropping goals, until "
+                         "'tf': a /tf has come (a costmap's activation), or 'never'")
     args = ap.parse_args()
     router = os.environ["NAVSTRESS_ZENOH_ROUTER"]
     host, port = router.split("/", 1)[1].rsplit(":", 1)
@@ -99,7 +106,7 @@ def main() -> int:
     get_registry(str(msgdir))  # the registry reads these, never the network
     common = dict(router_ip=host, router_port=int(port), domain_id=domain, node_name="test_stack")
     lock = threading.Lock()
-    state: dict = {"goal": None, "map_odom": (0.0, 0.0, 0.0), "front": math.inf, "sent": 0}
+    state: dict = {"active": False, "goal": None, "map_odom": (0.0, 0.0, 0.0), "front": math.inf, "sent": 0}
     out_type = "geometry_msgs/msg/Twist" if args.twist else "geometry_msgs/msg/TwistStamped"
     if args.mode == "wrongtype":
         pub = ROS2Publisher(topic="/cmd_vel", msg_type="std_msgs/msg/String", **common)
@@ -152,6 +159,9 @@ def main() -> int:
             guarded(*p)
 
     def on_tf(m) -> None:
+        if args.lifecycle == "tf" and not state["active"]:
+            state["active"] = True
+            print("test stack active", flush=True)
         mo = None
         stamp = None
         for tr in m.transforms:
@@ -167,6 +177,9 @@ def main() -> int:
             guarded(*p)
 
     def on_goal(m) -> None:
+        if args.lifecycle and not state["active"]:  # Nav2: "Action server is inactive. Rejecting the goal."
+            print("test stack inactive: goal dropped", flush=True)
+            return
         with lock:
             state["goal"] = (m.pose.position.x, m.pose.position.y)
 
@@ -230,6 +243,26 @@ def main() -> int:
         if args.mode == "crash" and state["sent"] >= 3:
             os._exit(3)
 
+    if args.lifecycle:
+        # (before the goal's subscription, as a lifecycle node has it from its construction)
+        # rclcpp_lifecycle's get_state service, served by the SDK (which computes the service's
+        # type hash itself): State 2 'inactive' until active, then 3 'active'
+        from zenoh_ros2_sdk import ROS2ServiceServer
+
+        srv = msgdir / "lifecycle_msgs" / "srv" / "GetState.srv"  # (the SDK would fetch it from the network)
+        srv.parent.mkdir(parents=True, exist_ok=True)
+        srv.write_text("---\nlifecycle_msgs/State current_state\n")
+
+        def get_state(_req):
+            S = get_message_class("lifecycle_msgs/msg/State")
+            R = keep_srv.response_msg_class
+            return R(current_state=S(id=3, label="active") if state["active"] else S(id=2, label="inactive"))
+
+        keep_srv = ROS2ServiceServer(  # noqa: F841 (kept alive with the process)
+            service_name="/test_stack/get_state", srv_type="lifecycle_msgs/srv/GetState", callback=get_state,
+            request_definition="uint8 structure_needs_at_least_one_member\n",
+            response_definition="lifecycle_msgs/State current_state\n", router_ip=host, router_port=int(port),
+            domain_id=domain, node_name="test_stack")
     inbox: queue.SimpleQueue = queue.SimpleQueue()
 
     class Subscriber(ROS2Subscriber):  # type: ignore[misc]

@@ -194,6 +194,28 @@ class Ros2Config(BaseModel):
     #: per-topic QoS overrides, by topic name
     qos: dict[str, QosConfig] = Field(default_factory=dict)
     launch: LaunchConfig | None = None
+    #: what the stack must be before it gets the goal. ``auto``: if the node that takes the goal
+    #: (the goal topic's subscriber, the action's server) is a ROS 2 lifecycle node (it serves
+    #: ``<node>/get_state``, as Nav2's ``bt_navigator`` does), navstress waits until it says
+    #: ``active``; a list of fully qualified node names (``/bt_navigator``) waits for each of
+    #: them; ``none`` sends the goal as soon as the stack's goal subscriber or server is there.
+    #: While it waits, navstress publishes ``/clock``, ``/tf`` and ``/tf_static`` of t = 0 (a
+    #: Nav2 costmap activates only once ``map -> base_link`` exists), within ``startup_timeout_s``.
+    wait_active: Literal["auto", "none"] | list[str] = "auto"
+
+    @field_validator("wait_active")
+    @classmethod
+    def _wait_active(cls, v: str | list[str]) -> str | list[str]:
+        if isinstance(v, list):
+            if not v:
+                raise SpecError("wait_active", v, "'auto', 'none' or a non-empty list of node names such as "
+                                "'/bt_navigator'")
+            for n in v:
+                why = check_topic_name(n)
+                if why is not None:
+                    raise SpecError("wait_active", n, "a fully qualified ROS 2 node name such as '/bt_navigator'",
+                                    why)
+        return v
 
     @field_validator("router")
     @classmethod

@@ -36,6 +36,7 @@ import zenoh
 from navstress.errors import NavigatorError
 from navstress.nav.api import Command, NavMission, Observation, PriorMap, Status
 from navstress.nav.ros2.action import ActionClient, action_verdict
+from navstress.nav.ros2.lifecycle import ACTIVE, GetStateClient, lifecycle_nodes
 from navstress.nav.ros2.config import Ros2Config
 from navstress.nav.ros2.messages import POSE_STAMPED, TWIST, TWIST_STAMPED, Encoder, Twist
 from navstress.nav.ros2.node import Node, Publisher, Sample, session_config
@@ -102,6 +103,10 @@ class Ros2Navigator:
         self._action: ActionClient | None = None
         self._pose: Any = None
         self._prior_map: PriorMap | str | None = None  # the run loop's map (map: world), or why none
+        self._lifecycle: list[str] = []  # the lifecycle nodes that must be active before the goal
+        self._begun = False  # the goal sent (at the first cycle)
+        self._deadline = 0.0  # startup_timeout_s from the launch, monotonic
+        self._goal_id = 0  # the run's seed: the action goal's id
 
     # ------------------------------------------------------------------ Navigator
     def reset(self, mission: NavMission, robot: RobotSpec, *, seed: int) -> None:
@@ -184,19 +189,70 @@ class Ros2Navigator:
             now = sorted(map(repr, node.graph()))
             if now != last:
                 last, quiet_since = now, time.monotonic()
-        enc = self._enc
+        self._deadline, self._goal_id, self._begun = deadline, seed, False
+        g = node.graph()
+        takers = [e for e in g if (want_topic and e.kind == "MS" and e.topic == goal_topic)
+                  or (act is not None and e.kind == "SS" and e.topic == act.services["send_goal"][0])]
+        wa = cfg.wait_active
+        self._lifecycle = (lifecycle_nodes(g, takers) if wa == "auto" else [] if wa == "none" else list(wa))
+
+    def _begin(self, first: list[tuple[str, str, Any, int]]) -> Status | None:
+        """The start of the run, at its first cycle (``first``: that cycle's messages): the
+        latched topics, then (when the stack's lifecycle nodes must be active first) /clock and
+        /tf of t = 0 again and again until they are, then /clock 0 and the goal."""
+        cfg, enc, mission = self.cfg, self._enc, self._mission
+        assert enc is not None and mission is not None
         for topic, ros_type, msg, stamp in enc.latched():
             self._publish(topic, ros_type, msg, stamp)
+        if self._lifecycle:
+            st = self._wait_active([m for m in first if m[0] in (cfg.topics.clock, cfg.topics.tf)])
+            if st is not None:
+                return st
         self._publish(cfg.topics.clock, "rosgraph_msgs/msg/Clock", enc.clock(0.0), 0)
-        if want_topic:
-            self._publish(goal_topic, POSE_STAMPED, enc.goal(0.0, mission), 0)
+        if cfg.goal != "action":
+            self._publish(cfg.topics.goal, POSE_STAMPED, enc.goal(0.0, mission), 0)
+        act = self._action
         if act is not None:
-            gid = hashlib.blake2b(f"navstress-goal/{seed}".encode(), digest_size=16).digest()
+            gid = hashlib.blake2b(f"navstress-goal/{self._goal_id}".encode(), digest_size=16).digest()
             early = act.send(enc.goal(0.0, mission), gid, cfg.startup_timeout_s)
             if early is not None and early.status in ("NO_ANSWER", "BAD_REPLY"):
-                self._fail(early.message)
-                return
+                return self._fail(early.message)
         self._wall0 = time.monotonic()
+        self._begun = True
+        return None
+
+    def _wait_active(self, warm: list[tuple[str, str, Any, int]]) -> Status | None:
+        """Publish ``warm`` (/clock and /tf of t = 0) every 0.1 s of wall time and ask each
+        lifecycle node of :attr:`_lifecycle` its state until all say ``active`` (within
+        ``startup_timeout_s`` of the launch); the failure if not."""
+        assert self._node is not None
+        clients = [GetStateClient(self._node, n) for n in self._lifecycle]
+        try:
+            pending = list(clients)
+            while True:
+                dead = self._proc_dead() or self._router_dead()
+                if dead is not None:
+                    return self._fail(dead)
+                for m in warm:
+                    self._publish(*m)
+                for c in list(pending):
+                    left = self._deadline - time.monotonic()
+                    st = c.state(min(0.5, max(0.05, left)))
+                    if st is not None and st[0] == ACTIVE:
+                        pending.remove(c)
+                if not pending:
+                    return None
+                if time.monotonic() >= self._deadline:
+                    c = pending[0]
+                    said = (f"its state is {c.last[1]!r}" if isinstance(c.last, tuple) else
+                            c.last if c.last is not None else f"nothing answered {c.fqn}/get_state")
+                    return self._fail(f"the lifecycle node {c.fqn} did not become active within "
+                                      f"startup_timeout_s {self.cfg.startup_timeout_s:g} s ({said}); navstress "
+                                      "sends the goal only to an active stack (wait_active, docs/ros2.md)")
+                time.sleep(0.1)
+        finally:
+            for c in clients:
+                c.close()
 
     def step(self, obs: Observation) -> Command | Status:
         if self.failure is not None:
@@ -209,9 +265,16 @@ class Ros2Navigator:
         dead = self._proc_dead() or self._router_dead()
         if dead is not None:
             return self._fail(dead)
+        msgs = list(enc.cycle(obs))
+        if not self._begun:
+            b0 = time.perf_counter()
+            st = self._begin(msgs)
+            if st is not None:
+                return st
+            w0 += time.perf_counter() - b0  # the start is not a cycle's overhead
         with self._cv:
             before = self._count
-        for topic, ros_type, msg, stamp in enc.cycle(obs):
+        for topic, ros_type, msg, stamp in msgs:
             self._publish(topic, ros_type, msg, stamp)
         w1 = time.perf_counter()
         if cfg.mode == "lockstep":
@@ -260,7 +323,9 @@ class Ros2Navigator:
         mode = (f"lockstep (reply budget {cfg.reply_budget_s:g} s)" if cfg.mode == "lockstep"
                 else f"paced at {cfg.real_time_factor:g}x real time")
         n = len(self.overhead_s)
-        notes = [f"ros2 {mode}, distro {cfg.distro}, domain {self.domain_id}: {n} cycles"
+        notes = [f"ros2 {mode}, distro {cfg.distro}, domain {self.domain_id}"
+                 + (f", goal sent once {', '.join(self._lifecycle)} active" if self._lifecycle and self._begun else "")
+                 + f": {n} cycles"
                  + (f", {self.misses} without the stack's command in budget (first at t={self.missed_at[0]:.2f} s)"
                     if cfg.mode == "lockstep" and self.misses else "")]
         return notes

@@ -65,3 +65,19 @@ def test_bad_router_endpoints_are_one_line(router: str) -> None:
     with pytest.raises(SpecError) as e:
         parse_config({"router": router})
     assert "router" in str(e.value) and "\n" not in str(e.value)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.one_of(st.sampled_from(["auto", "none", "Auto", "", "yes"]),
+                 st.lists(st.one_of(st.text(max_size=12), st.sampled_from(["/bt_navigator", "/ns/amcl"])),
+                          max_size=3)))
+def test_wait_active_family(v: str | list[str]) -> None:
+    """'auto', 'none' or a non-empty list of fully qualified node names; anything else is one
+    line naming the key."""
+    ok = v in ("auto", "none") or (isinstance(v, list) and bool(v) and all(check_topic_name(n) is None for n in v))
+    if ok:
+        assert parse_config({"wait_active": v}).wait_active == v
+    else:
+        with pytest.raises(SpecError) as e:
+            parse_config({"wait_active": v})
+        assert "wait_active" in str(e.value) and "\n" not in str(e.value)
