@@ -15,6 +15,7 @@ the campaign of a spec file. See docs/campaigns.md, "Executors".
 from __future__ import annotations
 
 import time
+import warnings
 from collections.abc import Iterator
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, field
@@ -70,9 +71,11 @@ def check_runnable(spec: CampaignSpec, *, build_limit_s: float = BUILD_LIMIT_S) 
                                 str(err)) from None
             continue
         try:
-            registry.resolve(nav.name)
+            _, note = registry.resolve(nav.name)
         except NavigatorError as err:
             raise SpecError(f"navigators[{i}].name", nav.name, "a registered navigator", str(err)) from None
+        if note:  # said once here; the runs' own resolutions are quiet (run.mission.execute)
+            warnings.warn(note, registry.NavigatorNote, stacklevel=2)
     for exp in spec.experiments:
         for f in spec.faults_of(exp):
             if f is None:

@@ -115,6 +115,7 @@ class _Root(TyperGroup):
     def main(self, args: Sequence[str] | None = None, prog_name: str | None = None,
              complete_var: str | None = None, standalone_mode: bool = True,
              windows_expand_args: bool = True, **extra: Any) -> Any:
+        _notes_on_one_line()
         try:
             rv = super().main(args=args, prog_name=prog_name, complete_var=complete_var,
                               standalone_mode=False, windows_expand_args=windows_expand_args, **extra)
@@ -227,6 +228,27 @@ def _root(version: Annotated[bool, typer.Option("--version", callback=_version, 
                                                 help="Print the navstress version and exit.")] = False) -> None:
     """Stress-test robot navigation software in generated virtual worlds."""
 
+
+
+def _notes_on_one_line() -> None:
+    """The registry's notes to the user (:class:`navstress.nav.registry.NavigatorNote`, e.g. which
+    version an unversioned navigator name chose) on one line, ``note: ...``, without the source
+    line Python's warnings print; every other warning as Python prints it."""
+    import warnings
+
+    shown = warnings.showwarning
+    if getattr(shown, "navstress_notes", False):
+        return
+
+    def show(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+             file: Any = None, line: str | None = None) -> None:
+        if category.__name__ == "NavigatorNote":
+            click.echo(f"note: {message}", err=True)
+            return
+        shown(message, category, filename, lineno, file, line)
+
+    show.navstress_notes = True  # type: ignore[attr-defined]
+    warnings.showwarning = show
 
 
 def main() -> None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import shutil
+import warnings
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -20,7 +21,7 @@ from navstress.cli._common import (MAX_RUNS, MAX_SEED, MAX_TIMEOUT_S, MAX_WALL_S
                                    load_robot_flags,
                                    number)
 from navstress.errors import SpecError, WorldFileError
-from navstress.nav.registry import build_and_close
+from navstress.nav.registry import NavigatorNote, build_and_close, resolve
 from navstress._tables import NOMINAL
 from navstress.run.robot import check_stable
 from navstress.world.generate import check_robot_fits
@@ -91,6 +92,9 @@ def run_cmd(
     # built in a worker process: a navigator that exits, crashes or hangs there is the runs' to classify
     check_buildable(build_and_close, navigator, fault, cfg,
                     wall_limit_s=wall_v if wall_v is not None else default_wall_limit_s(timeout_v))
+    _, note = resolve(navigator)  # an unversioned name's note, said once here (the runs are quiet)
+    if note:
+        warnings.warn(note, NavigatorNote, stacklevel=1)
     if output.exists() and (not output.is_dir() or any(output.iterdir())):
         raise WorldFileError(f"--output={str(output)!r} is invalid: expected a new or empty folder; "
                              "choose another path or remove it")

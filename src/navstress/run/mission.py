@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 import os
 import time
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
@@ -32,7 +33,7 @@ import numpy as np
 from navstress.errors import NavstressError, SimulationError
 from navstress.nav.api import (DebugDraw, InvalidAnswer, NavMission, Navigator, PriorMap, Status, check_answer,
                                check_debug, raised_by_navigator)
-from navstress.nav.registry import make_navigator
+from navstress.nav.registry import NavigatorNote, make_navigator
 from navstress.robot import RobotSpec
 from navstress.run.metrics import drop_jitter, path_length, tortuousness
 from navstress.run.outcome import Classification, RunFacts, classify
@@ -529,7 +530,9 @@ def execute(task: RunTask, watch: RunWatcher | None = None) -> RunRecord:
     """
     wall0 = time.perf_counter()
     world = World.load(task.world_dir)
-    nav = make_navigator(task.navigator, task.navigator_config or None, fault=task.fault)
+    with warnings.catch_warnings():  # an unversioned name's note: the campaign said it once (check_runnable)
+        warnings.simplefilter("ignore", NavigatorNote)
+        nav = make_navigator(task.navigator, task.navigator_config or None, fault=task.fault)
     sim_cfg = None
     if task.sim_overrides:
         sim_cfg = SimConfig(**task.sim_overrides)
