@@ -94,6 +94,14 @@ def test_a_router_that_dies_mid_run_ends_the_run() -> None:
     ({"topics": {"odom": "odom"}}, "navigator-config.topics.odom"),
     ({"router": "tcp/127.0.0.1:99999"}, "navigator-config.router"),
     ({"mode": "fast"}, "navigator-config.mode"),
+    ({"wait_active": []}, "navigator-config.wait_active"),
+    # a stack that cannot be started from here: one line before anything runs, not a run per attempt
+    ({"launch": {"command": ["/nonexistent/navstack"]}}, "navigator-config.launch.command"),
+    ({"launch": {"command": ["no-such-navstack-program"]}}, "navigator-config.launch.command"),
+    ({"launch": {"command": ["bin/navstack"]}}, "navigator-config.launch.command"),  # relative, not there
+    ({"launch": {"command": [str(Path(__file__).resolve())]}}, "navigator-config.launch.command"),  # not executable
+    ({"launch": {"command": ["python3"], "env": {"PATH": "/nonexistent"}}}, "navigator-config.launch.command"),
+    ({"launch": {"command": [sys.executable], "cwd": "/nonexistent"}}, "navigator-config.launch.cwd"),
 ])
 def test_a_bad_configuration_is_one_line_before_anything_runs(tmp_path: Path, config: dict[str, Any],
                                                                field: str) -> None:
