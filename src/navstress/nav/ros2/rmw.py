@@ -46,13 +46,24 @@ TYPE_HASH_NOT_SUPPORTED = "TypeHashNotSupported"
 EntityKind = Literal["NN", "MP", "MS", "SS", "SC"]
 
 
+#: rosbags' store of each distribution's standard messages (Rolling: rosbags' latest)
+STORES = {"humble": "ROS2_HUMBLE", "jazzy": "ROS2_JAZZY", "kilted": "ROS2_KILTED", "rolling": "LATEST"}
+
+
 @functools.cache
 def typestore(distro: str) -> Any:
-    """rosbags' typestore of ``distro``'s standard messages (Kilted and Rolling have Jazzy's
-    definitions of every type navstress uses)."""
+    """rosbags' typestore of ``distro``'s standard messages (:data:`STORES`; every type navstress
+    publishes has the same definition, and so the same hash, in Jazzy, Kilted and Rolling:
+    tests/unit/nav/ros2/test_rmw.py)."""
+    return fresh_typestore(distro)
+
+
+def fresh_typestore(distro: str) -> Any:
+    """A new typestore of ``distro`` (one navstress may change without touching
+    :func:`typestore`'s)."""
     from rosbags.typesys import Stores, get_typestore
 
-    return get_typestore(Stores.ROS2_HUMBLE if distro == "humble" else Stores.ROS2_JAZZY)
+    return get_typestore(getattr(Stores, STORES[distro]))
 
 
 def dds_type_name(ros_type: str) -> str:

@@ -91,9 +91,8 @@ def _hash_store(distro: str) -> Any:
     ``char[16] client_gid`` as ``char``, but rosidl maps ``.msg``'s ``char`` to IDL ``uint8``
     before it hashes (rmw_zenoh's design.md: AddTwoInts is ``RIHS01_e118de6b...``)."""
     from rosbags.interfaces import Nodetype
-    from rosbags.typesys import Stores, get_typestore
 
-    store = get_typestore(Stores.ROS2_HUMBLE if distro == "humble" else Stores.ROS2_JAZZY)
+    store = rmw.fresh_typestore(distro)
     name = "service_msgs/msg/ServiceEventInfo"
     consts, fields = store.fielddefs[name]
     store.fielddefs[name] = (consts, [(fn, (Nodetype.ARRAY, ((Nodetype.BASE, ("uint8", 0)), 16)))

@@ -176,3 +176,23 @@ def test_gid_size_and_broken_attachments() -> None:
     for bad in (b"", good[:16], good[:-1], good + b"\0", good[:16] + b"\x80" + bytes(16)):
         with pytest.raises(ValueError):
             rmw.Attachment.from_bytes(bad)
+
+
+_USED = ["rosgraph_msgs/msg/Clock", "tf2_msgs/msg/TFMessage", "nav_msgs/msg/Odometry", "nav_msgs/msg/OccupancyGrid",
+         "sensor_msgs/msg/LaserScan", "sensor_msgs/msg/PointCloud2", "sensor_msgs/msg/Image",
+         "sensor_msgs/msg/CameraInfo", "sensor_msgs/msg/Imu", "geometry_msgs/msg/PoseStamped",
+         "geometry_msgs/msg/Twist", "geometry_msgs/msg/TwistStamped", "action_msgs/msg/GoalStatusArray",
+         "action_msgs/msg/GoalInfo", "lifecycle_msgs/msg/State", "service_msgs/msg/ServiceEventInfo",
+         "unique_identifier_msgs/msg/UUID"]
+
+
+@pytest.mark.parametrize("distro", ["jazzy", "kilted", "rolling"])
+def test_each_distribution_hashes_with_its_own_definitions(distro: str) -> None:
+    """Each distribution's hashes come from rosbags' store of that distribution; and every type
+    navstress publishes or hears has one definition, so one hash, from Jazzy on (a change in a
+    later distribution would show here, and its keys would differ from Jazzy's)."""
+    from rosbags.typesys import Stores, get_typestore
+
+    own = get_typestore({"jazzy": Stores.ROS2_JAZZY, "kilted": Stores.ROS2_KILTED, "rolling": Stores.LATEST}[distro])
+    for t in _USED:
+        assert rmw.type_hash(t, distro) == own.hash_rihs01(t) == rmw.type_hash(t, "jazzy"), t
