@@ -2,8 +2,11 @@
 
 For each run: a router (navstress's own on 127.0.0.1, or the user's), a node ``/navstress``
 that publishes the clock, the frame tree, the odometry, every sensor and the goal, and hears
-``/cmd_vel``; optionally the stack itself, started for the run and stopped at its end. Each
-control cycle (``step``) publishes the readings of simulated time t, then
+``/cmd_vel``; optionally the stack itself, started for the run and stopped at its end.
+``reset`` waits for the stack's goal subscriber (or action server); the first ``step`` publishes
+the latched topics, waits (``wait_active``) until the stack's lifecycle node that takes the goal
+is active, publishing /clock and /tf of t = 0 meanwhile, and sends the goal. Each control cycle
+(``step``) publishes the readings of simulated time t, then
 
 * ``lockstep``: waits for the stack's command of that cycle (a ``TwistStamped`` stamped at or
   after t, or any ``Twist`` that arrives after the readings), at most ``reply_budget_s`` of wall
@@ -36,8 +39,8 @@ import zenoh
 from navstress.errors import NavigatorError
 from navstress.nav.api import Command, NavMission, Observation, PriorMap, Status
 from navstress.nav.ros2.action import ActionClient, action_verdict
-from navstress.nav.ros2.lifecycle import ACTIVE, GetStateClient, lifecycle_nodes
 from navstress.nav.ros2.config import Ros2Config
+from navstress.nav.ros2.lifecycle import ACTIVE, GetStateClient, lifecycle_nodes
 from navstress.nav.ros2.messages import POSE_STAMPED, TWIST, TWIST_STAMPED, Encoder, Twist
 from navstress.nav.ros2.node import Node, Publisher, Sample, session_config
 from navstress.nav.ros2.router import Router, reachable, start_router
