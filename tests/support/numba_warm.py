@@ -64,7 +64,8 @@ def warm() -> None:
         # robots' tests; else their campaigns' workers compiled that navigator side by side)
         jackal = subprocess.Popen([exe, "run", f"{tmp}/w", "-o", f"{tmp}/j", "--timeout", "3", "--robot", "jackal",
                                    "--sensor", "scan=lidar2d:ust10", "--navigator", "reference-2d-v1"], **quiet)
-        run = subprocess.run([exe, "run", f"{tmp}/w", "-o", f"{tmp}/r", "--timeout", "3", "--lidar",
+        # (15 s: the reference navigator sets off after a few seconds, and its planner's kernels with it)
+        run = subprocess.run([exe, "run", f"{tmp}/w", "-o", f"{tmp}/r", "--timeout", "15", "--lidar",
                               "--navigator-view"], **quiet)
         jackal.wait()
         traces = sorted(Path(tmp).glob("r/**/*.mcap"))
