@@ -6,9 +6,13 @@ Importing this package loads no Zenoh: the navigator's modules are imported when
 
 from __future__ import annotations
 
+import os
+import shutil
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
+from navstress.errors import SpecError
 from navstress.nav.ros2.config import Ros2Config, parse_config
 
 __all__ = ["Ros2Config", "check_launchable", "parse_config", "ros2_from_config"]
@@ -33,12 +37,6 @@ def _validate(config: Mapping[str, Any]) -> None:
 def check_launchable(launch: Any) -> None:
     """:class:`SpecError` naming ``launch.cwd`` or ``launch.command`` when the command could not
     be started from here."""
-    import os
-    import shutil
-    from pathlib import Path
-
-    from navstress.errors import SpecError
-
     cwd = Path(launch.cwd) if launch.cwd is not None else Path.cwd()
     if not cwd.is_dir():
         raise SpecError("navigator-config.launch.cwd", launch.cwd, "a directory")

@@ -57,14 +57,16 @@ def row(e):
 try:
     time.sleep(1.0)
     kw = dict(domain_id=domain, router_ip="127.0.0.1", router_port=port, timeout=1.0)
-    for _ in range(4):  # a one-shot query may still come back partial: ask again, as a user would
+    deadline = time.monotonic() + 20.0
+    while True:  # a one-shot query may still come back partial (a loaded machine): ask again, as a user would
         out = {"list": get_topic_names_and_types(**kw), "info": {}}
         for t in topics:
             info = get_topic_info(t, verbose=True, **kw)
             out["info"][t] = None if info is None else {
                 "pubs": [row(e) for e in info.publishers], "subs": [row(e) for e in info.subscribers]}
-        if len(out["list"]) >= want and all(out["info"].values()):
+        if (len(out["list"]) >= want and all(out["info"].values())) or time.monotonic() > deadline:
             break
+        time.sleep(0.2)
     print(json.dumps(out))
 finally:
     sess.session.close()
